@@ -1,0 +1,71 @@
+// The linear plant and its sensors (formats.md, "Model file").
+//
+//   x_k = A x_{k-1} + nu_k Bu u_k + B w_{k-1}      w ~ N(0, Q)
+//   y_k = C x_k + v_k                               v ~ N(0, R), received iff gamma_k = 1
+#pragma once
+
+#include <Eigen/Dense>
+#include <string>
+#include <vector>
+
+namespace YAML
+{
+class Node;
+}
+
+namespace networked_estimation
+{
+
+/// One sensor: a block of rows of the stacked C and R.
+struct Sensor
+{
+  std::string name;
+  int offset = 0;  ///< first row in the stacked y / C / R
+  int size = 0;    ///< number of rows (measurement dimension of this sensor)
+};
+
+/// One uncertain parameter eps_j: derivatives of A, B, C at eps = 0 (zero when absent in the file).
+struct Uncertainty
+{
+  Eigen::MatrixXd dA;  ///< n x n
+  Eigen::MatrixXd dB;  ///< n x nw
+  Eigen::MatrixXd dC;  ///< m x n (stacked over sensors)
+  double range = 0.0;  ///< simulation only: eps_j ~ Uniform[-range, range], fresh every step
+};
+
+struct Model
+{
+  std::string name;
+  double period = 0.0;  ///< seconds between samples k and k+1
+  Eigen::MatrixXd A;    ///< n x n
+  Eigen::MatrixXd B;    ///< n x nw (identity when absent)
+  Eigen::MatrixXd Q;    ///< nw x nw, positive definite
+  Eigen::MatrixXd C;    ///< m x n, stacked over sensors
+  Eigen::MatrixXd R;    ///< m x m, block diagonal over sensors, positive definite
+  Eigen::VectorXd x0;   ///< initial estimate and mean of the simulated initial state
+  Eigen::MatrixXd P0;   ///< initial covariance, positive semidefinite
+  std::vector<Sensor> sensors;            ///< at least one; a single C/R file has one sensor "y"
+  std::vector<Uncertainty> uncertainty;   ///< n_e entries (may be empty)
+  Eigen::MatrixXd Bu;                     ///< n x p control input matrix (p = 0 without control)
+
+  int n() const { return static_cast<int>(A.rows()); }
+  int nw() const { return static_cast<int>(B.cols()); }
+  int m() const { return static_cast<int>(C.rows()); }
+  int p() const { return static_cast<int>(Bu.cols()); }
+  int ne() const { return static_cast<int>(uncertainty.size()); }
+  bool hasControl() const { return Bu.cols() > 0; }
+};
+
+/// Parses and validates a model. `source` names the file (or parameter namespace) in messages.
+/// Throws ConfigError naming the key and the problem.
+Model parseModel(const YAML::Node& node, const std::string& source);
+
+/// Reads a YAML file and parses it with parseModel. Throws ConfigError (also for a missing file
+/// or a YAML syntax error, with its line).
+Model loadModel(const std::string& path);
+
+/// Checks the invariants of an already built Model (dimensions, symmetry, definiteness, finite
+/// values). parseModel calls it; code that builds a Model by hand should too.
+void validateModel(const Model& model, const std::string& source);
+
+}  // namespace networked_estimation

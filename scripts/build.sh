@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# Builds the package in a catkin workspace inside the repository (.ws/, git-ignored).
+# Usage: scripts/build.sh [--tests]     (--tests also builds the test binaries)
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
+mkdir -p "$WS/src" "$ROS_HOME"
+ln -sfn "$REPO" "$WS/src/networked_estimation"
+JOBS="${NE_JOBS:-$(nproc)}"
+cd "$WS"
+catkin_make -j"$JOBS" -DCMAKE_BUILD_TYPE=Release > "$WS/build.log" 2>&1 || { tail -n 60 "$WS/build.log"; echo "build failed (full log: $WS/build.log)"; exit 1; }
+if [ "${1:-}" = "--tests" ]; then
+  catkin_make -j"$JOBS" tests >> "$WS/build.log" 2>&1 || { tail -n 60 "$WS/build.log"; echo "test build failed (full log: $WS/build.log)"; exit 1; }
+fi
+echo "build: ok ($WS)"

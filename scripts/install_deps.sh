@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages the package needs. Idempotent: does nothing when all are present.
+set -euo pipefail
+PACKAGES=(
+  build-essential cmake
+  ros-core-dev libnodeletlib-dev libnodeletlib-tools python3-rostest rosbash python3-rosbag
+  libtf2-ros-dev libtf2-eigen-dev libdiagnostic-updater-dev libtopic-tools-dev
+  libyaml-cpp-dev libeigen3-dev libgtest-dev googletest libbenchmark-dev
+)
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install_deps: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "install_deps: installing ${missing[*]}"
+$SUDO apt-get update -q
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"

@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# Installs everything, builds, and runs every test (GoogleTest units and end-to-end checks).
+# Exits non-zero when any test fails; ctest's summary is the last thing printed.
+set -euo pipefail
+HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+bash "$HERE/install_deps.sh"
+bash "$HERE/build.sh" --tests
+source "$HERE/env.sh"
+set +u; source "$WS/devel/setup.bash"; set -u
+cd "$WS/build"
+ctest --output-on-failure -j"${NE_JOBS:-$(nproc)}"

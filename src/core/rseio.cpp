@@ -1,0 +1,245 @@
+// RSEIO, rseio.md section 2.5 (Theorem 1, corrected, Gram form) and 2.5b (known input).
+#include "rseio_estimator.hpp"
+
+#include <cmath>
+#include <sstream>
+
+namespace networked_estimation
+{
+
+double rseioLambda(double mu)
+{
+  if (!(mu > 0.0 && mu <= 1.0))
+  {
+    std::ostringstream os;
+    os << "mu: expected a value in (0, 1], found " << mu;
+    throw ConfigError(os.str());
+  }
+  return (1.0 - mu) / mu;
+}
+
+RseioSensitivity rseioSensitivity(const Model& model, const std::vector<int>& rows)
+{
+  std::vector<int> idx = rows;
+  if (idx.empty())
+    for (int i = 0; i < model.m(); ++i)
+      idx.push_back(i);
+  const int ma = static_cast<int>(idx.size());
+  const int ne = model.ne();
+  const Eigen::MatrixXd C = model.C(idx, Eigen::all);
+  RseioSensitivity s;
+  s.S.setZero(2 * ne * ma, model.n());
+  s.T.setZero(2 * ne * ma, model.nw());
+  s.Sc.setZero(2 * ne * ma, model.n());
+  for (int k = 0; k < ne; ++k)
+  {
+    const Uncertainty& e = model.uncertainty[k];
+    const Eigen::MatrixXd dC = e.dC(idx, Eigen::all);
+    const int r0 = 2 * k * ma;
+    s.S.middleRows(r0, ma) = C * e.dA;
+    s.S.middleRows(r0 + ma, ma) = dC * model.A;
+    s.T.middleRows(r0, ma) = C * e.dB;
+    s.T.middleRows(r0 + ma, ma) = dC * model.B;
+    s.Sc.middleRows(r0 + ma, ma) = dC;
+  }
+  return s;
+}
+
+Eigen::MatrixXd RseioAnalysisForm::arrivalCovariance(const Eigen::MatrixXd& P, const Eigen::MatrixXd& B) const
+{
+  const Eigen::MatrixXd pred = Atil * P * Atil.transpose() + B * Qtil * B.transpose();
+  const Eigen::MatrixXd info =
+      pred.inverse() + Ctil.transpose() * Rtil.llt().solve(Ctil);
+  Eigen::MatrixXd out = info.inverse();
+  return 0.5 * (out + out.transpose());
+}
+
+RseioAnalysisForm rseioAnalysisForm(const Model& model, double mu)
+{
+  const double lam = rseioLambda(mu);
+  const RseioSensitivity s = rseioSensitivity(model);
+  const Eigen::MatrixXd& A = model.A;
+  const Eigen::MatrixXd& B = model.B;
+  const int r = static_cast<int>(s.S.rows());
+  RseioAnalysisForm f;
+  f.Qcheck = (model.Q.inverse() + lam * s.T.transpose() * s.T).inverse();
+  f.Acheck = A - lam * B * f.Qcheck * s.T.transpose() * s.S;
+  Eigen::FullPivLU<Eigen::MatrixXd> lu(f.Acheck);
+  if (!lu.isInvertible())
+    throw ConfigError(model.name + ": rseio analysis form: Acheck = A - lambda B Qcheck T'S is singular "
+                                   "(Theorem 2 needs it invertible)");
+  const Eigen::MatrixXd AcheckInv = lu.inverse();
+  const Eigen::MatrixXd M = Eigen::MatrixXd::Identity(r, r) + lam * s.T * model.Q * s.T.transpose();
+  f.Stil = std::sqrt(lam) * M.llt().matrixL().solve(s.S);
+  const Eigen::MatrixXd Btil = AcheckInv * B;
+  const Eigen::MatrixXd StS = f.Stil.transpose() * f.Stil;
+  f.Atil = f.Acheck + B * f.Qcheck * Btil.transpose() * StS;
+  f.Qtil = f.Qcheck + f.Qcheck * Btil.transpose() * StS * Btil * f.Qcheck;
+  f.Ctil.resize(r + model.m(), model.n());
+  f.Ctil << f.Stil * AcheckInv, model.C;
+  f.Rtil.setZero(r + model.m(), r + model.m());
+  f.Rtil.topLeftCorner(r, r) =
+      Eigen::MatrixXd::Identity(r, r) + f.Stil * Btil * f.Qcheck * Btil.transpose() * f.Stil.transpose();
+  f.Rtil.bottomRightCorner(model.m(), model.m()) = model.R;
+  return f;
+}
+
+namespace detail
+{
+namespace
+{
+
+RseioGrams makeGrams(const Model& model, const std::vector<int>& rows)
+{
+  const RseioSensitivity s = rseioSensitivity(model, rows);
+  RseioGrams g;
+  g.Sss = s.S.transpose() * s.S;
+  g.Sst = s.S.transpose() * s.T;
+  g.Stt = s.T.transpose() * s.T;
+  symmetrise(g.Sss);
+  symmetrise(g.Stt);
+  g.hasS = !g.Sss.isZero(0.0);
+  g.hasT = !s.T.isZero(0.0);
+  // Fs = diag(sqrt(ev)) V' over the numerically non-zero eigenvalues of Sss.
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(g.Sss);
+  const Eigen::VectorXd ev = es.eigenvalues();
+  const double tol = 1e-14 * std::max(1.0, ev.cwiseAbs().maxCoeff()) * model.n();
+  int rank = 0;
+  for (int i = 0; i < ev.size(); ++i)
+    rank += ev[i] > tol ? 1 : 0;
+  g.Fs.resize(rank, model.n());
+  for (int i = 0, j = 0; i < ev.size(); ++i)
+    if (ev[i] > tol)
+      g.Fs.row(j++) = std::sqrt(ev[i]) * es.eigenvectors().col(i).transpose();
+  if (model.p() > 0)
+  {
+    const Eigen::MatrixXd ScBu = s.Sc * model.Bu;
+    g.hasC = !ScBu.isZero(0.0);
+    g.SBu = s.S.transpose() * ScBu;
+    g.TBu = s.T.transpose() * ScBu;
+  }
+  return g;
+}
+
+}  // namespace
+
+Rseio::Rseio(const Model& model, double mu) : EstimatorBase(model, Algorithm::RSEIO), lambda_(rseioLambda(mu))
+{
+  Qinv_ = model_.Q.llt().solve(Eigen::MatrixXd::Identity(model_.nw(), model_.nw()));
+  symmetrise(Qinv_);
+  all_ = makeGrams(model_, {});
+}
+
+const RseioGrams& Rseio::grams()
+{
+  if (sel_.all())
+    return all_;
+  auto it = partial_.find(sel_.arrivedRows());
+  if (it == partial_.end())
+    it = partial_.emplace(sel_.arrivedRows(), makeGrams(model_, sel_.arrivedRows())).first;
+  return it->second;
+}
+
+void Rseio::arrivalPrediction(const RseioGrams& g, bool has_input, const Eigen::VectorXd& u)
+{
+  const Eigen::MatrixXd& A = model_.A;
+  const double lam = lambda_;
+  // 1. Phat = (P^{-1} + lam Sss)^{-1}: a Kalman update of P with "C" = Fs and "R" = I / lam
+  //    (Fs'Fs = Sss), so it shares the Cholesky form and the cancellation guard of the update.
+  Phat_ = P_;
+  if (g.hasS)
+  {
+    RinvLam_.setIdentity(g.Fs.rows(), g.Fs.rows());
+    RinvLam_ /= lam;
+    phat_upd_.factor(P_, g.Fs, RinvLam_);
+    phat_upd_.downdate(Phat_);
+  }
+  // (I - lam Phat Sss) x
+  gx_ = x_;
+  if (g.hasS)
+  {
+    tmp_.noalias() = g.Sss * x_;
+    gx_.noalias() -= lam * (Phat_ * tmp_);
+  }
+  // 5. Ppred = A Phat A' + Bhat Qhat Bhat'; 4. xpred = F gx with F = A - lam Bhat Qhat Sst'
+  AP_.noalias() = A * Phat_;
+  xpred_.noalias() = A * gx_;
+  if (g.hasT)
+  {
+    // 2. Qhat = [Q^{-1} + lam Stt - lam^2 Sst' Phat Sst]^{-1}
+    PhSst_.noalias() = Phat_ * g.Sst;
+    Qi_ = Qinv_;
+    Qi_ += lam * g.Stt;
+    Qi_.noalias() -= (lam * lam) * (g.Sst.transpose() * PhSst_);
+    symmetrise(Qi_);
+    llt_.compute(Qi_);
+    Qhat_ = llt_.solve(Eigen::MatrixXd::Identity(model_.nw(), model_.nw()));
+    symmetrise(Qhat_);
+    // 3. Bhat = B - lam A Phat Sst
+    Bhat_ = model_.B;
+    Bhat_.noalias() -= lam * (A * PhSst_);
+    BhQh_.noalias() = Bhat_ * Qhat_;
+    tw_.noalias() = g.Sst.transpose() * gx_;
+    xpred_.noalias() -= lam * (BhQh_ * tw_);
+    Ppred_.noalias() = BhQh_ * Bhat_.transpose();
+  }
+  else
+  {
+    Ppred_ = BQBt_;
+  }
+  Ppred_.noalias() += AP_ * A.transpose();
+  symmetrise(Ppred_);
+  if (has_input)
+  {
+    xpred_ += bu_;
+    if (g.hasC)
+    {
+      // - lam (F Phat S'c + Bhat Qhat T'c), S'c = SBu u, T'c = TBu u
+      tmp_.noalias() = g.SBu * u;
+      gx_.noalias() = Phat_ * tmp_;  // Phat S'c
+      xpred_.noalias() -= lam * (A * gx_);
+      if (g.hasT)
+      {
+        // -lam (F Phat S'c + Bhat Qhat T'c) = -lam A Phat S'c + lam Bhat Qhat (lam Sst' Phat S'c - T'c)
+        tw_.noalias() = lam * (g.Sst.transpose() * gx_);
+        tw_.noalias() -= g.TBu * u;
+        xpred_.noalias() += lam * (BhQh_ * tw_);
+      }
+    }
+  }
+}
+
+void Rseio::step(const Sample& sample)
+{
+  checkNotDiverged();
+  sel_.checkInput(sample);
+  const int rows = sel_.select(sample, false);
+  guardedStep([&] {
+    const bool has_input = commandEffect(sample);
+    last_updated_ = rows > 0;
+    const RseioGrams* g = last_updated_ && lambda_ > 0.0 ? &grams() : nullptr;
+    if (g && (g->hasS || g->hasT))
+    {
+      arrivalPrediction(*g, has_input, sample.u);
+    }
+    else
+    {
+      // dropped (or nothing uncertain, or mu = 1): the nominal prediction, exactly kfio's
+      xpred_.noalias() = model_.A * x_;
+      if (has_input)
+        xpred_ += bu_;
+      predictCovariance(P_);
+    }
+    if (last_updated_)
+    {
+      upd_.factor(Ppred_, sel_.C(), sel_.R());
+      updateMean(xpred_);
+      upd_.downdate(Ppred_);
+    }
+    x_.swap(xpred_);
+    P_.swap(Ppred_);
+  });
+}
+
+}  // namespace detail
+}  // namespace networked_estimation

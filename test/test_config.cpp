@@ -1,0 +1,920 @@
+// Tests of parseModel / loadModel / validateModel and the estimator and channel settings parsers.
+#include "networked_estimation/error.hpp"
+#include "networked_estimation/model.hpp"
+#include "networked_estimation/settings.hpp"
+
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cctype>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace ne = networked_estimation;
+
+namespace
+{
+
+const char* const kZhou = R"(name: zhou_example
+period: 0.01
+A:  [[0.9802, 0.0196], [0.0, 0.9802]]
+B:  [[1, 0], [0, 1]]
+Q:  [[1.9608, 0.0195], [0.0195, 1.9605]]
+C:  [[1, -1]]
+R:  [[1]]
+x0: [1, 0]
+P0: [[1, 0], [0, 1]]
+uncertainty:
+  - dA: [[0, 0.099], [0, 0]]
+    range: 1.0
+)";
+
+const char* const kRemove = "<remove>";
+
+/// A valid two-state model, one key per line (line numbers: name 1, period 2, A 3, B 4, Q 5,
+/// C 6, R 7, x0 8, P0 9), with keys replaced, removed (value kRemove) or appended.
+std::string modelYaml(const std::vector<std::pair<std::string, std::string>>& changes = {})
+{
+  std::vector<std::pair<std::string, std::string>> keys = {
+      {"name", "m"},
+      {"period", "0.01"},
+      {"A", "[[1, 0.1], [0, 1]]"},
+      {"B", "[[1, 0], [0, 1]]"},
+      {"Q", "[[1, 0], [0, 1]]"},
+      {"C", "[[1, 0]]"},
+      {"R", "[[1]]"},
+      {"x0", "[0, 0]"},
+      {"P0", "[[1, 0], [0, 1]]"},
+  };
+  for (const auto& change : changes)
+  {
+    bool found = false;
+    for (auto& kv : keys)
+    {
+      if (kv.first == change.first)
+      {
+        kv.second = change.second;
+        found = true;
+      }
+    }
+    if (!found)
+    {
+      keys.push_back(change);
+    }
+  }
+  std::string out;
+  for (const auto& kv : keys)
+  {
+    if (kv.second != kRemove)
+    {
+      out += kv.first + ": " + kv.second + "\n";
+    }
+  }
+  return out;
+}
+
+/// The ConfigError message thrown by `f`, or "" (with a test failure) when nothing is thrown.
+std::string errorOf(const std::function<void()>& f)
+{
+  try
+  {
+    f();
+  }
+  catch (const ne::ConfigError& e)
+  {
+    return e.what();
+  }
+  catch (const std::exception& e)
+  {
+    ADD_FAILURE() << "expected ConfigError, got another exception: " << e.what();
+    return "";
+  }
+  ADD_FAILURE() << "expected ConfigError, nothing was thrown";
+  return "";
+}
+
+std::string modelError(const std::string& yaml)
+{
+  return errorOf(
+      [&]
+      {
+        ne::parseModel(YAML::Load(yaml), "m.yaml");
+      });
+}
+
+std::string estimatorError(const std::string& yaml)
+{
+  return errorOf(
+      [&]
+      {
+        ne::parseEstimatorSettings(YAML::Load(yaml), "est.yaml");
+      });
+}
+
+std::string channelError(const std::string& yaml)
+{
+  return errorOf(
+      [&]
+      {
+        ne::parseChannelSettings(YAML::Load(yaml), "chan.yaml");
+      });
+}
+
+#define EXPECT_CONTAINS(text, part) \
+  EXPECT_NE(std::string(text).find(part), std::string::npos) << "message: " << (text)
+
+/// Checks the message names the source, the key and the problem.
+void expectMessage(const std::string& msg, const std::string& source, const std::string& key,
+                   const std::string& problem)
+{
+  EXPECT_EQ(msg.rfind(source + ":", 0), 0u) << "message: " << msg;
+  EXPECT_CONTAINS(msg, key + ": ");
+  EXPECT_CONTAINS(msg, problem);
+}
+
+void expectModelError(const std::vector<std::pair<std::string, std::string>>& changes,
+                      const std::string& key, const std::string& problem)
+{
+  expectMessage(modelError(modelYaml(changes)), "m.yaml", key, problem);
+}
+
+/// A scratch folder under the system temp directory, removed on destruction.
+class TempDir
+{
+ public:
+  TempDir()
+  {
+    const auto stamp = std::chrono::steady_clock::now().time_since_epoch().count();
+    path_ = std::filesystem::temp_directory_path() /
+            ("test_config_" + std::to_string(stamp) + "_" +
+             std::to_string(::testing::UnitTest::GetInstance()->random_seed()));
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir()
+  {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  std::string write(const std::string& name, const std::string& text) const
+  {
+    const std::filesystem::path file = path_ / name;
+    std::ofstream out(file);
+    out << text;
+    return file.string();
+  }
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// =============================================================================================
+// Model: accepted files
+// =============================================================================================
+
+TEST(ParseModel, ZhouExample)
+{
+  const ne::Model m = ne::parseModel(YAML::Load(kZhou), "zhou.yaml");
+  EXPECT_EQ(m.name, "zhou_example");
+  EXPECT_DOUBLE_EQ(m.period, 0.01);
+  ASSERT_EQ(m.n(), 2);
+  ASSERT_EQ(m.nw(), 2);
+  ASSERT_EQ(m.m(), 1);
+  EXPECT_EQ(m.p(), 0);
+  EXPECT_FALSE(m.hasControl());
+  ASSERT_EQ(m.ne(), 1);
+  Eigen::Matrix2d A;
+  A << 0.9802, 0.0196, 0.0, 0.9802;
+  EXPECT_TRUE(m.A.isApprox(A, 0.0)) << m.A;
+  EXPECT_TRUE(m.B.isIdentity(0.0));
+  Eigen::Matrix2d Q;
+  Q << 1.9608, 0.0195, 0.0195, 1.9605;
+  EXPECT_EQ(m.Q, Eigen::MatrixXd(Q));
+  ASSERT_EQ(m.C.rows(), 1);
+  ASSERT_EQ(m.C.cols(), 2);
+  EXPECT_EQ(m.C(0, 0), 1.0);
+  EXPECT_EQ(m.C(0, 1), -1.0);
+  ASSERT_EQ(m.R.rows(), 1);
+  EXPECT_EQ(m.R(0, 0), 1.0);
+  ASSERT_EQ(m.x0.size(), 2);
+  EXPECT_EQ(m.x0(0), 1.0);
+  EXPECT_EQ(m.x0(1), 0.0);
+  EXPECT_TRUE(m.P0.isIdentity(0.0));
+  ASSERT_EQ(m.sensors.size(), 1u);
+  EXPECT_EQ(m.sensors[0].name, "y");
+  EXPECT_EQ(m.sensors[0].offset, 0);
+  EXPECT_EQ(m.sensors[0].size, 1);
+  const ne::Uncertainty& u = m.uncertainty[0];
+  EXPECT_DOUBLE_EQ(u.range, 1.0);
+  ASSERT_EQ(u.dA.rows(), 2);
+  ASSERT_EQ(u.dA.cols(), 2);
+  EXPECT_EQ(u.dA(0, 1), 0.099);
+  EXPECT_EQ(u.dA(0, 0), 0.0);
+  EXPECT_EQ(u.dA(1, 0), 0.0);
+  EXPECT_EQ(u.dA(1, 1), 0.0);
+  // absent dB / dC are zero of the right size
+  ASSERT_EQ(u.dB.rows(), 2);
+  ASSERT_EQ(u.dB.cols(), 2);
+  EXPECT_TRUE(u.dB.isZero(0.0));
+  ASSERT_EQ(u.dC.rows(), 1);
+  ASSERT_EQ(u.dC.cols(), 2);
+  EXPECT_TRUE(u.dC.isZero(0.0));
+  ASSERT_EQ(m.Bu.rows(), 2);
+  EXPECT_EQ(m.Bu.cols(), 0);
+}
+
+TEST(ParseModel, Defaults)
+{
+  const ne::Model m = ne::parseModel(YAML::Load("A: [[0.5, 1, 0], [0, 0.5, 0], [0, 0, 0.2]]\n"
+                                                "Q: [[1, 0, 0], [0, 2, 0], [0, 0, 3]]\n"
+                                                "C: [[1, 0, 0]]\n"
+                                                "R: [[0.25]]\n"
+                                                "uncertainty:\n"
+                                                "  - {}\n"),
+                                     "m.yaml");
+  EXPECT_EQ(m.name, "");
+  EXPECT_EQ(m.period, 0.0);
+  ASSERT_EQ(m.n(), 3);
+  EXPECT_EQ(m.B.rows(), 3);
+  EXPECT_EQ(m.B.cols(), 3);
+  EXPECT_TRUE(m.B.isIdentity(0.0));
+  ASSERT_EQ(m.x0.size(), 3);
+  EXPECT_TRUE(m.x0.isZero(0.0));
+  EXPECT_EQ(m.P0.rows(), 3);
+  EXPECT_TRUE(m.P0.isIdentity(0.0));
+  EXPECT_EQ(m.Bu.rows(), 3);
+  EXPECT_EQ(m.Bu.cols(), 0);
+  EXPECT_FALSE(m.hasControl());
+  EXPECT_EQ(m.Q(2, 2), 3.0);
+  EXPECT_EQ(m.R(0, 0), 0.25);
+  ASSERT_EQ(m.ne(), 1);
+  const ne::Uncertainty& u = m.uncertainty[0];
+  EXPECT_EQ(u.range, 0.0);
+  EXPECT_EQ(u.dA.rows(), 3);
+  EXPECT_EQ(u.dA.cols(), 3);
+  EXPECT_TRUE(u.dA.isZero(0.0));
+  EXPECT_EQ(u.dB.rows(), 3);
+  EXPECT_EQ(u.dB.cols(), 3);
+  EXPECT_TRUE(u.dB.isZero(0.0));
+  EXPECT_EQ(u.dC.rows(), 1);
+  EXPECT_EQ(u.dC.cols(), 3);
+  EXPECT_TRUE(u.dC.isZero(0.0));
+}
+
+TEST(ParseModel, MultiSensorStacksCAndR)
+{
+  const ne::Model m =
+      ne::parseModel(YAML::Load(modelYaml({{"C", kRemove},
+                                           {"R", kRemove},
+                                           {"sensors",
+                                            "[{name: left,  C: [[1, 0]], R: [[0.5]]},"
+                                            " {name: right, C: [[0, 1]], R: [[0.7]]}]"}})),
+                     "m.yaml");
+  ASSERT_EQ(m.m(), 2);
+  Eigen::Matrix2d C;
+  C << 1, 0, 0, 1;
+  EXPECT_EQ(m.C, Eigen::MatrixXd(C));
+  Eigen::Matrix2d R;
+  R << 0.5, 0, 0, 0.7;
+  EXPECT_EQ(m.R, Eigen::MatrixXd(R));
+  ASSERT_EQ(m.sensors.size(), 2u);
+  EXPECT_EQ(m.sensors[0].name, "left");
+  EXPECT_EQ(m.sensors[0].offset, 0);
+  EXPECT_EQ(m.sensors[0].size, 1);
+  EXPECT_EQ(m.sensors[1].name, "right");
+  EXPECT_EQ(m.sensors[1].offset, 1);
+  EXPECT_EQ(m.sensors[1].size, 1);
+}
+
+TEST(ParseModel, MultiSensorWithBlocksOfDifferentSizes)
+{
+  const ne::Model m = ne::parseModel(
+      YAML::Load(modelYaml({{"C", kRemove},
+                            {"R", kRemove},
+                            {"sensors",
+                             "[{name: a, C: [[1, 0], [0, 1]], R: [[2, 0.5], [0.5, 1]]},"
+                             " {name: b, C: [[1, 1]], R: [[3]]}]"},
+                            {"uncertainty", "[{dC: [[0, 1], [0, 0], [1, 0]], range: 0.5}]"}})),
+      "m.yaml");
+  ASSERT_EQ(m.m(), 3);
+  EXPECT_EQ(m.sensors[1].offset, 2);
+  EXPECT_EQ(m.sensors[1].size, 1);
+  EXPECT_EQ(m.R(0, 1), 0.5);
+  EXPECT_EQ(m.R(2, 2), 3.0);
+  EXPECT_EQ(m.R(0, 2), 0.0);
+  EXPECT_EQ(m.R(2, 1), 0.0);
+  EXPECT_EQ(m.C(2, 0), 1.0);
+  EXPECT_EQ(m.C(2, 1), 1.0);
+  EXPECT_EQ(m.uncertainty[0].dC(2, 0), 1.0);
+}
+
+TEST(ParseModel, ControlAndNonSquareB)
+{
+  const ne::Model m = ne::parseModel(YAML::Load(modelYaml({{"B", "[[1], [0.5]]"},
+                                                           {"Q", "[[2]]"},
+                                                           {"control", "{Bu: [[-1], [1]]}"},
+                                                           {"uncertainty", "[{dB: [[0], [1]]}]"}})),
+                                     "m.yaml");
+  EXPECT_EQ(m.nw(), 1);
+  EXPECT_EQ(m.B(1, 0), 0.5);
+  EXPECT_EQ(m.Q(0, 0), 2.0);
+  EXPECT_TRUE(m.hasControl());
+  ASSERT_EQ(m.p(), 1);
+  EXPECT_EQ(m.Bu(0, 0), -1.0);
+  EXPECT_EQ(m.Bu(1, 0), 1.0);
+  EXPECT_EQ(m.uncertainty[0].dB(1, 0), 1.0);
+  EXPECT_EQ(m.uncertainty[0].dB.cols(), 1);
+}
+
+TEST(ParseModel, SingularP0IsAccepted)
+{
+  const ne::Model m = ne::parseModel(YAML::Load(modelYaml({{"P0", "[[0, 0], [0, 0]]"}})), "m.yaml");
+  EXPECT_TRUE(m.P0.isZero(0.0));
+}
+
+// =============================================================================================
+// Model: rejected files
+// =============================================================================================
+
+TEST(ParseModelErrors, MessageShapeWithLine)
+{
+  // Q is on line 5 of modelYaml.
+  const std::string msg = modelError(modelYaml({{"Q", "[[1, 0.5], [0.4, 1]]"}}));
+  EXPECT_EQ(msg, "m.yaml:5: Q: not symmetric (Q(0,1) = 0.5 but Q(1,0) = 0.4)");
+}
+
+TEST(ParseModelErrors, WrongDimensions)
+{
+  expectModelError({{"Q", "[[1, 0, 0], [0, 1, 0]]"}}, "Q", "expected 2x2");
+  expectModelError({{"Q", "[[1, 0, 0], [0, 1, 0]]"}}, "Q", "found 2x3");
+  expectModelError({{"A", "[[1, 0, 0], [0, 1, 0]]"}}, "A", "expected a square matrix");
+  expectModelError({{"B", "[[1, 0], [0, 1], [1, 1]]"}}, "B",
+                   "expected 2x2 (n = 2 rows), found 3x2");
+  expectModelError({{"C", "[[1, 0, 1]]"}}, "C", "expected 1x2 (n = 2 columns), found 1x3");
+  expectModelError({{"R", "[[1, 0], [0, 1]]"}}, "R", "expected 1x1");
+  expectModelError({{"P0", "[[1]]"}}, "P0", "expected 2x2");
+  expectModelError({{"x0", "[1, 2, 3]"}}, "x0", "expected 2 entries");
+  expectModelError({{"control", "{Bu: [[1]]}"}}, "control.Bu",
+                   "expected 2x1 (n = 2 rows), found 1x1");
+  // Q follows the columns of B
+  expectModelError({{"B", "[[1], [1]]"}}, "Q", "expected 1x1 (nw = 1");
+}
+
+TEST(ParseModelErrors, UncertaintyDimensions)
+{
+  expectModelError({{"uncertainty", "[{dA: [[1]]}]"}}, "uncertainty[0].dA", "expected 2x2");
+  expectModelError({{"uncertainty", "[{dA: [[0, 0], [0, 0]]}, {dB: [[1, 0]]}]"}},
+                   "uncertainty[1].dB", "expected 2x2");
+  expectModelError({{"uncertainty", "[{dC: [[1, 0], [0, 1]]}]"}}, "uncertainty[0].dC",
+                   "expected 1x2");
+}
+
+TEST(ParseModelErrors, RaggedRows)
+{
+  expectModelError({{"A", "[[1, 0], [0]]"}}, "A", "ragged rows (row 0 has 2 entries, row 1 has 1)");
+}
+
+TEST(ParseModelErrors, NonNumericEntry)
+{
+  expectModelError({{"A", "[[1, abc], [0, 1]]"}}, "A", "expected a number, found 'abc'");
+  expectModelError({{"x0", "[0, zero]"}}, "x0", "expected a number, found 'zero'");
+  expectModelError({{"A", "[[1, [2]], [0, 1]]"}}, "A", "expected a number, found a list");
+}
+
+TEST(ParseModelErrors, NotAMatrix)
+{
+  expectModelError({{"R", "1"}}, "R", "expected a matrix (list of rows), found '1'");
+  expectModelError({{"A", "[1, 0]"}}, "A", "row 0: expected a list of numbers");
+  expectModelError({{"x0", "[[1], [0]]"}}, "x0", "expected a number, found a list");
+  expectModelError({{"B", "~"}}, "B", "found null");
+}
+
+TEST(ParseModelErrors, NanAndInf)
+{
+  expectModelError({{"A", "[[.nan, 0], [0, 1]]"}}, "A", "not finite");
+  expectModelError({{"Q", "[[.inf, 0], [0, 1]]"}}, "Q", "not finite");
+  expectModelError({{"x0", "[0, -.inf]"}}, "x0", "not finite");
+  expectModelError({{"period", ".nan"}}, "period", "expected a finite number");
+}
+
+TEST(ParseModelErrors, NotSymmetric)
+{
+  expectModelError({{"Q", "[[1, 0.5], [0.4, 1]]"}}, "Q",
+                   "not symmetric (Q(0,1) = 0.5 but Q(1,0) = 0.4)");
+  expectModelError({{"C", "[[1, 0], [0, 1]]"}, {"R", "[[1, 0.1], [0, 1]]"}}, "R", "not symmetric");
+  expectModelError({{"P0", "[[1, 0], [0.2, 1]]"}}, "P0", "not symmetric");
+}
+
+TEST(ParseModelErrors, SymmetryToleranceIsRelative)
+{
+  // A relative asymmetry of 1e-12 is accepted.
+  EXPECT_NO_THROW(ne::parseModel(
+      YAML::Load(modelYaml({{"Q", "[[1000, 1], [1.000000000001, 1000]]"}})), "m.yaml"));
+}
+
+TEST(ParseModelErrors, NotPositiveDefinite)
+{
+  expectModelError({{"Q", "[[1, 0], [0, -0.5]]"}}, "Q",
+                   "not positive definite (smallest eigenvalue -0.5)");
+  expectModelError({{"Q", "[[1, 1], [1, 1]]"}}, "Q", "not positive definite");
+  expectModelError({{"R", "[[0]]"}}, "R", "not positive definite (smallest eigenvalue 0");
+  expectModelError({{"P0", "[[1, 0], [0, -0.5]]"}}, "P0",
+                   "not positive semidefinite (smallest eigenvalue -0.5)");
+}
+
+TEST(ParseModelErrors, UnknownKeys)
+{
+  expectModelError({{"foo", "1"}}, "foo", "unknown key");
+  expectModelError({{"uncertainty", "[{dA: [[0, 0], [0, 0]], rnage: 1}]"}}, "uncertainty[0].rnage",
+                   "unknown key");
+  expectModelError({{"control", "{Bu: [[1], [0]], u: 1}"}}, "control.u", "unknown key");
+  expectModelError(
+      {{"C", kRemove}, {"R", kRemove}, {"sensors", "[{name: a, C: [[1, 0]], R: [[1]], rate: 10}]"}},
+      "sensors[0].rate", "unknown key");
+  // the line of the unknown key is reported (appended key is on line 10)
+  EXPECT_CONTAINS(modelError(modelYaml({{"foo", "1"}})), "m.yaml:10: foo: unknown key");
+}
+
+TEST(ParseModelErrors, MissingRequiredKeys)
+{
+  expectModelError({{"A", kRemove}}, "A", "missing required key");
+  expectModelError({{"Q", kRemove}}, "Q", "missing required key");
+  expectModelError({{"C", kRemove}, {"R", kRemove}}, "C", "missing required key");
+  expectModelError({{"R", kRemove}}, "R", "missing required key");
+  expectModelError({{"C", kRemove}}, "C", "missing required key");
+  expectModelError({{"control", "{}"}}, "control.Bu", "missing required key");
+}
+
+TEST(ParseModelErrors, SensorsAndCRTogether)
+{
+  expectModelError({{"sensors", "[{name: a, C: [[1, 0]], R: [[1]]}]"}}, "sensors",
+                   "cannot be combined with C/R");
+}
+
+TEST(ParseModelErrors, SensorEntries)
+{
+  const auto sensors = [](const std::string& list)
+  {
+    return std::vector<std::pair<std::string, std::string>>{
+        {"C", kRemove}, {"R", kRemove}, {"sensors", list}};
+  };
+  expectModelError(
+      sensors("[{name: a, C: [[1, 0]], R: [[1]]}, {name: b, C: [[1, 0, 0]], R: [[1]]}]"),
+      "sensors[1].C", "expected 1x2 (n = 2 columns), found 1x3");
+  expectModelError(
+      sensors("[{name: a, C: [[1, 0]], R: [[1]]}, {name: b, C: [[0, 1]], R: [[1, 0], [0, 1]]}]"),
+      "sensors[1].R", "expected 1x1");
+  expectModelError(sensors("[{name: a, C: [[1, 0]], R: [[-1]]}]"), "sensors[0].R",
+                   "not positive definite");
+  expectModelError(sensors("[{name: a, C: [[1, 0], [0, 1]], R: [[1, 2], [3, 1]]}]"), "sensors[0].R",
+                   "not symmetric");
+  expectModelError(sensors("[{name: a, C: [[1, 0]], R: [[1]]}, {name: a, C: [[0, 1]], R: [[1]]}]"),
+                   "sensors[1].name", "duplicate sensor name 'a'");
+  expectModelError(sensors("[{name: '', C: [[1, 0]], R: [[1]]}]"), "sensors[0].name",
+                   "must not be empty");
+  expectModelError(sensors("[{C: [[1, 0]], R: [[1]]}]"), "sensors[0].name", "missing required key");
+  expectModelError(sensors("[{name: a, C: [[1, 0]]}]"), "sensors[0].R", "missing required key");
+  expectModelError(sensors("[]"), "sensors", "expected a non-empty list");
+  expectModelError(sensors("[[1, 0]]"), "sensors[0]", "expected a map");
+}
+
+TEST(ParseModelErrors, EmptyMatrices)
+{
+  expectModelError({{"A", "[]"}}, "A", "empty matrix");
+  expectModelError({{"Q", "[[], []]"}}, "Q", "row 0 is empty");
+  expectModelError({{"control", "{Bu: []}"}}, "control.Bu", "empty matrix");
+}
+
+TEST(ParseModelErrors, NegativeRange)
+{
+  expectModelError({{"uncertainty", "[{dA: [[0, 1], [0, 0]], range: -1}]"}}, "uncertainty[0].range",
+                   "expected a non-negative number, found -1");
+  expectModelError({{"uncertainty", "[{range: abc}]"}}, "uncertainty[0].range",
+                   "expected a number, found 'abc'");
+}
+
+TEST(ParseModelErrors, NonPositivePeriod)
+{
+  expectModelError({{"period", "0"}}, "period", "expected a positive number of seconds, found 0");
+  expectModelError({{"period", "-0.01"}}, "period", "expected a positive number");
+  expectModelError({{"period", "fast"}}, "period", "expected a number, found 'fast'");
+}
+
+TEST(ParseModelErrors, WrongTypes)
+{
+  expectModelError({{"name", "[a, b]"}}, "name", "expected a string, found a list");
+  expectModelError({{"uncertainty", "{dA: [[0, 0], [0, 0]]}"}}, "uncertainty", "expected a list");
+  expectModelError({{"control", "[[1], [0]]"}}, "control", "expected a map");
+}
+
+TEST(ParseModelErrors, TopLevel)
+{
+  EXPECT_CONTAINS(modelError("[1, 2]"), "expected a map of keys at the top level, found a list");
+  EXPECT_CONTAINS(modelError(""), "m.yaml: empty document");
+}
+
+TEST(ParseModelErrors, DuplicateKey)
+{
+  expectMessage(modelError(modelYaml() + "A: [[1, 0], [0, 1]]\n"), "m.yaml", "A", "duplicate key");
+}
+
+// =============================================================================================
+// validateModel on hand-built models
+// =============================================================================================
+
+ne::Model handBuilt()
+{
+  ne::Model m;
+  m.A = Eigen::MatrixXd::Identity(2, 2);
+  m.B = Eigen::MatrixXd::Identity(2, 2);
+  m.Q = Eigen::MatrixXd::Identity(2, 2);
+  m.C = Eigen::MatrixXd::Identity(2, 2);
+  m.R = Eigen::MatrixXd::Identity(2, 2);
+  m.x0 = Eigen::VectorXd::Zero(2);
+  m.P0 = Eigen::MatrixXd::Identity(2, 2);
+  m.sensors = {{"a", 0, 1}, {"b", 1, 1}};
+  m.Bu = Eigen::MatrixXd::Zero(2, 0);
+  return m;
+}
+
+std::string validateError(const ne::Model& m)
+{
+  return errorOf(
+      [&]
+      {
+        ne::validateModel(m, "hand");
+      });
+}
+
+TEST(ValidateModel, AcceptsValidModel)
+{
+  EXPECT_NO_THROW(ne::validateModel(handBuilt(), "hand"));
+}
+
+TEST(ValidateModel, RejectsBrokenModels)
+{
+  ne::Model m = handBuilt();
+  m.Q(0, 1) = 0.3;
+  expectMessage(validateError(m), "hand", "Q", "not symmetric");
+
+  m = handBuilt();
+  m.R(1, 1) = -1.0;
+  expectMessage(validateError(m), "hand", "R", "not positive definite (smallest eigenvalue -1)");
+
+  m = handBuilt();
+  m.A(0, 0) = std::numeric_limits<double>::quiet_NaN();
+  expectMessage(validateError(m), "hand", "A", "not finite");
+
+  m = handBuilt();
+  m.x0 = Eigen::VectorXd::Zero(3);
+  expectMessage(validateError(m), "hand", "x0", "expected 2 entries");
+
+  m = handBuilt();
+  m.Bu = Eigen::MatrixXd();
+  expectMessage(validateError(m), "hand", "control.Bu", "expected 2 rows");
+
+  m = handBuilt();
+  m.sensors[1].offset = 0;
+  expectMessage(validateError(m), "hand", "sensors[1]", "expected offset 1");
+
+  m = handBuilt();
+  m.sensors[1].name = "a";
+  expectMessage(validateError(m), "hand", "sensors[1].name", "duplicate sensor name");
+
+  m = handBuilt();
+  m.R(0, 1) = m.R(1, 0) = 0.1;
+  expectMessage(validateError(m), "hand", "R", "not block diagonal");
+
+  m = handBuilt();
+  m.uncertainty.push_back(
+      {Eigen::MatrixXd::Zero(2, 2), Eigen::MatrixXd::Zero(2, 2), Eigen::MatrixXd::Zero(1, 2), 0.0});
+  expectMessage(validateError(m), "hand", "uncertainty[0].dC", "expected 2x2");
+
+  m = handBuilt();
+  m.P0(1, 1) = -1.0;
+  expectMessage(validateError(m), "hand", "P0", "not positive semidefinite");
+}
+
+// =============================================================================================
+// loadModel (files)
+// =============================================================================================
+
+TEST(LoadModel, ReadsFileAndDefaultsNameToStem)
+{
+  TempDir dir;
+  const std::string with_name = dir.write("zhou.yaml", kZhou);
+  const ne::Model a = ne::loadModel(with_name);
+  EXPECT_EQ(a.name, "zhou_example");
+  EXPECT_EQ(a.n(), 2);
+  EXPECT_EQ(a.A(0, 1), 0.0196);
+
+  const std::string without_name = dir.write("plant_b.yaml", modelYaml({{"name", kRemove}}));
+  EXPECT_EQ(ne::loadModel(without_name).name, "plant_b");
+
+  // errors name the file path and the line
+  const std::string bad = dir.write("bad.yaml", modelYaml({{"Q", "[[1, 0.5], [0.4, 1]]"}}));
+  EXPECT_EQ(errorOf(
+                [&]
+                {
+                  ne::loadModel(bad);
+                }),
+            bad + ":5: Q: not symmetric (Q(0,1) = 0.5 but Q(1,0) = 0.4)");
+}
+
+TEST(LoadModel, MissingFile)
+{
+  TempDir dir;
+  const std::string path = (dir.path() / "nope.yaml").string();
+  EXPECT_EQ(errorOf(
+                [&]
+                {
+                  ne::loadModel(path);
+                }),
+            path + ": cannot open file");
+  EXPECT_CONTAINS(errorOf(
+                      [&]
+                      {
+                        ne::loadModel(dir.path().string());
+                      }),
+                  "cannot open file");
+}
+
+TEST(LoadModel, YamlSyntaxError)
+{
+  TempDir dir;
+  const std::string path = dir.write("syntax.yaml", "name: x\nA: [[1, 0], [0, 1]\nQ: [[1]]\n");
+  const std::string msg = errorOf(
+      [&]
+      {
+        ne::loadModel(path);
+      });
+  EXPECT_EQ(msg.rfind(path + ":", 0), 0u) << msg;
+  EXPECT_CONTAINS(msg, "YAML syntax error");
+  // the line number follows the path
+  const std::string rest = msg.substr(path.size() + 1);
+  ASSERT_FALSE(rest.empty());
+  EXPECT_TRUE(std::isdigit(static_cast<unsigned char>(rest[0]))) << msg;
+}
+
+TEST(LoadModel, TopLevelNotAMap)
+{
+  TempDir dir;
+  const std::string path = dir.write("list.yaml", "- 1\n- 2\n");
+  EXPECT_CONTAINS(errorOf(
+                      [&]
+                      {
+                        ne::loadModel(path);
+                      }),
+                  "expected a map of keys at the top level");
+  const std::string empty = dir.write("empty.yaml", "");
+  EXPECT_EQ(errorOf(
+                [&]
+                {
+                  ne::loadModel(empty);
+                }),
+            empty + ": empty document (expected a map of keys)");
+}
+
+// =============================================================================================
+// Estimator settings
+// =============================================================================================
+
+TEST(Algorithm, NamesRoundTrip)
+{
+  for (const auto a : {ne::Algorithm::KF, ne::Algorithm::KFIO, ne::Algorithm::RSEIO,
+                       ne::Algorithm::AOE, ne::Algorithm::OE, ne::Algorithm::ACK_KF})
+  {
+    EXPECT_EQ(ne::algorithmFromString(ne::toString(a), "x"), a);
+  }
+  EXPECT_EQ(ne::toString(ne::Algorithm::ACK_KF), "ack_kf");
+  EXPECT_EQ(ne::toString(ne::Algorithm::RSEIO), "rseio");
+  const std::string msg = errorOf(
+      []
+      {
+        ne::algorithmFromString("ukf", "cli");
+      });
+  EXPECT_EQ(msg,
+            "cli: algorithm: unknown algorithm 'ukf' (expected one of: kf, kfio, rseio, aoe, oe, "
+            "ack_kf)");
+}
+
+TEST(ParseEstimatorSettings, FullFile)
+{
+  const ne::EstimatorSettings s =
+      ne::parseEstimatorSettings(YAML::Load("algorithm: rseio\nmu: 0.8\ncontrol_link: {recovery: "
+                                            "0.3, failure: 0.4}\nmax_components: 64\n"),
+                                 "est.yaml");
+  EXPECT_EQ(s.algorithm, ne::Algorithm::RSEIO);
+  EXPECT_DOUBLE_EQ(s.mu, 0.8);
+  EXPECT_TRUE(s.has_control_link);
+  EXPECT_DOUBLE_EQ(s.recovery, 0.3);
+  EXPECT_DOUBLE_EQ(s.failure, 0.4);
+  EXPECT_EQ(s.max_components, 64u);
+}
+
+TEST(ParseEstimatorSettings, Defaults)
+{
+  const ne::EstimatorSettings s =
+      ne::parseEstimatorSettings(YAML::Load("algorithm: oe"), "est.yaml");
+  EXPECT_EQ(s.algorithm, ne::Algorithm::OE);
+  EXPECT_EQ(s.mu, 1.0);
+  EXPECT_FALSE(s.has_control_link);
+  EXPECT_EQ(s.recovery, 0.5);
+  EXPECT_EQ(s.failure, 0.5);
+  EXPECT_EQ(s.max_components, 4096u);
+  // mu is allowed (and ignored) for other algorithms
+  EXPECT_EQ(ne::parseEstimatorSettings(YAML::Load("algorithm: kfio\nmu: 0.5"), "e").algorithm,
+            ne::Algorithm::KFIO);
+}
+
+TEST(ParseEstimatorSettings, Errors)
+{
+  expectMessage(estimatorError("mu: 0.5"), "est.yaml", "algorithm", "missing required key");
+  const std::string unknown = estimatorError("algorithm: ukf");
+  expectMessage(unknown, "est.yaml:1", "algorithm", "unknown algorithm 'ukf'");
+  EXPECT_CONTAINS(unknown, "kf, kfio, rseio, aoe, oe, ack_kf");
+  expectMessage(estimatorError("algorithm: rseio"), "est.yaml", "mu", "missing required key");
+  expectMessage(estimatorError("algorithm: rseio\nmu: 0"), "est.yaml:2", "mu",
+                "expected a number in (0, 1], found 0");
+  expectMessage(estimatorError("algorithm: rseio\nmu: 1.5"), "est.yaml", "mu",
+                "expected a number in (0, 1]");
+  expectMessage(estimatorError("algorithm: rseio\nmu: abc"), "est.yaml", "mu",
+                "expected a number, found 'abc'");
+  expectMessage(estimatorError("algorithm: aoe\ncontrol_link: {recovery: 0.3}"), "est.yaml",
+                "control_link.failure", "missing required key");
+  expectMessage(estimatorError("algorithm: aoe\ncontrol_link: {failure: 0.3}"), "est.yaml",
+                "control_link.recovery", "missing required key");
+  expectMessage(estimatorError("algorithm: aoe\ncontrol_link: {recovery: 1.3, failure: 0.1}"),
+                "est.yaml", "control_link.recovery", "expected a probability in [0, 1], found 1.3");
+  expectMessage(estimatorError("algorithm: aoe\ncontrol_link: {recovery: 0.3, failure: -0.1}"),
+                "est.yaml", "control_link.failure", "expected a probability in [0, 1]");
+  expectMessage(
+      estimatorError("algorithm: aoe\ncontrol_link: {recovery: 0.3, failure: 0.1, delay: 1}"),
+      "est.yaml", "control_link.delay", "unknown key");
+  expectMessage(estimatorError("algorithm: aoe\ncontrol_link: 0.3"), "est.yaml", "control_link",
+                "expected a map");
+  expectMessage(estimatorError("algorithm: oe\nmax_components: 2.5"), "est.yaml", "max_components",
+                "expected an integer >= 1, found '2.5'");
+  expectMessage(estimatorError("algorithm: oe\nmax_components: -3"), "est.yaml", "max_components",
+                "expected an integer >= 1, found -3");
+  expectMessage(estimatorError("algorithm: oe\nmax_components: 0"), "est.yaml", "max_components",
+                "expected an integer >= 1, found 0");
+  expectMessage(estimatorError("algorithm: oe\nmu2: 0.5"), "est.yaml:2", "mu2", "unknown key");
+  EXPECT_CONTAINS(estimatorError("- algorithm: oe"), "expected a map of keys at the top level");
+}
+
+TEST(LoadEstimatorSettings, FileAndMissingFile)
+{
+  TempDir dir;
+  const std::string path = dir.write("est.yaml", "algorithm: ack_kf\n");
+  EXPECT_EQ(ne::loadEstimatorSettings(path).algorithm, ne::Algorithm::ACK_KF);
+  const std::string missing = (dir.path() / "none.yaml").string();
+  EXPECT_EQ(errorOf(
+                [&]
+                {
+                  ne::loadEstimatorSettings(missing);
+                }),
+            missing + ": cannot open file");
+  const std::string bad = dir.write("bad.yaml", "algorithm: [kf\n");
+  EXPECT_CONTAINS(errorOf(
+                      [&]
+                      {
+                        ne::loadEstimatorSettings(bad);
+                      }),
+                  "YAML syntax error");
+}
+
+// =============================================================================================
+// Channel settings
+// =============================================================================================
+
+TEST(ParseChannelSettings, BernoulliDefaults)
+{
+  const ne::ChannelSettings s =
+      ne::parseChannelSettings(YAML::Load("model: bernoulli\nloss: 0.2"), "chan.yaml");
+  EXPECT_EQ(s.model, ne::LossModelKind::BERNOULLI);
+  EXPECT_DOUBLE_EQ(s.loss, 0.2);
+  EXPECT_EQ(s.seed, 0u);
+  EXPECT_EQ(s.delay, 0.0);
+  EXPECT_EQ(s.jitter, 0.0);
+  EXPECT_EQ(s.distribution, ne::DelayDistribution::UNIFORM);
+  EXPECT_FALSE(s.reorder);
+  EXPECT_EQ(s.duplicate, 0.0);
+  EXPECT_EQ(s.queue_limit, 1000u);
+}
+
+TEST(ParseChannelSettings, GilbertElliottFull)
+{
+  const ne::ChannelSettings s = ne::parseChannelSettings(
+      YAML::Load("model: gilbert_elliott\np: 0.05\nr: 0.4\nloss_bad: 0.9\nloss_good: 0.01\n"
+                 "seed: 18446744073709551615\ndelay: 0.02\njitter: 0.005\ndistribution: pareto\n"
+                 "reorder: true\nduplicate: 0.1\nqueue_limit: 5\n"),
+      "chan.yaml");
+  EXPECT_EQ(s.model, ne::LossModelKind::GILBERT_ELLIOTT);
+  EXPECT_DOUBLE_EQ(s.p, 0.05);
+  EXPECT_DOUBLE_EQ(s.r, 0.4);
+  EXPECT_DOUBLE_EQ(s.loss_bad, 0.9);
+  EXPECT_DOUBLE_EQ(s.loss_good, 0.01);
+  EXPECT_EQ(s.seed, 18446744073709551615ULL);
+  EXPECT_DOUBLE_EQ(s.delay, 0.02);
+  EXPECT_DOUBLE_EQ(s.jitter, 0.005);
+  EXPECT_EQ(s.distribution, ne::DelayDistribution::PARETO);
+  EXPECT_TRUE(s.reorder);
+  EXPECT_DOUBLE_EQ(s.duplicate, 0.1);
+  EXPECT_EQ(s.queue_limit, 5u);
+}
+
+TEST(ParseChannelSettings, GilbertElliottDefaults)
+{
+  const ne::ChannelSettings s = ne::parseChannelSettings(
+      YAML::Load("model: gilbert_elliott\np: 0.1\nr: 0.2\nseed: 42\ndistribution: normal"), "c");
+  EXPECT_EQ(s.loss_bad, 1.0);
+  EXPECT_EQ(s.loss_good, 0.0);
+  EXPECT_EQ(s.seed, 42u);
+  EXPECT_EQ(s.distribution, ne::DelayDistribution::NORMAL);
+}
+
+TEST(ParseChannelSettings, Errors)
+{
+  expectMessage(channelError("loss: 0.1"), "chan.yaml", "model", "missing required key");
+  const std::string unknown = channelError("model: markov");
+  expectMessage(unknown, "chan.yaml:1", "model", "unknown loss model 'markov'");
+  EXPECT_CONTAINS(unknown, "bernoulli, gilbert_elliott");
+  expectMessage(channelError("model: bernoulli"), "chan.yaml", "loss", "missing required key");
+  expectMessage(channelError("model: gilbert_elliott\nr: 0.1"), "chan.yaml", "p",
+                "missing required key");
+  expectMessage(channelError("model: gilbert_elliott\np: 0.1"), "chan.yaml", "r",
+                "missing required key");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\np: 0.2"), "chan.yaml:3", "p",
+                "key 'p' applies only to model gilbert_elliott (model is bernoulli)");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\nloss_bad: 0.2"), "chan.yaml", "loss_bad",
+                "key 'loss_bad' applies only to model gilbert_elliott");
+  expectMessage(channelError("model: gilbert_elliott\np: 0.1\nr: 0.1\nloss: 0.2"), "chan.yaml",
+                "loss", "key 'loss' applies only to model bernoulli (model is gilbert_elliott)");
+  expectMessage(channelError("model: bernoulli\nloss: 1.2"), "chan.yaml:2", "loss",
+                "expected a probability in [0, 1], found 1.2");
+  expectMessage(channelError("model: bernoulli\nloss: .nan"), "chan.yaml", "loss",
+                "expected a finite number");
+  expectMessage(channelError("model: gilbert_elliott\np: -0.1\nr: 0.1"), "chan.yaml", "p",
+                "expected a probability");
+  expectMessage(channelError("model: gilbert_elliott\np: 0.1\nr: 0.1\nloss_good: 2"), "chan.yaml",
+                "loss_good", "expected a probability");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\nseed: -1"), "chan.yaml", "seed",
+                "expected a non-negative integer, found -1");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\nseed: 1.5"), "chan.yaml", "seed",
+                "expected a non-negative integer, found '1.5'");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\nseed: 18446744073709551616"),
+                "chan.yaml", "seed", "integer out of range");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\ndelay: -0.5"), "chan.yaml", "delay",
+                "expected a non-negative number of seconds, found -0.5");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\njitter: -1"), "chan.yaml", "jitter",
+                "expected a non-negative number of seconds");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\ndistribution: cauchy"), "chan.yaml",
+                "distribution",
+                "unknown distribution 'cauchy' (expected one of: uniform, normal, pareto)");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\nreorder: yes"), "chan.yaml", "reorder",
+                "expected true or false, found 'yes'");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\nreorder: 1"), "chan.yaml", "reorder",
+                "expected true or false");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\nduplicate: 1.5"), "chan.yaml",
+                "duplicate", "expected a probability");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\nqueue_limit: 0"), "chan.yaml",
+                "queue_limit", "expected an integer >= 1, found 0");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\nqueue_limit: 10.5"), "chan.yaml",
+                "queue_limit", "expected an integer >= 1");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\nrate: 5"), "chan.yaml:3", "rate",
+                "unknown key");
+  expectMessage(channelError("model: bernoulli\nloss: abc"), "chan.yaml", "loss",
+                "expected a number, found 'abc'");
+}
+
+TEST(LoadChannelSettings, FileAndMissingFile)
+{
+  TempDir dir;
+  const std::string path = dir.write("chan.yaml", "model: bernoulli\nloss: 0.25\nseed: 7\n");
+  const ne::ChannelSettings s = ne::loadChannelSettings(path);
+  EXPECT_DOUBLE_EQ(s.loss, 0.25);
+  EXPECT_EQ(s.seed, 7u);
+  const std::string missing = (dir.path() / "none.yaml").string();
+  EXPECT_EQ(errorOf(
+                [&]
+                {
+                  ne::loadChannelSettings(missing);
+                }),
+            missing + ": cannot open file");
+  const std::string bad = dir.write("bad.yaml", "model: bernoulli\nloss: {0.1\n");
+  EXPECT_CONTAINS(errorOf(
+                      [&]
+                      {
+                        ne::loadChannelSettings(bad);
+                      }),
+                  "YAML syntax error");
+}
+
+}  // namespace

@@ -1,0 +1,143 @@
+// Models and random matrices for the core unit tests (built in C++, independent of the parser).
+#pragma once
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <string>
+
+#include "networked_estimation/model.hpp"
+#include "networked_estimation/random.hpp"
+
+namespace networked_estimation
+{
+namespace test
+{
+
+inline Eigen::MatrixXd randomMatrix(Rng& rng, int r, int c, double scale = 1.0)
+{
+  Eigen::MatrixXd M(r, c);
+  for (int i = 0; i < r; ++i)
+    for (int j = 0; j < c; ++j)
+      M(i, j) = scale * rng.uniform(-1.0, 1.0);
+  return M;
+}
+
+/// Random symmetric positive definite matrix with eigenvalues in [lo, hi].
+inline Eigen::MatrixXd randomSpd(Rng& rng, int n, double lo = 0.2, double hi = 3.0)
+{
+  Eigen::HouseholderQR<Eigen::MatrixXd> qr(randomMatrix(rng, n, n));
+  const Eigen::MatrixXd U = qr.householderQ();
+  Eigen::VectorXd d(n);
+  for (int i = 0; i < n; ++i)
+    d[i] = rng.uniform(lo, hi);
+  Eigen::MatrixXd S = U * d.asDiagonal() * U.transpose();
+  return 0.5 * (S + S.transpose());
+}
+
+/// Single sensor "y" covering every row.
+inline void singleSensor(Model& m)
+{
+  m.sensors.clear();
+  m.sensors.push_back({"y", 0, static_cast<int>(m.C.rows())});
+}
+
+/// rseio.md section 5.1 (the zhou example).
+inline Model zhouModel(double range = 1.0)
+{
+  Model m;
+  m.name = "zhou_example";
+  m.period = 0.01;
+  m.A.resize(2, 2);
+  m.A << 0.9802, 0.0196, 0.0, 0.9802;
+  m.B = Eigen::MatrixXd::Identity(2, 2);
+  m.Q.resize(2, 2);
+  m.Q << 1.9608, 0.0195, 0.0195, 1.9605;
+  m.C.resize(1, 2);
+  m.C << 1, -1;
+  m.R = Eigen::MatrixXd::Identity(1, 1);
+  m.x0 = Eigen::Vector2d(1, 0);
+  m.P0 = Eigen::MatrixXd::Identity(2, 2);
+  singleSensor(m);
+  Uncertainty u;
+  u.dA = Eigen::MatrixXd::Zero(2, 2);
+  u.dA(0, 1) = 0.099;
+  u.dB = Eigen::MatrixXd::Zero(2, 2);
+  u.dC = Eigen::MatrixXd::Zero(1, 2);
+  u.range = range;
+  m.uncertainty.push_back(u);
+  m.Bu.resize(2, 0);
+  return m;
+}
+
+/// aoe.md section 5 with C = [[1, -1], [0, 1]] (the spec author's reading of the garbled C).
+inline Model aoeModel(double rhoA = 1.2910)
+{
+  Model m;
+  m.name = "aoe_example";
+  m.period = 0.01;
+  m.A.resize(2, 2);
+  m.A << rhoA, 0, 0, 1.005;
+  m.B = Eigen::MatrixXd::Identity(2, 2);
+  m.Q = 20.0 * Eigen::MatrixXd::Identity(2, 2);
+  m.C.resize(2, 2);
+  m.C << 1, -1, 0, 1;
+  m.R = 20.0 * Eigen::MatrixXd::Identity(2, 2);
+  m.x0 = Eigen::Vector2d::Zero();
+  m.P0 = Eigen::MatrixXd::Identity(2, 2);
+  singleSensor(m);
+  m.Bu.resize(2, 1);
+  m.Bu << -1, 1;
+  return m;
+}
+
+/// A random model with n states, nw noise inputs, sensors of the given sizes, ne uncertain
+/// parameters with non-zero dA, dB, dC, and p inputs.
+inline Model randomModel(Rng& rng, int n, int nw, std::vector<int> sensor_sizes, int ne, int p)
+{
+  Model m;
+  m.name = "random";
+  m.period = 0.01;
+  m.A = randomMatrix(rng, n, n, 0.6);
+  m.B = randomMatrix(rng, n, nw);
+  m.Q = randomSpd(rng, nw);
+  int mtot = 0;
+  for (int s : sensor_sizes)
+    mtot += s;
+  m.C = randomMatrix(rng, mtot, n);
+  m.R = Eigen::MatrixXd::Zero(mtot, mtot);
+  int off = 0;
+  for (std::size_t i = 0; i < sensor_sizes.size(); ++i)
+  {
+    const int s = sensor_sizes[i];
+    m.R.block(off, off, s, s) = randomSpd(rng, s);
+    m.sensors.push_back({"s" + std::to_string(i), off, s});
+    off += s;
+  }
+  m.x0 = randomMatrix(rng, n, 1);
+  m.P0 = randomSpd(rng, n);
+  for (int k = 0; k < ne; ++k)
+  {
+    Uncertainty u;
+    u.dA = randomMatrix(rng, n, n, 0.3);
+    u.dB = randomMatrix(rng, n, nw, 0.3);
+    u.dC = randomMatrix(rng, mtot, n, 0.3);
+    u.range = 0.5;
+    m.uncertainty.push_back(u);
+  }
+  m.Bu = randomMatrix(rng, n, p);
+  return m;
+}
+
+inline double maxAbsDiff(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b)
+{
+  return (a - b).cwiseAbs().maxCoeff();
+}
+
+/// Smallest eigenvalue of a symmetric matrix.
+inline double minEig(const Eigen::MatrixXd& S)
+{
+  return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(0.5 * (S + S.transpose())).eigenvalues().minCoeff();
+}
+
+}  // namespace test
+}  // namespace networked_estimation
