@@ -12,9 +12,14 @@
 // marked PASS / MISS. Timing is not a test: the program always exits 0 when the benchmarks ran.
 //
 // Flags of this program (removed before benchmark::Initialize):
-//   --quick   smoke run: --benchmark_min_time=0.01 --benchmark_repetitions=1
-// Default: --benchmark_repetitions=5 (a later --benchmark_repetitions overrides it). The console
-// shows the median and min aggregates only; --benchmark_out=FILE records every repetition.
+//   --quick      smoke run: --benchmark_min_time=0.01 --benchmark_repetitions=1
+//   --cpu-time   build the summary from CPU time per step instead of real time (steadier when
+//                other processes compete for the cores; the console shows both anyway)
+// Defaults (flags given on the command line override them): --benchmark_repetitions=5
+// --benchmark_enable_random_interleaving=true (repetitions of all benchmarks run in random order,
+// so a burst of load from other processes hits the baseline and the estimators alike, and the
+// console lists them in completion order). The console shows the median and min aggregates only;
+// --benchmark_out=FILE records every repetition.
 #include <benchmark/benchmark.h>
 
 #include <Eigen/Dense>
@@ -425,7 +430,10 @@ int parseSize(const std::string& args)
 class CollectingReporter : public benchmark::ConsoleReporter
 {
 public:
-  CollectingReporter() : benchmark::ConsoleReporter(benchmark::ConsoleReporter::OO_Tabular) {}
+  explicit CollectingReporter(bool cpu_time)
+    : benchmark::ConsoleReporter(benchmark::ConsoleReporter::OO_Tabular), cpu_time_(cpu_time)
+  {
+  }
 
   void ReportRuns(const std::vector<Run>& runs) override
   {
@@ -447,7 +455,7 @@ public:
       }
       if (r.run_type == Run::RT_Iteration)
       {
-        t.reps.push_back(r.GetAdjustedRealTime());
+        t.reps.push_back(timeOf(r));
         if (r.repetitions <= 1)
         {
           shown.push_back(r);
@@ -455,7 +463,7 @@ public:
       }
       else if (r.aggregate_name == "median" || r.aggregate_name == "min")
       {
-        (r.aggregate_name == "median" ? t.agg_median : t.agg_min) = r.GetAdjustedRealTime();
+        (r.aggregate_name == "median" ? t.agg_median : t.agg_min) = timeOf(r);
         shown.push_back(r);
       }
     }
@@ -466,8 +474,12 @@ public:
   }
 
   const std::map<Key, Timing>& timings() const { return timings_; }
+  bool cpuTime() const { return cpu_time_; }
 
 private:
+  double timeOf(const Run& r) const { return cpu_time_ ? r.GetAdjustedCPUTime() : r.GetAdjustedRealTime(); }
+
+  bool cpu_time_;
   std::map<Key, Timing> timings_;
 };
 
@@ -596,7 +608,7 @@ void printTable(const std::map<Key, Timing>& timings, const std::vector<Row>& ro
   }
 }
 
-void printSummary(const std::map<Key, Timing>& timings)
+void printSummary(const std::map<Key, Timing>& timings, bool cpu_time)
 {
   const std::vector<Row> rows = {
     {"baseline_kf", "baseline_kf", false, 0.0},
@@ -622,7 +634,9 @@ void printSummary(const std::map<Key, Timing>& timings)
   }
   std::sort(sizes.begin(), sizes.end());
   std::printf("\n==== Summary: one estimator step, m = n/2 (1 for n = 2), nw = n, p = 1, n_e = 1 ====\n");
-  std::printf("%zu repetition(s) per benchmark. Baseline: hand-written dynamic-size Eigen Kalman filter.\n", reps);
+  std::printf("%zu repetition(s) per benchmark, %s time per step. Baseline: hand-written dynamic-size Eigen "
+              "Kalman filter.\n",
+              reps, cpu_time ? "CPU" : "real");
   const auto oe = std::find_if(timings.begin(), timings.end(), [](const auto& kv) { return kv.first.first == "oe"; });
   if (oe != timings.end())
   {
@@ -643,13 +657,12 @@ int main(int argc, char** argv)
   std::vector<std::string> args;
   args.emplace_back(argv[0]);
   bool quick = false;
+  bool cpu_time = false;
   for (int i = 1; i < argc; ++i)
   {
     const std::string a = argv[i];
-    if (a == "--quick")
-    {
-      quick = true;
-    }
+    quick = quick || a == "--quick";
+    cpu_time = cpu_time || a == "--cpu-time";
   }
   // defaults first, so that flags given on the command line override them
   if (quick)
@@ -660,10 +673,12 @@ int main(int argc, char** argv)
   else
   {
     args.emplace_back("--benchmark_repetitions=5");
+    args.emplace_back("--benchmark_enable_random_interleaving=true");
   }
   for (int i = 1; i < argc; ++i)
   {
-    if (std::string(argv[i]) != "--quick")
+    const std::string a = argv[i];
+    if (a != "--quick" && a != "--cpu-time")
     {
       args.emplace_back(argv[i]);
     }
@@ -682,12 +697,12 @@ int main(int argc, char** argv)
   {
     return 1;
   }
-  CollectingReporter reporter;
+  CollectingReporter reporter(cpu_time);
   benchmark::RunSpecifiedBenchmarks(&reporter);
   benchmark::Shutdown();
   if (!reporter.timings().empty())
   {
-    networked_estimation::printSummary(reporter.timings());
+    networked_estimation::printSummary(reporter.timings(), reporter.cpuTime());
   }
   return 0;
 }
