@@ -168,6 +168,18 @@ void EstimatorBase::updateMean(Eigen::VectorXd& x)
   x.noalias() += upd_.W().transpose() * innov_;
 }
 
+void EstimatorBase::updateAndCommit()
+{
+  if (last_updated_)
+  {
+    upd_.factor(Ppred_, sel_.C(), sel_.R());
+    updateMean(xpred_);
+    upd_.downdate(Ppred_);
+  }
+  x_.swap(xpred_);
+  P_.swap(Ppred_);
+}
+
 void EstimatorBase::checkNotDiverged() const
 {
   if (diverged_)

@@ -119,8 +119,11 @@ protected:
   void checkFinite();
   /// Throws DivergenceError when stepped after a divergence without reset().
   void checkNotDiverged() const;
-  /// x_ += W' L^{-1}(y - C x_) for the selected rows, after upd_.factor().
+  /// x += W' L^{-1}(y - C x) for the selected rows, after upd_.factor().
   void updateMean(Eigen::VectorXd& x);
+  /// Ends a step from the prediction (xpred_, Ppred_): the measurement update of the selected
+  /// rows when any arrived (last_updated_), then the result becomes (x_, P_).
+  void updateAndCommit();
   /// Runs the numeric part of a step: counts it, marks the estimator diverged when it throws
   /// DivergenceError, and checks the result is finite.
   template <class F>
@@ -144,7 +147,7 @@ protected:
   Eigen::MatrixXd BQBt_;
   ArrivalSelector sel_;
   KalmanUpdate upd_;
-  Eigen::VectorXd x_, bu_, innov_;
+  Eigen::VectorXd x_, xpred_, bu_, innov_;
   Eigen::MatrixXd P_, Ppred_, AP_;
   bool diverged_ = false;
 };

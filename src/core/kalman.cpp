@@ -35,16 +35,8 @@ void KalmanFilter::step(const Sample& sample)
     if (apply)
       xpred_ += bu_;
     predictCovariance(P_);
-    // update
     last_updated_ = rows > 0;
-    if (last_updated_)
-    {
-      upd_.factor(Ppred_, sel_.C(), sel_.R());
-      updateMean(xpred_);
-      upd_.downdate(Ppred_);
-    }
-    x_.swap(xpred_);
-    P_.swap(Ppred_);
+    updateAndCommit();
   });
 }
 

@@ -16,7 +16,6 @@ public:
   double commandArrivalProbability() const override;
 
 private:
-  Eigen::VectorXd xpred_;
   int nu_ = -1;
 };
 

@@ -230,14 +230,7 @@ void Rseio::step(const Sample& sample)
         xpred_ += bu_;
       predictCovariance(P_);
     }
-    if (last_updated_)
-    {
-      upd_.factor(Ppred_, sel_.C(), sel_.R());
-      updateMean(xpred_);
-      upd_.downdate(Ppred_);
-    }
-    x_.swap(xpred_);
-    P_.swap(Ppred_);
+    updateAndCommit();
   });
 }
 

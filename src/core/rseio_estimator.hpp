@@ -36,7 +36,7 @@ private:
   // workspace
   KalmanUpdate phat_upd_;
   Eigen::MatrixXd RinvLam_, Phat_, PhSst_, Qi_, Qhat_, Bhat_, BhQh_;
-  Eigen::VectorXd gx_, tmp_, tw_, xpred_;
+  Eigen::VectorXd gx_, tmp_, tw_;
   Eigen::LLT<Eigen::MatrixXd> llt_;
 };
 
