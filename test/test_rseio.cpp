@@ -3,10 +3,13 @@
 // section 3 and the Theorem 2 analysis form (section 2.6).
 #include <gtest/gtest.h>
 
+#include <map>
+
 #include "networked_estimation/error.hpp"
 #include "networked_estimation/estimator.hpp"
 #include "networked_estimation/rseio.hpp"
 #include "test_support.hpp"
+#include "rseio_estimator.hpp"  // private header: which form an arrival step used
 
 using namespace networked_estimation;
 using namespace networked_estimation::test;
@@ -83,6 +86,7 @@ double relErr(const MatrixXd& a, const MatrixXd& b)
 TEST(Rseio, EqualsBruteForceMinimiserOnRandomCases)
 {
   Rng rng(2024);
+  std::map<std::string, int> forms;
   for (int trial = 0; trial < 40; ++trial)
   {
     const int n = 2 + trial % 4, nw = 1 + trial % 3, ne = 1 + trial % 2;
@@ -100,17 +104,24 @@ TEST(Rseio, EqualsBruteForceMinimiserOnRandomCases)
     est->step(s);
     EXPECT_LT(relErr(est->covariance(), Pb), 1e-10) << "trial " << trial << " mu " << mu;
     EXPECT_LT(relErr(est->state(), xb), 1e-10) << "trial " << trial;
+    ++forms[dynamic_cast<const detail::Rseio&>(*est).lastForm()];
   }
+  // both the rank form (rank [S T] <= n) and the Gram form of Theorem 1 were checked
+  EXPECT_GE(forms["rank"], 5);
+  EXPECT_GE(forms["gram"], 5);
 }
 
 // Section 2.5b: with a known input and non-zero dC the estimate carries a correction term.
 TEST(Rseio, EqualsBruteForceMinimiserWithKnownInput)
 {
   Rng rng(77);
+  std::map<std::string, int> forms;
   for (int trial = 0; trial < 30; ++trial)
   {
     const int n = 2 + trial % 3;
-    Model m = randomModel(rng, n, 2, {1, 1}, 2, 1 + trial % 2);
+    // odd trials: two sensors and two parameters (rank [S T] > n: Gram form); even: one of each
+    const bool big = trial % 2 == 1;
+    Model m = randomModel(rng, n, 2, big ? std::vector<int>{1, 1} : std::vector<int>{1}, big ? 2 : 1, 1 + trial % 3 / 2);
     const double mu = rng.uniform(0.3, 0.95);
     const VectorXd y = randomMatrix(rng, m.m(), 1);
     const VectorXd u = randomMatrix(rng, m.p(), 1, 2.0);
@@ -124,7 +135,10 @@ TEST(Rseio, EqualsBruteForceMinimiserWithKnownInput)
     est->step(s);
     EXPECT_LT(relErr(est->covariance(), Pb), 1e-10) << "trial " << trial;
     EXPECT_LT(relErr(est->state(), xb), 1e-10) << "trial " << trial;
+    ++forms[dynamic_cast<const detail::Rseio&>(*est).lastForm()];
   }
+  EXPECT_GE(forms["rank"], 5);
+  EXPECT_GE(forms["gram"], 5);
 }
 
 // Dropped samples are the nominal prediction: x = A x + Bu u, P = A P A' + B Q B'.

@@ -1,6 +1,7 @@
 // RSEIO, rseio.md section 2.5 (Theorem 1, corrected, Gram form) and 2.5b (known input).
 #include "rseio_estimator.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -111,6 +112,30 @@ RseioGrams makeGrams(const Model& model, const std::vector<int>& rows)
   for (int i = 0, j = 0; i < ev.size(); ++i)
     if (ev[i] > tol)
       g.Fs.row(j++) = std::sqrt(ev[i]) * es.eigenvectors().col(i).transpose();
+  // Rank form: factor the joint Gram [S T]'[S T] = F'F (F = diag(sqrt(ev)) V' over the non-zero
+  // eigenvalues); worth it when its rank rho does not exceed n.
+  {
+    const int n = model.n(), nw = model.nw();
+    Eigen::MatrixXd G(s.S.rows(), n + nw);
+    G << s.S, s.T;
+    Eigen::MatrixXd GtG = G.transpose() * G;
+    symmetrise(GtG);
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eg(GtG);
+    const Eigen::VectorXd gv = eg.eigenvalues();
+    const double gtol = 1e-14 * std::max(1.0, gv.cwiseAbs().maxCoeff()) * (n + nw);
+    int rho = 0;
+    for (int i = 0; i < gv.size(); ++i)
+      rho += gv[i] > gtol ? 1 : 0;
+    g.rankForm = rho <= n;
+    Eigen::MatrixXd F(rho, n + nw);
+    for (int i = 0, j = 0; i < gv.size(); ++i)
+      if (gv[i] > gtol)
+        F.row(j++) = std::sqrt(gv[i]) * eg.eigenvectors().col(i).transpose();
+    g.Fx = F.leftCols(n);
+    g.Fw = F.rightCols(nw);
+    g.FwQBt = g.Fw * model.Q * model.B.transpose();
+    g.FwQFwt = g.Fw * model.Q * g.Fw.transpose();
+  }
   if (model.p() > 0)
   {
     const Eigen::MatrixXd ScBu = s.Sc * model.Bu;
@@ -161,34 +186,37 @@ void Rseio::arrivalPrediction(const RseioGrams& g, bool has_input, const Eigen::
     tmp_.noalias() = g.Sss * x_;
     gx_.noalias() -= lam * (Phat_ * tmp_);
   }
-  // 5. Ppred = A Phat A' + Bhat Qhat Bhat'; 4. xpred = F gx with F = A - lam Bhat Qhat Sst'
+  // 5. Ppred = A Phat A' + Bhat Qhat Bhat'; 4. xpred = F gx with F = A - lam Bhat Qhat Sst'.
+  // Qhat is never formed: with Qhat^{-1} = L L', Bhat Qhat Bhat' = Z'Z and Bhat Qhat v = Z' L^{-1} v
+  // where Z = L^{-1} Bhat'.
   AP_.noalias() = A * Phat_;
   xpred_.noalias() = A * gx_;
   if (g.hasT)
   {
-    // 2. Qhat = [Q^{-1} + lam Stt - lam^2 Sst' Phat Sst]^{-1}
+    // 2. Qhat^{-1} = Q^{-1} + lam Stt - lam^2 Sst' Phat Sst
     PhSst_.noalias() = Phat_ * g.Sst;
     Qi_ = Qinv_;
     Qi_ += lam * g.Stt;
     Qi_.noalias() -= (lam * lam) * (g.Sst.transpose() * PhSst_);
-    symmetrise(Qi_);
-    llt_.compute(Qi_);
-    Qhat_ = llt_.solve(Eigen::MatrixXd::Identity(model_.nw(), model_.nw()));
-    symmetrise(Qhat_);
+    llt_.compute(Qi_);  // reads the lower triangle only
     // 3. Bhat = B - lam A Phat Sst
     Bhat_ = model_.B;
-    Bhat_.noalias() -= lam * (A * PhSst_);
-    BhQh_.noalias() = Bhat_ * Qhat_;
+    Bhat_.noalias() -= lam * (AP_ * g.Sst);
+    Zt_ = Bhat_.transpose();
+    llt_.matrixL().solveInPlace(Zt_);  // Z = L^{-1} Bhat'
     tw_.noalias() = g.Sst.transpose() * gx_;
-    xpred_.noalias() -= lam * (BhQh_ * tw_);
-    Ppred_.noalias() = BhQh_ * Bhat_.transpose();
+    llt_.matrixL().solveInPlace(tw_);
+    xpred_.noalias() -= lam * (Zt_.transpose() * tw_);
+    Ppred_.noalias() = AP_ * A.transpose();
+    Ppred_.selfadjointView<Eigen::Lower>().rankUpdate(Zt_.transpose());
+    mirrorLower(Ppred_);
   }
   else
   {
     Ppred_ = BQBt_;
+    Ppred_.noalias() += AP_ * A.transpose();
+    symmetrise(Ppred_);
   }
-  Ppred_.noalias() += AP_ * A.transpose();
-  symmetrise(Ppred_);
   if (has_input)
   {
     xpred_ += bu_;
@@ -203,10 +231,64 @@ void Rseio::arrivalPrediction(const RseioGrams& g, bool has_input, const Eigen::
         // -lam (F Phat S'c + Bhat Qhat T'c) = -lam A Phat S'c + lam Bhat Qhat (lam Sst' Phat S'c - T'c)
         tw_.noalias() = lam * (g.Sst.transpose() * gx_);
         tw_.noalias() -= g.TBu * u;
-        xpred_.noalias() += lam * (BhQh_ * tw_);
+        llt_.matrixL().solveInPlace(tw_);
+        xpred_.noalias() += lam * (Zt_.transpose() * tw_);
       }
     }
   }
+}
+
+// With D = blkdiag(P^{-1}, Q^{-1}) and F = [Fx Fw] (F'F = [S T]'[S T]), the prior part of the cost
+// (2) has Hessian M = D + lam F'F, so by Woodbury
+//   Ppred = [A B] M^{-1} [A B]' = A P A' + B Q B' - lam H' N^{-1} H,
+//   H = Fx P A' + Fw Q B',  N = I + lam (Fx P Fx' + Fw Q Fw'),
+//   xpred = [A B] M^{-1} (D [x; 0] - lam [S T]'c) + Bu u
+//         = A x - lam H' N^{-1} Fx x + Bu u - lam ([A B] D^{-1} g - lam H' N^{-1} F D^{-1} g),
+// where g = [S T]'c = [SBu; TBu] u is the known-input term of section 2.5b. Equal to Theorem 1
+// (checked against the brute-force minimiser in the tests) at O(n^2 rho + rho^2 n) on top of kfio.
+void Rseio::rankPrediction(const RseioGrams& g, bool has_input, const Eigen::VectorXd& u)
+{
+  const Eigen::MatrixXd& A = model_.A;
+  const double lam = lambda_;
+  AP_.noalias() = A * P_;
+  FP_.noalias() = g.Fx * P_;               // Fx P
+  Hm_ = g.FwQBt;
+  Hm_.noalias() += FP_ * A.transpose();    // H
+  Nm_ = g.FwQFwt;
+  Nm_.noalias() += FP_ * g.Fx.transpose();
+  Nm_ *= lam;
+  Nm_.diagonal().array() += 1.0;           // N
+  llt_.compute(Nm_);
+  llt_.matrixL().solveInPlace(Hm_);        // V = L^{-1} H
+  Ppred_ = BQBt_;
+  Ppred_.noalias() += AP_ * A.transpose();
+  Ppred_.selfadjointView<Eigen::Lower>().rankUpdate(Hm_.transpose(), -lam);
+  mirrorLower(Ppred_);
+  t_.noalias() = g.Fx * x_;
+  llt_.matrixL().solveInPlace(t_);
+  xpred_.noalias() = A * x_;
+  xpred_.noalias() -= lam * (Hm_.transpose() * t_);
+  if (has_input)
+  {
+    xpred_ += bu_;
+    if (g.hasC)
+    {
+      g1_.noalias() = g.SBu * u;
+      g2_.noalias() = g.TBu * u;
+      tmp_.noalias() = P_ * g1_;           // D^{-1} g, state part
+      tw_.noalias() = model_.Q * g2_;      // D^{-1} g, noise part
+      xpred_.noalias() -= lam * (AP_ * g1_);
+      xpred_.noalias() -= lam * (model_.B * tw_);
+      t_.noalias() = g.Fx * tmp_;
+      t_.noalias() += g.Fw * tw_;
+      llt_.matrixL().solveInPlace(t_);
+      xpred_.noalias() += (lam * lam) * (Hm_.transpose() * t_);
+    }
+  }
+  // cancellation guard, as in the measurement update: the Gram form keeps P positive where the
+  // subtraction would not
+  if (Ppred_.diagonal().minCoeff() < 0.0)
+    arrivalPrediction(g, has_input, u);
 }
 
 void Rseio::step(const Sample& sample)
@@ -220,7 +302,11 @@ void Rseio::step(const Sample& sample)
     const RseioGrams* g = last_updated_ && lambda_ > 0.0 ? &grams() : nullptr;
     if (g && (g->hasS || g->hasT))
     {
-      arrivalPrediction(*g, has_input, sample.u);
+      if (g->rankForm)
+        rankPrediction(*g, has_input, sample.u);
+      else
+        arrivalPrediction(*g, has_input, sample.u);
+      last_form_ = g->rankForm ? "rank" : "gram";
     }
     else
     {
