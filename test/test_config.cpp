@@ -918,3 +918,68 @@ TEST(LoadChannelSettings, FileAndMissingFile)
 }
 
 }  // namespace
+
+// Runtime changes of a channel: merged onto the current settings and validated as a whole.
+TEST(ChannelSettingsMerge, RoundTripAndPartialChanges)
+{
+  ne::ChannelSettings ge;
+  ge.model = ne::LossModelKind::GILBERT_ELLIOTT;
+  ge.p = 0.05;
+  ge.r = 0.4;
+  ge.loss_bad = 0.9;
+  ge.seed = 123456789012345ULL;
+  ge.delay = 0.01;
+  ge.jitter = 0.002;
+  ge.distribution = ne::DelayDistribution::PARETO;
+  ge.reorder = true;
+  ge.queue_limit = 77;
+  // round trip through YAML is exact
+  const ne::ChannelSettings back = ne::parseChannelSettings(ne::toYaml(ge), "rt");
+  EXPECT_EQ(back.model, ge.model);
+  EXPECT_EQ(back.p, ge.p);
+  EXPECT_EQ(back.r, ge.r);
+  EXPECT_EQ(back.loss_bad, ge.loss_bad);
+  EXPECT_EQ(back.seed, ge.seed);
+  EXPECT_EQ(back.delay, ge.delay);
+  EXPECT_EQ(back.jitter, ge.jitter);
+  EXPECT_EQ(back.distribution, ge.distribution);
+  EXPECT_EQ(back.reorder, ge.reorder);
+  EXPECT_EQ(back.queue_limit, ge.queue_limit);
+  // a partial change keeps everything else
+  const ne::ChannelSettings worse = ne::mergeChannelSettings(ge, YAML::Load("{p: 0.2, delay: 0.05}"), "svc");
+  EXPECT_EQ(worse.p, 0.2);
+  EXPECT_EQ(worse.delay, 0.05);
+  EXPECT_EQ(worse.r, 0.4);
+  EXPECT_EQ(worse.queue_limit, 77u);
+  // switching model drops the old model's keys
+  const ne::ChannelSettings bern = ne::mergeChannelSettings(ge, YAML::Load("{model: bernoulli, loss: 0.3}"), "svc");
+  EXPECT_EQ(bern.model, ne::LossModelKind::BERNOULLI);
+  EXPECT_EQ(bern.loss, 0.3);
+  EXPECT_EQ(bern.delay, 0.01);
+}
+
+TEST(ChannelSettingsMerge, InvalidChangesAreRejectedWithTheKey)
+{
+  ne::ChannelSettings base;
+  base.loss = 0.1;
+  auto expectError = [&](const std::string& yaml, const std::string& fragment) {
+    try
+    {
+      ne::mergeChannelSettings(base, YAML::Load(yaml), "~set_parameters");
+      ADD_FAILURE() << "accepted " << yaml;
+    }
+    catch (const ne::ConfigError& e)
+    {
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("~set_parameters"), std::string::npos) << e.what();
+    }
+  };
+  expectError("{loss: 1.5}", "loss");
+  expectError("{delay: -1}", "delay");
+  expectError("{distribution: cauchy}", "distribution");
+  expectError("{bogus: 1}", "bogus");
+  expectError("{p: 0.1}", "applies only to model gilbert_elliott");
+  expectError("{model: gilbert_elliott}", "needs p and r");
+  expectError("[1, 2]", "expected a map");
+  EXPECT_EQ(base.loss, 0.1);
+}

@@ -76,4 +76,13 @@ struct ChannelSettings
 ChannelSettings parseChannelSettings(const YAML::Node& node, const std::string& source);
 ChannelSettings loadChannelSettings(const std::string& path);
 
+/// The settings as a YAML map that parseChannelSettings accepts (only the current model's keys).
+YAML::Node toYaml(const ChannelSettings& settings);
+
+/// `base` with the keys of the map `changes` replaced, validated as a whole (runtime changes).
+/// When `changes` names another model, the old model's keys are dropped first. Throws ConfigError
+/// naming the key; `base` is never modified.
+ChannelSettings mergeChannelSettings(const ChannelSettings& base, const YAML::Node& changes,
+                                     const std::string& source);
+
 }  // namespace networked_estimation

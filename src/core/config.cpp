@@ -1206,4 +1206,49 @@ ChannelSettings loadChannelSettings(const std::string& path)
   return parseChannelSettings(loadYamlFile(path), path);
 }
 
+YAML::Node toYaml(const ChannelSettings& settings)
+{
+  static const char* distributions[] = {"uniform", "normal", "pareto"};
+  YAML::Node node;
+  if (settings.model == LossModelKind::BERNOULLI)
+  {
+    node["model"] = "bernoulli";
+    node["loss"] = settings.loss;
+  }
+  else
+  {
+    node["model"] = "gilbert_elliott";
+    node["p"] = settings.p;
+    node["r"] = settings.r;
+    node["loss_bad"] = settings.loss_bad;
+    node["loss_good"] = settings.loss_good;
+  }
+  node["seed"] = settings.seed;
+  node["delay"] = settings.delay;
+  node["jitter"] = settings.jitter;
+  node["distribution"] = distributions[static_cast<int>(settings.distribution)];
+  node["reorder"] = settings.reorder;
+  node["duplicate"] = settings.duplicate;
+  node["queue_limit"] = static_cast<std::uint64_t>(settings.queue_limit);
+  return node;
+}
+
+ChannelSettings mergeChannelSettings(const ChannelSettings& base, const YAML::Node& changes,
+                                     const std::string& source)
+{
+  return guarded(source, [&] {
+    if (!changes.IsMap())
+      throw ConfigError(source + ": expected a map of settings to change, e.g. {loss: 0.5}");
+    YAML::Node merged = toYaml(base);
+    if (changes["model"])
+    {
+      for (const char* key : {"loss", "p", "r", "loss_bad", "loss_good"})
+        merged.remove(key);
+    }
+    for (auto it = changes.begin(); it != changes.end(); ++it)
+      merged[it->first.Scalar()] = it->second;
+    return parseChannelSettingsImpl(merged, source);
+  });
+}
+
 }  // namespace networked_estimation
