@@ -116,13 +116,14 @@ void OptimalEstimator::step(const Sample& sample)
       next_logw_.resize(children);
       next_q_.resize(children);
     }
+    Am_.noalias() = model_.A * means_.leftCols(count_);  // A m for every parent, one product
     Eigen::Index c = 0;
     for (Eigen::Index i = 0; i < count_; ++i)
     {
       const double t1 = link_.next(q_[i]);
       if (!split)
       {
-        next_means_.col(c).noalias() = model_.A * means_.col(i);
+        next_means_.col(c) = Am_.col(i);
         next_logw_[c] = logw_[i];
         next_q_[c] = t1;
         ++c;
@@ -133,7 +134,7 @@ void OptimalEstimator::step(const Sample& sample)
       {
         if (!(lw[b] > -std::numeric_limits<double>::infinity()))
           continue;  // a hypothesis of probability zero
-        next_means_.col(c).noalias() = model_.A * means_.col(i);
+        next_means_.col(c) = Am_.col(i);
         if (b == 1)
           next_means_.col(c) += bu_;
         next_logw_[c] = lw[b];
@@ -151,7 +152,8 @@ void OptimalEstimator::step(const Sample& sample)
     {
       upd_.factor(M_, sel_.C(), sel_.R());
       auto mc = means_.leftCols(count_);
-      E_ = (-sel_.C() * mc).colwise() + sel_.y();
+      E_.noalias() = -sel_.C() * mc;  // no temporary: E_ keeps its storage across steps
+      E_.colwise() += sel_.y();
       upd_.whiten(E_);
       logw_.head(count_) -= 0.5 * E_.colwise().squaredNorm().transpose();
       mc.noalias() += upd_.W().transpose() * E_;

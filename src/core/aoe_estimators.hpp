@@ -58,7 +58,7 @@ private:
   Eigen::MatrixXd means_, next_means_;     ///< n x capacity
   Eigen::VectorXd logw_, next_logw_;       ///< log weights
   Eigen::VectorXd q_, next_q_;             ///< P(newest bit = 1 | component)
-  Eigen::MatrixXd M_, E_, D_;
+  Eigen::MatrixXd M_, E_, D_, Am_;
   Eigen::VectorXd w_;
   std::vector<Eigen::Index> order_;
   double nu1_;
