@@ -1,0 +1,274 @@
+// LossyChannel nodelet: forwards any message type from `in` to `out` through the core LossyChannel
+// engine (loss, delay, jitter, reordering, duplication, queue limit), publishes the ground truth of
+// every message on ~events and its health on /diagnostics.
+//
+// Zero-copy: the message object received is the one published (ShapeShifter keeps the serialized
+// bytes; nothing is re-serialised by the channel). Deliveries due immediately are published from
+// the subscriber callback; later ones from a delivery thread that sleeps until the next due time
+// (in ROS time, so delays hold under /use_sim_time).
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <nodelet/nodelet.h>
+#include <pluginlib/class_list_macros.hpp>
+#include <ros/ros.h>
+#include <topic_tools/shape_shifter.h>
+
+#include <atomic>
+#include <condition_variable>
+#include <limits>
+#include <mutex>
+#include <sstream>
+#include <thread>
+#include <unordered_map>
+
+#include "networked_estimation/channel.hpp"
+#include "networked_estimation/error.hpp"
+#include "networked_estimation/ChannelEvent.h"
+#include "networked_estimation/SetParameters.h"
+#include "param_yaml.hpp"
+
+namespace networked_estimation
+{
+
+namespace
+{
+
+/// header.stamp of a serialized message whose type starts with a std_msgs/Header
+/// (uint32 seq, then time stamp); zero otherwise.
+ros::Time inputStamp(const topic_tools::ShapeShifter& msg, bool has_header)
+{
+  if (!has_header || msg.size() < 12)
+    return ros::Time();
+  std::vector<uint8_t> buf(msg.size());
+  ros::serialization::OStream out(buf.data(), static_cast<uint32_t>(buf.size()));
+  msg.write(out);
+  uint32_t sec, nsec;
+  std::memcpy(&sec, buf.data() + 4, 4);
+  std::memcpy(&nsec, buf.data() + 8, 4);
+  return ros::Time(sec, nsec);
+}
+
+/// Whether the first field of a message definition (after comments and blank lines) is a Header.
+bool startsWithHeader(const std::string& definition)
+{
+  std::istringstream in(definition);
+  std::string line;
+  while (std::getline(in, line))
+  {
+    const auto first = line.find_first_not_of(" \t");
+    if (first == std::string::npos || line[first] == '#')
+      continue;
+    return line.compare(first, 14, "Header header ") == 0 || line.compare(first, 13, "Header header") == 0 ||
+           line.compare(first, 22, "std_msgs/Header header") == 0;
+  }
+  return false;
+}
+
+}  // namespace
+
+class LossyChannelNodelet : public nodelet::Nodelet
+{
+public:
+  ~LossyChannelNodelet() override
+  {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_all();
+    if (thread_.joinable())
+      thread_.join();
+  }
+
+private:
+  void onInit() override
+  {
+    ros::NodeHandle& nh = getNodeHandle();
+    ros::NodeHandle& pnh = getPrivateNodeHandle();
+    const std::string source = pnh.getNamespace() + " parameters";
+    try
+    {
+      settings_ = parseChannelSettings(privateParameters(pnh, {"diagnostic_period", "queue_size"}), source);
+    }
+    catch (const ConfigError& e)
+    {
+      NODELET_FATAL("LossyChannel not started, nothing will be forwarded: %s", e.what());
+      return;
+    }
+    pnh.param("queue_size", queue_size_, 1000);
+    channel_ = std::make_unique<LossyChannel>(settings_);
+    t0_ = ros::Time::now();
+    events_pub_ = pnh.advertise<ChannelEvent>("events", 1000);
+    set_srv_ = pnh.advertiseService("set_parameters", &LossyChannelNodelet::setParameters, this);
+    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
+    diagnostics_->setHardwareID("lossy_channel");
+    diagnostics_->add("channel", this, &LossyChannelNodelet::diagnose);
+    diag_timer_ = nh.createWallTimer(ros::WallDuration(0.5), [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
+    thread_ = std::thread(&LossyChannelNodelet::deliveryLoop, this);
+    sub_ = nh.subscribe("in", static_cast<uint32_t>(queue_size_),
+                                                   &LossyChannelNodelet::onMessage, this,
+                                                   ros::TransportHints().tcpNoDelay());
+    NODELET_INFO("LossyChannel %s -> %s: %s", nh.resolveName("in").c_str(), nh.resolveName("out").c_str(),
+                 describe().c_str());
+  }
+
+  double now() const { return (ros::Time::now() - t0_).toSec(); }
+
+  std::string describe() const
+  {
+    YAML::Emitter e;
+    e << YAML::Flow << toYaml(settings_);
+    return e.c_str();
+  }
+
+  void onMessage(const ros::MessageEvent<topic_tools::ShapeShifter const>& event)
+  {
+    const topic_tools::ShapeShifter::ConstPtr& msg = event.getConstMessage();
+    const double t = now();
+    std::unique_lock<std::mutex> lock(mutex_);
+    if (!advertised_)
+    {
+      ros::NodeHandle& nh = getNodeHandle();
+      const auto& header = event.getConnectionHeader();
+      const auto latch = header.find("latching");
+      out_pub_ = msg->advertise(nh, "out", static_cast<uint32_t>(queue_size_),
+                                latch != header.end() && latch->second == "1");
+      has_header_ = startsWithHeader(msg->getMessageDefinition());
+      advertised_ = true;
+    }
+    const std::uint64_t seq = next_seq_++;
+    const ChannelEvent ev = toMessage(channel_->offer(seq, t), msg);
+    if (ev.outcome == ChannelEvent::DELIVERED)
+      in_flight_[seq] = {msg, ev.duplicated ? 2 : 1};
+    publishDue(t);
+    const bool wake = channel_->nextDue() < std::numeric_limits<double>::infinity();
+    lock.unlock();
+    events_pub_.publish(ev);
+    if (wake)
+      wake_.notify_one();
+  }
+
+  ChannelEvent toMessage(const ChannelRecord& e, const topic_tools::ShapeShifter::ConstPtr& msg)
+  {
+    ChannelEvent m;
+    m.header.stamp = t0_ + ros::Duration(e.arrival);
+    m.seq = e.seq;
+    m.input_stamp = inputStamp(*msg, has_header_);
+    m.outcome = static_cast<uint8_t>(e.outcome);
+    m.duplicated = e.duplicated;
+    m.state = static_cast<uint8_t>(e.state);
+    m.delay = e.delay;
+  m.sampled_delay = e.sampled_delay;
+    return m;
+  }
+
+  /// Publishes every delivery due at t (mutex held: deliveries leave in the engine's order).
+  void publishDue(double t)
+  {
+    channel_->popDue(t, due_);
+    for (const Delivery& d : due_)
+    {
+      auto it = in_flight_.find(d.seq);
+      if (it == in_flight_.end())
+        continue;
+      out_pub_.publish(it->second.msg);
+      if (--it->second.remaining == 0)
+        in_flight_.erase(it);
+    }
+  }
+
+  void deliveryLoop()
+  {
+    std::unique_lock<std::mutex> lock(mutex_);
+    while (!stop_)
+    {
+      const double due = channel_->nextDue();
+      if (due == std::numeric_limits<double>::infinity())
+      {
+        wake_.wait(lock);
+        continue;
+      }
+      const double wait = due - now();
+      if (wait > 0.0)
+      {
+        // Wall-clock wait; under sim time the clock may run at another rate, so re-check often.
+        const double cap = ros::Time::isSimTime() ? 0.0005 : wait;
+        wake_.wait_for(lock, std::chrono::duration<double>(std::min(wait, cap)));
+        continue;
+      }
+      publishDue(now());
+    }
+  }
+
+  bool setParameters(SetParameters::Request& req, SetParameters::Response& res)
+  {
+    try
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      const ChannelSettings next =
+          mergeChannelSettings(settings_, YAML::Load(req.yaml), getPrivateNodeHandle().getNamespace() + "/set_parameters");
+      channel_->reconfigure(next);
+      settings_ = next;
+      res.success = true;
+      res.message = describe();
+      NODELET_INFO("LossyChannel reconfigured: %s", res.message.c_str());
+    }
+    catch (const std::exception& e)  // ConfigError, or a YAML syntax error in the request
+    {
+      res.success = false;
+      res.message = e.what();
+      NODELET_WARN("LossyChannel: rejected set_parameters: %s", e.what());
+    }
+    return true;
+  }
+
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const ChannelCounters& c = channel_->counters();
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "loss %.3f over %lu messages", channel_->lossRate(),
+                  static_cast<unsigned long>(c.received));
+    if (c.dropped_queue > 0)
+      stat.mergeSummary(diagnostic_msgs::DiagnosticStatus::WARN, "queue_limit reached: messages dropped");
+    stat.add("received", c.received);
+    stat.add("delivered", c.delivered);
+    stat.add("dropped by model", c.dropped_model);
+    stat.add("dropped by queue", c.dropped_queue);
+    stat.add("duplicated", c.duplicated);
+    stat.add("in flight", c.in_flight);
+    stat.add("empirical loss rate", channel_->lossRate());
+    stat.add("mean burst length", channel_->meanBurstLength());
+    stat.add("delay p50 (s)", channel_->delayQuantile(0.5));
+    stat.add("delay p90 (s)", channel_->delayQuantile(0.9));
+    stat.add("delay p99 (s)", channel_->delayQuantile(0.99));
+    stat.add("settings", describe());
+  }
+
+  struct Held
+  {
+    topic_tools::ShapeShifter::ConstPtr msg;
+    int remaining;
+  };
+
+  ChannelSettings settings_;
+  std::unique_ptr<LossyChannel> channel_;
+  int queue_size_ = 1000;
+  ros::Time t0_;
+  ros::Subscriber sub_;
+  ros::Publisher out_pub_, events_pub_;
+  ros::ServiceServer set_srv_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::WallTimer diag_timer_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::thread thread_;
+  bool stop_ = false;
+  bool advertised_ = false;
+  bool has_header_ = false;
+  std::uint64_t next_seq_ = 0;
+  std::unordered_map<std::uint64_t, Held> in_flight_;
+  std::vector<Delivery> due_;
+};
+
+}  // namespace networked_estimation
+
+PLUGINLIB_EXPORT_CLASS(networked_estimation::LossyChannelNodelet, nodelet::Nodelet)
