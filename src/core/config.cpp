@@ -12,6 +12,7 @@
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
+#include <charconv>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -1206,6 +1207,17 @@ ChannelSettings loadChannelSettings(const std::string& path)
   return parseChannelSettings(loadYamlFile(path), path);
 }
 
+namespace
+{
+/// The shortest text that reads back as exactly this double (0.05, not 0.050000000000000003).
+YAML::Node shortest(double v)
+{
+  char buf[32];
+  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
+  return YAML::Node(std::string(buf, res.ptr));
+}
+}  // namespace
+
 YAML::Node toYaml(const ChannelSettings& settings)
 {
   static const char* distributions[] = {"uniform", "normal", "pareto"};
@@ -1213,22 +1225,22 @@ YAML::Node toYaml(const ChannelSettings& settings)
   if (settings.model == LossModelKind::BERNOULLI)
   {
     node["model"] = "bernoulli";
-    node["loss"] = settings.loss;
+    node["loss"] = shortest(settings.loss);
   }
   else
   {
     node["model"] = "gilbert_elliott";
-    node["p"] = settings.p;
-    node["r"] = settings.r;
-    node["loss_bad"] = settings.loss_bad;
-    node["loss_good"] = settings.loss_good;
+    node["p"] = shortest(settings.p);
+    node["r"] = shortest(settings.r);
+    node["loss_bad"] = shortest(settings.loss_bad);
+    node["loss_good"] = shortest(settings.loss_good);
   }
   node["seed"] = settings.seed;
-  node["delay"] = settings.delay;
-  node["jitter"] = settings.jitter;
+  node["delay"] = shortest(settings.delay);
+  node["jitter"] = shortest(settings.jitter);
   node["distribution"] = distributions[static_cast<int>(settings.distribution)];
   node["reorder"] = settings.reorder;
-  node["duplicate"] = settings.duplicate;
+  node["duplicate"] = shortest(settings.duplicate);
   node["queue_limit"] = static_cast<std::uint64_t>(settings.queue_limit);
   return node;
 }

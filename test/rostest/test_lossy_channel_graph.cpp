@@ -3,6 +3,7 @@
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
 #include <sensor_msgs/Imu.h>
 
 #include <cmath>
@@ -315,6 +316,46 @@ TEST(LossyChannelGraph, SetParametersAppliesFromNextMessage)
   EXPECT_EQ(delivered_before, 200);  // configured loss 0 at start
   for (int i = 200; i < 400; ++i)
     EXPECT_EQ(events.msgs[i].outcome, ChannelEvent::DROPPED_MODEL) << i;
+}
+
+// Delays are in ROS time: under /use_sim_time a message waits for the simulated clock, however
+// much wall time passes.
+TEST(LossyChannelGraph, DelayHoldsUnderSimTime)
+{
+  ros::NodeHandle nh;
+  ros::Publisher clock = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  auto setClock = [&](double t) {
+    rosgraph_msgs::Clock c;
+    c.clock = ros::Time(t);
+    clock.publish(c);
+  };
+  ASSERT_TRUE(waitFor([&] { return clock.getNumSubscribers() >= 1; }, 10.0));
+  setClock(100.0);
+  ASSERT_TRUE(waitFor([&] { return ros::Time::now() == ros::Time(100.0); }, 5.0));
+  ros::Publisher pub = nh.advertise<Measurement>("meas_in", 100);
+  Collector<Measurement> out(nh, "meas_out");
+  Collector<ChannelEvent> events(nh, "channel/events");
+  // warm-up: delivered after 0.5 s of simulated time
+  ASSERT_TRUE(waitFor([&] { return pub.getNumSubscribers() >= 1 && events.sub.getNumPublishers() >= 1; }, 10.0));
+  pub.publish(Measurement());
+  ASSERT_TRUE(waitFor([&] { return events.size() == 1u && out.sub.getNumPublishers() >= 1; }, 10.0));
+  setClock(101.0);
+  ASSERT_TRUE(waitFor([&] { return out.size() == 1u; }, 5.0));
+  out.clear();
+  // the measured message: sent at sim time 101; the clock stays still for a wall second
+  Measurement m;
+  m.step = 7;
+  pub.publish(m);
+  ASSERT_TRUE(waitFor([&] { return events.size() == 2u; }, 5.0));
+  EXPECT_DOUBLE_EQ(events.msgs[1].sampled_delay, 0.5);
+  ros::WallDuration(1.0).sleep();
+  EXPECT_EQ(out.size(), 0u) << "delivered after wall time, not simulated time";
+  setClock(101.3);
+  ros::WallDuration(0.3).sleep();
+  EXPECT_EQ(out.size(), 0u) << "delivered 0.3 s (sim) into a 0.5 s delay";
+  setClock(101.6);
+  ASSERT_TRUE(waitFor([&] { return out.size() == 1u; }, 5.0));
+  EXPECT_EQ(out.msgs[0].step, 7u);
 }
 
 int main(int argc, char** argv)
