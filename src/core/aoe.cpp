@@ -64,7 +64,7 @@ void Aoe::step(const Sample& sample)
       const double spread = nuhat1 * (1.0 - nuhat1);
       if (spread > 0.0)
       {
-        Ppred_.selfadjointView<Eigen::Lower>().rankUpdate(dlt_, spread);
+        Ppred_.noalias() += spread * (dlt_ * dlt_.transpose());
         mirrorLower(Ppred_);
       }
     }
@@ -208,7 +208,7 @@ void OptimalEstimator::output()
   {
     D_ = mc.colwise() - x_;
     D_ = D_ * w_.cwiseSqrt().asDiagonal();
-    P_.selfadjointView<Eigen::Lower>().rankUpdate(D_);
+    P_.noalias() += D_ * D_.transpose();
     mirrorLower(P_);
   }
 }

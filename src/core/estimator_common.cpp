@@ -101,7 +101,9 @@ void KalmanUpdate::downdate(Eigen::MatrixXd& P) const
 {
   const double prior_trace = P.trace();
   prior_ = P;
-  P.selfadjointView<Eigen::Lower>().rankUpdate(W_.transpose(), -1.0);
+  // A plain product (coefficient-based for small sizes, GEMM for large ones) is cheaper than
+  // selfadjointView().rankUpdate at the sizes of most filters; mirroring makes P exactly symmetric.
+  P.noalias() -= W_.transpose() * W_;
   mirrorLower(P);
   if (P.diagonal().minCoeff() < 0.0 || prior_trace > 1e6 * P.trace())
     joseph(P);

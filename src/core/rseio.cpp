@@ -208,7 +208,7 @@ void Rseio::arrivalPrediction(const RseioGrams& g, bool has_input, const Eigen::
     llt_.matrixL().solveInPlace(tw_);
     xpred_.noalias() -= lam * (Zt_.transpose() * tw_);
     Ppred_.noalias() = AP_ * A.transpose();
-    Ppred_.selfadjointView<Eigen::Lower>().rankUpdate(Zt_.transpose());
+    Ppred_.noalias() += Zt_.transpose() * Zt_;
     mirrorLower(Ppred_);
   }
   else
@@ -262,7 +262,7 @@ void Rseio::rankPrediction(const RseioGrams& g, bool has_input, const Eigen::Vec
   llt_.matrixL().solveInPlace(Hm_);        // V = L^{-1} H
   Ppred_ = BQBt_;
   Ppred_.noalias() += AP_ * A.transpose();
-  Ppred_.selfadjointView<Eigen::Lower>().rankUpdate(Hm_.transpose(), -lam);
+  Ppred_.noalias() -= lam * (Hm_.transpose() * Hm_);
   mirrorLower(Ppred_);
   t_.noalias() = g.Fx * x_;
   llt_.matrixL().solveInPlace(t_);
