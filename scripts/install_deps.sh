@@ -6,6 +6,7 @@ PACKAGES=(
   ros-core-dev libnodeletlib-dev libnodeletlib-tools python3-rostest rosbash python3-rosbag
   libtf2-ros-dev libtf2-eigen-dev libdiagnostic-updater-dev libtopic-tools-dev
   libyaml-cpp-dev libeigen3-dev libgtest-dev googletest libbenchmark-dev
+  python3-matplotlib
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -1,0 +1,615 @@
+#!/usr/bin/env python3
+"""Plots the output of the `montecarlo` tool in the style of the papers' figures.
+
+usage: plot_montecarlo.py DIR [--out OUTDIR] [--experiment NAME ...] [--dpi 100]
+
+DIR holds, for each experiment NAME, `NAME.csv` (header `case,series,x,mean,sd,n`) and `NAME.json`
+(the run's settings and summary); zhou_fig2 also needs `zhou_fig2_samples.csv` (header
+`case,run,P11,P12,P21,P22`). Every experiment found in DIR (every `NAME.json`), or only the named
+ones, is drawn into OUTDIR (default DIR); the PNGs written are listed on stdout, one per line:
+
+  zhou_fig1   NAME_<case>.png per case: the full horizon and a zoom on 80 <= k <= 500
+  zhou_fig2   NAME.png: empirical PDF (Gaussian KDE) of P11, P12, P22 at the last step, one panel
+              per element, the initial P0 values overlaid; plus NAME_series.png only when a series
+              of NAME.csv has more than one x (the tool writes one x, the last step: no extra file)
+  any other   NAME.png: one panel per case (lin_fig2..5, yang_fig2, custom, ...)
+
+Mean lines, with a light band of +-2 standard errors (sd / sqrt(n)) where n > 1 and sd > 0. A
+series is drawn as a dashed bound (no markers, no band) when its JSON entry has "bound": true or
+"style": "dashed", or when its name contains "bound", "lower", "upper" or "mare" or starts with
+"sup"/"inf". A JSON series entry may carry "label" to override the legend text.
+
+Errors (missing DIR, a CSV without the expected header, a JSON that does not parse, ...) are
+reported as `error: <file>: <problem>` on stderr; the experiments that are fine are still drawn,
+and the exit code is 2.
+
+Runs with Debian's python3 and python3-matplotlib (`apt-get install python3-matplotlib`). A pyenv
+python lacks Debian's modules: run it as `/usr/bin/python3 scripts/plot_montecarlo.py ...`, or
+after `source scripts/env.sh` (which strips pyenv from PATH). If matplotlib cannot be imported and
+/usr/bin/python3 exists, the script re-runs itself with /usr/bin/python3.
+"""
+
+import argparse
+import csv
+import io
+import json
+import math
+import os
+import re
+import sys
+import warnings
+
+SYSTEM_PYTHON = "/usr/bin/python3"
+CSV_HEADER = ["case", "series", "x", "mean", "sd", "n"]
+SAMPLES_HEADER = ["case", "run", "P11", "P12", "P21", "P22"]
+ZOOM_ZHOU_FIG1 = (80.0, 500.0)
+
+
+class InputError(Exception):
+    """A problem with one input file: reported as `error: <file>: <problem>`."""
+
+    def __init__(self, path, problem):
+        super().__init__("%s: %s" % (path, problem))
+        self.path = path
+        self.problem = problem
+
+
+def import_plotting():
+    """Imports numpy and matplotlib (Agg). Re-runs with Debian's python when they are missing."""
+    try:
+        import numpy
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as pyplot
+        import matplotlib.ticker as tick
+        return numpy, pyplot, tick
+    except ImportError as exc:
+        here = os.path.realpath(sys.executable or "")
+        if (os.path.exists(SYSTEM_PYTHON) and here != os.path.realpath(SYSTEM_PYTHON)
+                and not os.environ.get("PLOT_MONTECARLO_REEXEC")):
+            os.environ["PLOT_MONTECARLO_REEXEC"] = "1"
+            script = os.path.abspath(sys.argv[0])
+            os.execv(SYSTEM_PYTHON, [SYSTEM_PYTHON, script] + sys.argv[1:])
+        sys.stderr.write("error: %s: %s (install python3-matplotlib and run with %s)\n"
+                         % (sys.executable, exc, SYSTEM_PYTHON))
+        sys.exit(2)
+
+
+np = None
+plt = None
+ticker = None
+
+
+# ---------------------------------------------------------------------------------------------
+# Reading
+# ---------------------------------------------------------------------------------------------
+
+def parse_float(text, path, line, column):
+    try:
+        return float(text)
+    except ValueError:
+        raise InputError(path, "line %d: %s is not a number: %r" % (line, column, text))
+
+
+def read_results_csv(path):
+    """Returns {case: {series: (x, mean, sd, n) arrays sorted by x}} and the order seen."""
+    if not os.path.isfile(path):
+        raise InputError(path, "missing")
+    try:
+        with open(path, newline="") as handle:
+            rows = list(csv.reader(handle))
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise InputError(path, "cannot read: %s" % exc)
+    if not rows:
+        raise InputError(path, "empty file, expected header %s" % ",".join(CSV_HEADER))
+    header = [h.strip() for h in rows[0]]
+    if header[:len(CSV_HEADER)] != CSV_HEADER:
+        raise InputError(path, "unexpected header %r, expected %s"
+                         % (",".join(rows[0]), ",".join(CSV_HEADER)))
+    data = {}
+    for line, row in enumerate(rows[1:], start=2):
+        if not row or all(not c.strip() for c in row):
+            continue
+        if len(row) < len(CSV_HEADER):
+            raise InputError(path, "line %d: %d fields, expected %d"
+                             % (line, len(row), len(CSV_HEADER)))
+        case, series = row[0].strip(), row[1].strip()
+        x = parse_float(row[2], path, line, "x")
+        mean = parse_float(row[3], path, line, "mean")
+        sd = parse_float(row[4], path, line, "sd")
+        n = parse_float(row[5], path, line, "n")
+        data.setdefault(case, {}).setdefault(series, []).append((x, mean, sd, n))
+    out = {}
+    for case, per_series in data.items():
+        out[case] = {}
+        for series, points in per_series.items():
+            arr = np.array(sorted(points, key=lambda p: p[0]), dtype=float)
+            out[case][series] = (arr[:, 0], arr[:, 1], arr[:, 2], arr[:, 3])
+    return out
+
+
+def read_json(path):
+    if not os.path.isfile(path):
+        raise InputError(path, "missing")
+    try:
+        with open(path) as handle:
+            meta = json.load(handle)
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(path, "cannot read: %s" % exc)
+    except ValueError as exc:
+        raise InputError(path, "not valid JSON: %s" % exc)
+    if not isinstance(meta, dict):
+        raise InputError(path, "expected a JSON object at the top level")
+    cases = meta.get("cases", [])
+    if not isinstance(cases, list) or not all(isinstance(c, dict) for c in cases):
+        raise InputError(path, "\"cases\" must be a list of objects")
+    for case in cases:
+        series = case.get("series", [])
+        if not isinstance(series, list) or not all(isinstance(s, dict) for s in series):
+            raise InputError(path, "\"series\" of case %r must be a list of objects"
+                             % case.get("name"))
+    return meta
+
+
+def read_samples_csv(path):
+    """Returns {case: {element: samples}} for zhou_fig2_samples.csv, cases in file order."""
+    if not os.path.isfile(path):
+        raise InputError(path, "missing (the zhou_fig2 PDF is drawn from it)")
+    try:
+        with open(path, newline="") as handle:
+            rows = list(csv.reader(handle))
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise InputError(path, "cannot read: %s" % exc)
+    if not rows:
+        raise InputError(path, "empty file, expected header %s" % ",".join(SAMPLES_HEADER))
+    header = [h.strip() for h in rows[0]]
+    if header[:len(SAMPLES_HEADER)] != SAMPLES_HEADER:
+        raise InputError(path, "unexpected header %r, expected %s"
+                         % (",".join(rows[0]), ",".join(SAMPLES_HEADER)))
+    data = {}
+    for line, row in enumerate(rows[1:], start=2):
+        if not row or all(not c.strip() for c in row):
+            continue
+        if len(row) < len(SAMPLES_HEADER):
+            raise InputError(path, "line %d: %d fields, expected %d"
+                             % (line, len(row), len(SAMPLES_HEADER)))
+        per_case = data.setdefault(row[0].strip(), {k: [] for k in SAMPLES_HEADER[2:]})
+        for column, text in zip(SAMPLES_HEADER[2:], row[2:6]):
+            per_case[column].append(parse_float(text, path, line, column))
+    if not data:
+        raise InputError(path, "no data rows")
+    return {case: {k: np.array(v, dtype=float) for k, v in cols.items()}
+            for case, cols in data.items()}
+
+
+# ---------------------------------------------------------------------------------------------
+# Styles
+# ---------------------------------------------------------------------------------------------
+
+# The papers' markers (Zhou Fig. 1: square Kalman filter, diamond KFIO, x RSE, triangle RSEMM,
+# circle this paper's RSEIO).
+KNOWN_STYLES = {
+    "KF": ("s", "tab:blue"),
+    "KFIO": ("D", "tab:orange"),
+    "RSE": ("x", "tab:green"),
+    "RSEMM": ("^", "tab:purple"),
+    "RSEIO": ("o", "tab:red"),
+}
+CYCLE_MARKERS = ["o", "s", "^", "D", "v", "x", "+", "*", "<", ">"]
+CYCLE_COLORS = ["tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown",
+                "tab:pink", "tab:gray", "tab:olive", "tab:cyan"]
+BOUND_RE = re.compile(r"(bound|lower|upper|mare|^sup|^inf)", re.IGNORECASE)
+
+
+def series_meta(meta, case):
+    """{series name: JSON entry} of one case."""
+    for entry in meta.get("cases", []):
+        if str(entry.get("name")) == case:
+            return {str(s.get("name")): s for s in entry.get("series", [])}
+    return {}
+
+
+def is_bound(name, entry):
+    if entry.get("bound") is True or entry.get("style") == "dashed":
+        return True
+    return bool(BOUND_RE.search(name))
+
+
+class Styler:
+    """Gives each series name one colour and marker for the whole experiment."""
+
+    def __init__(self, names):
+        self.styles = {}
+        used_colors = {c for _, c in (KNOWN_STYLES[n] for n in names if n in KNOWN_STYLES)}
+        colors = [c for c in CYCLE_COLORS if c not in used_colors] or CYCLE_COLORS
+        i = 0
+        for name in names:
+            if name in KNOWN_STYLES:
+                self.styles[name] = KNOWN_STYLES[name]
+            elif name not in self.styles:
+                self.styles[name] = (CYCLE_MARKERS[i % len(CYCLE_MARKERS)],
+                                     colors[i % len(colors)])
+                i += 1
+
+    def __call__(self, name):
+        return self.styles[name]
+
+
+def mark_indices(x, count, phase, log_x):
+    """About `count` marker indices evenly spread along x (in log x when the axis is log),
+    shifted by `phase` (0..1) of a spacing so that different series do not overlap."""
+    size = len(x)
+    if size <= 25:
+        return None  # few points (a parameter sweep): mark them all
+    t = np.log10(np.where(x > 0, x, np.nan)) if log_x else x.astype(float)
+    good = np.isfinite(t)
+    if good.sum() < 2:
+        return None
+    lo, hi = np.nanmin(t), np.nanmax(t)
+    if hi <= lo:
+        return None
+    step = (hi - lo) / count
+    targets = lo + step * (phase + np.arange(count))
+    tt = np.where(good, t, np.inf)
+    idx = sorted({int(np.argmin(np.abs(tt - v))) for v in targets})
+    return idx
+
+
+def caption(meta, extra=""):
+    parts = []
+    for key, fmt in (("runs", "%s runs"), ("steps", "%s steps"), ("seed", "seed %s"),
+                     ("threads", "%s threads")):
+        if meta.get(key) is not None:
+            parts.append(fmt % meta[key])
+    wall = meta.get("wall_seconds")
+    if isinstance(wall, (int, float)):
+        parts.append("%.1f s" % wall)
+    text = "%s: %s" % (meta.get("experiment", "?"), ", ".join(parts))
+    if extra:
+        text += "; " + extra
+    return text
+
+
+def finish(fig, meta, path, dpi, extra=""):
+    fig.text(0.01, 0.005, caption(meta, extra), fontsize=7, color="0.35", ha="left",
+             va="bottom")
+    fig.tight_layout(rect=(0, 0.03, 1, 1))
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=dpi, metadata={"Software": None})
+    plt.close(fig)
+    png = buffer.getvalue()
+    try:  # a 256-colour palette keeps the files small enough to commit (about 3x smaller)
+        from PIL import Image
+        image = Image.open(io.BytesIO(png)).convert("RGB")
+        small = io.BytesIO()
+        image.quantize(colors=256, method=Image.Quantize.MEDIANCUT
+                       if hasattr(Image, "Quantize") else 0).save(small, format="PNG",
+                                                                   optimize=True)
+        if small.tell() < len(png):
+            png = small.getvalue()
+    except Exception:  # PIL missing or too old: keep matplotlib's RGBA PNG
+        pass
+    try:
+        with open(path, "wb") as handle:
+            handle.write(png)
+    except OSError as exc:
+        raise InputError(path, "cannot write: %s" % exc.strerror)
+
+
+def safe_name(text):
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("_") or "case"
+
+
+def case_order(meta, data):
+    names = [str(c.get("name")) for c in meta.get("cases", []) if c.get("name") is not None]
+    return names + [c for c in data if c not in names]
+
+
+def case_title(meta, case):
+    for entry in meta.get("cases", []):
+        if str(entry.get("name")) == case and entry.get("title"):
+            return str(entry["title"])
+    return case
+
+
+def series_order(meta, data, case):
+    names = list(series_meta(meta, case))
+    present = data.get(case, {})
+    return [s for s in names if s in present] + [s for s in present if s not in names]
+
+
+# ---------------------------------------------------------------------------------------------
+# Drawing
+# ---------------------------------------------------------------------------------------------
+
+def draw_panel(ax, meta, data, case, styler, xwin=None, legend_extra=None):
+    """Mean lines (+-2 SE bands) of every series of one case; xwin = (lo, hi) crops x."""
+    log_x, log_y = bool(meta.get("log_x")), bool(meta.get("log_y"))
+    if log_x:
+        ax.set_xscale("log", nonpositive="mask")
+    if log_y:
+        ax.set_yscale("log", nonpositive="mask")
+    entries = series_meta(meta, case)
+    names = series_order(meta, data, case)
+    bands = []
+    for i, name in enumerate(names):
+        x, mean, sd, n = data[case][name]
+        if xwin is not None:
+            keep = (x >= xwin[0]) & (x <= xwin[1])
+            x, mean, sd, n = x[keep], mean[keep], sd[keep], n[keep]
+        if len(x) == 0:
+            continue
+        mean = np.where(np.isfinite(mean), mean, np.nan)
+        entry = entries.get(name, {})
+        label = str(entry.get("label", name))
+        if legend_extra is not None:
+            label = legend_extra(label, entry)
+        marker, color = styler(name)
+        if is_bound(name, entry):
+            ax.plot(x, mean, "--", color=color, lw=1.4, label=label)
+            continue
+        every = mark_indices(x, 10, (i + 0.5) / max(len(names), 1), log_x)
+        ax.plot(x, mean, "-", color=color, lw=1.1, marker=marker, markevery=every, ms=5,
+                mfc="none", mew=1.1, label=label)
+        ok = (n > 1) & (sd > 0) & np.isfinite(sd) & np.isfinite(mean)
+        if ok.any():
+            se = np.where(ok, sd / np.sqrt(np.where(n > 1, n, 1.0)), np.nan)
+            bands.append((x, mean - 2 * se, mean + 2 * se, color))
+    if bands:
+        bottom = ax.get_ylim()[0] if log_y else None
+        for x, lo, hi, color in bands:
+            if log_y:
+                lo = np.where(np.isnan(lo) | (lo > bottom), lo, bottom)
+            ax.fill_between(x, lo, hi, color=color, alpha=0.18, lw=0)
+        if log_y:
+            ax.set_ylim(bottom=bottom)
+    if not names or not ax.lines:
+        ax.text(0.5, 0.5, "no data", transform=ax.transAxes, ha="center", va="center",
+                color="0.4")
+        ax.tick_params(which="both", left=False, bottom=False, labelleft=False,
+                       labelbottom=False)
+    log_ticks(ax, log_x, log_y)
+    ax.set_xlabel(str(meta.get("x_label", "x")))
+    ax.set_ylabel(str(meta.get("y_label", "")))
+    ax.grid(True, which="major", color="0.9", lw=0.6)
+    if ax.lines:
+        legend(ax)
+
+
+def legend(ax, **kwargs):
+    ax.legend(fontsize=8, title_fontsize=8, frameon=True, framealpha=0.85, edgecolor="none",
+              **kwargs)
+
+
+def log_ticks(ax, log_x, log_y):
+    """Plain numbers on log axes (2, 3, 5 rather than 2x10^0 on a short range)."""
+    for on, axis in ((log_x, ax.xaxis), (log_y, ax.yaxis)):
+        if on:
+            axis.set_major_formatter(ticker.LogFormatter(labelOnlyBase=False))
+            axis.set_minor_formatter(ticker.LogFormatter(labelOnlyBase=False,
+                                                         minor_thresholds=(2, 0.5)))
+
+
+def panel_grid(count):
+    ncols = 1 if count <= 1 else 2
+    nrows = int(math.ceil(count / float(ncols)))
+    fig, axes = plt.subplots(nrows, ncols, figsize=(6.4 if ncols == 1 else 11.0, 4.2 * nrows),
+                             squeeze=False)
+    flat = list(axes.ravel())
+    for ax in flat[count:]:
+        ax.set_visible(False)
+    return fig, flat[:count]
+
+
+def all_series(meta, data, cases):
+    names = []
+    for case in cases:
+        for name in series_order(meta, data, case):
+            if name not in names:
+                names.append(name)
+    return names
+
+
+def plot_generic(name, meta, data, outdir, dpi, suffix=""):
+    cases = case_order(meta, data)
+    if not cases:
+        cases = [""]
+    styler = Styler(all_series(meta, data, cases))
+    fig, axes = panel_grid(len(cases))
+    for ax, case in zip(axes, cases):
+        draw_panel(ax, meta, data, case, styler)
+        ax.set_title(case_title(meta, case), fontsize=10)
+    fig.suptitle(name, fontsize=11)
+    path = os.path.join(outdir, "%s%s.png" % (name, suffix))
+    finish(fig, meta, path, dpi, "bands: mean +-2 SE")
+    return [path]
+
+
+def plot_zhou_fig1(name, meta, data, outdir, dpi):
+    """One figure per case: full horizon, and the paper's zoom on 80 <= k <= 500."""
+    cases = case_order(meta, data)
+    styler = Styler(all_series(meta, data, cases))
+    written = []
+    for case in cases:
+        xs = np.concatenate([v[0] for v in data.get(case, {}).values()] or [np.zeros(0)])
+        lo, hi = ZOOM_ZHOU_FIG1
+        if xs.size and not ((xs >= lo) & (xs <= hi)).sum() >= 2:
+            # too short a horizon for the paper's window: zoom on the second half instead
+            lo, hi = float(xs.min() + 0.5 * (xs.max() - xs.min())), float(xs.max())
+        if xs.size:
+            hi = min(hi, float(xs.max()))
+        fig, axes = plt.subplots(1, 2, figsize=(11.0, 4.6), squeeze=False)
+        full, zoom = axes[0]
+        draw_panel(full, meta, data, case, styler)
+        full.set_title("full horizon", fontsize=10)
+
+        def with_average(label, entry):
+            avg = entry.get("time_average")
+            if isinstance(avg, (int, float)) and math.isfinite(avg):
+                return "%s (%.4g)" % (label, avg)
+            return label
+
+        draw_panel(zoom, meta, data, case, styler, xwin=(lo, hi), legend_extra=with_average)
+        zoom.set_title(r"$%g \leq k \leq %g$" % (lo, hi), fontsize=10)
+        if zoom.get_legend() is not None:
+            window = None
+            for entry in series_meta(meta, case).values():
+                if isinstance(entry.get("window"), list) and len(entry["window"]) == 2:
+                    window = entry["window"]
+                    break
+            title = "time average"
+            if window is not None:
+                title += " over k in [%s, %s]" % (window[0], window[1])
+            legend(zoom, title=title, loc="upper center", bbox_to_anchor=(0.5, -0.13),
+                   ncol=min(4, len(zoom.lines)))
+        fig.suptitle("%s: %s" % (name, case_title(meta, case)), fontsize=11)
+        path = os.path.join(outdir, "%s_%s.png" % (name, safe_name(case)))
+        finish(fig, meta, path, dpi, "bands: mean +-2 SE")
+        written.append(path)
+    return written
+
+
+def kde(samples, grid):
+    """Gaussian kernel density estimate on `grid`, bandwidth by the normal reference rule with
+    a robust spread (median absolute deviation / 0.6745), as Matlab's ksdensity does."""
+    n = samples.size
+    spread = np.median(np.abs(samples - np.median(samples))) / 0.6745
+    if not spread > 0:
+        spread = np.std(samples)
+    if not spread > 0:
+        spread = max(abs(float(samples[0])) * 1e-3, 1e-12)
+    bw = spread * (4.0 / (3.0 * n)) ** 0.2
+    density = np.zeros_like(grid)
+    for start in range(0, n, 2048):
+        chunk = samples[start:start + 2048]
+        z = (grid[:, None] - chunk[None, :]) / bw
+        density += np.exp(-0.5 * z * z).sum(axis=1)
+    return density / (n * bw * math.sqrt(2.0 * math.pi)), bw
+
+
+def p0_label(case, meta):
+    match = re.fullmatch(r"P0_([0-9.eE+-]+)", case)
+    if match:
+        return r"$P_{0|0} = %s\,I_2$" % match.group(1)
+    return case_title(meta, case)
+
+
+def plot_zhou_fig2(name, meta, samples, outdir, dpi):
+    """Empirical PDFs of P11, P12, P22 at the last step; the P0 cases overlaid (x o square
+    diamond, as in the paper)."""
+    cases = [c for c in case_order(meta, {}) if c in samples] + \
+        [c for c in samples if c not in case_order(meta, {})]
+    markers = ["x", "o", "s", "D"]
+    colors = ["tab:blue", "tab:orange", "tab:green", "tab:red"]
+    steps = meta.get("steps", "N")
+    elements = [("P11", "11"), ("P12", "12"), ("P22", "22")]
+    fig, axes = plt.subplots(len(elements), 1, figsize=(6.4, 3.1 * len(elements)), squeeze=False)
+    for ax, (column, ij) in zip(axes[:, 0], elements):
+        finite = {c: samples[c][column][np.isfinite(samples[c][column])] for c in cases}
+        usable = [c for c in cases if finite[c].size >= 2]
+        if not usable:
+            ax.text(0.5, 0.5, "no data", transform=ax.transAxes, ha="center", va="center")
+            continue
+        pooled = np.concatenate([finite[c] for c in usable])
+        lo, hi = float(pooled.min()), float(pooled.max())
+        pad = 3.0 * max(kde(finite[c], np.zeros(1))[1] for c in usable)
+        grid = np.linspace(lo - pad, hi + pad, 400)
+        for c in usable:
+            density, _ = kde(finite[c], grid)
+            k = cases.index(c)
+            ax.plot(grid, density, "-", color=colors[k % 4], lw=1.1, marker=markers[k % 4],
+                    markevery=(5 + (10 * k) % 40, 40), ms=5, mfc="none", mew=1.1,
+                    label="%s (%d runs)" % (p0_label(c, meta), finite[c].size))
+        ax.set_xlim(grid[0], grid[-1])
+        ax.set_ylim(bottom=0)
+        ax.set_xlabel(r"$[P_{%s|%s}]_{%s}$" % (steps, steps, ij))
+        ax.set_ylabel("EPDF")
+        ax.set_title(r"$P_{%s}$" % ij, fontsize=10)
+        ax.grid(True, color="0.9", lw=0.6)
+        if column == elements[0][0]:
+            legend(ax)
+    fig.suptitle("%s: EPDF of the elements of $P_{%s|%s}$" % (name, steps, steps), fontsize=11)
+    path = os.path.join(outdir, "%s.png" % name)
+    finish(fig, meta, path, dpi, "Gaussian KDE, normal-reference bandwidth")
+    return [path]
+
+
+# ---------------------------------------------------------------------------------------------
+# Main
+# ---------------------------------------------------------------------------------------------
+
+def plot_experiment(name, indir, outdir, dpi):
+    meta = read_json(os.path.join(indir, name + ".json"))
+    meta.setdefault("experiment", name)
+    data = read_results_csv(os.path.join(indir, name + ".csv"))
+    if name == "zhou_fig2":
+        samples = read_samples_csv(os.path.join(indir, name + "_samples.csv"))
+        written = plot_zhou_fig2(name, meta, samples, outdir, dpi)
+        # The tool's table holds only the mean/sd of P_T|T (one x per series): nothing to draw
+        # beyond the PDFs. A table with curves over x gets its own figure.
+        if any(len(v[0]) > 1 for per_case in data.values() for v in per_case.values()):
+            written += plot_generic(name, meta, data, outdir, dpi, suffix="_series")
+        return written
+    if not data:
+        raise InputError(os.path.join(indir, name + ".csv"), "no data rows")
+    if name == "zhou_fig1":
+        return plot_zhou_fig1(name, meta, data, outdir, dpi)
+    return plot_generic(name, meta, data, outdir, dpi)
+
+
+def main(argv):
+    parser = argparse.ArgumentParser(
+        description="Plot the output of the montecarlo tool (see the module docstring).")
+    parser.add_argument("dir", metavar="DIR", help="directory written by montecarlo")
+    parser.add_argument("--out", metavar="OUTDIR", help="where the PNGs go (default DIR)")
+    parser.add_argument("--experiment", metavar="NAME", nargs="+", action="extend",
+                        help="plot only these experiments")
+    parser.add_argument("--dpi", type=int, default=100, help="resolution (default 100)")
+    args = parser.parse_args(argv)
+
+    def fail(path, problem):
+        sys.stderr.write("error: %s: %s\n" % (path, problem))
+        return 2
+
+    if not os.path.isdir(args.dir):
+        return fail(args.dir, "no such directory")
+    if args.dpi <= 0:
+        return fail("--dpi", "must be positive")
+    if args.experiment:
+        names = list(dict.fromkeys(args.experiment))
+    else:
+        names = sorted(f[:-5] for f in os.listdir(args.dir)
+                       if f.endswith(".json") and os.path.isfile(os.path.join(args.dir, f)))
+        if not names:
+            return fail(args.dir, "no experiment found (no NAME.json)")
+    outdir = args.out or args.dir
+    try:
+        os.makedirs(outdir, exist_ok=True)
+    except OSError as exc:
+        return fail(outdir, "cannot create: %s" % exc.strerror)
+
+    global np, plt, ticker
+    np, plt, ticker = import_plotting()
+    warnings.filterwarnings("ignore", module="matplotlib")
+    plt.rcParams.update({"font.size": 9, "axes.titlesize": 10, "legend.fontsize": 8})
+
+    status = 0
+    for name in names:
+        try:
+            for path in plot_experiment(name, args.dir, outdir, args.dpi):
+                print(path)
+                sys.stdout.flush()
+        except InputError as exc:
+            status = fail(exc.path, exc.problem)
+        except Exception as exc:  # a drawing problem (e.g. a bad mathtext label): no traceback
+            plt.close("all")
+            status = fail(os.path.join(args.dir, name + ".json"),
+                          "cannot plot: %s: %s" % (type(exc).__name__, exc))
+    return status
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main(sys.argv[1:]))
+    except KeyboardInterrupt:
+        sys.exit(130)

@@ -1,0 +1,163 @@
+#!/usr/bin/env bash
+# Checks scripts/plot_montecarlo.py on small synthetic montecarlo outputs (zhou_fig1, zhou_fig2,
+# lin_fig4) and on bad inputs.
+#   usage: test_plot_montecarlo.sh REPO_ROOT
+# Needs Debian's python3 with python3-matplotlib (run with /usr/bin/python3: a pyenv python lacks
+# Debian's modules). Prints "N passed, M failed" and exits non-zero when any check failed.
+set -euo pipefail
+
+if [ $# -ne 1 ]; then
+  echo "usage: $0 REPO_ROOT" >&2
+  exit 2
+fi
+ROOT=$(cd "$1" && pwd)
+SCRIPT=$ROOT/scripts/plot_montecarlo.py
+PY=/usr/bin/python3
+[ -x "$PY" ] || PY=python3
+if [ ! -f "$SCRIPT" ]; then
+  echo "missing $SCRIPT" >&2
+  exit 2
+fi
+if ! "$PY" -c 'import numpy, matplotlib' 2>/dev/null; then
+  echo "$PY lacks numpy/matplotlib: apt-get install -y --no-install-recommends python3-matplotlib" >&2
+  exit 2
+fi
+
+WORK=$(mktemp -d "${TMPDIR:-/tmp}/test_plot_montecarlo.XXXXXX")
+trap 'rm -rf "$WORK"' EXIT
+
+passed=0
+failed=0
+pass() { passed=$((passed + 1)); echo "ok   $1"; }
+fail() { failed=$((failed + 1)); echo "FAIL $1"; }
+check() {
+  local name=$1
+  shift
+  if "$@"; then pass "$name"; else fail "$name"; fi
+}
+# run_rc VAR COMMAND...: stdout to $WORK/out.txt, stderr to $WORK/err.txt, exit code into VAR.
+run_rc() {
+  local __var=$1
+  shift
+  local __rc=0
+  "$@" >"$WORK/out.txt" 2>"$WORK/err.txt" || __rc=$?
+  printf -v "$__var" '%s' "$__rc"
+}
+# is_png FILE: exists, non-empty, starts with the PNG signature.
+is_png() {
+  [ -s "$1" ] && [ "$(head -c 8 "$1" | od -An -tx1 | tr -d ' \n')" = 89504e470d0a1a0a ]
+}
+smaller_than() { [ "$(wc -c <"$1")" -lt "$2" ]; }
+no_traceback() { ! grep -q Traceback "$WORK/err.txt"; }
+
+# --- synthetic inputs ------------------------------------------------------------------------
+IN=$WORK/in
+mkdir -p "$IN"
+"$PY" - "$IN" <<'EOF'
+import json, math, random, sys
+d = sys.argv[1] + "/"
+rnd = random.Random(3)
+def meta(name, cases, **kw):
+    m = dict(experiment=name, runs=50, steps=120, seed=5, threads=2, wall_seconds=0.4,
+             x_label="k", y_label="MSE_k", log_x=False, log_y=True, assumptions=["synthetic"],
+             cases=cases, notes=["test data"])
+    m.update(kw)
+    with open(d + name + ".json", "w") as f:
+        json.dump(m, f)
+header = "case,series,x,mean,sd,n\n"
+# zhou_fig1: 3 cases x 4 estimators x 120 steps
+rows, cases = [], []
+for c in ("delta1_mu0.8", "delta1_mu0.95", "delta10_mu0.8"):
+    series = []
+    for s, lvl in (("KF", 3.0), ("KFIO", 2.0), ("RSE", 2.5), ("RSEIO", 2.2)):
+        for k in range(1, 121):
+            m = lvl * (1 + 10 * math.exp(-k / 10.0)) * (1 + 0.05 * rnd.gauss(0, 1))
+            rows.append("%s,%s,%d,%.6g,%.6g,50" % (c, s, k, m, 1.4 * m))
+        series.append(dict(name=s, time_average=lvl, final=lvl, window=[80, 120]))
+    cases.append(dict(name=c, title=c, series=series))
+open(d + "zhou_fig1.csv", "w").write(header + "\n".join(rows) + "\n")
+meta("zhou_fig1", cases)
+# zhou_fig2: an empty results table and 4 x 300 samples of P_120|120
+open(d + "zhou_fig2.csv", "w").write(header)
+p0 = ("P0_0.1", "P0_1", "P0_10", "P0_100")
+meta("zhou_fig2", [dict(name=c, title=c, series=[]) for c in p0], runs=300, log_y=False)
+rows = []
+for c in p0:
+    for r in range(300):
+        p11, p22 = 2 + rnd.gammavariate(3, 0.5), 1 + rnd.gammavariate(2, 0.4)
+        p12 = 0.4 * math.sqrt(p11 * p22)
+        rows.append("%s,%d,%.6g,%.6g,%.6g,%.6g" % (c, r, p11, p12, p12, p22))
+open(d + "zhou_fig2_samples.csv", "w").write("case,run,P11,P12,P21,P22\n" + "\n".join(rows) + "\n")
+# lin_fig4: bounds (dashed, deterministic) around two Monte Carlo means
+rows = []
+for s, f in (("lower_bound", 1.0), ("OE", 1.3), ("AOE", 1.4), ("upper_bound", 2.0)):
+    for k in range(1, 31):
+        m = f * (3 + math.log(k))
+        sd, n = (0, 1) if "bound" in s else (0.5 * m, 50)
+        rows.append("main,%s,%d,%.6g,%.6g,%d" % (s, k, m, sd, n))
+open(d + "lin_fig4.csv", "w").write(header + "\n".join(rows) + "\n")
+meta("lin_fig4", [dict(name="main", title="bounds", series=[])], log_y=False, steps=30,
+     y_label="tr E[P_k]")
+EOF
+
+EXPECTED="lin_fig4.png zhou_fig1_delta1_mu0.8.png zhou_fig1_delta1_mu0.95.png zhou_fig1_delta10_mu0.8.png zhou_fig2.png"
+
+# --- every experiment into OUT ---------------------------------------------------------------
+OUT=$WORK/out
+run_rc rc "$PY" "$SCRIPT" "$IN" --out "$OUT"
+check "plots all experiments, exit 0" [ "$rc" = 0 ]
+cat "$WORK/err.txt"
+check "nothing on stderr" [ ! -s "$WORK/err.txt" ]
+for f in $EXPECTED; do
+  check "$f is a PNG" is_png "$OUT/$f"
+  check "$f is under 100 kB" smaller_than "$OUT/$f" 100000
+  check "$f is listed on stdout" grep -qxF "$OUT/$f" "$WORK/out.txt"
+done
+check "stdout lists exactly 5 files" [ "$(wc -l <"$WORK/out.txt" | tr -d ' ')" = 5 ]
+check "only the listed files are written" [ "$(ls "$OUT" | wc -l | tr -d ' ')" = 5 ]
+check "no zhou_fig2_series.png for an empty table" [ ! -e "$OUT/zhou_fig2_series.png" ]
+
+# --- --experiment, default OUTDIR = DIR, --dpi -----------------------------------------------
+cp -r "$IN" "$WORK/in2"
+run_rc rc "$PY" "$SCRIPT" "$WORK/in2" --experiment lin_fig4 --dpi 60
+check "--experiment lin_fig4 exit 0" [ "$rc" = 0 ]
+check "--experiment writes into DIR by default" is_png "$WORK/in2/lin_fig4.png"
+check "--experiment plots only the named one" [ ! -e "$WORK/in2/zhou_fig2.png" ]
+check "--experiment lists one file" [ "$(wc -l <"$WORK/out.txt" | tr -d ' ')" = 1 ]
+check "--dpi 60 makes a smaller file" \
+  [ "$(wc -c <"$WORK/in2/lin_fig4.png")" -lt "$(wc -c <"$OUT/lin_fig4.png")" ]
+
+# --- errors ----------------------------------------------------------------------------------
+run_rc rc "$PY" "$SCRIPT" "$WORK/does_not_exist"
+check "missing DIR gives exit 2" [ "$rc" = 2 ]
+check "missing DIR is named" grep -q "^error: $WORK/does_not_exist: " "$WORK/err.txt"
+
+BAD=$WORK/bad
+mkdir -p "$BAD"
+cp "$IN"/lin_fig4.* "$BAD"
+sed -i '1s/.*/case,series,k,mean,sd,n/' "$BAD/lin_fig4.csv"
+run_rc rc "$PY" "$SCRIPT" "$BAD"
+check "bad CSV header gives exit 2" [ "$rc" = 2 ]
+check "bad CSV header names the file" grep -q "^error: $BAD/lin_fig4.csv: .*header" "$WORK/err.txt"
+check "bad CSV header: no traceback" no_traceback
+check "bad CSV header: no PNG" [ ! -e "$BAD/lin_fig4.png" ]
+
+BADJ=$WORK/badjson
+mkdir -p "$BADJ"
+cp "$IN"/lin_fig4.csv "$BADJ"
+printf '{"experiment": "lin_fig4", ' >"$BADJ/lin_fig4.json"
+run_rc rc "$PY" "$SCRIPT" "$BADJ"
+check "unparsable JSON gives exit 2" [ "$rc" = 2 ]
+check "unparsable JSON names the file" grep -q "^error: $BADJ/lin_fig4.json: " "$WORK/err.txt"
+check "unparsable JSON: no traceback" no_traceback
+
+NOS=$WORK/nosamples
+mkdir -p "$NOS"
+cp "$IN"/zhou_fig2.json "$IN"/zhou_fig2.csv "$NOS"
+run_rc rc "$PY" "$SCRIPT" "$NOS"
+check "zhou_fig2 without samples gives exit 2" [ "$rc" = 2 ]
+check "zhou_fig2 without samples names the file" \
+  grep -q "^error: $NOS/zhou_fig2_samples.csv: " "$WORK/err.txt"
+
+echo "$passed passed, $failed failed"
+[ "$failed" = 0 ]
