@@ -136,13 +136,14 @@ private:
       advertised_ = true;
     }
     const std::uint64_t seq = next_seq_++;
-    const ChannelEvent ev = toMessage(channel_->offer(seq, t), msg);
-    if (ev.outcome == ChannelEvent::DELIVERED)
-      in_flight_[seq] = {msg, ev.duplicated ? 2 : 1};
+    const ChannelRecord rec = channel_->offer(seq, t);
+    if (rec.outcome == ChannelOutcome::DELIVERED)
+      in_flight_[seq] = {msg, rec.duplicated ? 2 : 1};
     publishDue(t);
     const bool wake = channel_->nextDue() < std::numeric_limits<double>::infinity();
     lock.unlock();
-    events_pub_.publish(ev);
+    if (events_pub_.getNumSubscribers() > 0)  // the event (and its stamp copy) only when wanted
+      events_pub_.publish(toMessage(rec, msg));
     if (wake)
       wake_.notify_one();
   }

@@ -1,0 +1,386 @@
+// Benchmark nodelets for the LossyChannel nodelet (scripts/bench_channel.sh, launch/bench_channel.launch):
+// all in ONE nodelet manager, so every hop is an intra-process shared_ptr hand-over.
+//
+//  - BenchSource:      publishes Measurement (y of size 2) at ~rate Hz for ~duration s from its own
+//                      thread (steady-clock sleep_until, batches the messages that are due when it
+//                      wakes late); header.stamp = ros::Time::now() at publish, step = 1, 2, ...
+//  - BenchPassThrough: ShapeShifter `in` -> the same object on `out`, nothing else (the baseline the
+//                      channel is compared with: same subscription type, same hand-overs).
+//  - BenchSink:        records now - header.stamp of every Measurement on `in`, reports once; also
+//                      the CPU time of the whole manager process per message received (every thread:
+//                      source, element under test, sink, ROS's), a load measure less noisy than latency,
+//                      and the CPU the rest of the machine used meanwhile (other processes: noise).
+#include <nodelet/nodelet.h>
+#include <pluginlib/class_list_macros.hpp>
+#include <ros/ros.h>
+#include <topic_tools/shape_shifter.h>
+
+#include <sys/prctl.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "networked_estimation/Measurement.h"
+
+namespace networked_estimation
+{
+
+namespace
+{
+
+using SteadyClock = std::chrono::steady_clock;
+
+SteadyClock::duration seconds(double s)
+{
+  return std::chrono::duration_cast<SteadyClock::duration>(std::chrono::duration<double>(s));
+}
+
+/// Sleeps until `until` or until `stop` is set (checked every 50 ms); false when stopped.
+bool interruptibleSleepUntil(SteadyClock::time_point until, const std::atomic<bool>& stop)
+{
+  while (!stop && SteadyClock::now() < until)
+    std::this_thread::sleep_until(std::min(until, SteadyClock::now() + std::chrono::milliseconds(50)));
+  return !stop;
+}
+
+/// CPU time used so far by the whole process (every thread of the nodelet manager), in seconds.
+double processCpuSeconds()
+{
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+/// Busy CPU time of the whole machine so far (all cores, steal included), in seconds; 0 if unknown.
+double machineBusySeconds()
+{
+  std::ifstream in("/proc/stat");
+  std::string cpu;
+  unsigned long long user = 0, nice = 0, system = 0, idle = 0, iowait = 0, irq = 0, softirq = 0, steal = 0;
+  if (!(in >> cpu >> user >> nice >> system >> idle >> iowait >> irq >> softirq >> steal) || cpu != "cpu")
+    return 0.0;
+  return static_cast<double>(user + nice + system + irq + softirq + steal) / static_cast<double>(sysconf(_SC_CLK_TCK));
+}
+
+/// Nearest-rank quantile of v (reordered in place); 0 when empty.
+double quantile(std::vector<double>& v, double q)
+{
+  if (v.empty())
+    return 0.0;
+  const auto rank = static_cast<std::size_t>(std::ceil(q * static_cast<double>(v.size())));
+  const std::size_t k = std::min(v.size() - 1, rank > 0 ? rank - 1 : 0);
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+  return v[k];
+}
+
+}  // namespace
+
+class BenchSource : public nodelet::Nodelet
+{
+public:
+  ~BenchSource() override
+  {
+    stop_ = true;
+    if (thread_.joinable())
+      thread_.join();
+  }
+
+private:
+  void onInit() override
+  {
+    ros::NodeHandle& nh = getNodeHandle();
+    ros::NodeHandle& pnh = getPrivateNodeHandle();
+    pnh.param("rate", rate_, 1000.0);
+    pnh.param("duration", duration_, 5.0);
+    pnh.param("start_delay", start_delay_, 2.0);
+    pnh.param("frame_id", frame_id_, std::string("bench"));
+    if (!(rate_ > 0.0) || !(duration_ > 0.0) || !(start_delay_ >= 0.0))
+    {
+      NODELET_FATAL("BenchSource: rate and duration must be > 0 and start_delay >= 0 (rate %g, duration %g, "
+                    "start_delay %g); nothing will be published",
+                    rate_, duration_, start_delay_);
+      return;
+    }
+    pub_ = nh.advertise<Measurement>("out", 1000);
+    thread_ = std::thread(&BenchSource::run, this);
+    NODELET_INFO("BenchSource -> %s: %g Hz for %g s after %g s", nh.resolveName("out").c_str(), rate_, duration_,
+                 start_delay_);
+  }
+
+  void run()
+  {
+    // The default timer slack (50 us) would make sleep_until wake up to 4 periods late at 80 kHz.
+    prctl(PR_SET_TIMERSLACK, 1000UL, 0UL, 0UL, 0UL);
+    if (!interruptibleSleepUntil(SteadyClock::now() + seconds(start_delay_), stop_))
+      return;
+    const auto wait_end = SteadyClock::now() + std::chrono::seconds(10);
+    while (!stop_ && pub_.getNumSubscribers() == 0 && SteadyClock::now() < wait_end)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    if (pub_.getNumSubscribers() == 0)
+      NODELET_WARN("BenchSource: no subscriber on %s, publishing anyway", pub_.getTopic().c_str());
+
+    const auto total = static_cast<std::uint64_t>(std::llround(rate_ * duration_));
+    const double period_ns = 1e9 / rate_;
+    const auto start = SteadyClock::now();
+    const auto due = [&](std::uint64_t k) {  // due time of message k (0-based)
+      return start + std::chrono::nanoseconds(std::llround(static_cast<double>(k) * period_ns));
+    };
+    std::uint64_t sent = 0, wakeups = 0, max_batch = 0;
+    SteadyClock::duration max_lag{0};
+    while (!stop_ && ros::ok() && sent < total)
+    {
+      const auto next = due(sent);
+      auto now = SteadyClock::now();
+      if (now < next)
+      {
+        std::this_thread::sleep_until(next);
+        now = SteadyClock::now();
+      }
+      ++wakeups;
+      max_lag = std::max(max_lag, now - next);
+      // Everything due by now leaves in this batch: the average rate holds when a wake-up is late.
+      std::uint64_t batch = 0;
+      while (sent < total && due(sent) <= now)
+      {
+        publish(++sent);
+        ++batch;
+      }
+      max_batch = std::max(max_batch, batch);
+    }
+    const double elapsed = std::chrono::duration<double>(SteadyClock::now() - start).count();
+    getPrivateNodeHandle().setParam("sent", static_cast<int>(sent));
+    NODELET_INFO("bench_source: sent=%" PRIu64 " of %" PRIu64 " in %.3f s (%.0f Hz) wakeups=%" PRIu64
+                 " max_batch=%" PRIu64 " max_lag_us=%.0f",
+                 sent, total, elapsed, elapsed > 0.0 ? static_cast<double>(sent) / elapsed : 0.0, wakeups,
+                 max_batch, std::chrono::duration<double, std::micro>(max_lag).count());
+  }
+
+  void publish(std::uint64_t step)
+  {
+    // A fresh object per message, published as a shared_ptr and never touched again: typed
+    // subscribers in the manager receive this very object (no serialization).
+    auto msg = boost::make_shared<Measurement>();
+    msg->header.frame_id = frame_id_;
+    msg->step = step;
+    msg->sensor = "y";
+    msg->y = {static_cast<double>(step), -static_cast<double>(step)};
+    msg->header.stamp = ros::Time::now();
+    pub_.publish(msg);
+  }
+
+  double rate_ = 1000.0, duration_ = 5.0, start_delay_ = 2.0;
+  std::string frame_id_;
+  ros::Publisher pub_;
+  std::thread thread_;
+  std::atomic<bool> stop_{false};
+};
+
+class BenchPassThrough : public nodelet::Nodelet
+{
+private:
+  void onInit() override
+  {
+    ros::NodeHandle& nh = getNodeHandle();
+    getPrivateNodeHandle().param("queue_size", queue_size_, 1000);
+    sub_ = nh.subscribe("in", static_cast<uint32_t>(queue_size_), &BenchPassThrough::onMessage, this,
+                        ros::TransportHints().tcpNoDelay());
+    NODELET_INFO("BenchPassThrough %s -> %s", nh.resolveName("in").c_str(), nh.resolveName("out").c_str());
+  }
+
+  // The nodelet's callback queue is single-threaded: no two calls overlap, no lock needed.
+  void onMessage(const ros::MessageEvent<topic_tools::ShapeShifter const>& event)
+  {
+    const topic_tools::ShapeShifter::ConstPtr& msg = event.getConstMessage();
+    if (!advertised_)
+    {
+      const auto& header = event.getConnectionHeader();
+      const auto latch = header.find("latching");
+      pub_ = msg->advertise(getNodeHandle(), "out", static_cast<uint32_t>(queue_size_),
+                            latch != header.end() && latch->second == "1");
+      advertised_ = true;
+    }
+    pub_.publish(msg);
+  }
+
+  int queue_size_ = 1000;
+  bool advertised_ = false;
+  ros::Subscriber sub_;
+  ros::Publisher pub_;
+};
+
+class BenchSink : public nodelet::Nodelet
+{
+public:
+  ~BenchSink() override
+  {
+    stop_ = true;
+    if (thread_.joinable())
+      thread_.join();
+  }
+
+private:
+  void onInit() override
+  {
+    ros::NodeHandle& nh = getNodeHandle();
+    ros::NodeHandle& pnh = getPrivateNodeHandle();
+    double rate = 1000.0;
+    int queue_size = 100000;
+    pnh.param("label", label_, getName());
+    pnh.param("rate", rate, 1000.0);
+    pnh.param("duration", duration_, 5.0);
+    pnh.param("start_delay", start_delay_, 2.0);
+    pnh.param("grace", grace_, 1.0);
+    pnh.param("result_file", result_file_, std::string());
+    pnh.param("source", source_, std::string());
+    pnh.param("queue_size", queue_size, 100000);
+    // Preallocated: no reallocation while recording (50 % headroom over rate * duration).
+    latency_us_.assign(static_cast<std::size_t>(std::max(1000.0, 1.5 * rate * duration_ + 1000.0)), 0.0);
+    sample_every_ = static_cast<std::uint64_t>(std::max(10.0, rate / 100.0));
+    init_ = SteadyClock::now();
+    sub_ = nh.subscribe("in", static_cast<uint32_t>(queue_size), &BenchSink::onMessage, this,
+                        ros::TransportHints().tcpNoDelay());
+    thread_ = std::thread(&BenchSink::waitAndReport, this);
+    NODELET_INFO("BenchSink <- %s: label %s, reports %g s after the first message", nh.resolveName("in").c_str(),
+                 label_.c_str(), duration_ + grace_);
+  }
+
+  void onMessage(const Measurement::ConstPtr& msg)
+  {
+    const ros::Time now = ros::Time::now();
+    const auto t = SteadyClock::now();
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (done_)
+      return;
+    if (received_ == 0)
+    {
+      first_ = t;
+      cpu_first_ = processCpuSeconds();
+      busy_first_ = machineBusySeconds();
+    }
+    else if (received_ % sample_every_ == 0)  // system calls: about 100 times a second, not every message
+    {
+      cpu_last_ = processCpuSeconds();
+      busy_last_ = machineBusySeconds();
+      cpu_last_t_ = t;
+      cpu_last_count_ = received_;
+    }
+    last_ = t;
+    if (received_ < latency_us_.size())
+      latency_us_[received_] = static_cast<double>((now - msg->header.stamp).toNSec()) * 1e-3;
+    ++received_;
+    max_step_ = std::max<std::uint64_t>(max_step_, msg->step);
+  }
+
+  void waitAndReport()
+  {
+    // Report duration + grace after the first message; if none comes, a while after the source's
+    // planned end (it waits up to 10 s for a subscriber).
+    const auto give_up = init_ + seconds(start_delay_ + duration_ + grace_ + 15.0);
+    while (!stop_)
+    {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      std::lock_guard<std::mutex> lock(mutex_);
+      const auto now = SteadyClock::now();
+      if ((received_ > 0 && now >= first_ + seconds(duration_ + grace_)) || now >= give_up)
+      {
+        done_ = true;  // stop recording: onMessage returns at once from now on
+        break;
+      }
+    }
+    if (!stop_)
+      report();
+  }
+
+  void report()
+  {
+    // done_ is set: onMessage no longer touches the members read below.
+    const std::size_t n = std::min<std::size_t>(received_, latency_us_.size());
+    std::vector<double> all(latency_us_.begin(), latency_us_.begin() + static_cast<std::ptrdiff_t>(n));
+    // Growth of the latency during the run, in arrival order: p99 of each half, and the median of the
+    // first and of the last tenth (robust to one stall: a backlog that keeps growing raises the last).
+    const auto part = [&](std::size_t from, std::size_t to) {
+      return std::vector<double>(all.begin() + static_cast<std::ptrdiff_t>(from),
+                                 all.begin() + static_cast<std::ptrdiff_t>(to));
+    };
+    std::vector<double> first_half = part(0, n / 2), second_half = part(n / 2, n);
+    std::vector<double> first_tenth = part(0, n / 10), last_tenth = part(n - n / 10, n);
+    const double span = std::chrono::duration<double>(last_ - first_).count();
+    const double rate = received_ > 1 && span > 0.0 ? static_cast<double>(received_ - 1) / span : 0.0;
+    // Messages sent: the source's count (its ~sent, set when it finishes), else the largest step seen.
+    std::uint64_t sent = max_step_;
+    int sent_param = 0;
+    if (!source_.empty() && getNodeHandle().getParam(source_ + "/sent", sent_param))
+      sent = static_cast<std::uint64_t>(sent_param);
+    const double median = quantile(all, 0.5), p90 = quantile(all, 0.9), p99 = quantile(all, 0.99);
+    const double max = all.empty() ? 0.0 : *std::max_element(all.begin(), all.end());
+    const double p99_first = quantile(first_half, 0.99), p99_second = quantile(second_half, 0.99);
+    const double median_first = quantile(first_tenth, 0.5), median_last = quantile(last_tenth, 0.5);
+    // CPU of the process between the first message and the last sample (every sample_every_ messages), and
+    // that of the rest of the machine (/proc/stat, 10 ms resolution).
+    const double cpu = cpu_last_count_ > 0 ? cpu_last_ - cpu_first_ : 0.0;
+    const double cpu_span = cpu_last_count_ > 0 ? std::chrono::duration<double>(cpu_last_t_ - first_).count() : 0.0;
+    const double cpu_us_per_msg = cpu_last_count_ > 0 ? 1e6 * cpu / static_cast<double>(cpu_last_count_) : 0.0;
+    const double cpu_cores = cpu_span > 0.0 ? cpu / cpu_span : 0.0;
+    const double other_cores = cpu_span > 0.0 ? std::max(0.0, (busy_last_ - busy_first_ - cpu) / cpu_span) : 0.0;
+    char line[512];
+    std::snprintf(line, sizeof line,
+                  "sent=%" PRIu64 " received=%" PRIu64 " rate=%.1f latency_us median=%.1f p90=%.1f p99=%.1f "
+                  "max=%.1f p99_first_half=%.1f p99_second_half=%.1f median_first_tenth=%.1f median_last_tenth=%.1f "
+                  "cpu_us_per_msg=%.2f cpu_cores=%.2f other_cores=%.2f",
+                  sent, received_, rate, median, p90, p99, max, p99_first, p99_second, median_first, median_last,
+                  cpu_us_per_msg, cpu_cores, other_cores);
+    ROS_INFO("bench_sink %s: %s", label_.c_str(), line);
+    if (received_ > latency_us_.size())
+      ROS_WARN("bench_sink %s: %zu messages beyond the preallocated %zu are not in the latency statistics",
+               label_.c_str(), static_cast<std::size_t>(received_ - latency_us_.size()), latency_us_.size());
+    if (result_file_.empty())
+      return;
+    bool empty = true;
+    {
+      std::ifstream in(result_file_);
+      empty = !in || in.peek() == std::ifstream::traits_type::eof();
+    }
+    std::ofstream out(result_file_, std::ios::app);
+    if (!out)
+    {
+      ROS_ERROR("bench_sink %s: cannot write %s", label_.c_str(), result_file_.c_str());
+      return;
+    }
+    if (empty)
+      out << "label,sent,received,rate_hz,median_us,p90_us,p99_us,max_us,p99_first_half_us,p99_second_half_us,"
+             "median_first_tenth_us,median_last_tenth_us,cpu_us_per_msg,cpu_cores,other_cores\n";
+    std::snprintf(line, sizeof line,
+                  "%s,%" PRIu64 ",%" PRIu64 ",%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.2f,%.2f,%.2f\n",
+                  label_.c_str(), sent, received_, rate, median, p90, p99, max, p99_first, p99_second, median_first,
+                  median_last, cpu_us_per_msg, cpu_cores, other_cores);
+    out << line;
+  }
+
+  std::string label_, result_file_, source_;
+  double duration_ = 5.0, start_delay_ = 2.0, grace_ = 1.0;
+  ros::Subscriber sub_;
+  std::mutex mutex_;
+  std::vector<double> latency_us_;
+  std::uint64_t received_ = 0, max_step_ = 0, cpu_last_count_ = 0, sample_every_ = 100;
+  SteadyClock::time_point init_, first_, last_, cpu_last_t_;
+  double cpu_first_ = 0.0, cpu_last_ = 0.0, busy_first_ = 0.0, busy_last_ = 0.0;
+  bool done_ = false;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+}  // namespace networked_estimation
+
+PLUGINLIB_EXPORT_CLASS(networked_estimation::BenchSource, nodelet::Nodelet)
+PLUGINLIB_EXPORT_CLASS(networked_estimation::BenchPassThrough, nodelet::Nodelet)
+PLUGINLIB_EXPORT_CLASS(networked_estimation::BenchSink, nodelet::Nodelet)
