@@ -59,6 +59,6 @@ $(sed 's/^/   /' "$OUT/zhou_delta10/score.txt")
    with no acknowledgement, measurements a Bernoulli-lossy one; 100 steps.
    aoe/oe weigh both outcomes of every command; kfio assumes every command arrived; ack_kf is
    told which arrived, and its covariance is a lower bound on aoe's and oe's (aoe.md Theorem 3).
-   One short run's errors differ by noise; the Monte Carlo comparison is future work.
+   One short run's errors differ by noise: montecarlo --experiment lin_fig4 / lin_fig5 averages.
 $(sed 's/^/   /' "$OUT/aoe_nack/score.txt")
 EOF
