@@ -94,7 +94,7 @@ void KalmanUpdate::factor(const Eigen::MatrixXd& P, const Eigen::MatrixXd& C, co
     throw DivergenceError("covariance diverged: C P C' + R is no longer positive definite (P overflowed or its "
                           "condition number exceeds double precision, trace " + std::to_string(P.trace()) +
                           "); the expected estimation error is unbounded on this link");
-  llt_.matrixL().solveInPlace(W_);  // W = L^{-1} C P
+  solveLower(llt_, W_);  // W = L^{-1} C P
 }
 
 void KalmanUpdate::downdate(Eigen::MatrixXd& P) const

@@ -33,6 +33,29 @@ inline void symmetrise(Eigen::MatrixXd& P)
     }
 }
 
+/// B <- L^{-1} B for the Cholesky factor L of `llt`. Plain forward substitution for small factors
+/// (the sizes of most filters, where Eigen's blocked solver costs more than the arithmetic),
+/// Eigen's solver beyond.
+template <class Derived>
+inline void solveLower(const Eigen::LLT<Eigen::MatrixXd>& llt, Eigen::MatrixBase<Derived>& B)
+{
+  const Eigen::MatrixXd& L = llt.matrixLLT();  // L in the lower triangle
+  const Eigen::Index m = L.rows();
+  if (m > 8)
+  {
+    llt.matrixL().solveInPlace(B);
+    return;
+  }
+  for (Eigen::Index j = 0; j < B.cols(); ++j)
+    for (Eigen::Index i = 0; i < m; ++i)
+    {
+      double v = B(i, j);
+      for (Eigen::Index k = 0; k < i; ++k)
+        v -= L(i, k) * B(k, j);
+      B(i, j) = v / L(i, i);
+    }
+}
+
 /// Which sensors of a sample are fused, and the stacked rows (C, R, y) of those sensors.
 /// When every sensor arrived the model's own matrices are used (no copy).
 class ArrivalSelector
@@ -83,8 +106,8 @@ public:
   /// How many updates fell back to the Joseph form.
   long josephFallbacks() const { return joseph_; }
   /// e <- L^{-1} e (whitened innovation).
-  void whiten(Eigen::VectorXd& e) const { llt_.matrixL().solveInPlace(e); }
-  void whiten(Eigen::MatrixXd& E) const { llt_.matrixL().solveInPlace(E); }
+  void whiten(Eigen::VectorXd& e) const { solveLower(llt_, e); }
+  void whiten(Eigen::MatrixXd& E) const { solveLower(llt_, E); }
   /// P <- P - W'W on the lower triangle, then mirrored (P must be the P given to factor()).
   void downdate(Eigen::MatrixXd& P) const;
   const Eigen::MatrixXd& W() const { return W_; }

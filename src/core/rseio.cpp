@@ -203,9 +203,9 @@ void Rseio::arrivalPrediction(const RseioGrams& g, bool has_input, const Eigen::
     Bhat_ = model_.B;
     Bhat_.noalias() -= lam * (AP_ * g.Sst);
     Zt_ = Bhat_.transpose();
-    llt_.matrixL().solveInPlace(Zt_);  // Z = L^{-1} Bhat'
+    solveLower(llt_, Zt_);  // Z = L^{-1} Bhat'
     tw_.noalias() = g.Sst.transpose() * gx_;
-    llt_.matrixL().solveInPlace(tw_);
+    solveLower(llt_, tw_);
     xpred_.noalias() -= lam * (Zt_.transpose() * tw_);
     Ppred_.noalias() = AP_ * A.transpose();
     Ppred_.noalias() += Zt_.transpose() * Zt_;
@@ -231,7 +231,7 @@ void Rseio::arrivalPrediction(const RseioGrams& g, bool has_input, const Eigen::
         // -lam (F Phat S'c + Bhat Qhat T'c) = -lam A Phat S'c + lam Bhat Qhat (lam Sst' Phat S'c - T'c)
         tw_.noalias() = lam * (g.Sst.transpose() * gx_);
         tw_.noalias() -= g.TBu * u;
-        llt_.matrixL().solveInPlace(tw_);
+        solveLower(llt_, tw_);
         xpred_.noalias() += lam * (Zt_.transpose() * tw_);
       }
     }
@@ -259,13 +259,13 @@ void Rseio::rankPrediction(const RseioGrams& g, bool has_input, const Eigen::Vec
   Nm_ *= lam;
   Nm_.diagonal().array() += 1.0;           // N
   llt_.compute(Nm_);
-  llt_.matrixL().solveInPlace(Hm_);        // V = L^{-1} H
+  solveLower(llt_, Hm_);        // V = L^{-1} H
   Ppred_ = BQBt_;
   Ppred_.noalias() += AP_ * A.transpose();
   Ppred_.noalias() -= lam * (Hm_.transpose() * Hm_);
   mirrorLower(Ppred_);
   t_.noalias() = g.Fx * x_;
-  llt_.matrixL().solveInPlace(t_);
+  solveLower(llt_, t_);
   xpred_.noalias() = A * x_;
   xpred_.noalias() -= lam * (Hm_.transpose() * t_);
   if (has_input)
@@ -281,7 +281,7 @@ void Rseio::rankPrediction(const RseioGrams& g, bool has_input, const Eigen::Vec
       xpred_.noalias() -= lam * (model_.B * tw_);
       t_.noalias() = g.Fx * tmp_;
       t_.noalias() += g.Fw * tw_;
-      llt_.matrixL().solveInPlace(t_);
+      solveLower(llt_, t_);
       xpred_.noalias() += (lam * lam) * (Hm_.transpose() * t_);
     }
   }
