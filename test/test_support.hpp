@@ -6,6 +6,7 @@
 #include <string>
 
 #include "networked_estimation/model.hpp"
+#include "montecarlo_experiments.hpp"  // private header (src/core): the papers' example models
 #include "networked_estimation/random.hpp"
 
 namespace networked_estimation
@@ -41,53 +42,16 @@ inline void singleSensor(Model& m)
   m.sensors.push_back({"y", 0, static_cast<int>(m.C.rows())});
 }
 
-/// rseio.md section 5.1 (the zhou example).
+/// rseio.md section 5.1 (the zhou example), as the Monte Carlo experiments build it.
 inline Model zhouModel(double range = 1.0)
 {
-  Model m;
-  m.name = "zhou_example";
-  m.period = 0.01;
-  m.A.resize(2, 2);
-  m.A << 0.9802, 0.0196, 0.0, 0.9802;
-  m.B = Eigen::MatrixXd::Identity(2, 2);
-  m.Q.resize(2, 2);
-  m.Q << 1.9608, 0.0195, 0.0195, 1.9605;
-  m.C.resize(1, 2);
-  m.C << 1, -1;
-  m.R = Eigen::MatrixXd::Identity(1, 1);
-  m.x0 = Eigen::Vector2d(1, 0);
-  m.P0 = Eigen::MatrixXd::Identity(2, 2);
-  singleSensor(m);
-  Uncertainty u;
-  u.dA = Eigen::MatrixXd::Zero(2, 2);
-  u.dA(0, 1) = 0.099;
-  u.dB = Eigen::MatrixXd::Zero(2, 2);
-  u.dC = Eigen::MatrixXd::Zero(1, 2);
-  u.range = range;
-  m.uncertainty.push_back(u);
-  m.Bu.resize(2, 0);
-  return m;
+  return mc::zhouExampleModel(range);
 }
 
 /// aoe.md section 5 with C = [[1, -1], [0, 1]] (the spec author's reading of the garbled C).
 inline Model aoeModel(double rhoA = 1.2910)
 {
-  Model m;
-  m.name = "aoe_example";
-  m.period = 0.01;
-  m.A.resize(2, 2);
-  m.A << rhoA, 0, 0, 1.005;
-  m.B = Eigen::MatrixXd::Identity(2, 2);
-  m.Q = 20.0 * Eigen::MatrixXd::Identity(2, 2);
-  m.C.resize(2, 2);
-  m.C << 1, -1, 0, 1;
-  m.R = 20.0 * Eigen::MatrixXd::Identity(2, 2);
-  m.x0 = Eigen::Vector2d::Zero();
-  m.P0 = Eigen::MatrixXd::Identity(2, 2);
-  singleSensor(m);
-  m.Bu.resize(2, 1);
-  m.Bu << -1, 1;
-  return m;
+  return mc::aoeExampleModel(rhoA);
 }
 
 /// A random model with n states, nw noise inputs, sensors of the given sizes, ne uncertain
