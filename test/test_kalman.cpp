@@ -191,7 +191,9 @@ TEST(Robustness, LongRunUnstablePlantRareArrivals)
       ASSERT_TRUE(P == P.transpose()) << toString(a) << " k " << k;
       max_trace = std::max(max_trace, P.trace());
       if (k % 997 == 0)
+      {
         ASSERT_GE(minEig(P), -1e-9 * P.norm()) << toString(a) << " k " << k;
+      }
     }
     EXPECT_EQ(est->steps(), 100000);
     EXPECT_GT(max_trace, 1e6) << toString(a);  // the gaps were long enough to matter

@@ -55,6 +55,9 @@ public:
   /// Back to x0, P0 (and the initial mode probabilities), step counter 0.
   virtual void reset() = 0;
 
+  /// An independent copy in the same state (used to rewind and re-filter a bounded history).
+  virtual std::unique_ptr<Estimator> clone() const = 0;
+
   virtual Algorithm algorithm() const = 0;
   /// Number of steps taken since construction / reset.
   long steps() const { return steps_; }

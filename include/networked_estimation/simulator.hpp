@@ -58,10 +58,18 @@ public:
   /// x_0 ~ N(model.x0, model.P0) is drawn at construction.
   const SimulatedSample& step();
 
+  /// Advances with a command applied from outside (the ROS graph, where the actuator link is a
+  /// LossyChannel): `applied` is the u_k that reached the actuator (p values), or null when no
+  /// command arrived (zero input, nu = false). The control sequence and actuator link given to the
+  /// constructor are not used. Throws InputError when `applied` has the wrong size or is not finite.
+  const SimulatedSample& stepApplied(const Eigen::VectorXd* applied);
+
   const Eigen::VectorXd& state() const { return x_; }
   long k() const { return k_; }
 
 private:
+  const SimulatedSample& advance(bool nu);
+
   const Model& model_;
   ControlSequence control_;
   std::unique_ptr<LossModel> actuator_;

@@ -24,6 +24,7 @@ class Aoe : public EstimatorBase
 public:
   Aoe(const Model& model, ControlLink link);
   void step(const Sample& sample) override;
+  std::unique_ptr<Estimator> clone() const override { return std::make_unique<Aoe>(*this); }
   double commandArrivalProbability() const override { return nu1_; }
   void reset() override;
 
@@ -40,6 +41,7 @@ class OptimalEstimator : public EstimatorBase
 public:
   OptimalEstimator(const Model& model, ControlLink link, std::size_t max_components);
   void step(const Sample& sample) override;
+  std::unique_ptr<Estimator> clone() const override { return std::make_unique<OptimalEstimator>(*this); }
   double commandArrivalProbability() const override { return nu1_; }
   std::size_t components() const override { return static_cast<std::size_t>(count_); }
   void reset() override;

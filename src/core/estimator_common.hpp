@@ -80,7 +80,7 @@ public:
   const Eigen::VectorXd& y() const { return ya_; }
 
 private:
-  const Model& model_;
+  Model model_;  ///< own copy (small), so that estimators can be copied (Estimator::clone)
   std::vector<int> idx_;
   Eigen::MatrixXd Ca_, Ra_;
   Eigen::VectorXd ya_;

@@ -13,6 +13,7 @@ public:
   /// algorithm: KF, KFIO or ACK_KF.
   KalmanFilter(const Model& model, Algorithm algorithm);
   void step(const Sample& sample) override;
+  std::unique_ptr<Estimator> clone() const override { return std::make_unique<KalmanFilter>(*this); }
   double commandArrivalProbability() const override;
 
 private:

@@ -28,6 +28,7 @@ class Rseio : public EstimatorBase
 public:
   Rseio(const Model& model, double mu);
   void step(const Sample& sample) override;
+  std::unique_ptr<Estimator> clone() const override { return std::make_unique<Rseio>(*this); }
 
 private:
   const RseioGrams& grams();

@@ -221,7 +221,6 @@ PlantSimulator::PlantSimulator(const Model& model, std::uint64_t seed, ControlSe
 const SimulatedSample& PlantSimulator::step()
 {
   const Model& M = model_;
-  const int ne = M.ne();
   ++k_;
 
   // Command and actuator link.
@@ -230,6 +229,29 @@ const SimulatedSample& PlantSimulator::step()
   else
     sample_.u.resize(0);
   const bool nu = actuator_ ? !actuator_->nextLost() : true;
+  return advance(nu);
+}
+
+const SimulatedSample& PlantSimulator::stepApplied(const Eigen::VectorXd* applied)
+{
+  const Model& M = model_;
+  if (applied && (applied->size() != M.p() || !applied->allFinite()))
+    throw InputError("applied command: expected " + std::to_string(M.p()) + " finite values, found " +
+                     std::to_string(applied->size()) + (applied->allFinite() ? "" : " (not finite)"));
+  ++k_;
+  if (!M.hasControl())
+    sample_.u.resize(0);
+  else if (applied)
+    sample_.u = *applied;
+  else
+    sample_.u.setZero(M.p());
+  return advance(applied != nullptr && M.hasControl());
+}
+
+const SimulatedSample& PlantSimulator::advance(bool nu)
+{
+  const Model& M = model_;
+  const int ne = M.ne();
 
   // Transition with eps_{k-1}.
   if (ne > 0)

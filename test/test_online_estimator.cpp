@@ -1,0 +1,447 @@
+// OnlineEstimator: the stream-side sample assembly of the Estimator nodelet (deadlines, late
+// policies, duplicates, bad input), checked against the plain estimator stepped offline.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "networked_estimation/error.hpp"
+#include "networked_estimation/online_estimator.hpp"
+#include "networked_estimation/simulator.hpp"
+#include "test_support.hpp"
+
+namespace ne = networked_estimation;
+using ne::Offer;
+
+namespace
+{
+
+const double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+/// A simulated stream of a model: y_k per step and the commands.
+struct Stream
+{
+  std::vector<Eigen::VectorXd> y;  // index k-1
+  std::vector<Eigen::VectorXd> u;
+};
+
+Stream simulate(const ne::Model& model, int steps, std::uint64_t seed)
+{
+  ne::PlantSimulator sim(model, seed);
+  Stream s;
+  for (int k = 1; k <= steps; ++k)
+  {
+    const ne::SimulatedSample& x = sim.step();
+    s.y.push_back(x.y);
+    s.u.push_back(x.u);
+  }
+  return s;
+}
+
+/// Offline reference: the estimator stepped on y_k where `arrived[k-1][sensor]` is true.
+std::vector<Eigen::VectorXd> offline(const ne::Model& model, const ne::EstimatorSettings& st, const Stream& s,
+                                     const std::vector<std::vector<bool>>& arrived, std::vector<Eigen::MatrixXd>* P = nullptr)
+{
+  auto est = ne::makeEstimator(model, st);
+  std::vector<Eigen::VectorXd> out;
+  ne::Sample smp;
+  for (std::size_t k = 0; k < s.y.size(); ++k)
+  {
+    smp.y = s.y[k];
+    bool any = false;
+    for (std::size_t i = 0; i < model.sensors.size(); ++i)
+    {
+      const ne::Sensor& sn = model.sensors[i];
+      if (!arrived[k][i])
+        smp.y.segment(sn.offset, sn.size).setConstant(kNaN);
+      any = any || arrived[k][i];
+    }
+    smp.gamma = any;
+    smp.u = s.u[k];
+    est->step(smp);
+    out.push_back(est->state());
+    if (P)
+      P->push_back(est->covariance());
+  }
+  return out;
+}
+
+ne::Offer offerY(ne::OnlineEstimator& on, const ne::Model& model, const Stream& s, long k, std::size_t sensor = 0)
+{
+  const ne::Sensor& sn = model.sensors[sensor];
+  Eigen::VectorXd block = s.y[k - 1].segment(sn.offset, sn.size);
+  return on.offerMeasurement(k, sensor, block.data(), block.size()).offer;
+}
+
+ne::EstimatorSettings settingsFor(ne::Algorithm a)
+{
+  ne::EstimatorSettings st;
+  st.algorithm = a;
+  st.mu = 0.9;
+  st.has_control_link = true;
+  st.recovery = 0.6;
+  st.failure = 0.3;
+  return st;
+}
+
+}  // namespace
+
+TEST(Clone, IsIndependentAndIdenticalForEveryAlgorithm)
+{
+  const ne::Model model = ne::test::aoeModel();
+  const Stream s = simulate(model, 40, 3);
+  for (ne::Algorithm a : {ne::Algorithm::KF, ne::Algorithm::KFIO, ne::Algorithm::RSEIO, ne::Algorithm::AOE,
+                          ne::Algorithm::OE, ne::Algorithm::ACK_KF})
+  {
+    auto est = ne::makeEstimator(model, settingsFor(a));
+    ne::Sample smp;
+    smp.nu = 1;
+    for (int k = 0; k < 20; ++k)
+    {
+      smp.y = s.y[k];
+      smp.gamma = k % 3 != 0;
+      smp.u = s.u[k];
+      est->step(smp);
+    }
+    auto copy = est->clone();
+    EXPECT_EQ(copy->algorithm(), a);
+    EXPECT_EQ(copy->steps(), est->steps());
+    // The copy continues exactly like the original.
+    for (int k = 20; k < 40; ++k)
+    {
+      smp.y = s.y[k];
+      smp.gamma = k % 4 != 0;
+      smp.u = s.u[k];
+      est->step(smp);
+      copy->step(smp);
+      ASSERT_EQ(copy->state(), est->state()) << ne::toString(a) << " k " << k;
+      ASSERT_EQ(copy->covariance(), est->covariance()) << ne::toString(a);
+    }
+    // Stepping the copy leaves the original alone.
+    const Eigen::VectorXd before = est->state();
+    copy->step(smp);
+    EXPECT_EQ(est->state(), before);
+    EXPECT_NE(copy->state(), before);
+  }
+}
+
+TEST(OnlineEstimator, InOrderWithLossesEqualsOfflineForEveryAlgorithm)
+{
+  const ne::Model model = ne::test::aoeModel();
+  const int T = 200;
+  const Stream s = simulate(model, T, 11);
+  ne::Rng rng(5);
+  std::vector<std::vector<bool>> arrived(T, std::vector<bool>(1));
+  for (auto& a : arrived)
+    a[0] = rng.bernoulli(0.7);
+  for (ne::Algorithm a : {ne::Algorithm::KF, ne::Algorithm::KFIO, ne::Algorithm::RSEIO, ne::Algorithm::AOE,
+                          ne::Algorithm::OE})
+  {
+    for (ne::LatePolicy lp : {ne::LatePolicy::DROP, ne::LatePolicy::REWIND})
+    {
+      ne::OnlineOptions o;
+      o.late_policy = lp;
+      o.history_length = 10;
+      ne::OnlineEstimator on(model, settingsFor(a), o);
+      on.start(1);
+      std::vector<Eigen::MatrixXd> P;
+      const auto ref = offline(model, settingsFor(a), s, arrived, &P);
+      for (long k = 1; k <= T; ++k)
+      {
+        ASSERT_EQ(on.offerCommand(k, s.u[k - 1].data(), s.u[k - 1].size()).offer, Offer::ACCEPTED);
+        if (arrived[k - 1][0])
+        {
+          ASSERT_EQ(offerY(on, model, s, k), Offer::ACCEPTED);
+        }
+        on.process();
+        ASSERT_EQ(on.lastGamma(), arrived[k - 1][0]);
+        // Bit-for-bit: the same arithmetic on the same inputs.
+        ASSERT_EQ(on.estimator().state(), ref[k - 1]) << ne::toString(a) << " k " << k;
+        ASSERT_EQ(on.estimator().covariance(), P[k - 1]);
+      }
+      EXPECT_EQ(on.counters().processed, static_cast<std::uint64_t>(T));
+      EXPECT_EQ(on.counters().missing_commands, 0u);
+    }
+  }
+}
+
+TEST(OnlineEstimator, OutOfOrderBeforeTheDeadlineIsTheSameAsInOrder)
+{
+  const ne::Model model = ne::test::zhouModel();
+  const int T = 60;
+  const Stream s = simulate(model, T, 2);
+  ne::OnlineEstimator on(model, settingsFor(ne::Algorithm::KFIO), {});
+  on.start(1);
+  // Steps arrive in blocks of 3 in reverse order, each block before its first deadline.
+  for (long b = 1; b <= T; b += 3)
+  {
+    for (long k = b + 2; k >= b; --k)
+      ASSERT_EQ(offerY(on, model, s, k), Offer::ACCEPTED);
+    for (long k = b; k < b + 3; ++k)
+      on.process();
+  }
+  const std::vector<std::vector<bool>> all(T, std::vector<bool>(1, true));
+  EXPECT_EQ(on.estimator().state(), offline(model, settingsFor(ne::Algorithm::KFIO), s, all).back());
+  EXPECT_EQ(on.counters().arrivals, static_cast<std::uint64_t>(T));
+}
+
+TEST(OnlineEstimator, DuplicatesAreCountedAndIgnored)
+{
+  const ne::Model model = ne::test::zhouModel();
+  const Stream s = simulate(model, 10, 2);
+  ne::OnlineEstimator on(model, settingsFor(ne::Algorithm::KFIO), {});
+  on.start(1);
+  EXPECT_EQ(offerY(on, model, s, 1), Offer::ACCEPTED);
+  // A second copy with another value must not replace the first.
+  const double other = 1e6;
+  EXPECT_EQ(on.offerMeasurement(1, 0, &other, 1).offer, Offer::DUPLICATE);
+  on.process();
+  EXPECT_EQ(offerY(on, model, s, 1), Offer::DUPLICATE);  // after its step, still a duplicate
+  EXPECT_EQ(on.counters().duplicates, 2u);
+  const std::vector<std::vector<bool>> all(1, std::vector<bool>(1, true));
+  Stream one{{s.y[0]}, {s.u[0]}};
+  EXPECT_EQ(on.estimator().state(), offline(model, settingsFor(ne::Algorithm::KFIO), one, all).back());
+}
+
+TEST(OnlineEstimator, DropPolicyCountsLateDataAndLeavesItOut)
+{
+  const ne::Model model = ne::test::zhouModel();
+  const int T = 100;
+  const Stream s = simulate(model, T, 8);
+  ne::OnlineOptions o;
+  o.late_policy = ne::LatePolicy::DROP;
+  ne::OnlineEstimator on(model, settingsFor(ne::Algorithm::RSEIO), o);
+  on.start(1);
+  std::vector<std::vector<bool>> in_time(T, std::vector<bool>(1, true));
+  for (long k = 1; k <= T; ++k)
+  {
+    const bool late = k % 5 == 0;
+    if (!late)
+    {
+      ASSERT_EQ(offerY(on, model, s, k), Offer::ACCEPTED);
+    }
+    on.process();
+    if (late)
+    {
+      in_time[k - 1][0] = false;
+      ASSERT_EQ(offerY(on, model, s, k), Offer::LATE_DROPPED);
+    }
+  }
+  EXPECT_EQ(on.counters().late_dropped, 20u);
+  EXPECT_EQ(on.counters().rewinds, 0u);
+  EXPECT_EQ(on.estimator().state(), offline(model, settingsFor(ne::Algorithm::RSEIO), s, in_time).back());
+}
+
+TEST(OnlineEstimator, RewindFusesLateDataWithinTheHistoryExactly)
+{
+  const ne::Model model = ne::test::aoeModel();
+  const int T = 300;
+  const Stream s = simulate(model, T, 21);
+  ne::Rng rng(77);
+  for (ne::Algorithm a : {ne::Algorithm::KFIO, ne::Algorithm::RSEIO, ne::Algorithm::AOE})
+  {
+    ne::OnlineOptions o;
+    o.late_policy = ne::LatePolicy::REWIND;
+    o.history_length = 8;
+    ne::OnlineEstimator on(model, settingsFor(a), o);
+    on.start(1);
+    // Each y_k arrives after a random number of steps d in {0, ..., 12}; d = 0 is in time,
+    // 1..8 is late within the history (fused), 9..12 is beyond it (dropped).
+    std::vector<long> due(T + 1);
+    std::vector<std::vector<long>> arrivals_at(T + 20);
+    std::vector<std::vector<bool>> fused(T, std::vector<bool>(1, false));
+    std::uint64_t expect_fused = 0, expect_dropped = 0;
+    for (long k = 1; k <= T; ++k)
+    {
+      const long d = static_cast<long>(rng.uniform() * 13.0);  // 0..12
+      arrivals_at[k + d].push_back(k);  // delivered just before step k + d is processed
+    }
+    for (long k = 1; k <= T; ++k)
+    {
+      on.offerCommand(k, s.u[k - 1].data(), s.u[k - 1].size());
+      for (long j : arrivals_at[k])
+      {
+        const Offer r = offerY(on, model, s, j);
+        if (j == k)
+        {
+          ASSERT_EQ(r, Offer::ACCEPTED);
+        }
+        else if (k - j <= 8)
+        {
+          ASSERT_EQ(r, Offer::LATE_FUSED) << "step " << j << " offered before " << k;
+          ++expect_fused;
+        }
+        else
+        {
+          ASSERT_EQ(r, Offer::LATE_DROPPED);
+          ++expect_dropped;
+        }
+        if (k - j <= 8)
+          fused[j - 1][0] = true;
+      }
+      on.process();
+      // The estimate of step k equals the offline filter on everything fused so far.
+      std::vector<std::vector<bool>> sofar = fused;
+      sofar.resize(static_cast<std::size_t>(k));
+      Stream prefix{{s.y.begin(), s.y.begin() + k}, {s.u.begin(), s.u.begin() + k}};
+      if (k % 37 == 0 || k == T)
+      {
+        const auto ref = offline(model, settingsFor(a), prefix, sofar);
+        ASSERT_EQ(on.estimator().state(), ref.back()) << ne::toString(a) << " k " << k;
+      }
+    }
+    EXPECT_EQ(on.counters().late_fused, expect_fused);
+    EXPECT_EQ(on.counters().late_dropped, expect_dropped);
+    EXPECT_EQ(on.counters().rewinds, expect_fused);
+    EXPECT_GT(expect_fused, 100u);
+    EXPECT_GT(expect_dropped, 50u);
+  }
+}
+
+TEST(OnlineEstimator, MultiSensorPerSensorArrivals)
+{
+  ne::Rng rng(4);
+  const ne::Model model = ne::test::randomModel(rng, 3, 3, {1, 2}, 0, 0);
+  const int T = 80;
+  const Stream s = simulate(model, T, 6);
+  std::vector<std::vector<bool>> arrived(T, std::vector<bool>(2));
+  ne::OnlineEstimator on(model, settingsFor(ne::Algorithm::KFIO), {});
+  on.start(1);
+  for (long k = 1; k <= T; ++k)
+  {
+    for (std::size_t i = 0; i < 2; ++i)
+    {
+      arrived[k - 1][i] = rng.bernoulli(0.6);
+      if (arrived[k - 1][i])
+      {
+        ASSERT_EQ(offerY(on, model, s, k, i), Offer::ACCEPTED);
+      }
+    }
+    on.process();
+    EXPECT_EQ(on.lastSensorsReceived(), int(arrived[k - 1][0]) + int(arrived[k - 1][1]));
+  }
+  EXPECT_EQ(on.estimator().state(), offline(model, settingsFor(ne::Algorithm::KFIO), s, arrived).back());
+}
+
+TEST(OnlineEstimator, BadInputIsRejectedWithAReasonAndCounted)
+{
+  ne::Rng rng(4);
+  const ne::Model model = ne::test::randomModel(rng, 2, 2, {2}, 0, 1);
+  ne::OnlineOptions o;
+  o.max_future_steps = 50;
+  o.max_past_steps = 200;
+  ne::OnlineEstimator on(model, settingsFor(ne::Algorithm::KFIO), o);
+  const double y[2] = {1.0, 2.0};
+  const double bad[2] = {1.0, kNaN};
+  const double inf[2] = {std::numeric_limits<double>::infinity(), 0.0};
+  auto reason = [&](ne::OfferResult r) {
+    EXPECT_EQ(r.offer, Offer::REJECTED);
+    return r.reason;
+  };
+  EXPECT_NE(reason(on.offerMeasurement(1, 0, y, 2)).find("not started"), std::string::npos);
+  on.start(1);
+  EXPECT_NE(reason(on.offerMeasurement(1, 0, y, 1)).find("expects 2 values, found 1"), std::string::npos);
+  EXPECT_NE(reason(on.offerMeasurement(1, 0, bad, 2)).find("y[1]"), std::string::npos);
+  EXPECT_NE(reason(on.offerMeasurement(1, 0, inf, 2)).find("not finite"), std::string::npos);
+  EXPECT_NE(reason(on.offerMeasurement(1, 3, y, 2)).find("sensor index 3"), std::string::npos);
+  EXPECT_NE(reason(on.offerMeasurement(0, 0, y, 2)).find("expected >= 1"), std::string::npos);
+  EXPECT_NE(reason(on.offerMeasurement(51, 0, y, 2)).find("far future"), std::string::npos);
+  EXPECT_EQ(on.offerMeasurement(50, 0, y, 2).offer, Offer::ACCEPTED);
+  EXPECT_NE(reason(on.offerCommand(1, y, 2)).find("u: expected 1 values, found 2"), std::string::npos);
+  EXPECT_NE(reason(on.offerCommand(1, bad + 1, 1)).find("u[0]"), std::string::npos);
+  for (int k = 0; k < 300; ++k)
+    on.process();
+  EXPECT_NE(reason(on.offerMeasurement(101, 0, y, 2)).find("far past"), std::string::npos);
+  EXPECT_EQ(on.offerMeasurement(102, 0, y, 2).offer, Offer::LATE_DROPPED);
+  EXPECT_EQ(on.counters().rejected, 10u);  // the ten REJECTED offers above
+  EXPECT_EQ(on.counters().missing_commands, 300u);
+  EXPECT_TRUE(on.estimator().state().allFinite());
+
+  ne::OnlineEstimator no_control(ne::test::zhouModel(), settingsFor(ne::Algorithm::KFIO), {});
+  no_control.start(1);
+  EXPECT_NE(reason(no_control.offerCommand(1, y, 1)).find("has no control input"), std::string::npos);
+}
+
+TEST(OnlineEstimator, OverflowResetsTheFilterInsteadOfPublishingNaN)
+{
+  ne::Model model = ne::test::zhouModel(0.0);
+  model.uncertainty.clear();
+  model.A = Eigen::Matrix2d::Identity() * 1e3;  // P grows by 1e6 per step: overflows in ~52 steps
+  ne::OnlineEstimator on(model, settingsFor(ne::Algorithm::KFIO), {});
+  on.start(1);
+  for (int k = 0; k < 120; ++k)
+  {
+    on.process();  // nothing ever arrives
+    ASSERT_TRUE(on.estimator().covariance().allFinite());
+    ASSERT_TRUE(on.estimator().state().allFinite());
+  }
+  EXPECT_GE(on.counters().divergence_resets, 1u);
+}
+
+TEST(OnlineEstimator, ResetStartsOver)
+{
+  const ne::Model model = ne::test::zhouModel();
+  const Stream s = simulate(model, 20, 2);
+  ne::OnlineEstimator on(model, settingsFor(ne::Algorithm::KFIO), {});
+  on.start(5);
+  EXPECT_EQ(on.nextStep(), 5);
+  offerY(on, model, s, 5);
+  on.process();
+  on.reset();
+  EXPECT_FALSE(on.started());
+  EXPECT_EQ(on.estimator().state(), model.x0);
+  EXPECT_EQ(on.estimator().steps(), 0);
+  EXPECT_EQ(on.counters().processed, 1u);  // counters count since construction
+}
+
+TEST(OnlineEstimator, OptionsAreValidated)
+{
+  ne::OnlineOptions o;
+  o.history_length = 0;
+  EXPECT_THROW(ne::validateOnlineOptions(o, "x"), ne::ConfigError);
+  o = {};
+  o.max_future_steps = 0;
+  EXPECT_THROW(ne::validateOnlineOptions(o, "x"), ne::ConfigError);
+  o = {};
+  o.history_length = 500;
+  o.max_past_steps = 100;
+  try
+  {
+    ne::validateOnlineOptions(o, "est");
+    FAIL();
+  }
+  catch (const ne::ConfigError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("max_past_steps"), std::string::npos);
+  }
+  EXPECT_EQ(ne::latePolicyFromString("rewind", "x"), ne::LatePolicy::REWIND);
+  EXPECT_THROW(ne::latePolicyFromString("later", "x"), ne::ConfigError);
+}
+
+TEST(StepClock, StampsDeadlinesAndNearestStep)
+{
+  ne::StepClock c(0.01, 0.004);
+  c.anchor(3, 100.03);
+  EXPECT_NEAR(c.stamp(10), 100.10, 1e-12);
+  EXPECT_NEAR(c.deadline(10), 100.104, 1e-12);
+  EXPECT_EQ(c.stepAt(100.1049), 10);
+  EXPECT_EQ(c.stepAt(100.0951), 10);
+  EXPECT_EQ(c.stepAt(100.0949), 9);
+}
+
+TEST(PlantSimulator, StepAppliedUsesOnlyTheDeliveredCommand)
+{
+  const ne::Model model = ne::test::aoeModel();
+  ne::PlantSimulator a(model, 9), b(model, 9);
+  Eigen::VectorXd u(1);
+  u << 2.0;
+  const Eigen::VectorXd x_applied = a.stepApplied(&u).x;
+  EXPECT_TRUE(a.stepApplied(&u).nu);
+  const Eigen::VectorXd x_lost = b.stepApplied(nullptr).x;
+  EXPECT_FALSE(b.stepApplied(nullptr).nu);
+  // Same noise streams: the states differ by exactly Bu u.
+  EXPECT_LT((x_applied - x_lost - model.Bu * u).norm(), 1e-12);
+  Eigen::VectorXd wrong(2);
+  EXPECT_THROW(a.stepApplied(&wrong), ne::InputError);
+}
