@@ -177,9 +177,15 @@ TEST(OnlineEstimator, OutOfOrderBeforeTheDeadlineIsTheSameAsInOrder)
   for (long b = 1; b <= T; b += 3)
   {
     for (long k = b + 2; k >= b; --k)
+    {
+      EXPECT_FALSE(on.nextComplete());  // step b is the last of its block to arrive
       ASSERT_EQ(offerY(on, model, s, k), Offer::ACCEPTED);
+    }
     for (long k = b; k < b + 3; ++k)
+    {
+      EXPECT_TRUE(on.nextComplete());
       on.process();
+    }
   }
   const std::vector<std::vector<bool>> all(T, std::vector<bool>(1, true));
   EXPECT_EQ(on.estimator().state(), offline(model, settingsFor(ne::Algorithm::KFIO), s, all).back());

@@ -97,6 +97,10 @@ public:
   /// Offers the command u_k (p values). Only meaningful for models with control.
   OfferResult offerCommand(long k, const double* u, std::size_t size);
 
+  /// Whether everything step nextStep() can use is in hand (every sensor's y_k, and u_k for a
+  /// model with control): processing it before its deadline gives the same result.
+  bool nextComplete() const;
+
   /// Takes the filter step nextStep() with what is in hand, then advances nextStep().
   /// Never throws for data problems: a covariance overflow resets the filter (counted).
   void process();

@@ -266,6 +266,19 @@ void OnlineEstimator::stepChecked(Estimator& est, const Sample& sample)
   }
 }
 
+bool OnlineEstimator::nextComplete() const
+{
+  if (!started_)
+    return false;
+  const Slot& s = ring_[static_cast<std::size_t>(next_) % ring_.size()];
+  if (s.k != next_ || (model_.hasControl() && !s.have_u))
+    return false;
+  for (char h : s.have)
+    if (!h)
+      return false;
+  return true;
+}
+
 void OnlineEstimator::process()
 {
   if (!started_)

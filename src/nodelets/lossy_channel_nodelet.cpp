@@ -23,6 +23,15 @@
 #include "networked_estimation/channel.hpp"
 #include "networked_estimation/error.hpp"
 #include "networked_estimation/ChannelEvent.h"
+#include "networked_estimation/ControlInput.h"
+#include "networked_estimation/Estimate.h"
+#include "networked_estimation/Measurement.h"
+#include "networked_estimation/PlantState.h"
+#include <geometry_msgs/PointStamped.h>
+#include <geometry_msgs/PoseStamped.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <sensor_msgs/Imu.h>
+#include <sensor_msgs/Range.h>
 #include "networked_estimation/SetParameters.h"
 #include "param_yaml.hpp"
 
@@ -63,6 +72,37 @@ bool startsWithHeader(const std::string& definition)
   return false;
 }
 
+/// `out` advertised before the first message for the types named by ~type (so that subscribers
+/// connect before the stream starts). Returns false for a type not in this list.
+bool advertiseKnown(ros::NodeHandle& nh, const std::string& type, uint32_t queue, ros::Publisher& pub)
+{
+  if (type == "networked_estimation/Measurement")
+    pub = nh.advertise<Measurement>("out", queue);
+  else if (type == "networked_estimation/ControlInput")
+    pub = nh.advertise<ControlInput>("out", queue);
+  else if (type == "networked_estimation/PlantState")
+    pub = nh.advertise<PlantState>("out", queue);
+  else if (type == "networked_estimation/Estimate")
+    pub = nh.advertise<Estimate>("out", queue);
+  else if (type == "sensor_msgs/Range")
+    pub = nh.advertise<sensor_msgs::Range>("out", queue);
+  else if (type == "sensor_msgs/Imu")
+    pub = nh.advertise<sensor_msgs::Imu>("out", queue);
+  else if (type == "geometry_msgs/PointStamped")
+    pub = nh.advertise<geometry_msgs::PointStamped>("out", queue);
+  else if (type == "geometry_msgs/PoseStamped")
+    pub = nh.advertise<geometry_msgs::PoseStamped>("out", queue);
+  else if (type == "geometry_msgs/PoseWithCovarianceStamped")
+    pub = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("out", queue);
+  else
+    return false;
+  return true;
+}
+
+const char* kKnownTypes =
+    "networked_estimation/{Measurement, ControlInput, PlantState, Estimate}, sensor_msgs/{Range, Imu}, "
+    "geometry_msgs/{PointStamped, PoseStamped, PoseWithCovarianceStamped}";
+
 }  // namespace
 
 class LossyChannelNodelet : public nodelet::Nodelet
@@ -87,7 +127,12 @@ private:
     const std::string source = pnh.getNamespace() + " parameters";
     try
     {
-      settings_ = parseChannelSettings(privateParameters(pnh, {"diagnostic_period", "queue_size"}), source);
+      settings_ = parseChannelSettings(privateParameters(pnh, {"diagnostic_period", "queue_size", "type"}), source);
+      pnh.param("type", type_, std::string());
+      if (!type_.empty() && std::string(kKnownTypes).find(type_.substr(type_.find('/') + 1)) == std::string::npos)
+        throw ConfigError(source + ": type: expected one of " + std::string(kKnownTypes) +
+                          " (or no type: `out` is then advertised with the type of the first message), found '" +
+                          type_ + "'");
     }
     catch (const ConfigError& e)
     {
@@ -96,6 +141,17 @@ private:
     }
     pnh.param("queue_size", queue_size_, 1000);
     channel_ = std::make_unique<LossyChannel>(settings_);
+    if (!type_.empty())
+    {
+      if (!advertiseKnown(nh, type_, static_cast<uint32_t>(queue_size_), out_pub_))
+      {
+        NODELET_FATAL("LossyChannel not started: %s: type: expected one of %s, found '%s'", source.c_str(),
+                      kKnownTypes, type_.c_str());
+        return;
+      }
+      advertised_ = true;
+      has_header_ = true;  // every listed type starts with a Header
+    }
     t0_ = ros::Time::now();
     events_pub_ = pnh.advertise<ChannelEvent>("events", 1000);
     set_srv_ = pnh.advertiseService("set_parameters", &LossyChannelNodelet::setParameters, this);
@@ -124,6 +180,13 @@ private:
   {
     const topic_tools::ShapeShifter::ConstPtr& msg = event.getConstMessage();
     const double t = now();
+    if (!type_.empty() && msg->getDataType() != type_)
+    {
+      ++wrong_type_;
+      NODELET_WARN_THROTTLE(1.0, "LossyChannel: dropped a %s message: `out` carries %s (~type); %lu so far",
+                            msg->getDataType().c_str(), type_.c_str(), static_cast<unsigned long>(wrong_type_.load()));
+      return;
+    }
     std::unique_lock<std::mutex> lock(mutex_);
     if (!advertised_)
     {
@@ -241,6 +304,7 @@ private:
     stat.add("delay p50 (s)", channel_->delayQuantile(0.5));
     stat.add("delay p90 (s)", channel_->delayQuantile(0.9));
     stat.add("delay p99 (s)", channel_->delayQuantile(0.99));
+    stat.add("wrong type", wrong_type_.load());
     stat.add("settings", describe());
   }
 
@@ -253,6 +317,8 @@ private:
   ChannelSettings settings_;
   std::unique_ptr<LossyChannel> channel_;
   int queue_size_ = 1000;
+  std::string type_;
+  std::atomic<std::uint64_t> wrong_type_{0};
   ros::Time t0_;
   ros::Subscriber sub_;
   ros::Publisher out_pub_, events_pub_;

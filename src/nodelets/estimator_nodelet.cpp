@@ -1,0 +1,440 @@
+// Estimator nodelet: one estimator (kf, kfio, rseio, aoe, oe) on a measurement stream.
+//
+// The sample assembly is the core OnlineEstimator: exactly one filter step per sample k, with
+// gamma_k = 1 iff y_k is in hand at the deadline stamp_k + latency_budget. A step is taken as soon
+// as everything it can use has arrived (same result, lowest latency), otherwise at its deadline by
+// a thread that sleeps in ROS time. This file only translates messages and parameters.
+//
+// Inputs: `measurement` (one sensor) or `measurement/<sensor>` (one topic per sensor) of type
+// ~input_type (networked_estimation/Measurement, sensor_msgs/Range or geometry_msgs/PointStamped:
+// the step of a foreign message is the nearest k to its stamp), and `command` (ControlInput, the
+// commands before the actuator link) for models with control.
+// Outputs: `estimate` (Estimate), `covariance_trace` (std_msgs/Float64), `pose`
+// (PoseWithCovarianceStamped of ~position_indices), tf ~frame_id -> ~child_frame_id, diagnostics.
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <geometry_msgs/PointStamped.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <nodelet/nodelet.h>
+#include <pluginlib/class_list_macros.hpp>
+#include <ros/ros.h>
+#include <sensor_msgs/Range.h>
+#include <std_msgs/Float64.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <atomic>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
+#include "networked_estimation/ControlInput.h"
+#include "networked_estimation/Estimate.h"
+#include "networked_estimation/Measurement.h"
+#include "networked_estimation/error.hpp"
+#include "networked_estimation/online_estimator.hpp"
+#include "param_yaml.hpp"
+
+namespace networked_estimation
+{
+
+class EstimatorNodelet : public nodelet::Nodelet
+{
+public:
+  ~EstimatorNodelet() override
+  {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_all();
+    if (thread_.joinable())
+      thread_.join();
+  }
+
+private:
+  void onInit() override
+  {
+    ros::NodeHandle& nh = getNodeHandle();
+    ros::NodeHandle& pnh = getPrivateNodeHandle();
+    try
+    {
+      configure(pnh);
+    }
+    catch (const ConfigError& e)
+    {
+      NODELET_FATAL("Estimator not started: %s", e.what());
+      return;
+    }
+    estimate_pub_ = nh.advertise<Estimate>("estimate", 1000);
+    trace_pub_ = nh.advertise<std_msgs::Float64>("covariance_trace", 1000);
+    pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 100);
+    const Model& model = online_->model();
+    for (std::size_t i = 0; i < model.sensors.size(); ++i)
+    {
+      const std::string topic = model.sensors.size() == 1 ? "measurement" : "measurement/" + model.sensors[i].name;
+      const ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
+      if (input_type_ == "range")
+        subs_.push_back(nh.subscribe<sensor_msgs::Range>(
+            topic, queue_size_, [this, i](const sensor_msgs::Range::ConstPtr& m) {
+              const double y = m->range;
+              onForeign(i, m->header.stamp, &y, 1);
+            }, ros::VoidConstPtr(), hints));
+      else if (input_type_ == "point")
+        subs_.push_back(nh.subscribe<geometry_msgs::PointStamped>(
+            topic, queue_size_, [this, i](const geometry_msgs::PointStamped::ConstPtr& m) {
+              const double y[3] = {m->point.x, m->point.y, m->point.z};
+              onForeign(i, m->header.stamp, y, std::min<std::size_t>(3, online_->model().sensors[i].size));
+            }, ros::VoidConstPtr(), hints));
+      else
+        subs_.push_back(nh.subscribe<Measurement>(
+            topic, queue_size_, [this, i](const Measurement::ConstPtr& m) { onMeasurement(i, m); }, ros::VoidConstPtr(),
+            hints));
+    }
+    if (model.hasControl())
+      cmd_sub_ = nh.subscribe("command", queue_size_, &EstimatorNodelet::onCommand, this, hints());
+    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
+    diagnostics_->setHardwareID(toString(settings_.algorithm));
+    diagnostics_->add("estimator", this, &EstimatorNodelet::diagnose);
+    diag_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
+    thread_ = std::thread(&EstimatorNodelet::deadlineLoop, this);
+    NODELET_INFO("Estimator %s on '%s' (n = %d, %zu sensor(s), %s input): period %g s, latency_budget %g s, "
+                 "late_policy %s", toString(settings_.algorithm).c_str(), model.name.c_str(), model.n(),
+                 model.sensors.size(), input_type_.c_str(), clock_.period(), clock_.budget(),
+                 toString(online_->options().late_policy).c_str());
+  }
+
+  static ros::TransportHints hints() { return ros::TransportHints().tcpNoDelay(); }
+
+  void configure(ros::NodeHandle& pnh)
+  {
+    ParamReader p(privateParameters(pnh), pnh.getNamespace() + " parameters");
+    const std::string model_file = p.required("model");
+    const Model model = loadModel(model_file);
+    YAML::Node est(YAML::NodeType::Map);
+    for (const char* key : {"algorithm", "mu", "control_link", "max_components"})
+      if (p.has(key))
+        est[key] = p.take(key);
+    if (!est["algorithm"])
+      est["algorithm"] = "kfio";
+    settings_ = parseEstimatorSettings(est, p.source());
+    if (settings_.algorithm == Algorithm::ACK_KF)
+      throw ConfigError(p.source() + ": algorithm: ack_kf needs nu_k (whether each command arrived), which the "
+                        "graph does not carry; use it offline with replay");
+    const double period = p.number("period", model.period, 1e-6, 3600.0);
+    if (!(period > 0.0))
+      throw ConfigError(p.source() + ": period: the model '" + model_file + "' has no period and none was given");
+    const double budget = p.number("latency_budget", 0.5 * period, 0.0, 3600.0);
+    OnlineOptions o;
+    o.late_policy = latePolicyFromString(p.text("late_policy", "drop"), p.source());
+    o.history_length = static_cast<std::size_t>(p.integer("history_length", 100, 1, 100000));
+    o.max_future_steps = p.integer("max_future_steps", 1000, 1, 1000000);
+    o.max_past_steps = p.integer("max_past_steps", std::max<long>(1000, static_cast<long>(o.history_length)), 1, 1000000);
+    validateOnlineOptions(o, p.source());
+    input_type_ = p.choice("input_type", "measurement", {"measurement", "range", "point"});
+    if (input_type_ == "range")
+      for (const Sensor& s : model.sensors)
+        if (s.size != 1)
+          throw ConfigError(p.source() + ": input_type: range needs sensors of 1 row; sensor '" + s.name + "' has " +
+                            std::to_string(s.size));
+    if (input_type_ == "point")
+      for (const Sensor& s : model.sensors)
+        if (s.size > 3)
+          throw ConfigError(p.source() + ": input_type: point gives at most 3 values; sensor '" + s.name + "' has " +
+                            std::to_string(s.size));
+    frame_id_ = p.text("frame_id", "map");
+    child_frame_id_ = p.text("child_frame_id", toString(settings_.algorithm) + "_estimate");
+    positions_ = p.indices("position_indices", model.n() >= 2 ? std::vector<int>{0, 1} : std::vector<int>{0}, model.n());
+    publish_tf_ = p.flag("publish_tf", true);
+    trace_bound_ = p.number("trace_bound", std::numeric_limits<double>::infinity(), 0.0,
+                            std::numeric_limits<double>::infinity());
+    queue_size_ = static_cast<uint32_t>(p.integer("queue_size", 1000, 1, 1000000));
+    p.take("diagnostic_period");  // read by diagnostic_updater
+    p.rejectUnknown();
+    online_ = std::make_unique<OnlineEstimator>(model, settings_, o);
+    clock_ = StepClock(period, budget);
+  }
+
+  // --- inputs (subscriber threads) ---------------------------------------------------------------
+
+  void onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m)
+  {
+    const std::string& expected = online_->model().sensors[sensor].name;
+    if (!m->sensor.empty() && m->sensor != expected)
+    {
+      reject("sensor: expected '" + expected + "', found '" + m->sensor + "'");
+      return;
+    }
+    const double t = m->header.stamp.toSec();
+    if (m->step > static_cast<std::uint64_t>(std::numeric_limits<long>::max() / 2))
+    {
+      reject("step " + std::to_string(m->step) + " out of range");
+      return;
+    }
+    offer(sensor, static_cast<long>(m->step), t, m->y.data(), m->y.size(), true);
+  }
+
+  void onForeign(std::size_t sensor, const ros::Time& stamp, const double* y, std::size_t size)
+  {
+    offer(sensor, -1, stamp.toSec(), y, size, false);
+  }
+
+  /// k < 0: the step is the nearest one to the stamp (anchored on the first message as k = 1).
+  /// Estimates are published with the mutex held, so that they leave in step order whichever
+  /// thread takes the step (publish only queues the message; it never calls back into us).
+  void offer(std::size_t sensor, long k, double stamp, const double* y, std::size_t size, bool has_step)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!clock_.anchored())
+    {
+      if (has_step && k < 1)
+      {
+        rejectLocked("step: expected >= 1, found " + std::to_string(k));
+        return;
+      }
+      const long first = has_step ? k : 1;
+      clock_.anchor(first, stamp);
+      // A stream seen from its start is filtered from step 1 (the steps before the first message
+      // are losses); joining a running stream starts at the first step seen.
+      online_->start(first - 1 <= static_cast<long>(online_->options().history_length) ? 1 : first);
+      wake_.notify_one();
+    }
+    if (!has_step)
+      k = clock_.stepAt(stamp);
+    const OfferResult r = online_->offerMeasurement(k, sensor, y, size);
+    if (r.offer == Offer::REJECTED)
+      NODELET_WARN_THROTTLE(1.0, "Estimator %s: measurement rejected: %s (%lu rejected so far)",
+                            toString(settings_.algorithm).c_str(), r.reason.c_str(), rejectedLocked());
+    drainComplete();
+  }
+
+  void onCommand(const ControlInput::ConstPtr& c)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!online_->started())
+      return;  // the timeline starts with the measurements
+    if (c->step > static_cast<std::uint64_t>(std::numeric_limits<long>::max() / 2))
+    {
+      rejectLocked("command step " + std::to_string(c->step) + " out of range");
+      return;
+    }
+    const OfferResult r = online_->offerCommand(static_cast<long>(c->step), c->u.data(), c->u.size());
+    if (r.offer == Offer::REJECTED)
+      NODELET_WARN_THROTTLE(1.0, "Estimator %s: command rejected: %s (%lu rejected so far)",
+                            toString(settings_.algorithm).c_str(), r.reason.c_str(), rejectedLocked());
+    drainComplete();
+  }
+
+  void reject(const std::string& why)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    rejectLocked(why);
+  }
+
+  void rejectLocked(const std::string& why)
+  {
+    ++rejected_topic_;
+    NODELET_WARN_THROTTLE(1.0, "Estimator %s: message rejected: %s (%lu rejected so far)",
+                          toString(settings_.algorithm).c_str(), why.c_str(), rejectedLocked());
+  }
+
+  unsigned long rejectedLocked() const
+  {
+    return static_cast<unsigned long>(online_->counters().rejected + rejected_topic_);
+  }
+
+  // --- steps -------------------------------------------------------------------------------------
+
+  /// Takes every step whose inputs are complete (mutex held).
+  void drainComplete()
+  {
+    while (online_->nextComplete())
+      publishLocked(stepLocked());
+  }
+
+  /// One filter step (mutex held); returns its message.
+  Estimate::Ptr stepLocked()
+  {
+    const long k = online_->nextStep();
+    online_->process();
+    const Estimator& est = online_->estimator();
+    Estimate::Ptr e = boost::make_shared<Estimate>();
+    e->header.stamp.fromSec(clock_.stamp(k));
+    e->header.frame_id = frame_id_;
+    e->step = static_cast<std::uint64_t>(k);
+    e->algorithm = toString(settings_.algorithm);
+    e->gamma = online_->lastGamma();
+    const Eigen::VectorXd& x = est.state();
+    const Eigen::MatrixXd& P = est.covariance();
+    const int n = static_cast<int>(x.size());
+    e->state.assign(x.data(), x.data() + n);
+    e->covariance.resize(static_cast<std::size_t>(n) * n);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j)
+        e->covariance[static_cast<std::size_t>(i) * n + j] = P(i, j);  // row-major (REP-103)
+    e->covariance_trace = P.trace();
+    const double q = est.commandArrivalProbability();
+    e->command_arrival_probability = std::isfinite(q) ? q : -1.0;
+    last_trace_ = e->covariance_trace;
+    return e;
+  }
+
+  /// Publishes one step's outputs (mutex held).
+  void publishLocked(const Estimate::Ptr& e)
+  {
+    {
+      estimate_pub_.publish(e);
+      if (trace_pub_.getNumSubscribers() > 0)
+      {
+        std_msgs::Float64::Ptr t = boost::make_shared<std_msgs::Float64>();
+        t->data = e->covariance_trace;
+        trace_pub_.publish(t);
+      }
+      const bool want_pose = pose_pub_.getNumSubscribers() > 0;
+      const bool want_tf = publish_tf_ && (e->header.stamp - last_tf_).toSec() >= 0.02;  // tf at most 50 Hz
+      if (!want_pose && !want_tf)
+        return;
+      const int n = static_cast<int>(e->state.size());
+      double xyz[3] = {0.0, 0.0, 0.0};
+      for (std::size_t i = 0; i < positions_.size(); ++i)
+        xyz[i] = e->state[positions_[i]];
+      if (want_pose)
+      {
+        geometry_msgs::PoseWithCovarianceStamped::Ptr p = boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>();
+        p->header = e->header;
+        p->pose.pose.position.x = xyz[0];
+        p->pose.pose.position.y = xyz[1];
+        p->pose.pose.position.z = xyz[2];
+        p->pose.pose.orientation.w = 1.0;
+        // 6x6 row-major (x y z roll pitch yaw): the position block from P; axes that are not
+        // estimated get a large variance (1e6) rather than a false certainty.
+        for (int i = 0; i < 6; ++i)
+          p->pose.covariance[i * 6 + i] = 1e6;
+        for (std::size_t a = 0; a < positions_.size(); ++a)
+          for (std::size_t b = 0; b < positions_.size(); ++b)
+            p->pose.covariance[a * 6 + b] = e->covariance[static_cast<std::size_t>(positions_[a]) * n + positions_[b]];
+        pose_pub_.publish(p);
+      }
+      if (want_tf)
+      {
+        last_tf_ = e->header.stamp;
+        geometry_msgs::TransformStamped t;
+        t.header = e->header;
+        t.child_frame_id = child_frame_id_;
+        t.transform.translation.x = xyz[0];
+        t.transform.translation.y = xyz[1];
+        t.transform.translation.z = xyz[2];
+        t.transform.rotation.w = 1.0;
+        tf_.sendTransform(t);
+      }
+    }
+  }
+
+  /// Takes the steps whose deadline has passed (in ROS time) and resets on a backwards time jump.
+  void deadlineLoop()
+  {
+    std::unique_lock<std::mutex> lock(mutex_);
+    double last_now = -std::numeric_limits<double>::infinity();
+    while (!stop_)
+    {
+      if (!online_->started())
+      {
+        wake_.wait_for(lock, std::chrono::milliseconds(50));
+        continue;
+      }
+      const double now = ros::Time::now().toSec();
+      if (now < last_now - 0.5 * clock_.period() && now > 0.0)
+      {
+        // The clock went back (a bag looped, a simulator restarted): start over cleanly.
+        ++time_resets_;
+        NODELET_WARN("Estimator %s: time jumped back by %.3f s: estimator reset, waiting for the stream to restart",
+                     toString(settings_.algorithm).c_str(), last_now - now);
+        online_->reset();
+        clock_.clear();
+        last_now = -std::numeric_limits<double>::infinity();
+        continue;
+      }
+      last_now = now;
+      const double due = clock_.deadline(online_->nextStep());
+      if (now >= due)
+      {
+        // Catch up at most 1000 steps per lock hold so that the inputs are not starved.
+        for (int i = 0; i < 1000 && now >= clock_.deadline(online_->nextStep()); ++i)
+        {
+          publishLocked(stepLocked());
+          drainComplete();
+        }
+        lock.unlock();
+        std::this_thread::yield();
+        lock.lock();
+        continue;
+      }
+      // Wall-clock wait; under sim time the clock may run at another rate, so re-check often.
+      const double cap = ros::Time::isSimTime() ? 0.0005 : 0.05;
+      wake_.wait_for(lock, std::chrono::duration<double>(std::min(due - now, cap)));
+    }
+  }
+
+  // --- diagnostics -------------------------------------------------------------------------------
+
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const OnlineCounters& c = online_->counters();
+    const ros::WallTime now = ros::WallTime::now();
+    const double dt = last_diag_.isZero() ? 0.0 : (now - last_diag_).toSec();
+    const double rate = dt > 0.0 ? static_cast<double>(c.processed - last_processed_) / dt : 0.0;
+    last_diag_ = now;
+    last_processed_ = c.processed;
+    const double arrival = c.processed > 0 ? static_cast<double>(c.arrivals) / static_cast<double>(c.processed) : 0.0;
+    if (!online_->started())
+      stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "waiting for measurements");
+    else if (!(last_trace_ <= trace_bound_))
+      stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "covariance trace %.4g above trace_bound %.4g",
+                    last_trace_, trace_bound_);
+    else
+      stat.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "step %ld, arrival rate %.3f", online_->nextStep() - 1,
+                    arrival);
+    stat.add("algorithm", toString(settings_.algorithm));
+    stat.add("steps", c.processed);
+    stat.add("step rate (Hz)", rate);
+    stat.add("arrival rate", arrival);
+    stat.add("accepted", c.accepted);
+    stat.add("late dropped", c.late_dropped);
+    stat.add("late fused", c.late_fused);
+    stat.add("duplicates", c.duplicates);
+    stat.add("rejected", c.rejected + rejected_topic_);
+    stat.add("missing commands", c.missing_commands);
+    stat.add("divergence resets", c.divergence_resets);
+    stat.add("time resets", time_resets_);
+    stat.add("covariance trace", last_trace_);
+    stat.add("trace bound", trace_bound_);
+  }
+
+  EstimatorSettings settings_;
+  std::unique_ptr<OnlineEstimator> online_;
+  StepClock clock_{1.0, 0.0};
+  std::string input_type_, frame_id_, child_frame_id_;
+  std::vector<int> positions_;
+  bool publish_tf_ = true;
+  double trace_bound_ = std::numeric_limits<double>::infinity();
+  uint32_t queue_size_ = 1000;
+
+  std::vector<ros::Subscriber> subs_;
+  ros::Subscriber cmd_sub_;
+  ros::Publisher estimate_pub_, trace_pub_, pose_pub_;
+  tf2_ros::TransformBroadcaster tf_;
+  ros::Time last_tf_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::WallTimer diag_timer_;
+
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::thread thread_;
+  bool stop_ = false;
+  double last_trace_ = 0.0;
+  std::uint64_t rejected_topic_ = 0, time_resets_ = 0, last_processed_ = 0;
+  ros::WallTime last_diag_;
+};
+
+}  // namespace networked_estimation
+
+PLUGINLIB_EXPORT_CLASS(networked_estimation::EstimatorNodelet, nodelet::Nodelet)

@@ -1,0 +1,229 @@
+// PlantSimulator nodelet: runs the core PlantSimulator of a model file at the model's period and
+// publishes y_k per sensor (Measurement), the ground truth (PlantState and a tf2 frame). A command
+// is applied at step k only when ControlInput k has arrived on `command` (the output of the
+// actuator link) by then; otherwise the input is zero (aoe.md).
+//
+// Clock: a ros::Timer (wall time, or /clock under use_sim_time). With ~publish_clock the plant
+// drives /clock itself (sim time advancing one period per step, ~time_scale times real time).
+#include <nodelet/nodelet.h>
+#include <pluginlib/class_list_macros.hpp>
+#include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <map>
+#include <mutex>
+
+#include "networked_estimation/ControlInput.h"
+#include "networked_estimation/Measurement.h"
+#include "networked_estimation/PlantState.h"
+#include "networked_estimation/error.hpp"
+#include "networked_estimation/model.hpp"
+#include "networked_estimation/simulator.hpp"
+#include "param_yaml.hpp"
+
+namespace networked_estimation
+{
+
+class PlantSimulatorNodelet : public nodelet::Nodelet
+{
+private:
+  void onInit() override
+  {
+    ros::NodeHandle& nh = getNodeHandle();
+    ros::NodeHandle& pnh = getPrivateNodeHandle();
+    try
+    {
+      ParamReader p(privateParameters(pnh), pnh.getNamespace() + " parameters");
+      model_ = loadModel(p.required("model"));
+      seed_ = static_cast<std::uint64_t>(p.integer("seed", 0, 0, std::numeric_limits<long>::max()));
+      period_ = p.number("period", model_.period, 1e-6, 3600.0);
+      if (!(period_ > 0.0))
+        throw ConfigError(p.source() + ": period: the model has no period and none was given");
+      max_steps_ = p.integer("steps", 0, 0, std::numeric_limits<long>::max());
+      const double duration = p.number("duration", 0.0, 0.0, 1e9);
+      if (duration > 0.0)
+        max_steps_ = static_cast<long>(std::floor(duration / period_ + 1e-9));
+      frame_id_ = p.text("frame_id", "map");
+      child_frame_id_ = p.text("child_frame_id", "plant");
+      positions_ = p.indices("position_indices", defaultPositions(model_.n()), model_.n());
+      publish_tf_ = p.flag("publish_tf", true);
+      publish_clock_ = p.flag("publish_clock", false);
+      time_scale_ = p.number("time_scale", 1.0, 1e-3, 1e4);
+      start_delay_ = p.number("start_delay", 1.0, 0.0, 3600.0);
+      p.rejectUnknown();
+    }
+    catch (const ConfigError& e)
+    {
+      NODELET_FATAL("PlantSimulator not started: %s", e.what());
+      return;
+    }
+    sim_ = std::make_unique<PlantSimulator>(model_, seed_);
+    for (const Sensor& s : model_.sensors)
+      meas_pubs_.push_back(nh.advertise<Measurement>(sensorTopic(s.name), 1000));
+    state_pub_ = nh.advertise<PlantState>("plant_state", 1000);
+    if (model_.hasControl())
+      cmd_sub_ = nh.subscribe("command", 1000, &PlantSimulatorNodelet::onCommand, this,
+                              ros::TransportHints().tcpNoDelay());
+    if (publish_clock_)
+    {
+      clock_pub_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+      sim_now_ = ros::Time(1.0);  // sim time starts at 1 s (0 means "no clock yet" to roscpp)
+      wall_timer_ = nh.createWallTimer(ros::WallDuration(period_ / time_scale_),
+                                       [this](const ros::WallTimerEvent&) { clockTick(); }, false, false);
+      start_timer_ = nh.createWallTimer(ros::WallDuration(start_delay_ + 1e-3),
+                                        [this](const ros::WallTimerEvent&) { wall_timer_.start(); }, true);
+    }
+    else
+    {
+      // Give subscribers a moment to connect before step 0.
+      start_timer_ = nh.createWallTimer(ros::WallDuration(start_delay_ + 1e-3), [this](const ros::WallTimerEvent&) {
+        ros::NodeHandle& n = getNodeHandle();
+        ros_timer_ = n.createTimer(ros::Duration(period_), [this](const ros::TimerEvent& e) { tick(e.current_expected); });
+      }, true);
+    }
+    NODELET_INFO("PlantSimulator '%s': n = %d, %zu sensor(s), period %g s, %s, seed %llu%s", model_.name.c_str(),
+                 model_.n(), model_.sensors.size(), period_,
+                 max_steps_ > 0 ? ("stops after " + std::to_string(max_steps_) + " steps").c_str() : "runs until shut down",
+                 static_cast<unsigned long long>(seed_), model_.hasControl() ? ", control input on 'command'" : "");
+  }
+
+  static std::vector<int> defaultPositions(int n)
+  {
+    return n >= 2 ? std::vector<int>{0, 1} : std::vector<int>{0};
+  }
+
+  std::string sensorTopic(const std::string& name) const
+  {
+    return model_.sensors.size() == 1 ? "measurement" : "measurement/" + name;
+  }
+
+  void clockTick()
+  {
+    sim_now_ += ros::Duration(period_);
+    rosgraph_msgs::Clock c;
+    c.clock = sim_now_;
+    clock_pub_.publish(c);
+    tick(sim_now_);
+  }
+
+  void onCommand(const ControlInput::ConstPtr& msg)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (static_cast<long>(msg->step) <= k_)
+    {
+      ++late_commands_;
+      NODELET_WARN_THROTTLE(1.0, "PlantSimulator: command for step %lu arrived after the step was taken (zero input "
+                            "was applied); %lu such commands so far",
+                            static_cast<unsigned long>(msg->step), static_cast<unsigned long>(late_commands_));
+      return;
+    }
+    if (msg->u.size() != static_cast<std::size_t>(model_.p()))
+    {
+      NODELET_WARN_THROTTLE(1.0, "PlantSimulator: command for step %lu rejected: u: expected %d values, found %zu",
+                            static_cast<unsigned long>(msg->step), model_.p(), msg->u.size());
+      return;
+    }
+    if (commands_.size() < 10000)
+      commands_[static_cast<long>(msg->step)] = Eigen::Map<const Eigen::VectorXd>(msg->u.data(), model_.p());
+  }
+
+  void tick(const ros::Time& stamp)
+  {
+    if (max_steps_ > 0 && k_ >= max_steps_)
+    {
+      if (!finished_)
+      {
+        finished_ = true;
+        NODELET_INFO("PlantSimulator: finished after %ld steps (%lu commands applied, %lu lost or late)", k_,
+                     static_cast<unsigned long>(applied_), static_cast<unsigned long>(k_ - applied_));
+      }
+      return;
+    }
+    if (!started_)
+    {
+      started_ = true;
+      publishState(stamp, 0, sim_->state(), false);  // x_0
+      return;
+    }
+    Eigen::VectorXd u;
+    bool have_u = false;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      const long k = k_ + 1;
+      auto it = commands_.find(k);
+      if (it != commands_.end())
+      {
+        u = it->second;
+        have_u = true;
+      }
+      commands_.erase(commands_.begin(), commands_.upper_bound(k));
+      k_ = k;
+    }
+    const SimulatedSample& s = sim_->stepApplied(have_u ? &u : nullptr);
+    if (s.nu && model_.hasControl())
+      ++applied_;
+    for (std::size_t i = 0; i < model_.sensors.size(); ++i)
+    {
+      const Sensor& sn = model_.sensors[i];
+      Measurement::Ptr m = boost::make_shared<Measurement>();
+      m->header.stamp = stamp;
+      m->header.frame_id = sn.name;
+      m->step = static_cast<std::uint64_t>(s.k);
+      m->sensor = sn.name;
+      m->y.assign(s.y.data() + sn.offset, s.y.data() + sn.offset + sn.size);
+      meas_pubs_[i].publish(m);
+    }
+    publishState(stamp, s.k, s.x, s.nu && model_.hasControl());
+  }
+
+  void publishState(const ros::Time& stamp, long k, const Eigen::VectorXd& x, bool applied)
+  {
+    PlantState::Ptr st = boost::make_shared<PlantState>();
+    st->header.stamp = stamp;
+    st->header.frame_id = frame_id_;
+    st->step = static_cast<std::uint64_t>(k);
+    st->x.assign(x.data(), x.data() + x.size());
+    st->command_applied = applied;
+    state_pub_.publish(st);
+    if (publish_tf_ && (stamp - last_tf_).toSec() >= 0.02)  // at most 50 Hz: tf is for viewing
+    {
+      last_tf_ = stamp;
+      geometry_msgs::TransformStamped t;
+      t.header.stamp = stamp;
+      t.header.frame_id = frame_id_;
+      t.child_frame_id = child_frame_id_;
+      double* xyz[3] = {&t.transform.translation.x, &t.transform.translation.y, &t.transform.translation.z};
+      for (std::size_t i = 0; i < positions_.size(); ++i)
+        *xyz[i] = x(positions_[i]);
+      t.transform.rotation.w = 1.0;
+      tf_.sendTransform(t);
+    }
+  }
+
+  Model model_;
+  std::uint64_t seed_ = 0;
+  double period_ = 0.0;
+  long max_steps_ = 0;
+  std::string frame_id_, child_frame_id_;
+  std::vector<int> positions_;
+  bool publish_tf_ = true, publish_clock_ = false;
+  double time_scale_ = 1.0, start_delay_ = 0.5;
+  std::unique_ptr<PlantSimulator> sim_;
+  std::vector<ros::Publisher> meas_pubs_;
+  ros::Publisher state_pub_, clock_pub_;
+  ros::Subscriber cmd_sub_;
+  ros::Timer ros_timer_;
+  ros::WallTimer wall_timer_, start_timer_;
+  tf2_ros::TransformBroadcaster tf_;
+  ros::Time sim_now_, last_tf_;
+  std::mutex mutex_;
+  std::map<long, Eigen::VectorXd> commands_;
+  long k_ = 0;
+  bool started_ = false, finished_ = false;
+  std::uint64_t applied_ = 0, late_commands_ = 0;
+};
+
+}  // namespace networked_estimation
+
+PLUGINLIB_EXPORT_CLASS(networked_estimation::PlantSimulatorNodelet, nodelet::Nodelet)
