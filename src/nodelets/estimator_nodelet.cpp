@@ -94,7 +94,8 @@ private:
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
     diagnostics_->setHardwareID(toString(settings_.algorithm));
     diagnostics_->add("estimator", this, &EstimatorNodelet::diagnose);
-    diag_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
+    // force_update: the updater's own period check uses ROS time, which stalls or jumps under sim time.
+    diag_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
     thread_ = std::thread(&EstimatorNodelet::deadlineLoop, this);
     NODELET_INFO("Estimator %s on '%s' (n = %d, %zu sensor(s), %s input): period %g s, latency_budget %g s, "
                  "late_policy %s", toString(settings_.algorithm).c_str(), model.name.c_str(), model.n(),
@@ -199,6 +200,9 @@ private:
     }
     if (!has_step)
       k = clock_.stepAt(stamp);
+    // Steps whose deadline has passed are taken first (the deadline thread may not have woken
+    // yet): what arrives after a deadline is late, exactly, whichever thread notices first.
+    catchUp(ros::Time::now().toSec());
     const OfferResult r = online_->offerMeasurement(k, sensor, y, size);
     if (r.offer == Offer::REJECTED)
       NODELET_WARN_THROTTLE(1.0, "Estimator %s: measurement rejected: %s (%lu rejected so far)",
@@ -216,6 +220,7 @@ private:
       rejectLocked("command step " + std::to_string(c->step) + " out of range");
       return;
     }
+    catchUp(ros::Time::now().toSec());
     const OfferResult r = online_->offerCommand(static_cast<long>(c->step), c->u.data(), c->u.size());
     if (r.offer == Offer::REJECTED)
       NODELET_WARN_THROTTLE(1.0, "Estimator %s: command rejected: %s (%lu rejected so far)",
@@ -242,6 +247,16 @@ private:
   }
 
   // --- steps -------------------------------------------------------------------------------------
+
+  /// Takes the steps whose deadline is at or before `now` (mutex held), at most `limit`.
+  void catchUp(double now, int limit = 1000)
+  {
+    for (int i = 0; i < limit && online_->started() && now >= clock_.deadline(online_->nextStep()); ++i)
+    {
+      publishLocked(stepLocked());
+      drainComplete();
+    }
+  }
 
   /// Takes every step whose inputs are complete (mutex held).
   void drainComplete()
@@ -356,12 +371,7 @@ private:
       const double due = clock_.deadline(online_->nextStep());
       if (now >= due)
       {
-        // Catch up at most 1000 steps per lock hold so that the inputs are not starved.
-        for (int i = 0; i < 1000 && now >= clock_.deadline(online_->nextStep()); ++i)
-        {
-          publishLocked(stepLocked());
-          drainComplete();
-        }
+        catchUp(now);  // at most 1000 steps per lock hold, so that the inputs are not starved
         lock.unlock();
         std::this_thread::yield();
         lock.lock();

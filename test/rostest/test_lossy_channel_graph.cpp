@@ -14,55 +14,13 @@
 #include "networked_estimation/ChannelEvent.h"
 #include "networked_estimation/Measurement.h"
 #include "networked_estimation/SetParameters.h"
+#include "graph_test_support.hpp"
 
 using networked_estimation::ChannelEvent;
 using networked_estimation::Measurement;
 
 namespace
 {
-
-/// Collects messages of one topic.
-template <class M>
-struct Collector
-{
-  std::mutex mutex;
-  std::vector<M> msgs;
-  std::vector<ros::Time> received_at;
-  ros::Subscriber sub;
-  Collector(ros::NodeHandle& nh, const std::string& topic)
-  {
-    sub = nh.subscribe<M>(topic, 100000, [this](const boost::shared_ptr<const M>& m) {
-      std::lock_guard<std::mutex> lock(mutex);
-      msgs.push_back(*m);
-      received_at.push_back(ros::Time::now());
-    });
-  }
-  std::size_t size()
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    return msgs.size();
-  }
-  void clear()
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    msgs.clear();
-    received_at.clear();
-  }
-};
-
-/// Waits (spinning in the background) until pred() or the timeout.
-template <class P>
-bool waitFor(P pred, double timeout)
-{
-  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
-  while (ros::WallTime::now() < end)
-  {
-    if (pred())
-      return true;
-    ros::WallDuration(0.005).sleep();
-  }
-  return pred();
-}
 
 /// Connects the test to the channels before a measured run. A channel advertises `out` only when
 /// its first message arrives (it needs the message type), so one warm-up message goes first; the
@@ -82,33 +40,6 @@ bool warmUp(ros::Publisher& pub, const M& first, Out* out, Events&... events)
   (events.clear(), ...);
   return true;
 }
-
-/// Value of key in the latest diagnostics status whose name contains `name`.
-struct DiagnosticsProbe
-{
-  std::mutex mutex;
-  std::map<std::string, std::string> values;
-  ros::Subscriber sub;
-  explicit DiagnosticsProbe(ros::NodeHandle& nh, const std::string& name)
-  {
-    sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
-        "/diagnostics", 100, [this, name](const diagnostic_msgs::DiagnosticArray::ConstPtr& a) {
-          for (const auto& s : a->status)
-            if (s.name.find(name) != std::string::npos)
-            {
-              std::lock_guard<std::mutex> lock(mutex);
-              for (const auto& kv : s.values)
-                values[kv.key] = kv.value;
-            }
-        });
-  }
-  double get(const std::string& key)
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    auto it = values.find(key);
-    return it == values.end() ? std::nan("") : std::stod(it->second);
-  }
-};
 
 }  // namespace
 

@@ -1,0 +1,86 @@
+// Helpers shared by the graph tests (rostest): message collectors, waiting, diagnostics values.
+#pragma once
+
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <ros/ros.h>
+
+#include <cmath>
+#include <map>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace
+{
+
+/// Collects messages of one topic.
+template <class M>
+struct Collector
+{
+  std::mutex mutex;
+  std::vector<M> msgs;
+  std::vector<ros::Time> received_at;
+  ros::Subscriber sub;
+  Collector(ros::NodeHandle& nh, const std::string& topic)
+  {
+    sub = nh.subscribe<M>(topic, 100000, [this](const boost::shared_ptr<const M>& m) {
+      std::lock_guard<std::mutex> lock(mutex);
+      msgs.push_back(*m);
+      received_at.push_back(ros::Time::now());
+    });
+  }
+  std::size_t size()
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    return msgs.size();
+  }
+  void clear()
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    msgs.clear();
+    received_at.clear();
+  }
+};
+
+/// Waits (spinning in the background) until pred() or the timeout.
+template <class P>
+bool waitFor(P pred, double timeout)
+{
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
+  while (ros::WallTime::now() < end)
+  {
+    if (pred())
+      return true;
+    ros::WallDuration(0.005).sleep();
+  }
+  return pred();
+}
+
+/// Value of key in the latest diagnostics status whose name contains `name`.
+struct DiagnosticsProbe
+{
+  std::mutex mutex;
+  std::map<std::string, std::string> values;
+  ros::Subscriber sub;
+  explicit DiagnosticsProbe(ros::NodeHandle& nh, const std::string& name)
+  {
+    sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
+        "/diagnostics", 100, [this, name](const diagnostic_msgs::DiagnosticArray::ConstPtr& a) {
+          for (const auto& s : a->status)
+            if (s.name.find(name) != std::string::npos)
+            {
+              std::lock_guard<std::mutex> lock(mutex);
+              for (const auto& kv : s.values)
+                values[kv.key] = kv.value;
+            }
+        });
+  }
+  double get(const std::string& key)
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    auto it = values.find(key);
+    return it == values.end() ? std::nan("") : std::stod(it->second);
+  }
+};
+
+}  // namespace

@@ -1,0 +1,385 @@
+// rostest: the Estimator nodelet on a real graph (PlantSimulator -> LossyChannel -> Estimator in
+// one nodelet manager, or the test publishing to the estimator directly). Each .test file runs one
+// scenario of this binary (selected with --gtest_filter). Private parameters of the test node:
+// model (file), settings (kfio settings file), steps (plant steps).
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <vector>
+
+#include "graph_test_support.hpp"
+#include "networked_estimation/ChannelEvent.h"
+#include "networked_estimation/Estimate.h"
+#include "networked_estimation/Measurement.h"
+#include "networked_estimation/PlantState.h"
+#include "networked_estimation/estimator.hpp"
+#include "networked_estimation/model.hpp"
+#include "networked_estimation/settings.hpp"
+
+namespace ne = networked_estimation;
+using ne::ChannelEvent;
+using ne::Estimate;
+using ne::Measurement;
+using ne::PlantState;
+
+namespace
+{
+
+struct Params
+{
+  std::string model, settings;
+  int steps = 0;
+};
+
+Params params()
+{
+  ros::NodeHandle pnh("~");
+  Params p;
+  pnh.getParam("model", p.model);
+  pnh.getParam("settings", p.settings);
+  pnh.getParam("steps", p.steps);
+  return p;
+}
+
+/// Estimates of one estimator by step; fails the test on a repeated step.
+std::map<long, Estimate> byStep(Collector<Estimate>& c)
+{
+  std::lock_guard<std::mutex> lock(c.mutex);
+  std::map<long, Estimate> out;
+  for (const Estimate& e : c.msgs)
+    EXPECT_TRUE(out.emplace(static_cast<long>(e.step), e).second) << "step " << e.step << " published twice";
+  return out;
+}
+
+/// The offline estimator stepped on y_k (NaN when not received), as in the replay tool.
+std::vector<Estimate> offline(const ne::Model& model, const ne::EstimatorSettings& st,
+                              const std::vector<std::vector<double>>& y, const std::vector<bool>& gamma)
+{
+  auto est = ne::makeEstimator(model, st);
+  std::vector<Estimate> out;
+  ne::Sample s;
+  for (std::size_t k = 0; k < y.size(); ++k)
+  {
+    s.gamma = gamma[k];
+    s.y = Eigen::Map<const Eigen::VectorXd>(y[k].data(), static_cast<Eigen::Index>(y[k].size()));
+    if (!gamma[k])
+      s.y.setConstant(std::numeric_limits<double>::quiet_NaN());
+    est->step(s);
+    Estimate e;
+    e.step = k + 1;
+    e.state.assign(est->state().data(), est->state().data() + est->state().size());
+    const Eigen::MatrixXd& P = est->covariance();
+    for (int i = 0; i < P.rows(); ++i)
+      for (int j = 0; j < P.cols(); ++j)
+        e.covariance.push_back(P(i, j));
+    e.covariance_trace = P.trace();
+    out.push_back(e);
+  }
+  return out;
+}
+
+double maxDiff(const std::vector<double>& a, const std::vector<double>& b)
+{
+  if (a.size() != b.size())
+    return std::numeric_limits<double>::infinity();
+  double d = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    d = std::max(d, std::abs(a[i] - b[i]) / std::max(1.0, std::abs(b[i])));
+  return d;
+}
+
+/// Runs the offline `replay` tool on (k, gamma, y) and returns its rows (k, gamma, x..., P..., trace).
+std::vector<std::vector<double>> runReplay(const Params& p, const std::vector<std::vector<double>>& y,
+                                           const std::vector<bool>& gamma, const std::string& tag)
+{
+  char dir_template[] = "/tmp/ne_graph_replay_XXXXXX";
+  const std::string dir = mkdtemp(dir_template);
+  const std::string in = dir + "/" + tag + "_in.csv", out = dir + "/" + tag + "_out.csv";
+  {
+    std::ofstream f(in);
+    f << "k,gamma,y1\n";
+    char buf[64];
+    for (std::size_t k = 0; k < y.size(); ++k)
+    {
+      std::snprintf(buf, sizeof buf, "%.17g", y[k][0]);
+      f << k + 1 << "," << (gamma[k] ? 1 : 0) << "," << (gamma[k] ? buf : "") << "\n";
+    }
+  }
+  const std::string cmd = "rosrun networked_estimation replay --model '" + p.model + "' --settings '" + p.settings +
+                          "' --input '" + in + "' --output '" + out + "' 2>/dev/null";
+  EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  std::vector<std::vector<double>> rows;
+  std::ifstream f(out);
+  std::string line;
+  std::getline(f, line);  // header
+  while (std::getline(f, line))
+  {
+    std::vector<double> row;
+    std::stringstream ss(line);
+    std::string cell;
+    while (std::getline(ss, cell, ','))
+      row.push_back(std::stod(cell));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+}  // namespace
+
+// Plant -> lossy channel (Bernoulli 0.2) -> kfio, and plant -> kfio_direct (no loss).
+TEST(EstimatorGraph, EveryStepGammaReplayEqualityAndConsistency)
+{
+  const Params p = params();
+  ros::NodeHandle nh;
+  Collector<Measurement> raw(nh, "plant/measurement");
+  Collector<PlantState> truth(nh, "plant/state");
+  Collector<ChannelEvent> events(nh, "sensor_link/events");
+  Collector<Estimate> lossy(nh, "kfio/estimate"), direct(nh, "kfio_direct/estimate");
+  const long N = p.steps;
+  ASSERT_TRUE(waitFor([&] { return lossy.size() >= static_cast<std::size_t>(N) && direct.size() >= static_cast<std::size_t>(N) &&
+                               events.size() >= static_cast<std::size_t>(N) && truth.size() > static_cast<std::size_t>(N); },
+                      120.0))
+      << "estimates " << lossy.size() << " / " << direct.size() << ", events " << events.size();
+  ros::WallDuration(0.2).sleep();
+
+  // The plant's y_k and stamps (the test subscribed before the plant's start delay ran out).
+  std::vector<std::vector<double>> y(N);
+  std::map<ros::Time, long> step_of_stamp;
+  {
+    std::lock_guard<std::mutex> lock(raw.mutex);
+    ASSERT_GE(raw.msgs.size(), static_cast<std::size_t>(N));
+    for (const Measurement& m : raw.msgs)
+      if (m.step >= 1 && static_cast<long>(m.step) <= N)
+      {
+        y[m.step - 1] = m.y;
+        step_of_stamp[m.header.stamp] = static_cast<long>(m.step);
+      }
+  }
+  for (long k = 1; k <= N; ++k)
+    ASSERT_FALSE(y[k - 1].empty()) << "the test missed y_" << k;
+
+  // gamma_k from the channel's ground truth.
+  std::vector<bool> delivered(N, false);
+  {
+    std::lock_guard<std::mutex> lock(events.mutex);
+    for (const ChannelEvent& e : events.msgs)
+    {
+      auto it = step_of_stamp.find(e.input_stamp);
+      ASSERT_NE(it, step_of_stamp.end()) << "event for an unknown stamp";
+      if (it->second <= N)
+        delivered[it->second - 1] = e.outcome == ChannelEvent::DELIVERED;
+    }
+  }
+
+  const std::map<long, Estimate> L = byStep(lossy), D = byStep(direct);
+  // One estimate per step, steps 1..N, stamped at the plant's rate.
+  const double period = 0.02;
+  for (long k = 1; k <= N; ++k)
+  {
+    ASSERT_TRUE(L.count(k) && D.count(k)) << "no estimate for step " << k;
+    EXPECT_NEAR((L.at(k).header.stamp - L.at(1).header.stamp).toSec(), (k - 1) * period, 1e-6);
+    ASSERT_EQ(L.at(k).gamma, delivered[k - 1]) << "gamma of step " << k << " differs from the channel's event";
+    ASSERT_TRUE(D.at(k).gamma) << "no-loss estimator missed step " << k;
+  }
+  long lost = 0;
+  for (bool d : delivered)
+    lost += d ? 0 : 1;
+  // Bernoulli(0.2) over N = 500: 100 +- 9 lost; 4 sd either way.
+  EXPECT_GT(lost, 100 - 36);
+  EXPECT_LT(lost, 100 + 36);
+
+  // Offline replay (the tool) on the same inputs: bit-for-bit or 1e-12.
+  for (int pass = 0; pass < 2; ++pass)
+  {
+    const std::vector<bool> gamma = pass == 0 ? std::vector<bool>(N, true) : delivered;
+    const std::map<long, Estimate>& online = pass == 0 ? D : L;
+    const auto rows = runReplay(p, y, gamma, pass == 0 ? "direct" : "lossy");
+    ASSERT_EQ(rows.size(), static_cast<std::size_t>(N));
+    double worst = 0.0;
+    for (long k = 1; k <= N; ++k)
+    {
+      const std::vector<double>& r = rows[k - 1];
+      const Estimate& e = online.at(k);
+      const std::vector<double> x(r.begin() + 2, r.begin() + 4), P(r.begin() + 4, r.begin() + 8);
+      worst = std::max({worst, maxDiff(e.state, x), maxDiff(e.covariance, P)});
+    }
+    EXPECT_LE(worst, 1e-12) << (pass == 0 ? "no loss" : "with loss") << ": online vs replay";
+  }
+
+  // Consistency: sum over k of (|e_k|^2 - tr P_k) against its standard deviation. For a Gaussian
+  // error with covariance P, var |e|^2 = 2 tr(P^2); errors of this plant decorrelate fast (eigenvalues
+  // 0.5, 0.3; lag-1 correlation of |e|^2 at most ~0.25 even across losses), so the variance of the
+  // sum is inflated by at most (1 + 0.25) / (1 - 0.25) < 2: we use 2 and accept |z| < 4.
+  std::map<long, std::vector<double>> X;
+  {
+    std::lock_guard<std::mutex> lock(truth.mutex);
+    for (const PlantState& s : truth.msgs)
+      X[static_cast<long>(s.step)] = s.x;
+  }
+  double sum = 0.0, var = 0.0, e2sum = 0.0, trsum = 0.0;
+  for (long k = 20; k <= N; ++k)
+  {
+    const Estimate& e = L.at(k);
+    ASSERT_TRUE(X.count(k));
+    double e2 = 0.0;
+    for (int i = 0; i < 2; ++i)
+      e2 += (X[k][i] - e.state[i]) * (X[k][i] - e.state[i]);
+    double trP2 = 0.0;
+    for (int i = 0; i < 2; ++i)
+      for (int j = 0; j < 2; ++j)
+        trP2 += e.covariance[i * 2 + j] * e.covariance[j * 2 + i];
+    sum += e2 - e.covariance_trace;
+    var += 2.0 * trP2;
+    e2sum += e2;
+    trsum += e.covariance_trace;
+  }
+  const double z = sum / std::sqrt(2.0 * var);
+  EXPECT_LT(std::abs(z), 4.0) << "time-averaged |e|^2 " << e2sum / (N - 19) << " vs mean tr(P) " << trsum / (N - 19);
+}
+
+// Plant -> channel delaying every message past its deadline (but before the next one) -> two
+// kfio estimators, late_policy drop and rewind.
+TEST(EstimatorGraph, LatePoliciesUnderADelayingChannel)
+{
+  const Params p = params();
+  ros::NodeHandle nh;
+  Collector<Measurement> raw(nh, "plant/measurement");
+  Collector<Estimate> drop(nh, "kfio_drop/estimate"), rewind(nh, "kfio_rewind/estimate");
+  DiagnosticsProbe diag_drop(nh, "kfio_drop"), diag_rewind(nh, "kfio_rewind");
+  const long N = p.steps;
+  ASSERT_TRUE(waitFor([&] { return drop.size() >= static_cast<std::size_t>(N) && rewind.size() >= static_cast<std::size_t>(N); },
+                      120.0));
+  std::vector<std::vector<double>> y(N);
+  {
+    std::lock_guard<std::mutex> lock(raw.mutex);
+    for (const Measurement& m : raw.msgs)
+      if (m.step >= 1 && static_cast<long>(m.step) <= N)
+        y[m.step - 1] = m.y;
+  }
+  for (long k = 1; k <= N; ++k)
+    ASSERT_FALSE(y[k - 1].empty());
+  const ne::Model model = ne::loadModel(p.model);
+  const ne::EstimatorSettings st = ne::loadEstimatorSettings(p.settings);
+  const std::map<long, Estimate> Dr = byStep(drop), Rw = byStep(rewind);
+
+  // drop: nothing arrives by its deadline, so every step is a prediction.
+  const auto pred = offline(model, st, y, std::vector<bool>(N, false));
+  for (long k = 1; k <= N; ++k)
+  {
+    ASSERT_TRUE(Dr.count(k));
+    EXPECT_FALSE(Dr.at(k).gamma);
+    ASSERT_LE(maxDiff(Dr.at(k).state, pred[k - 1].state), 1e-12) << "drop, step " << k;
+  }
+  // rewind: y_k arrives after step k's deadline and is fused before step k+1: the estimate of step k
+  // is the filter on y_1..y_{k-1} followed by a prediction.
+  for (long k = 2; k <= N; k += 7)
+  {
+    std::vector<bool> g(k, true);
+    g[k - 1] = false;
+    const auto ref = offline(model, st, std::vector<std::vector<double>>(y.begin(), y.begin() + k), g);
+    ASSERT_TRUE(Rw.count(k));
+    EXPECT_FALSE(Rw.at(k).gamma);
+    ASSERT_LE(maxDiff(Rw.at(k).state, ref.back().state), 1e-12) << "rewind, step " << k;
+    ASSERT_LE(maxDiff(Rw.at(k).covariance, ref.back().covariance), 1e-12) << "rewind, step " << k;
+  }
+  ASSERT_TRUE(waitFor([&] { return diag_drop.get("late dropped") >= N - 1 && diag_rewind.get("late fused") >= N - 1; }, 5.0))
+      << "late dropped " << diag_drop.get("late dropped") << ", late fused " << diag_rewind.get("late fused");
+  EXPECT_EQ(diag_rewind.get("late dropped"), 0.0);
+}
+
+// The test drives /clock and publishes straight to the estimator: bad messages among good ones,
+// then the clock jumps back (a bag looping) and the same stream is sent again.
+TEST(EstimatorGraph, BadInputIsRejectedAndATimeJumpResets)
+{
+  const Params p = params();
+  ros::NodeHandle nh;
+  ros::Publisher clock = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  ros::Publisher meas = nh.advertise<Measurement>("measurement", 100);
+  Collector<Estimate> est(nh, "kfio/estimate");
+  DiagnosticsProbe diag(nh, "kfio");
+  ASSERT_TRUE(waitFor([&] { return meas.getNumSubscribers() > 0 && est.sub.getNumPublishers() > 0; }, 20.0));
+  const double T = 0.02, t0 = 100.0;
+  auto setClock = [&](double t) {
+    rosgraph_msgs::Clock c;
+    c.clock.fromSec(t);
+    clock.publish(c);
+  };
+  auto good = [&](long k, double y) {
+    Measurement m;
+    m.header.stamp.fromSec(t0 + k * T);
+    m.step = k;
+    m.sensor = "y";
+    m.y = {y};
+    return m;
+  };
+  const long N = 60;
+  std::vector<Estimate> first_run;
+  for (int run = 0; run < 2; ++run)
+  {
+    est.clear();
+    for (long k = 1; k <= N; ++k)
+    {
+      setClock(t0 + k * T);
+      Measurement bad = good(k, 0.0);
+      bool send_bad = true;
+      switch (k % 10)
+      {
+        case 2: bad.y = {1.0, 2.0}; break;                          // wrong dimension
+        case 4: bad.y = {std::numeric_limits<double>::quiet_NaN()}; break;  // NaN
+        case 6: bad.step = k + 100000; break;                       // far future
+        case 8: bad.sensor = "other"; break;                        // wrong sensor name
+        default: send_bad = false;
+      }
+      if (send_bad)
+        meas.publish(bad);
+      meas.publish(good(k, std::sin(0.3 * k)));
+      if (k % 10 == 5)
+        meas.publish(good(k, 1e6));  // duplicate: ignored
+      ASSERT_TRUE(waitFor([&] { return est.size() >= static_cast<std::size_t>(k); }, 5.0)) << "run " << run << " step " << k;
+    }
+    std::lock_guard<std::mutex> lock(est.mutex);
+    for (long k = 1; k <= N; ++k)
+    {
+      const Estimate& e = est.msgs[k - 1];
+      ASSERT_EQ(static_cast<long>(e.step), k);
+      EXPECT_TRUE(e.gamma);
+      for (double v : e.state)
+        ASSERT_TRUE(std::isfinite(v));
+      if (run == 1)  // after the reset, the same stream gives the same estimates
+      {
+        ASSERT_EQ(e.state, first_run[k - 1].state) << "step " << k;
+      }
+    }
+    if (run == 0)
+    {
+      first_run = est.msgs;
+      // The clock jumps back: the estimator must reset and accept the stream from step 1 again.
+      setClock(t0 - 5.0);
+      ASSERT_TRUE(waitFor([&] { return diag.get("time resets") >= 1.0; }, 10.0)) << "no reset after the jump";
+    }
+  }
+  // 4 bad kinds x 6 per run x 2 runs; 6 duplicates per run.
+  ASSERT_TRUE(waitFor([&] { return diag.get("rejected") >= 48.0 && diag.get("duplicates") >= 12.0; }, 5.0));
+  EXPECT_EQ(diag.get("rejected"), 48.0);
+  EXPECT_EQ(diag.get("duplicates"), 12.0);
+  EXPECT_EQ(diag.get("time resets"), 1.0);
+}
+
+int main(int argc, char** argv)
+{
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "estimator_graph_test");
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  const int r = RUN_ALL_TESTS();
+  spinner.stop();
+  return r;
+}
