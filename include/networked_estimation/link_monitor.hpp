@@ -1,0 +1,95 @@
+// Live link diagnostics: windowed arrival and recovery rates with confidence intervals, and their
+// classification against the stability thresholds of stability.hpp. O(1) per sample.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace networked_estimation
+{
+
+struct StabilityReport;
+
+/// A proportion estimated from `trials` Bernoulli trials with a 95 % confidence interval.
+struct RateEstimate
+{
+  double value = 0.0;  ///< successes / trials (NaN without trials)
+  double lower = 0.0;  ///< 95 % Wilson score interval
+  double upper = 1.0;
+  std::size_t successes = 0, trials = 0;
+};
+
+/// 95 % Wilson score interval for `successes` out of `trials` (z = 1.959964); [0, 1] and value NaN
+/// without trials.
+RateEstimate wilsonInterval(std::size_t successes, std::size_t trials, double z = 1.959963984540054);
+
+/// Sliding window over the last `window` arrival indicators.
+class LinkMonitor
+{
+public:
+  /// window >= 2 (throws std::invalid_argument otherwise).
+  explicit LinkMonitor(std::size_t window);
+
+  /// Records whether sample k arrived. O(1).
+  void add(bool arrived);
+  /// Forgets everything.
+  void clear();
+
+  /// Samples in the window (<= window).
+  std::size_t samples() const { return count_; }
+  std::size_t arrivals() const { return arrivals_; }
+  /// Transitions (k-1, k) with both samples in the window and sample k-1 lost.
+  std::size_t lossTransitions() const { return lost_prev_; }
+  std::size_t recoveries() const { return recovered_; }
+  /// Samples seen since construction / clear().
+  std::uint64_t total() const { return total_; }
+
+  /// P(arrived), Wilson interval over the window.
+  RateEstimate arrivalRate() const;
+  /// P(arrived at k | lost at k-1), Wilson interval over the transitions in the window.
+  RateEstimate recoveryRate() const;
+
+private:
+  std::vector<std::uint8_t> ring_;
+  std::size_t head_ = 0;  ///< index of the oldest sample
+  std::size_t count_ = 0, arrivals_ = 0, lost_prev_ = 0, recovered_ = 0;
+  std::uint64_t total_ = 0;
+};
+
+/// Thresholds on one link quantity (arrival rate for i.i.d. links, recovery rate for Markov links).
+struct LinkThresholds
+{
+  std::string quantity = "arrival rate";
+  double necessary = 0.0;   ///< below it the expected error covariance is unbounded
+  double sufficient = 0.0;  ///< above it it is bounded; (necessary, sufficient) is the undecided band
+  std::size_t min_samples = 100;
+};
+
+/// Thresholds of the whole model from a report: arrival-rate thresholds for i.i.d. channels (and
+/// without channel), recovery-rate thresholds for on/off Gilbert-Elliott channels. NaN thresholds
+/// (unknown) are replaced conservatively: necessary by the lower bound, sufficient by 1.
+LinkThresholds linkThresholds(const StabilityReport& report, std::size_t min_samples = 100);
+
+struct LinkStatus
+{
+  enum class Level
+  {
+    OK,
+    WARN,
+    ERROR
+  };
+  Level level = Level::WARN;
+  std::string message;
+};
+
+/// "OK", "WARN", "ERROR".
+std::string toString(LinkStatus::Level level);
+
+/// OK when the whole interval is above the sufficient threshold; ERROR when it is below the
+/// necessary threshold; WARN otherwise (inside the undecided band or straddling a threshold) and
+/// when there are fewer than min_samples trials.
+LinkStatus classifyLink(const RateEstimate& estimate, const LinkThresholds& thresholds);
+
+}  // namespace networked_estimation
