@@ -30,7 +30,9 @@
 #include "networked_estimation/Estimate.h"
 #include "networked_estimation/Measurement.h"
 #include "networked_estimation/error.hpp"
+#include "networked_estimation/link_monitor.hpp"
 #include "networked_estimation/online_estimator.hpp"
+#include "networked_estimation/stability.hpp"
 #include "param_yaml.hpp"
 
 namespace networked_estimation
@@ -94,6 +96,7 @@ private:
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
     diagnostics_->setHardwareID(toString(settings_.algorithm));
     diagnostics_->add("estimator", this, &EstimatorNodelet::diagnose);
+    diagnostics_->add("link stability", this, &EstimatorNodelet::diagnoseLink);
     // force_update: the updater's own period check uses ROS time, which stalls or jumps under sim time.
     diag_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
     thread_ = std::thread(&EstimatorNodelet::deadlineLoop, this);
@@ -148,9 +151,24 @@ private:
     trace_bound_ = p.number("trace_bound", std::numeric_limits<double>::infinity(), 0.0,
                             std::numeric_limits<double>::infinity());
     queue_size_ = static_cast<uint32_t>(p.integer("queue_size", 1000, 1, 1000000));
+    // Live stability: the link's arrival rate (iid) or recovery rate (markov) over a window of
+    // steps, against the critical rates of the model (stability.hpp, as `analyze` prints them).
+    const std::string link_model = p.choice("link_model", "iid", {"iid", "markov"});
+    const long window = p.integer("stability_window", 1000, 10, 1000000);
+    const long min_samples = p.integer("stability_min_samples", 100, 1, window);
     p.take("diagnostic_period");  // read by diagnostic_updater
     p.rejectUnknown();
     online_ = std::make_unique<OnlineEstimator>(model, settings_, o);
+    ChannelSettings assumed;  // only the kind matters for which thresholds are reported
+    if (link_model == "markov")
+    {
+      assumed.model = LossModelKind::GILBERT_ELLIOTT;
+      assumed.p = 0.5;
+      assumed.r = 0.5;
+    }
+    const StabilityReport report = analyzeStability(model, &assumed, &settings_);
+    thresholds_ = linkThresholds(report, static_cast<std::size_t>(min_samples));
+    link_monitor_ = std::make_unique<LinkMonitor>(static_cast<std::size_t>(window));
     clock_ = StepClock(period, budget);
   }
 
@@ -286,6 +304,7 @@ private:
       for (int j = 0; j < n; ++j)
         e->covariance[static_cast<std::size_t>(i) * n + j] = P(i, j);  // row-major (REP-103)
     e->covariance_trace = P.trace();
+    link_monitor_->add(e->gamma);
     const double q = est.commandArrivalProbability();
     e->command_arrival_probability = std::isfinite(q) ? q : -1.0;
     last_trace_ = e->covariance_trace;
@@ -363,6 +382,7 @@ private:
         NODELET_WARN("Estimator %s: time jumped back by %.3f s: estimator reset, waiting for the stream to restart",
                      toString(settings_.algorithm).c_str(), last_now - now);
         online_->reset();
+        link_monitor_->clear();
         clock_.clear();
         last_now = -std::numeric_limits<double>::infinity();
         continue;
@@ -419,8 +439,30 @@ private:
     stat.add("trace bound", trace_bound_);
   }
 
+  void diagnoseLink(diagnostic_updater::DiagnosticStatusWrapper& stat)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const bool markov = thresholds_.quantity == "recovery rate";
+    const RateEstimate r = markov ? link_monitor_->recoveryRate() : link_monitor_->arrivalRate();
+    const LinkStatus status = classifyLink(r, thresholds_);
+    const unsigned char level = status.level == LinkStatus::Level::OK     ? diagnostic_msgs::DiagnosticStatus::OK
+                                : status.level == LinkStatus::Level::WARN ? diagnostic_msgs::DiagnosticStatus::WARN
+                                                                          : diagnostic_msgs::DiagnosticStatus::ERROR;
+    stat.summary(level, status.message);
+    stat.add("quantity", thresholds_.quantity);
+    stat.add("estimate", r.value);
+    stat.add("95% lower", r.lower);
+    stat.add("95% upper", r.upper);
+    stat.add("samples", r.trials);
+    stat.add("critical (necessary)", thresholds_.necessary);
+    stat.add("critical (sufficient)", thresholds_.sufficient);
+    stat.add("margin", r.value - thresholds_.sufficient);
+  }
+
   EstimatorSettings settings_;
   std::unique_ptr<OnlineEstimator> online_;
+  LinkThresholds thresholds_;
+  std::unique_ptr<LinkMonitor> link_monitor_;
   StepClock clock_{1.0, 0.0};
   std::string input_type_, frame_id_, child_frame_id_;
   std::vector<int> positions_;

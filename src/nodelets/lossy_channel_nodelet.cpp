@@ -22,6 +22,7 @@
 
 #include "networked_estimation/channel.hpp"
 #include "networked_estimation/error.hpp"
+#include "networked_estimation/link_monitor.hpp"
 #include "networked_estimation/ChannelEvent.h"
 #include "networked_estimation/ControlInput.h"
 #include "networked_estimation/Estimate.h"
@@ -200,6 +201,7 @@ private:
     }
     const std::uint64_t seq = next_seq_++;
     const ChannelRecord rec = channel_->offer(seq, t);
+    monitor_.add(rec.outcome == ChannelOutcome::DELIVERED);
     if (rec.outcome == ChannelOutcome::DELIVERED)
       in_flight_[seq] = {msg, rec.duplicated ? 2 : 1};
     publishDue(t);
@@ -305,6 +307,10 @@ private:
     stat.add("delay p90 (s)", channel_->delayQuantile(0.9));
     stat.add("delay p99 (s)", channel_->delayQuantile(0.99));
     stat.add("wrong type", wrong_type_.load());
+    // Windowed estimates (last 1000 messages, 95 % Wilson intervals) of what the link does now.
+    const RateEstimate a = monitor_.arrivalRate(), r = monitor_.recoveryRate();
+    stat.addf("windowed arrival rate", "%.4f [%.4f, %.4f] over %zu", a.value, a.lower, a.upper, a.trials);
+    stat.addf("windowed recovery rate", "%.4f [%.4f, %.4f] over %zu", r.value, r.lower, r.upper, r.trials);
     stat.add("settings", describe());
   }
 
@@ -319,6 +325,7 @@ private:
   int queue_size_ = 1000;
   std::string type_;
   std::atomic<std::uint64_t> wrong_type_{0};
+  LinkMonitor monitor_{1000};
   ros::Time t0_;
   ros::Subscriber sub_;
   ros::Publisher out_pub_, events_pub_;
