@@ -132,7 +132,8 @@ private:
   Slot& slot(long k);
   /// The slot of step k, cleared when it held another step. Null when k is outside the window.
   Slot* slotFor(long k);
-  void fillSample(const Slot& s, Sample& sample) const;
+  /// The filter input of step k from its slot (a loss when nothing arrived for k).
+  void fillSample(long k, Sample& sample) const;
   void stepChecked(Estimator& est, const Sample& sample);
   void rewind();
   OfferResult checkStep(long k) const;

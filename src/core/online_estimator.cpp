@@ -238,8 +238,16 @@ OfferResult OnlineEstimator::offerCommand(long k, const double* u, std::size_t s
   return r;
 }
 
-void OnlineEstimator::fillSample(const Slot& s, Sample& sample) const
+void OnlineEstimator::fillSample(long k, Sample& sample) const
 {
+  const Slot& s = ring_[static_cast<std::size_t>(k) % ring_.size()];
+  if (s.k != k)  // nothing arrived for step k
+  {
+    sample.gamma = false;
+    sample.y.setConstant(std::numeric_limits<double>::quiet_NaN());
+    sample.u.resize(0);
+    return;
+  }
   int arrived = 0;
   for (char h : s.have)
     arrived += h ? 1 : 0;
@@ -285,14 +293,7 @@ void OnlineEstimator::process()
     start(1);
   const long k = next_;
   Slot& s = slot(k);
-  if (s.k == k)
-    fillSample(s, sample_);
-  else
-  {
-    sample_.gamma = false;
-    sample_.y.setConstant(std::numeric_limits<double>::quiet_NaN());
-    sample_.u.resize(0);
-  }
+  fillSample(k, sample_);
   last_sensors_ = 0;
   if (s.k == k)
     for (char h : s.have)
@@ -316,15 +317,7 @@ void OnlineEstimator::process()
     while (next_ - 1 - checkpoint_k_ > H)
     {
       const long j = checkpoint_k_ + 1;
-      const Slot& c = slot(j);
-      if (c.k == j)
-        fillSample(c, sample_);
-      else
-      {
-        sample_.gamma = false;
-        sample_.y.setConstant(std::numeric_limits<double>::quiet_NaN());
-        sample_.u.resize(0);
-      }
+      fillSample(j, sample_);
       stepChecked(*checkpoint_, sample_);
       checkpoint_k_ = j;
     }
@@ -337,15 +330,7 @@ void OnlineEstimator::rewind()
   live_ = checkpoint_->clone();
   for (long j = checkpoint_k_ + 1; j < next_; ++j)
   {
-    const Slot& c = slot(j);
-    if (c.k == j)
-      fillSample(c, sample_);
-    else
-    {
-      sample_.gamma = false;
-      sample_.y.setConstant(std::numeric_limits<double>::quiet_NaN());
-      sample_.u.resize(0);
-    }
+    fillSample(j, sample_);
     stepChecked(*live_, sample_);
   }
 }

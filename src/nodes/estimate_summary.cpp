@@ -5,7 +5,7 @@
 // has reported step ~steps (0: the plant's last step) (or ~timeout wall seconds pass without a new message after the plant's
 // last step) it prints, per estimator: steps, arrival rate seen (mean gamma_k), time-averaged
 // squared error |x_k - xhat_k|^2 against the truth, mean covariance trace and their ratio, then
-// writes the same as YAML to ~output (if set) and exits (the launch file marks it required, so
+// writes the same as YAML to ~output and as text to ~text_output (if set) and exits (the launch file marks it required, so
 // the whole graph stops with it).
 #include <ros/ros.h>
 
@@ -53,6 +53,8 @@ int main(int argc, char** argv)
   pnh.param("steps", steps, 0);
   pnh.param("timeout", timeout, 5.0);
   pnh.param("output", output, std::string());
+  std::string text_output;
+  pnh.param("text_output", text_output, std::string());
   pnh.param("truth", truth_topic, std::string("plant_state"));
   if (topics.empty() || steps < 0 || !(timeout > 0.0))
   {
@@ -168,6 +170,16 @@ int main(int argc, char** argv)
          "uncertainty, rseio.md section 3).\n";
   std::fputs(out.str().c_str(), stdout);
   std::fflush(stdout);
+  if (!text_output.empty())
+  {
+    std::ofstream f(text_output);
+    f << out.str();
+    if (!f)
+    {
+      ROS_ERROR("estimate_summary: could not write ~text_output '%s'", text_output.c_str());
+      return 1;
+    }
+  }
 
   if (!output.empty())
   {
