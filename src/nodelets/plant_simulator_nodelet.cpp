@@ -5,10 +5,13 @@
 //
 // Clock: a ros::Timer (wall time, or /clock under use_sim_time). With ~publish_clock the plant
 // drives /clock itself (sim time advancing one period per step, ~time_scale times real time).
+// Start: ~start_delay wall seconds after load, or after the first message on ~start_after
+// (std_msgs/Empty, e.g. estimate_summary's latched ~ready).
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
+#include <std_msgs/Empty.h>
 #include <tf2_ros/transform_broadcaster.h>
 
 #include <map>
@@ -51,6 +54,7 @@ private:
       publish_clock_ = p.flag("publish_clock", false);
       time_scale_ = p.number("time_scale", 1.0, 1e-3, 1e4);
       start_delay_ = p.number("start_delay", 1.0, 0.0, 3600.0);
+      start_after_ = p.text("start_after", "");
       p.rejectUnknown();
     }
     catch (const ConfigError& e)
@@ -66,26 +70,35 @@ private:
       cmd_sub_ = nh.subscribe("command", 1000, &PlantSimulatorNodelet::onCommand, this,
                               ros::TransportHints().tcpNoDelay());
     if (publish_clock_)
-    {
       clock_pub_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
-      sim_now_ = ros::Time(1.0);  // sim time starts at 1 s (0 means "no clock yet" to roscpp)
-      wall_timer_ = nh.createWallTimer(ros::WallDuration(period_ / time_scale_),
-                                       [this](const ros::WallTimerEvent&) { clockTick(); }, false, false);
-      start_timer_ = nh.createWallTimer(ros::WallDuration(start_delay_ + 1e-3),
-                                        [this](const ros::WallTimerEvent&) { wall_timer_.start(); }, true);
-    }
-    else
-    {
-      // Give subscribers a moment to connect before step 0.
-      start_timer_ = nh.createWallTimer(ros::WallDuration(start_delay_ + 1e-3), [this](const ros::WallTimerEvent&) {
-        ros::NodeHandle& n = getNodeHandle();
-        ros_timer_ = n.createTimer(ros::Duration(period_), [this](const ros::TimerEvent& e) { tick(e.current_expected); });
-      }, true);
-    }
+    if (start_after_.empty())
+      scheduleStart();
+    else  // e.g. estimate_summary's latched ~ready: every listener is connected
+      start_sub_ = nh.subscribe<std_msgs::Empty>(start_after_, 1, [this](const std_msgs::Empty::ConstPtr&) {
+        if (!start_scheduled_)
+          scheduleStart();
+      });
     NODELET_INFO("PlantSimulator '%s': n = %d, %zu sensor(s), period %g s, %s, seed %llu%s", model_.name.c_str(),
                  model_.n(), model_.sensors.size(), period_,
                  max_steps_ > 0 ? ("stops after " + std::to_string(max_steps_) + " steps").c_str() : "runs until shut down",
                  static_cast<unsigned long long>(seed_), model_.hasControl() ? ", control input on 'command'" : "");
+  }
+
+  /// Starts stepping after ~start_delay (wall seconds), giving subscribers time to connect.
+  void scheduleStart()
+  {
+    start_scheduled_ = true;
+    ros::NodeHandle& nh = getNodeHandle();
+    start_timer_ = nh.createWallTimer(ros::WallDuration(start_delay_ + 1e-3), [this](const ros::WallTimerEvent&) {
+      ros::NodeHandle& n = getNodeHandle();
+      if (publish_clock_)
+      {
+        sim_now_ = ros::Time(1.0);  // sim time starts at 1 s (0 means "no clock yet" to roscpp)
+        wall_timer_ = n.createWallTimer(ros::WallDuration(period_ / time_scale_), [this](const ros::WallTimerEvent&) { clockTick(); });
+      }
+      else
+        ros_timer_ = n.createTimer(ros::Duration(period_), [this](const ros::TimerEvent& e) { tick(e.current_expected); });
+    }, true);
   }
 
   static std::vector<int> defaultPositions(int n)
@@ -208,7 +221,10 @@ private:
   std::string frame_id_, child_frame_id_;
   std::vector<int> positions_;
   bool publish_tf_ = true, publish_clock_ = false;
-  double time_scale_ = 1.0, start_delay_ = 0.5;
+  double time_scale_ = 1.0, start_delay_ = 1.0;
+  std::string start_after_;
+  bool start_scheduled_ = false;
+  ros::Subscriber start_sub_;
   std::unique_ptr<PlantSimulator> sim_;
   std::vector<ros::Publisher> meas_pubs_;
   ros::Publisher state_pub_, clock_pub_;

@@ -19,6 +19,8 @@
 #include <string>
 #include <vector>
 
+#include <std_msgs/Empty.h>
+
 #include "networked_estimation/Estimate.h"
 #include "networked_estimation/PlantState.h"
 
@@ -32,6 +34,18 @@ struct Track
   std::map<long, networked_estimation::Estimate::ConstPtr> by_step;
   long last_step = 0;
 };
+
+/// "/kfio/estimate" -> "kfio": the estimator's namespace names it (several may run one algorithm).
+std::string label(const std::string& topic)
+{
+  std::string t = topic;
+  const std::string suffix = "/estimate";
+  if (t.size() > suffix.size() && t.compare(t.size() - suffix.size(), suffix.size(), suffix) == 0)
+    t.resize(t.size() - suffix.size());
+  while (!t.empty() && t[0] == '/')
+    t.erase(0, 1);
+  return t.empty() ? topic : t;
+}
 
 struct Score
 {
@@ -93,6 +107,21 @@ int main(int argc, char** argv)
 
   ros::AsyncSpinner spinner(1);
   spinner.start();
+  // ~ready (latched) once every subscription is connected: a plant with ~start_after: summary/ready
+  // starts only then, so that no estimate is published before this node listens.
+  ros::Publisher ready = pnh.advertise<std_msgs::Empty>("ready", 1, true);
+  {
+    bool connected = false;
+    while (ros::ok() && !connected)
+    {
+      connected = true;
+      for (const ros::Subscriber& s : subs)
+        connected = connected && s.getNumPublishers() > 0;
+      if (!connected)
+        ros::WallDuration(0.05).sleep();
+    }
+    ready.publish(std_msgs::Empty());
+  }
   ros::WallRate poll(20.0);
   bool timed_out = false;
   while (ros::ok())
@@ -159,7 +188,7 @@ int main(int argc, char** argv)
   for (std::size_t i = 0; i < tracks.size(); ++i)
   {
     const Score& s = scores[i];
-    out << std::left << std::setw(10) << (tracks[i].algorithm.empty() ? tracks[i].topic : tracks[i].algorithm)
+    out << std::left << std::setw(10) << label(tracks[i].topic)
         << std::right << std::setw(8) << s.steps << std::setw(10) << std::fixed << std::setprecision(3) << s.arrival
         << std::setw(14) << std::setprecision(4) << s.mse << std::setw(14) << s.trace << std::setw(14)
         << std::setprecision(3) << (s.trace > 0.0 ? s.mse / s.trace : 0.0) << "\n";
@@ -187,7 +216,7 @@ int main(int argc, char** argv)
     f << std::setprecision(17) << "steps: " << steps << "\ntimed_out: " << (timed_out ? "true" : "false")
       << "\nestimators:\n";
     for (std::size_t i = 0; i < tracks.size(); ++i)
-      f << "  - {topic: '" << tracks[i].topic << "', algorithm: '" << tracks[i].algorithm << "', steps: "
+      f << "  - {name: '" << label(tracks[i].topic) << "', topic: '" << tracks[i].topic << "', algorithm: '" << tracks[i].algorithm << "', steps: "
         << scores[i].steps << ", arrival_rate: " << scores[i].arrival << ", mean_squared_error: " << scores[i].mse
         << ", mean_covariance_trace: " << scores[i].trace << "}\n";
     if (!f)
