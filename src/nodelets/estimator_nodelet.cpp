@@ -112,7 +112,15 @@ private:
   {
     ParamReader p(privateParameters(pnh), pnh.getNamespace() + " parameters");
     const std::string model_file = p.required("model");
-    const Model model = loadModel(model_file);
+    Model model;
+    try
+    {
+      model = loadModel(model_file);
+    }
+    catch (const ConfigError& e)
+    {
+      throw ConfigError(p.source() + ": model: " + e.what());
+    }
     YAML::Node est(YAML::NodeType::Map);
     for (const char* key : {"algorithm", "mu", "control_link", "max_components"})
       if (p.has(key))

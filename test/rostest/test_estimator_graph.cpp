@@ -4,7 +4,10 @@
 // model (file), settings (kfio settings file), steps (plant steps).
 #include <gtest/gtest.h>
 #include <ros/ros.h>
+#include <geometry_msgs/PointStamped.h>
 #include <rosgraph_msgs/Clock.h>
+#include <rosgraph_msgs/Log.h>
+#include <sensor_msgs/Range.h>
 
 #include <cmath>
 #include <cstdio>
@@ -23,6 +26,7 @@
 #include "networked_estimation/SetParameters.h"
 #include "networked_estimation/estimator.hpp"
 #include "networked_estimation/model.hpp"
+#include "networked_estimation/random.hpp"
 #include "networked_estimation/settings.hpp"
 
 namespace ne = networked_estimation;
@@ -414,6 +418,104 @@ TEST(EstimatorGraph, StabilityDiagnosticFlipsWithTheArrivalRate)
   ASSERT_TRUE(set.call(srv) && srv.response.success) << srv.response.message;
   // A window of 200 steps at 100 Hz refills in 2 s.
   ASSERT_TRUE(waitFor([&] { return levelIs(diagnostic_msgs::DiagnosticStatus::OK); }, 30.0)) << "last: " << message;
+}
+
+// Foreign input types: PointStamped (two 2-row position sensors) and Range (one scalar sensor)
+// carry no step number; the estimator matches them to the nearest step by stamp. The estimates equal
+// the offline filter on the same values. Bad parameters stop an estimator at load, with a FATAL
+// message naming the key (or the file).
+TEST(EstimatorGraph, ForeignTypesAndBadParameters)
+{
+  const Params p = params();
+  ros::NodeHandle nh;
+  std::mutex log_mutex;
+  std::vector<std::string> fatal;
+  ros::Subscriber logs = nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000, [&](const rosgraph_msgs::Log::ConstPtr& l) {
+    if (l->level == rosgraph_msgs::Log::FATAL)
+    {
+      std::lock_guard<std::mutex> lock(log_mutex);
+      fatal.push_back(l->msg);
+    }
+  });
+  ros::Publisher gnss = nh.advertise<geometry_msgs::PointStamped>("point/measurement/gnss", 100);
+  ros::Publisher camera = nh.advertise<geometry_msgs::PointStamped>("point/measurement/camera", 100);
+  ros::Publisher range = nh.advertise<sensor_msgs::Range>("range/measurement", 100);
+  Collector<Estimate> point_est(nh, "point/estimate"), range_est(nh, "range/estimate");
+  ASSERT_TRUE(waitFor([&] { return gnss.getNumSubscribers() > 0 && camera.getNumSubscribers() > 0 &&
+                                   range.getNumSubscribers() > 0 && point_est.sub.getNumPublishers() > 0 &&
+                                   range_est.sub.getNumPublishers() > 0; }, 30.0));
+
+  // Stamps on the model's grid (tracking_2d: 0.05 s) with up to +-5 ms of jitter; published at
+  // their stamp so that each arrives before its deadline (stamp + 25 ms).
+  const double T = 0.05;
+  const long N = 40;
+  ne::Rng rng(3);
+  std::vector<std::vector<double>> y(N);
+  std::vector<double> r(N);
+  const ros::Time start = ros::Time::now() + ros::Duration(0.2);
+  for (long k = 1; k <= N; ++k)
+  {
+    const ros::Time stamp = start + ros::Duration(k * T + rng.uniform(-0.005, 0.005));
+    while (ros::Time::now() < stamp)
+      ros::WallDuration(0.0005).sleep();
+    geometry_msgs::PointStamped a, b;
+    a.header.stamp = b.header.stamp = stamp;
+    a.point.x = 0.1 * k + rng.normal();
+    a.point.y = -0.05 * k + rng.normal();
+    a.point.z = 99.0;  // beyond the sensor's two rows: ignored
+    b.point.x = 0.1 * k + 0.1 * rng.normal();
+    b.point.y = -0.05 * k + 0.1 * rng.normal();
+    y[k - 1] = {a.point.x, a.point.y, b.point.x, b.point.y};
+    gnss.publish(a);
+    camera.publish(b);
+    sensor_msgs::Range m;
+    m.header.stamp = stamp;
+    m.range = static_cast<float>(std::pow(1.1, k) + rng.normal());
+    r[k - 1] = m.range;
+    range.publish(m);
+  }
+  ASSERT_TRUE(waitFor([&] { return point_est.size() >= static_cast<std::size_t>(N) && range_est.size() >= static_cast<std::size_t>(N); }, 10.0));
+  const std::map<long, Estimate> P = byStep(point_est), R = byStep(range_est);
+  const ne::Model tracking = ne::loadModel(p.model);
+  const ne::EstimatorSettings kfio = ne::loadEstimatorSettings(p.settings);
+  const auto ref = offline(tracking, kfio, y, std::vector<bool>(N, true));
+  std::vector<std::vector<double>> ry;
+  for (double v : r)
+    ry.push_back({v});
+  ros::NodeHandle pnh("~");
+  std::string scalar_model;
+  ASSERT_TRUE(pnh.getParam("scalar_model", scalar_model));
+  const auto rref = offline(ne::loadModel(scalar_model), kfio, ry, std::vector<bool>(N, true));
+  for (long k = 1; k <= N; ++k)
+  {
+    ASSERT_TRUE(P.count(k) && R.count(k)) << "step " << k;
+    EXPECT_TRUE(P.at(k).gamma && R.at(k).gamma) << "step " << k;
+    ASSERT_LE(maxDiff(P.at(k).state, ref[k - 1].state), 1e-12) << "PointStamped, step " << k;
+    ASSERT_LE(maxDiff(R.at(k).state, rref[k - 1].state), 1e-12) << "Range, step " << k;
+  }
+
+  // The four refused estimators: one FATAL each, naming the problem.
+  ASSERT_TRUE(waitFor([&] {
+    std::lock_guard<std::mutex> lock(log_mutex);
+    return fatal.size() >= 4;
+  }, 10.0));
+  std::lock_guard<std::mutex> lock(log_mutex);
+  auto logged = [&](const std::string& what) {
+    for (const std::string& m : fatal)
+      if (m.find("Estimator not started") != std::string::npos && m.find(what) != std::string::npos)
+        return true;
+    return false;
+  };
+  EXPECT_TRUE(logged("late_policy: expected drop or rewind, found 'later'"));
+  EXPECT_TRUE(logged("unknown parameter(s): latency_budjet"));
+  EXPECT_TRUE(logged("model: ") && logged("no_such_model.yaml: cannot open file"));
+  EXPECT_TRUE(logged("mu"));
+  for (const char* t : {"bad_policy/estimate", "bad_key/estimate", "bad_model/estimate", "bad_mu/estimate"})
+  {
+    Collector<Estimate> none(nh, t);
+    ros::WallDuration(0.2).sleep();
+    EXPECT_EQ(none.sub.getNumPublishers(), 0u) << t;
+  }
 }
 
 int main(int argc, char** argv)
