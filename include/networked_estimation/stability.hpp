@@ -230,6 +230,10 @@ struct EntropySplit
 };
 EntropySplit entropySplit(const Eigen::MatrixXd& A, const std::vector<Eigen::MatrixXd>& H, double rel_tol = 1e-9);
 
+/// One step of the lower bound recursion (Prop. 1): m(G) = loss_product A G A' + Q with
+/// loss_product = prod(1 - lambda_i); G_1 = 0, G_{k+1} = m(G_k) satisfies G_k <= E[P-_k].
+Eigen::MatrixXd lowerBoundStep(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, double loss_product,
+                               const Eigen::MatrixXd& G);
 /// Ḡ = sum_k Atil^k Q Atil'^k with Atil = sqrt(prod(1 - lambda_i)) A (Theorem 2); throws
 /// std::domain_error when prod(1 - lambda_i) rho(A)^2 >= 1.
 Eigen::MatrixXd lowerBoundLimit(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, double loss_product);

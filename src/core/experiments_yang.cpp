@@ -3,12 +3,14 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <vector>
 
 #include "montecarlo_experiments.hpp"
 #include "networked_estimation/error.hpp"
 #include "networked_estimation/estimator.hpp"
 #include "networked_estimation/random.hpp"
 #include "networked_estimation/settings.hpp"
+#include "networked_estimation/stability.hpp"
 
 namespace networked_estimation
 {
@@ -64,21 +66,19 @@ ExperimentResult yangFig2(const RunConfig& rc)
   };
   const Moments mcm = runMonteCarlo(rc.runs, static_cast<std::size_t>(T), rc.threads, factory, rc.progress);
 
-  // Deterministic bounds.
+  // Deterministic bounds (stability module): G_{k+1} = m(G_k) (Prop. 1) and V_{k+1} = g(V_k) (MARE (18)).
+  // R_i = I, so the whitened sensor matrices are the rows of C.
   const Eigen::MatrixXd& A = model.A;
   const Eigen::MatrixXd Q = model.B * model.Q * model.B.transpose();
-  const Eigen::MatrixXd& H = model.C;
-  const int m = model.m();
-  double prod = 1.0;
-  for (double l : lambda)
-    prod *= 1.0 - l;
-  Eigen::MatrixXd W = Eigen::MatrixXd::Ones(m, m);
-  for (std::size_t i = 0; i < model.sensors.size(); ++i)
+  std::vector<Eigen::MatrixXd> H;
+  std::vector<int> rows;
+  for (const Sensor& sn : model.sensors)
   {
-    const Sensor& sn = model.sensors[i];
-    const double q = lambda[i] / (1.0 - lambda[i]);
-    W.block(sn.offset, sn.offset, sn.size, sn.size).array() += 1.0 / q;
+    H.push_back(model.C.middleRows(sn.offset, sn.size));
+    rows.push_back(sn.size);
   }
+  const double loss_product = transmissionCapacity(A, lambda, rows).loss_product;
+  const Mare mare(A, Q, H, lambda);
   Eigen::MatrixXd G = Eigen::MatrixXd::Zero(2, 2);
   Eigen::MatrixXd V = A * model.P0 * A.transpose() + Q;
   Moments gm, vm;
@@ -87,11 +87,8 @@ ExperimentResult yangFig2(const RunConfig& rc)
   {
     gm.mean.push_back(G.trace());
     vm.mean.push_back(V.trace());
-    G = prod * A * G * A.transpose() + Q;
-    const Eigen::MatrixXd M = W.cwiseProduct(H * V * H.transpose() + Eigen::MatrixXd::Identity(m, m));
-    const Eigen::MatrixXd HVA = H * V * A.transpose();
-    Eigen::MatrixXd Vn = A * V * A.transpose() + Q - HVA.transpose() * M.ldlt().solve(HVA);
-    V = 0.5 * (Vn + Vn.transpose());
+    G = lowerBoundStep(A, Q, loss_product, G);
+    V = mare.step(V);
   }
   gm.sd.assign(gm.mean.size(), 0.0);
   vm.sd.assign(vm.mean.size(), 0.0);

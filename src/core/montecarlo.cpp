@@ -12,6 +12,7 @@
 
 #include "montecarlo_experiments.hpp"
 #include "networked_estimation/error.hpp"
+#include "networked_estimation/json_writer.hpp"
 #include "networked_estimation/replay_io.hpp"
 
 namespace networked_estimation
@@ -209,42 +210,6 @@ std::string csvField(const std::string& s)
     if (c == '"')
       out += '"';
     out += c;
-  }
-  return out + "\"";
-}
-
-std::string jsonString(const std::string& s)
-{
-  std::string out = "\"";
-  for (unsigned char c : s)
-  {
-    switch (c)
-    {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\r':
-        out += "\\r";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      default:
-        if (c < 0x20)
-        {
-          char buf[8];
-          std::snprintf(buf, sizeof buf, "\\u%04x", c);
-          out += buf;
-        }
-        else
-          out += static_cast<char>(c);
-    }
   }
   return out + "\"";
 }

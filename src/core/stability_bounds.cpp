@@ -141,6 +141,12 @@ EntropySplit entropySplit(const Eigen::MatrixXd& A, const std::vector<Eigen::Mat
   return out;
 }
 
+Eigen::MatrixXd lowerBoundStep(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, double loss_product,
+                               const Eigen::MatrixXd& G)
+{
+  return loss_product * A * G * A.transpose() + Q;
+}
+
 Eigen::MatrixXd lowerBoundLimit(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, double loss_product)
 {
   const double rho = spectralRadius(A);

@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "cli.hpp"
+#include "networked_estimation/json_writer.hpp"
 #include "networked_estimation/model.hpp"
 #include "networked_estimation/settings.hpp"
 #include "networked_estimation/stability.hpp"
@@ -23,46 +24,14 @@ std::string jnum(double v)
   return os.str();
 }
 
-std::string jstr(const std::string& s)
-{
-  std::string out = "\"";
-  for (char c : s)
-  {
-    switch (c)
-    {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20)
-        {
-          char buf[8];
-          std::snprintf(buf, sizeof buf, "\\u%04x", c);
-          out += buf;
-        }
-        else
-          out += c;
-    }
-  }
-  return out + "\"";
-}
-
 std::string jverdict(const Verdict& v)
 {
-  std::string out = "{\"kind\": " + jstr(toString(v.kind)) + ", \"reason\": " + jstr(v.reason) + ", \"numbers\": {";
+  std::string out =
+      "{\"kind\": " + jsonString(toString(v.kind)) + ", \"reason\": " + jsonString(v.reason) + ", \"numbers\": {";
   bool first = true;
   for (const auto& kv : v.numbers)
   {
-    out += (first ? "" : ", ") + jstr(kv.first) + ": " + jnum(kv.second);
+    out += (first ? "" : ", ") + jsonString(kv.first) + ": " + jnum(kv.second);
     first = false;
   }
   return out + "}}";
@@ -71,16 +40,16 @@ std::string jverdict(const Verdict& v)
 std::string jset(const RateAnalysis& r)
 {
   std::ostringstream os;
-  os << "{\"name\": " << jstr(r.name) << ", \"sensors\": [";
+  os << "{\"name\": " << jsonString(r.name) << ", \"sensors\": [";
   for (std::size_t i = 0; i < r.sensors.size(); ++i)
     os << (i ? ", " : "") << r.sensors[i];
   os << "], \"lower_bound\": " << jnum(r.lower_bound) << ", \"closed_form_upper\": " << jnum(r.closed_form_upper)
      << ", \"mare_diverges_at\": " << jnum(r.mare.diverges_at) << ", \"mare_converges_at\": " << jnum(r.mare.converges_at)
      << ", \"mare_undecided_band\": " << (r.mare.undecided_band ? "true" : "false")
-     << ", \"exact_rate\": " << jnum(r.exact_rate) << ", \"exact_method\": " << jstr(r.exact_method)
+     << ", \"exact_rate\": " << jnum(r.exact_rate) << ", \"exact_method\": " << jsonString(r.exact_method)
      << ", \"recovery_lower_bound\": " << jnum(r.recovery_lower_bound) << ", \"recovery_exact\": " << jnum(r.recovery_exact)
      << ", \"aoe_theorem5\": " << jverdict(r.aoe_theorem5) << ", \"verdict\": " << jverdict(r.verdict)
-     << ", \"margin_quantity\": " << jstr(r.margin_quantity) << ", \"channel_value\": " << jnum(r.channel_value)
+     << ", \"margin_quantity\": " << jsonString(r.margin_quantity) << ", \"channel_value\": " << jnum(r.channel_value)
      << ", \"necessary_threshold\": " << jnum(r.necessary_threshold)
      << ", \"sufficient_threshold\": " << jnum(r.sufficient_threshold) << ", \"margin\": " << jnum(r.margin) << "}";
   return os.str();
@@ -89,7 +58,7 @@ std::string jset(const RateAnalysis& r)
 std::string json(const StabilityReport& rep)
 {
   std::ostringstream os;
-  os << "{\n  \"model\": " << jstr(rep.model_name) << ",\n  \"eigenvalues\": [";
+  os << "{\n  \"model\": " << jsonString(rep.model_name) << ",\n  \"eigenvalues\": [";
   for (int i = 0; i < rep.eigenvalues.size(); ++i)
     os << (i ? ", " : "") << "{\"re\": " << jnum(rep.eigenvalues[i].real()) << ", \"im\": " << jnum(rep.eigenvalues[i].imag())
        << "}";
@@ -99,14 +68,15 @@ std::string json(const StabilityReport& rep)
      << ",\n  \"noise_excites_unstable_modes\": " << (rep.noise_excites_unstable_modes ? "true" : "false")
      << ",\n  \"detectable\": " << (rep.detectable ? "true" : "false") << ",\n  \"channel\": ";
   if (rep.has_channel)
-    os << "{\"kind\": " << jstr(rep.link.kind == LinkModel::Kind::IID ? "bernoulli" : "gilbert_elliott")
+    os << "{\"kind\": " << jsonString(rep.link.kind == LinkModel::Kind::IID ? "bernoulli" : "gilbert_elliott")
        << ", \"arrival_rate\": " << jnum(rep.arrival_rate) << ", \"recovery_rate\": " << jnum(rep.recovery_rate)
        << ", \"on_off\": " << (rep.link.onOff() ? "true" : "false") << ", \"capacity\": " << jnum(rep.capacity.total)
        << ", \"capacity_lower\": " << jnum(rep.capacity.lower) << ", \"capacity_upper\": " << jnum(rep.capacity.upper)
        << "}";
   else
     os << "null";
-  os << ",\n  \"estimator\": " << jstr(rep.estimator) << ",\n  \"estimator_note\": " << jstr(rep.estimator_note)
+  os << ",\n  \"estimator\": " << jsonString(rep.estimator)
+     << ",\n  \"estimator_note\": " << jsonString(rep.estimator_note)
      << ",\n  \"rseio\": " << jverdict(rep.rseio) << ",\n  \"all_sensors\": " << jset(rep.model) << ",\n  \"sensors\": [";
   for (std::size_t i = 0; i < rep.sensors.size(); ++i)
     os << (i ? ",\n    " : "\n    ") << jset(rep.sensors[i]);
