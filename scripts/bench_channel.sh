@@ -21,6 +21,7 @@
 # about 0.1. load1 (CSV only): the 1-minute load average at the end of the run, the benchmark included.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
+source "$(dirname "${BASH_SOURCE[0]}")/bench_lib.sh"
 if [ ! -f "$WS/devel/setup.bash" ]; then
   echo "no build in $WS: run scripts/build.sh first" >&2
   exit 1
@@ -44,32 +45,6 @@ CSV="$OUT/channel.csv"
 rm -rf "$RUNS"
 mkdir -p "$RUNS" "$ROS_LOG_DIR"
 echo "phase,mode,target_hz,duration_s,sent,received,delivered_pct,rate_hz,median_us,p90_us,p99_us,max_us,p99_first_half_us,p99_second_half_us,median_first_tenth_us,median_last_tenth_us,cpu_us_per_msg,cpu_cores,other_cores,source_hz,source_max_lag_us,load1" > "$CSV"
-
-free_port()
-{
-  python3 -c 'import socket; s = socket.socket(); s.bind(("localhost", 0)); print(s.getsockname()[1])'
-}
-
-# Stops one roslaunch started by run: SIGINT (it stops its nodes, then its master), then SIGTERM.
-stop_launch()
-{
-  local pid="$1" i
-  kill -INT "$pid" 2>/dev/null || true
-  for i in $(seq 1 100); do
-    kill -0 "$pid" 2>/dev/null || break
-    sleep 0.2
-  done
-  if kill -0 "$pid" 2>/dev/null; then
-    echo "  roslaunch $pid still running 20 s after SIGINT: SIGTERM" >&2
-    kill -TERM "$pid" 2>/dev/null || true
-    sleep 5
-    if kill -0 "$pid" 2>/dev/null; then
-      echo "  roslaunch $pid: SIGKILL (its nodes may survive it)" >&2
-      kill -KILL "$pid" 2>/dev/null || true
-    fi
-  fi
-  wait "$pid" 2>/dev/null || true
-}
 
 LAUNCH_PID=""
 trap 'if [ -n "$LAUNCH_PID" ]; then stop_launch "$LAUNCH_PID"; fi' EXIT

@@ -26,10 +26,12 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <mutex>
 #include <thread>
 #include <vector>
 
+#include "networked_estimation/Estimate.h"
 #include "networked_estimation/Measurement.h"
 
 namespace networked_estimation
@@ -104,6 +106,8 @@ private:
     pnh.param("duration", duration_, 5.0);
     pnh.param("start_delay", start_delay_, 2.0);
     pnh.param("frame_id", frame_id_, std::string("bench"));
+    pnh.param("dimension", dimension_, 2);  // values per Measurement
+    pnh.param("nominal_stamps", nominal_stamps_, false);  // stamp = scheduled time instead of now
     if (!(rate_ > 0.0) || !(duration_ > 0.0) || !(start_delay_ >= 0.0))
     {
       NODELET_FATAL("BenchSource: rate and duration must be > 0 and start_delay >= 0 (rate %g, duration %g, "
@@ -132,6 +136,7 @@ private:
     const auto total = static_cast<std::uint64_t>(std::llround(rate_ * duration_));
     const double period_ns = 1e9 / rate_;
     const auto start = SteadyClock::now();
+    start_ros_ = ros::Time::now();
     const auto due = [&](std::uint64_t k) {  // due time of message k (0-based)
       return start + std::chrono::nanoseconds(std::llround(static_cast<double>(k) * period_ns));
     };
@@ -152,7 +157,8 @@ private:
       std::uint64_t batch = 0;
       while (sent < total && due(sent) <= now)
       {
-        publish(++sent);
+        ++sent;
+        publish(sent, start_ros_ + ros::Duration(1e-9 * static_cast<double>(sent - 1) * period_ns));
         ++batch;
       }
       max_batch = std::max(max_batch, batch);
@@ -165,7 +171,7 @@ private:
                  max_batch, std::chrono::duration<double, std::micro>(max_lag).count());
   }
 
-  void publish(std::uint64_t step)
+  void publish(std::uint64_t step, const ros::Time& scheduled)
   {
     // A fresh object per message, published as a shared_ptr and never touched again: typed
     // subscribers in the manager receive this very object (no serialization).
@@ -173,12 +179,17 @@ private:
     msg->header.frame_id = frame_id_;
     msg->step = step;
     msg->sensor = "y";
-    msg->y = {static_cast<double>(step), -static_cast<double>(step)};
-    msg->header.stamp = ros::Time::now();
+    msg->y.assign(static_cast<std::size_t>(std::max(1, dimension_)), 0.0);
+    for (std::size_t i = 0; i < msg->y.size(); ++i)
+      msg->y[i] = (i % 2 ? -1.0 : 1.0) * static_cast<double>(step);
+    msg->header.stamp = nominal_stamps_ ? scheduled : ros::Time::now();
     pub_.publish(msg);
   }
 
   double rate_ = 1000.0, duration_ = 5.0, start_delay_ = 2.0;
+  int dimension_ = 2;
+  bool nominal_stamps_ = false;
+  ros::Time start_ros_;
   std::string frame_id_;
   ros::Publisher pub_;
   std::thread thread_;
@@ -192,8 +203,18 @@ private:
   {
     ros::NodeHandle& nh = getNodeHandle();
     getPrivateNodeHandle().param("queue_size", queue_size_, 1000);
-    sub_ = nh.subscribe("in", static_cast<uint32_t>(queue_size_), &BenchPassThrough::onMessage, this,
-                        ros::TransportHints().tcpNoDelay());
+    bool typed = false;
+    getPrivateNodeHandle().param("typed", typed, false);
+    if (typed)  // Measurement in, the same object out: the cheapest nodelet hop there is
+    {
+      pub_ = nh.advertise<Measurement>("out", static_cast<uint32_t>(queue_size_));
+      sub_ = nh.subscribe<Measurement>("in", static_cast<uint32_t>(queue_size_),
+                                       [this](const Measurement::ConstPtr& m) { pub_.publish(m); }, ros::VoidConstPtr(),
+                                       ros::TransportHints().tcpNoDelay());
+    }
+    else  // any type (ShapeShifter), as the LossyChannel
+      sub_ = nh.subscribe("in", static_cast<uint32_t>(queue_size_), &BenchPassThrough::onMessage, this,
+                          ros::TransportHints().tcpNoDelay());
     NODELET_INFO("BenchPassThrough %s -> %s", nh.resolveName("in").c_str(), nh.resolveName("out").c_str());
   }
 
@@ -218,10 +239,17 @@ private:
   ros::Publisher pub_;
 };
 
-class BenchSink : public nodelet::Nodelet
+/// Messages a sink counts as missed: an Estimate of a step whose measurement was not in hand at
+/// its deadline (gamma = 0); a Measurement later than ~late_after seconds after its stamp (the
+/// same criterion for a bare hop, when the source stamps its scheduled times).
+inline bool missed(const Measurement&, double latency_s, double late_after) { return latency_s > late_after; }
+inline bool missed(const Estimate& e, double, double) { return !e.gamma; }
+
+template <class M>
+class BenchSinkT : public nodelet::Nodelet
 {
 public:
-  ~BenchSink() override
+  ~BenchSinkT() override
   {
     stop_ = true;
     if (thread_.joinable())
@@ -243,20 +271,26 @@ private:
     pnh.param("result_file", result_file_, std::string());
     pnh.param("source", source_, std::string());
     pnh.param("queue_size", queue_size, 100000);
+    pnh.param("late_after", late_after_, std::numeric_limits<double>::infinity());
     // Preallocated: no reallocation while recording (50 % headroom over rate * duration).
     latency_us_.assign(static_cast<std::size_t>(std::max(1000.0, 1.5 * rate * duration_ + 1000.0)), 0.0);
     sample_every_ = static_cast<std::uint64_t>(std::max(10.0, rate / 100.0));
+    expected_ = static_cast<std::uint64_t>(std::llround(rate * duration_));
     init_ = SteadyClock::now();
-    sub_ = nh.subscribe("in", static_cast<uint32_t>(queue_size), &BenchSink::onMessage, this,
+    sub_ = nh.subscribe("in", static_cast<uint32_t>(queue_size), &BenchSinkT::onMessage, this,
                         ros::TransportHints().tcpNoDelay());
-    thread_ = std::thread(&BenchSink::waitAndReport, this);
+    thread_ = std::thread(&BenchSinkT::waitAndReport, this);
     NODELET_INFO("BenchSink <- %s: label %s, reports %g s after the first message", nh.resolveName("in").c_str(),
                  label_.c_str(), duration_ + grace_);
   }
 
-  void onMessage(const Measurement::ConstPtr& msg)
+  void onMessage(const typename M::ConstPtr& msg)
   {
     const ros::Time now = ros::Time::now();
+    // An estimator keeps stepping (on its deadlines, without data) after the source has stopped:
+    // those steps are not part of the run.
+    if (msg->step > expected_)
+      return;
     const auto t = SteadyClock::now();
     std::lock_guard<std::mutex> lock(mutex_);
     if (done_)
@@ -278,6 +312,7 @@ private:
     if (received_ < latency_us_.size())
       latency_us_[received_] = static_cast<double>((now - msg->header.stamp).toNSec()) * 1e-3;
     ++received_;
+    missed_ += missed(*msg, (now - msg->header.stamp).toSec(), late_after_) ? 1 : 0;
     max_step_ = std::max<std::uint64_t>(max_step_, msg->step);
   }
 
@@ -336,9 +371,9 @@ private:
     std::snprintf(line, sizeof line,
                   "sent=%" PRIu64 " received=%" PRIu64 " rate=%.1f latency_us median=%.1f p90=%.1f p99=%.1f "
                   "max=%.1f p99_first_half=%.1f p99_second_half=%.1f median_first_tenth=%.1f median_last_tenth=%.1f "
-                  "cpu_us_per_msg=%.2f cpu_cores=%.2f other_cores=%.2f",
+                  "cpu_us_per_msg=%.2f cpu_cores=%.2f other_cores=%.2f missed=%" PRIu64,
                   sent, received_, rate, median, p90, p99, max, p99_first, p99_second, median_first, median_last,
-                  cpu_us_per_msg, cpu_cores, other_cores);
+                  cpu_us_per_msg, cpu_cores, other_cores, missed_);
     ROS_INFO("bench_sink %s: %s", label_.c_str(), line);
     if (received_ > latency_us_.size())
       ROS_WARN("bench_sink %s: %zu messages beyond the preallocated %zu are not in the latency statistics",
@@ -358,11 +393,11 @@ private:
     }
     if (empty)
       out << "label,sent,received,rate_hz,median_us,p90_us,p99_us,max_us,p99_first_half_us,p99_second_half_us,"
-             "median_first_tenth_us,median_last_tenth_us,cpu_us_per_msg,cpu_cores,other_cores\n";
+             "median_first_tenth_us,median_last_tenth_us,cpu_us_per_msg,cpu_cores,other_cores,missed\n";
     std::snprintf(line, sizeof line,
-                  "%s,%" PRIu64 ",%" PRIu64 ",%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.2f,%.2f,%.2f\n",
+                  "%s,%" PRIu64 ",%" PRIu64 ",%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.2f,%.2f,%.2f,%" PRIu64 "\n",
                   label_.c_str(), sent, received_, rate, median, p90, p99, max, p99_first, p99_second, median_first,
-                  median_last, cpu_us_per_msg, cpu_cores, other_cores);
+                  median_last, cpu_us_per_msg, cpu_cores, other_cores, missed_);
     out << line;
   }
 
@@ -371,7 +406,9 @@ private:
   ros::Subscriber sub_;
   std::mutex mutex_;
   std::vector<double> latency_us_;
-  std::uint64_t received_ = 0, max_step_ = 0, cpu_last_count_ = 0, sample_every_ = 100;
+  std::uint64_t received_ = 0, max_step_ = 0, cpu_last_count_ = 0, sample_every_ = 100, missed_ = 0;
+  std::uint64_t expected_ = 0;  ///< messages the source sends (rate x duration): steps 1..expected_
+  double late_after_ = std::numeric_limits<double>::infinity();
   SteadyClock::time_point init_, first_, last_, cpu_last_t_;
   double cpu_first_ = 0.0, cpu_last_ = 0.0, busy_first_ = 0.0, busy_last_ = 0.0;
   bool done_ = false;
@@ -379,8 +416,20 @@ private:
   std::thread thread_;
 };
 
+/// Sink of Measurement (bench_channel.launch).
+class BenchSink : public BenchSinkT<Measurement>
+{
+};
+
+/// Sink of Estimate (bench_estimator.launch): also counts the steps estimated without their
+/// measurement (missed).
+class BenchEstimateSink : public BenchSinkT<Estimate>
+{
+};
+
 }  // namespace networked_estimation
 
 PLUGINLIB_EXPORT_CLASS(networked_estimation::BenchSource, nodelet::Nodelet)
 PLUGINLIB_EXPORT_CLASS(networked_estimation::BenchPassThrough, nodelet::Nodelet)
 PLUGINLIB_EXPORT_CLASS(networked_estimation::BenchSink, nodelet::Nodelet)
+PLUGINLIB_EXPORT_CLASS(networked_estimation::BenchEstimateSink, nodelet::Nodelet)
