@@ -113,6 +113,11 @@ private:
 
   void clockTick()
   {
+    if (finished_)
+    {
+      wall_timer_.stop();  // the clock stops with the plant (a bag may drive it next)
+      return;
+    }
     sim_now_ += ros::Duration(period_);
     rosgraph_msgs::Clock c;
     c.clock = sim_now_;
@@ -148,8 +153,11 @@ private:
       if (!finished_)
       {
         finished_ = true;
-        NODELET_INFO("PlantSimulator: finished after %ld steps (%lu commands applied, %lu lost or late)", k_,
-                     static_cast<unsigned long>(applied_), static_cast<unsigned long>(k_ - applied_));
+        if (model_.hasControl())
+          NODELET_INFO("PlantSimulator: finished after %ld steps (%lu commands applied, %lu lost or late)", k_,
+                       static_cast<unsigned long>(applied_), static_cast<unsigned long>(k_ - applied_));
+        else
+          NODELET_INFO("PlantSimulator: finished after %ld steps", k_);
       }
       return;
     }
