@@ -446,7 +446,7 @@ TEST(EstimatorGraph, ForeignTypesAndBadParameters)
                                    range_est.sub.getNumPublishers() > 0; }, 30.0));
 
   // Stamps on the model's grid (tracking_2d: 0.05 s) with up to +-5 ms of jitter; published at
-  // their stamp so that each arrives before its deadline (stamp + 25 ms).
+  // their stamp so that each arrives before its deadline (stamp + 200 ms).
   const double T = 0.05;
   const long N = 40;
   ne::Rng rng(3);
