@@ -12,13 +12,6 @@
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
 source "$(dirname "${BASH_SOURCE[0]}")/bench_lib.sh"
-if [ ! -f "$WS/devel/setup.bash" ]; then
-  echo "no build in $WS: run scripts/build.sh first" >&2
-  exit 1
-fi
-set +u
-source "$WS/devel/setup.bash"
-set -u
 
 BASE_RATE="${NE_BENCH_BASE_RATE:-1000}"
 BASE_SECONDS="${NE_BENCH_BASE_SECONDS:-5}"

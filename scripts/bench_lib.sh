@@ -1,5 +1,12 @@
-# Shared by the benchmark scripts (sourced): a free port for a private master, and stopping a
-# roslaunch cleanly.
+# Shared by the benchmark scripts (sourced after env.sh): the built workspace's environment, a free
+# port for a private master, and stopping a roslaunch cleanly.
+if [ ! -f "$WS/devel/setup.bash" ]; then
+  echo "no build in $WS: run scripts/build.sh first" >&2
+  exit 1
+fi
+set +u
+source "$WS/devel/setup.bash"
+set -u
 free_port()
 {
   python3 -c 'import socket; s = socket.socket(); s.bind(("localhost", 0)); print(s.getsockname()[1])'

@@ -137,6 +137,8 @@ private:
   void stepChecked(Estimator& est, const Sample& sample);
   void rewind();
   OfferResult checkStep(long k) const;
+  /// Counts a rejected offer and returns it with its reason.
+  OfferResult reject(const std::string& why);
 
   Model model_;
   EstimatorSettings settings_;

@@ -123,15 +123,18 @@ OfferResult OnlineEstimator::checkStep(long k) const
   return r;
 }
 
+OfferResult OnlineEstimator::reject(const std::string& why)
+{
+  ++counters_.rejected;
+  OfferResult r;
+  r.offer = Offer::REJECTED;
+  r.reason = why;
+  return r;
+}
+
 OfferResult OnlineEstimator::offerMeasurement(long k, std::size_t sensor, const double* y, std::size_t size)
 {
   OfferResult r;
-  auto reject = [&](const std::string& why) {
-    ++counters_.rejected;
-    r.offer = Offer::REJECTED;
-    r.reason = why;
-    return r;
-  };
   if (sensor >= model_.sensors.size())
     return reject("sensor index " + std::to_string(sensor) + " out of range (model has " +
                   std::to_string(model_.sensors.size()) + " sensors)");
@@ -144,10 +147,7 @@ OfferResult OnlineEstimator::offerMeasurement(long k, std::size_t sensor, const 
       return reject("y[" + std::to_string(i) + "] of sensor '" + sn.name + "' is not finite");
   r = checkStep(k);
   if (r.offer == Offer::REJECTED)
-  {
-    ++counters_.rejected;
-    return r;
-  }
+    return reject(r.reason);
   if (k < next_)
   {
     const bool rewindable = options_.late_policy == LatePolicy::REWIND && k > checkpoint_k_;
@@ -193,12 +193,6 @@ OfferResult OnlineEstimator::offerMeasurement(long k, std::size_t sensor, const 
 OfferResult OnlineEstimator::offerCommand(long k, const double* u, std::size_t size)
 {
   OfferResult r;
-  auto reject = [&](const std::string& why) {
-    ++counters_.rejected;
-    r.offer = Offer::REJECTED;
-    r.reason = why;
-    return r;
-  };
   if (!model_.hasControl())
     return reject("command: model '" + model_.name + "' has no control input");
   if (size != static_cast<std::size_t>(model_.p()))
@@ -208,10 +202,7 @@ OfferResult OnlineEstimator::offerCommand(long k, const double* u, std::size_t s
       return reject("u[" + std::to_string(i) + "] is not finite");
   r = checkStep(k);
   if (r.offer == Offer::REJECTED)
-  {
-    ++counters_.rejected;
-    return r;
-  }
+    return reject(r.reason);
   Slot& existing = slot(k);
   if (existing.k == k && existing.have_u)
   {

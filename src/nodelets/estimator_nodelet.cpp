@@ -34,6 +34,7 @@
 #include "networked_estimation/online_estimator.hpp"
 #include "networked_estimation/stability.hpp"
 #include "param_yaml.hpp"
+#include "worker.hpp"
 
 namespace networked_estimation
 {
@@ -41,16 +42,7 @@ namespace networked_estimation
 class EstimatorNodelet : public nodelet::Nodelet
 {
 public:
-  ~EstimatorNodelet() override
-  {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stop_ = true;
-    }
-    wake_.notify_all();
-    if (thread_.joinable())
-      thread_.join();
-  }
+  ~EstimatorNodelet() override { stopWorker(mutex_, stop_, wake_, thread_); }
 
 private:
   void onInit() override

@@ -35,6 +35,7 @@
 #include <sensor_msgs/Range.h>
 #include "networked_estimation/SetParameters.h"
 #include "param_yaml.hpp"
+#include "worker.hpp"
 
 namespace networked_estimation
 {
@@ -109,16 +110,7 @@ const char* kKnownTypes =
 class LossyChannelNodelet : public nodelet::Nodelet
 {
 public:
-  ~LossyChannelNodelet() override
-  {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stop_ = true;
-    }
-    wake_.notify_all();
-    if (thread_.joinable())
-      thread_.join();
-  }
+  ~LossyChannelNodelet() override { stopWorker(mutex_, stop_, wake_, thread_); }
 
 private:
   void onInit() override
