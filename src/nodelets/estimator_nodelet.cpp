@@ -30,6 +30,7 @@
 #include "networked_estimation/Estimate.h"
 #include "networked_estimation/Measurement.h"
 #include "networked_estimation/error.hpp"
+#include "networked_estimation/estimator_config.hpp"
 #include "networked_estimation/link_monitor.hpp"
 #include "networked_estimation/online_estimator.hpp"
 #include "networked_estimation/stability.hpp"
@@ -102,75 +103,31 @@ private:
 
   void configure(ros::NodeHandle& pnh)
   {
-    ParamReader p(privateParameters(pnh), pnh.getNamespace() + " parameters");
-    const std::string model_file = p.required("model");
-    Model model;
-    try
-    {
-      model = loadModel(model_file);
-    }
-    catch (const ConfigError& e)
-    {
-      throw ConfigError(p.source() + ": model: " + e.what());
-    }
-    YAML::Node est(YAML::NodeType::Map);
-    for (const char* key : {"algorithm", "mu", "control_link", "max_components"})
-      if (p.has(key))
-        est[key] = p.take(key);
-    if (!est["algorithm"])
-      est["algorithm"] = "kfio";
-    settings_ = parseEstimatorSettings(est, p.source());
-    if (settings_.algorithm == Algorithm::ACK_KF)
-      throw ConfigError(p.source() + ": algorithm: ack_kf needs nu_k (whether each command arrived), which the "
-                        "graph does not carry; use it offline with replay");
-    const double period = p.number("period", model.period, 1e-6, 3600.0);
-    if (!(period > 0.0))
-      throw ConfigError(p.source() + ": period: the model '" + model_file + "' has no period and none was given");
-    const double budget = p.number("latency_budget", 0.5 * period, 0.0, 3600.0);
-    OnlineOptions o;
-    o.late_policy = latePolicyFromString(p.text("late_policy", "drop"), p.source());
-    o.history_length = static_cast<std::size_t>(p.integer("history_length", 100, 1, 100000));
-    o.max_future_steps = p.integer("max_future_steps", 1000, 1, 1000000);
-    o.max_past_steps = p.integer("max_past_steps", std::max<long>(1000, static_cast<long>(o.history_length)), 1, 1000000);
-    validateOnlineOptions(o, p.source());
-    input_type_ = p.choice("input_type", "measurement", {"measurement", "range", "point"});
-    if (input_type_ == "range")
-      for (const Sensor& s : model.sensors)
-        if (s.size != 1)
-          throw ConfigError(p.source() + ": input_type: range needs sensors of 1 row; sensor '" + s.name + "' has " +
-                            std::to_string(s.size));
-    if (input_type_ == "point")
-      for (const Sensor& s : model.sensors)
-        if (s.size > 3)
-          throw ConfigError(p.source() + ": input_type: point gives at most 3 values; sensor '" + s.name + "' has " +
-                            std::to_string(s.size));
-    frame_id_ = p.text("frame_id", "map");
-    child_frame_id_ = p.text("child_frame_id", toString(settings_.algorithm) + "_estimate");
-    positions_ = p.indices("position_indices", model.n() >= 2 ? std::vector<int>{0, 1} : std::vector<int>{0}, model.n());
-    publish_tf_ = p.flag("publish_tf", true);
-    trace_bound_ = p.number("trace_bound", std::numeric_limits<double>::infinity(), 0.0,
-                            std::numeric_limits<double>::infinity());
-    queue_size_ = static_cast<uint32_t>(p.integer("queue_size", 1000, 1, 1000000));
+    const EstimatorNodeConfig c = parseEstimatorNodeConfig(privateParameters(pnh), pnh.getNamespace() + " parameters");
+    settings_ = c.settings;
+    input_type_ = c.input_type;
+    frame_id_ = c.frame_id;
+    child_frame_id_ = c.child_frame_id;
+    positions_ = c.position_indices;
+    publish_tf_ = c.publish_tf;
+    trace_bound_ = c.trace_bound;
+    queue_size_ = static_cast<uint32_t>(c.queue_size);
+    online_ = std::make_unique<OnlineEstimator>(c.model, settings_, c.online);
+    clock_ = StepClock(c.period, c.latency_budget);
     // Live stability: the link's arrival rate (iid) or recovery rate (markov) over a window of
     // steps, against the critical rates of the model (stability.hpp, as `analyze` prints them).
-    const std::string link_model = p.choice("link_model", "iid", {"iid", "markov"});
-    const long window = p.integer("stability_window", 1000, 10, 1000000);
-    const long min_samples = p.integer("stability_min_samples", 100, 1, window);
-    p.take("diagnostic_period");  // read by diagnostic_updater
-    p.rejectUnknown();
-    online_ = std::make_unique<OnlineEstimator>(model, settings_, o);
     ChannelSettings assumed;  // only the kind matters for which thresholds are reported
-    if (link_model == "markov")
+    if (c.markov_link)
     {
       assumed.model = LossModelKind::GILBERT_ELLIOTT;
       assumed.p = 0.5;
       assumed.r = 0.5;
     }
-    const StabilityReport report = analyzeStability(model, &assumed, &settings_);
-    thresholds_ = linkThresholds(report, static_cast<std::size_t>(min_samples));
-    link_monitor_ = std::make_unique<LinkMonitor>(static_cast<std::size_t>(window));
-    clock_ = StepClock(period, budget);
+    const StabilityReport report = analyzeStability(c.model, &assumed, &settings_);
+    thresholds_ = linkThresholds(report, c.stability_min_samples);
+    link_monitor_ = std::make_unique<LinkMonitor>(c.stability_window);
   }
+
 
   // --- inputs (subscriber threads) ---------------------------------------------------------------
 

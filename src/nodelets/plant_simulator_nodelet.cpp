@@ -4,7 +4,8 @@
 // actuator link) by then; otherwise the input is zero (aoe.md).
 //
 // Clock: a ros::Timer (wall time, or /clock under use_sim_time). With ~publish_clock the plant
-// drives /clock itself (sim time advancing one period per step, ~time_scale times real time).
+// drives /clock itself (sim time advancing one period per step, ~time_scale times real time, and
+// ~clock_tail seconds past the last step).
 // Start: ~start_delay wall seconds after load, or after the first message on ~start_after
 // (std_msgs/Empty, e.g. estimate_summary's latched ~ready).
 #include <nodelet/nodelet.h>
@@ -53,6 +54,7 @@ private:
       publish_tf_ = p.flag("publish_tf", true);
       publish_clock_ = p.flag("publish_clock", false);
       time_scale_ = p.number("time_scale", 1.0, 1e-3, 1e4);
+      tail_left_ = p.number("clock_tail", 1.0, 0.0, 3600.0);
       start_delay_ = p.number("start_delay", 1.0, 0.0, 3600.0);
       start_after_ = p.text("start_after", "");
       p.rejectUnknown();
@@ -115,13 +117,27 @@ private:
   {
     if (finished_)
     {
-      wall_timer_.stop();  // the clock stops with the plant (a bag may drive it next)
-      return;
+      // The clock runs ~clock_tail seconds past the last step (so that the estimators finalise
+      // their last steps at their deadlines), then stops (a bag may drive it next).
+      tail_left_ -= period_;
+      if (tail_left_ < 0.0)
+      {
+        wall_timer_.stop();
+        return;
+      }
     }
     sim_now_ += ros::Duration(period_);
     rosgraph_msgs::Clock c;
     c.clock = sim_now_;
     clock_pub_.publish(c);
+    // Publish step k's data only once this process's ROS time has reached stamp_k: a nodelet here
+    // that receives y_k must not still read the previous time (its arrival time, its deadlines).
+    if (ros::Time::isSimTime())
+    {
+      const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(0.05);
+      while (ros::Time::now() < sim_now_ && ros::WallTime::now() < give_up)
+        ros::WallDuration(0.0001).sleep();
+    }
     tick(sim_now_);
   }
 
@@ -229,7 +245,7 @@ private:
   std::string frame_id_, child_frame_id_;
   std::vector<int> positions_;
   bool publish_tf_ = true, publish_clock_ = false;
-  double time_scale_ = 1.0, start_delay_ = 1.0;
+  double time_scale_ = 1.0, start_delay_ = 1.0, tail_left_ = 1.0;
   std::string start_after_;
   bool start_scheduled_ = false;
   ros::Subscriber start_sub_;
