@@ -243,7 +243,7 @@ Eigen::MatrixXd informationLowerBoundLimit(const Eigen::MatrixXd& A, const Eigen
 
 struct MareOptions
 {
-  int max_iterations = 4000;
+  int max_iterations = 1500;
   double tolerance = 1e-11;        ///< relative: ||X_{k+1} - X_k|| < tolerance * max(1, ||X_k||)
   double divergence_trace = 1e10;  ///< tr X above it: diverged
 };

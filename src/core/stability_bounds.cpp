@@ -322,7 +322,10 @@ MareResult solveMare(const Mare& mare, const MareOptions& options, bool stop_at_
     }
     decreasing = d < prev_d ? decreasing + 1 : 0;
     prev_d = d;
-    if (stop_at_certificate && decreasing >= 20 && k % 64 == 0 &&
+    // The certificate costs up to 400 iterations of the (1 + N)-term Lyapunov-like map: tried at
+    // k = 64, 128, 256, ... (and at the last iteration), not every 64 iterations.
+    const bool try_now = (k >= 64 && (k & (k - 1)) == 0) || k == options.max_iterations;
+    if (stop_at_certificate && decreasing >= 20 && try_now &&
         quickCertificate(mare, A, X, mare.lambda_rows_, mare.sigma_rows_, mare.offset_, mare.size_))
     {
       res.X = X;

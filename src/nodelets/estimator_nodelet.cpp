@@ -123,7 +123,9 @@ private:
       assumed.p = 0.5;
       assumed.r = 0.5;
     }
-    const StabilityReport report = analyzeStability(c.model, &assumed, &settings_);
+    AnalysisOptions only_model;  // the thresholds of the whole sensor set; no per-sensor analyses
+    only_model.per_sensor = false;
+    const StabilityReport report = analyzeStability(c.model, &assumed, &settings_, only_model);
     thresholds_ = linkThresholds(report, c.stability_min_samples);
     link_monitor_ = std::make_unique<LinkMonitor>(c.stability_window);
   }
