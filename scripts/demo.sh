@@ -48,7 +48,7 @@ if [ ! -s "$OUT/live_summary.txt" ]; then
   grep -v "File system loop" "$OUT/demo_launch.log" | tail -30 >&2
   exit 1
 fi
-"$BIN/analyze" --model "$CFG/models/aoe_example.yaml" --channel "$CFG/channels/bernoulli_0.2.yaml" \
+"$BIN/analyze" --model "$CFG/models/zhou_actuated.yaml" --channel "$CFG/channels/bernoulli_0.2.yaml" \
   > "$OUT/analyze_live.txt"
 
 echo "== Running the offline cases (outputs in $OUT)"
@@ -61,9 +61,10 @@ FROM=1 run_case aoe_nack aoe_example bernoulli_0.2 100 kfio aoe oe ack_kf \
 cat <<EOF
 
 ==================================== Summary ====================================
-0) The live graph: Lin et al.'s plant (unstable, rho(A) = 1.291) at 100 Hz for $DURATION s; commands
-   cross a Markov-lossy actuator link (q1 = 0.3, q2 = 0.4), measurements a Bernoulli(0.2) sensor link,
-   and kfio, rseio, aoe run side by side in one nodelet manager on the same lossy stream.
+0) The live graph: Zhou's plant (uncertain A, config/models/zhou_actuated.yaml) at 100 Hz for
+   $DURATION s, driven by u_k = 1 + exp(-k/10) through a Markov-lossy actuator link (q1 = 0.3,
+   q2 = 0.4); measurements cross a Bernoulli(0.2) sensor link; kfio, rseio (mu = 0.8) and aoe run side
+   by side in one nodelet manager on the same lossy stream.
 $(sed 's/^/   /' "$OUT/live_summary.txt")
    Will it stay bounded? analyze on this model and sensor link:
 $(grep -E "^  (lower bound|exact critical|verdict|margin)" "$OUT/analyze_live.txt" | sed 's/^/   /')

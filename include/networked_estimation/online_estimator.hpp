@@ -112,6 +112,8 @@ public:
   /// Number of sensors whose y_k was in hand at the last processed step.
   int lastSensorsReceived() const { return last_sensors_; }
   const OnlineCounters& counters() const { return counters_; }
+  /// The last error a filter step raised (empty: none).
+  const std::string& lastError() const { return last_error_; }
   const Model& model() const { return model_; }
   const OnlineOptions& options() const { return options_; }
 
@@ -153,6 +155,7 @@ private:
   int last_sensors_ = 0;
   Sample sample_;
   OnlineCounters counters_;
+  std::string last_error_;
 };
 
 /// Sample times of a stream: stamp_k = t0 + k period; deadline_k = stamp_k + latency_budget.

@@ -263,6 +263,18 @@ void OnlineEstimator::stepChecked(Estimator& est, const Sample& sample)
     ++counters_.divergence_resets;
     est.reset();
   }
+  catch (const InputError& e)
+  {
+    // Cannot happen with offers validated on the way in; if it does, the step is a prediction
+    // (counted) rather than an exception escaping into the caller's thread.
+    ++counters_.rejected;
+    last_error_ = e.what();
+    Sample predict = sample;
+    predict.gamma = false;
+    predict.y.setConstant(std::numeric_limits<double>::quiet_NaN());
+    predict.u.resize(0);
+    est.step(predict);
+  }
 }
 
 bool OnlineEstimator::nextComplete() const

@@ -92,6 +92,11 @@ private:
     diagnostics_->add("link stability", this, &EstimatorNodelet::diagnoseLink);
     // force_update: the updater's own period check uses ROS time, which stalls or jumps under sim time.
     diag_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
+    if (publish_tf_)
+    {
+      tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+      tf_timer_ = nh.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { tfTimer(); });
+    }
     thread_ = std::thread(&EstimatorNodelet::deadlineLoop, this);
     NODELET_INFO("Estimator %s on '%s' (n = %d, %zu sensor(s), %s input): period %g s, latency_budget %g s, "
                  "late_policy %s", toString(settings_.algorithm).c_str(), model.name.c_str(), model.n(),
@@ -134,6 +139,18 @@ private:
   // --- inputs (subscriber threads) ---------------------------------------------------------------
 
   void onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m)
+  {
+    try
+    {
+      measurement(sensor, m);
+    }
+    catch (const std::exception& e)
+    {
+      NODELET_ERROR_THROTTLE(1.0, "Estimator: measurement callback failed: %s", e.what());
+    }
+  }
+
+  void measurement(std::size_t sensor, const Measurement::ConstPtr& m)
   {
     const std::string& expected = online_->model().sensors[sensor].name;
     if (!m->sensor.empty() && m->sensor != expected)
@@ -282,43 +299,51 @@ private:
         trace_pub_.publish(t);
       }
       const bool want_pose = pose_pub_.getNumSubscribers() > 0;
-      const bool want_tf = publish_tf_ && (e->header.stamp - last_tf_).toSec() >= 0.02;  // tf at most 50 Hz
-      if (!want_pose && !want_tf)
+      if (publish_tf_)
+        last_estimate_ = e;  // tf leaves from tfTimer() in the nodelet's own queue, not this thread
+      if (!want_pose)
         return;
       const int n = static_cast<int>(e->state.size());
       double xyz[3] = {0.0, 0.0, 0.0};
       for (std::size_t i = 0; i < positions_.size(); ++i)
         xyz[i] = e->state[positions_[i]];
-      if (want_pose)
-      {
-        geometry_msgs::PoseWithCovarianceStamped::Ptr p = boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>();
-        p->header = e->header;
-        p->pose.pose.position.x = xyz[0];
-        p->pose.pose.position.y = xyz[1];
-        p->pose.pose.position.z = xyz[2];
-        p->pose.pose.orientation.w = 1.0;
-        // 6x6 row-major (x y z roll pitch yaw): the position block from P; axes that are not
-        // estimated get a large variance (1e6) rather than a false certainty.
-        for (int i = 0; i < 6; ++i)
-          p->pose.covariance[i * 6 + i] = 1e6;
-        for (std::size_t a = 0; a < positions_.size(); ++a)
-          for (std::size_t b = 0; b < positions_.size(); ++b)
-            p->pose.covariance[a * 6 + b] = e->covariance[static_cast<std::size_t>(positions_[a]) * n + positions_[b]];
-        pose_pub_.publish(p);
-      }
-      if (want_tf)
-      {
-        last_tf_ = e->header.stamp;
-        geometry_msgs::TransformStamped t;
-        t.header = e->header;
-        t.child_frame_id = child_frame_id_;
-        t.transform.translation.x = xyz[0];
-        t.transform.translation.y = xyz[1];
-        t.transform.translation.z = xyz[2];
-        t.transform.rotation.w = 1.0;
-        tf_.sendTransform(t);
-      }
+      geometry_msgs::PoseWithCovarianceStamped::Ptr p = boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>();
+      p->header = e->header;
+      p->pose.pose.position.x = xyz[0];
+      p->pose.pose.position.y = xyz[1];
+      p->pose.pose.position.z = xyz[2];
+      p->pose.pose.orientation.w = 1.0;
+      // 6x6 row-major (x y z roll pitch yaw): the position block from P; axes that are not
+      // estimated get a large variance (1e6) rather than a false certainty.
+      for (int i = 0; i < 6; ++i)
+        p->pose.covariance[i * 6 + i] = 1e6;
+      for (std::size_t a = 0; a < positions_.size(); ++a)
+        for (std::size_t b = 0; b < positions_.size(); ++b)
+          p->pose.covariance[a * 6 + b] = e->covariance[static_cast<std::size_t>(positions_[a]) * n + positions_[b]];
+      pose_pub_.publish(p);
     }
+  }
+
+  /// The latest estimate as the tf frame_id -> child_frame_id, 20 times a second (tf is for
+  /// viewing; sending it from the deadline thread stalled the manager's callback queues).
+  void tfTimer()
+  {
+    Estimate::ConstPtr e;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      e = last_estimate_;
+    }
+    if (!e || e->header.stamp == last_tf_)
+      return;
+    last_tf_ = e->header.stamp;
+    geometry_msgs::TransformStamped t;
+    t.header = e->header;
+    t.child_frame_id = child_frame_id_;
+    double* xyz[3] = {&t.transform.translation.x, &t.transform.translation.y, &t.transform.translation.z};
+    for (std::size_t i = 0; i < positions_.size(); ++i)
+      *xyz[i] = e->state[positions_[i]];
+    t.transform.rotation.w = 1.0;
+    tf_->sendTransform(t);
   }
 
   /// Takes the steps whose deadline has passed (in ROS time) and resets on a backwards time jump.
@@ -432,7 +457,9 @@ private:
   std::vector<ros::Subscriber> subs_;
   ros::Subscriber cmd_sub_;
   ros::Publisher estimate_pub_, trace_pub_, pose_pub_;
-  tf2_ros::TransformBroadcaster tf_;
+  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
+  ros::WallTimer tf_timer_;
+  Estimate::ConstPtr last_estimate_;
   ros::Time last_tf_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTimer diag_timer_;

@@ -191,7 +191,8 @@ int main(int argc, char** argv)
     out << std::left << std::setw(10) << label(tracks[i].topic)
         << std::right << std::setw(8) << s.steps << std::setw(10) << std::fixed << std::setprecision(3) << s.arrival
         << std::setw(14) << std::setprecision(4) << s.mse << std::setw(14) << s.trace << std::setw(14)
-        << std::setprecision(3) << (s.trace > 0.0 ? s.mse / s.trace : 0.0) << "\n";
+        << std::setprecision(3) << (s.trace > 0.0 && std::isfinite(s.mse / s.trace) ? s.mse / s.trace : std::nan(""))
+        << "\n";
   }
   out << "mean |e|^2: time-averaged squared error against PlantState; tr(P): the filter's own claim of it\n"
          "(a ratio near 1 means the filter is consistent; one run's ratio scatters widely when long loss bursts\n"
