@@ -3,10 +3,10 @@
 
 #include <cmath>
 
-#include "networked_estimation/error.hpp"
-#include "networked_estimation/estimator.hpp"
+#include "networked_estimation/common/error.hpp"
+#include "networked_estimation/estimators/estimator.hpp"
 #include "test_support.hpp"
-#include "aoe_estimators.hpp"  // private header: the OE's shared component covariance
+#include "estimators/aoe_estimators.hpp"  // private header: the OE's shared component covariance
 
 using namespace networked_estimation;
 using namespace networked_estimation::test;

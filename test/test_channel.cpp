@@ -16,9 +16,9 @@
 #include <stdexcept>
 #include <vector>
 
-#include "networked_estimation/channel.hpp"
-#include "networked_estimation/error.hpp"
-#include "networked_estimation/settings.hpp"
+#include "networked_estimation/channel/channel.hpp"
+#include "networked_estimation/common/error.hpp"
+#include "networked_estimation/config/channel_settings.hpp"
 
 namespace ne = networked_estimation;
 

@@ -1,7 +1,8 @@
 // Tests of parseModel / loadModel / validateModel and the estimator and channel settings parsers.
-#include "networked_estimation/error.hpp"
-#include "networked_estimation/model.hpp"
-#include "networked_estimation/settings.hpp"
+#include "networked_estimation/common/error.hpp"
+#include "networked_estimation/config/model.hpp"
+#include "networked_estimation/config/channel_settings.hpp"
+#include "networked_estimation/config/estimator_settings.hpp"
 
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>

@@ -9,8 +9,8 @@
 #include <string>
 #include <unistd.h>
 
-#include "networked_estimation/error.hpp"
-#include "networked_estimation/estimator_config.hpp"
+#include "networked_estimation/common/error.hpp"
+#include "networked_estimation/online/estimator_node_config.hpp"
 
 namespace ne = networked_estimation;
 

@@ -5,8 +5,8 @@
 #include <cmath>
 #include <limits>
 
-#include "networked_estimation/error.hpp"
-#include "networked_estimation/estimator.hpp"
+#include "networked_estimation/common/error.hpp"
+#include "networked_estimation/estimators/estimator.hpp"
 #include "test_support.hpp"
 
 using namespace networked_estimation;

@@ -3,8 +3,8 @@
 
 #include <cmath>
 
-#include "networked_estimation/link_monitor.hpp"
-#include "networked_estimation/random.hpp"
+#include "networked_estimation/stability/link_monitor.hpp"
+#include "networked_estimation/common/random.hpp"
 
 using namespace networked_estimation;
 

@@ -8,8 +8,8 @@
 #include <memory>
 #include <vector>
 
-#include "networked_estimation/loss_model.hpp"
-#include "networked_estimation/settings.hpp"
+#include "networked_estimation/channel/loss_model.hpp"
+#include "networked_estimation/config/channel_settings.hpp"
 
 namespace ne = networked_estimation;
 

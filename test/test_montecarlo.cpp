@@ -5,8 +5,8 @@
 #include <cmath>
 #include <string>
 
-#include "networked_estimation/error.hpp"
-#include "networked_estimation/montecarlo.hpp"
+#include "networked_estimation/common/error.hpp"
+#include "networked_estimation/experiments/montecarlo.hpp"
 
 using namespace networked_estimation;
 

@@ -6,9 +6,9 @@
 #include <limits>
 #include <vector>
 
-#include "networked_estimation/error.hpp"
-#include "networked_estimation/online_estimator.hpp"
-#include "networked_estimation/simulator.hpp"
+#include "networked_estimation/common/error.hpp"
+#include "networked_estimation/online/online_estimator.hpp"
+#include "networked_estimation/simulation/simulator.hpp"
 #include "test_support.hpp"
 
 namespace ne = networked_estimation;

@@ -13,8 +13,10 @@
 #include <sstream>
 #include <string>
 
-#include "networked_estimation/error.hpp"
-#include "networked_estimation/replay_io.hpp"
+#include "networked_estimation/common/error.hpp"
+#include "networked_estimation/io/atomic_file.hpp"
+#include "networked_estimation/io/replay_csv.hpp"
+#include "networked_estimation/io/score.hpp"
 #include "test_support.hpp"
 
 namespace networked_estimation

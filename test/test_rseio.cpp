@@ -5,11 +5,11 @@
 
 #include <map>
 
-#include "networked_estimation/error.hpp"
-#include "networked_estimation/estimator.hpp"
-#include "networked_estimation/rseio.hpp"
+#include "networked_estimation/common/error.hpp"
+#include "networked_estimation/estimators/estimator.hpp"
+#include "networked_estimation/estimators/rseio.hpp"
 #include "test_support.hpp"
-#include "rseio_estimator.hpp"  // private header: which form an arrival step used
+#include "estimators/rseio_estimator.hpp"  // private header: which form an arrival step used
 
 using namespace networked_estimation;
 using namespace networked_estimation::test;

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "networked_estimation/error.hpp"
-#include "networked_estimation/loss_model.hpp"
-#include "networked_estimation/simulator.hpp"
+#include "networked_estimation/common/error.hpp"
+#include "networked_estimation/channel/loss_model.hpp"
+#include "networked_estimation/simulation/simulator.hpp"
 
 namespace ne = networked_estimation;
 

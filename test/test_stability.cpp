@@ -7,8 +7,8 @@
 #include <cmath>
 #include <numeric>
 
-#include "networked_estimation/estimator.hpp"
-#include "networked_estimation/stability.hpp"
+#include "networked_estimation/estimators/estimator.hpp"
+#include "networked_estimation/stability/stability.hpp"
 #include "test_support.hpp"
 
 using namespace networked_estimation;

@@ -5,9 +5,9 @@
 #include <cmath>
 #include <string>
 
-#include "networked_estimation/model.hpp"
-#include "montecarlo_experiments.hpp"  // private header (src/core): the papers' example models
-#include "networked_estimation/random.hpp"
+#include "networked_estimation/config/model.hpp"
+#include "experiments/montecarlo_experiments.hpp"  // private header (src/core): the papers' example models
+#include "networked_estimation/common/random.hpp"
 
 namespace networked_estimation
 {

@@ -20,9 +20,9 @@
 #include <thread>
 #include <unordered_map>
 
-#include "networked_estimation/channel.hpp"
-#include "networked_estimation/error.hpp"
-#include "networked_estimation/link_monitor.hpp"
+#include "networked_estimation/channel/channel.hpp"
+#include "networked_estimation/common/error.hpp"
+#include "networked_estimation/stability/link_monitor.hpp"
 #include "networked_estimation/ChannelEvent.h"
 #include "networked_estimation/ControlInput.h"
 #include "networked_estimation/Estimate.h"

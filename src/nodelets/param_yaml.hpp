@@ -8,7 +8,7 @@
 #include <set>
 #include <string>
 
-#include "networked_estimation/param_reader.hpp"
+#include "networked_estimation/config/param_reader.hpp"
 
 namespace networked_estimation
 {

@@ -21,9 +21,9 @@
 #include "networked_estimation/ControlInput.h"
 #include "networked_estimation/Measurement.h"
 #include "networked_estimation/PlantState.h"
-#include "networked_estimation/error.hpp"
-#include "networked_estimation/model.hpp"
-#include "networked_estimation/simulator.hpp"
+#include "networked_estimation/common/error.hpp"
+#include "networked_estimation/config/model.hpp"
+#include "networked_estimation/simulation/simulator.hpp"
 #include "param_yaml.hpp"
 
 namespace networked_estimation

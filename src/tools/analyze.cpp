@@ -4,10 +4,11 @@
 #include <sstream>
 
 #include "cli.hpp"
-#include "networked_estimation/json_writer.hpp"
-#include "networked_estimation/model.hpp"
-#include "networked_estimation/settings.hpp"
-#include "networked_estimation/stability.hpp"
+#include "networked_estimation/io/json_writer.hpp"
+#include "networked_estimation/config/model.hpp"
+#include "networked_estimation/config/channel_settings.hpp"
+#include "networked_estimation/config/estimator_settings.hpp"
+#include "networked_estimation/stability/stability.hpp"
 
 using namespace networked_estimation;
 

@@ -34,10 +34,10 @@
 #include <utility>
 #include <vector>
 
-#include "networked_estimation/estimator.hpp"
-#include "networked_estimation/model.hpp"
-#include "networked_estimation/random.hpp"
-#include "networked_estimation/settings.hpp"
+#include "networked_estimation/estimators/estimator.hpp"
+#include "networked_estimation/config/model.hpp"
+#include "networked_estimation/common/random.hpp"
+#include "networked_estimation/config/estimator_settings.hpp"
 
 namespace networked_estimation
 {

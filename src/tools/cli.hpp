@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "networked_estimation/error.hpp"
+#include "networked_estimation/common/error.hpp"
 
 namespace networked_estimation
 {

@@ -6,7 +6,7 @@
 #include <unistd.h>
 
 #include "cli.hpp"
-#include "networked_estimation/montecarlo.hpp"
+#include "networked_estimation/experiments/montecarlo.hpp"
 
 using namespace networked_estimation;
 

@@ -3,10 +3,11 @@
 #include <memory>
 
 #include "cli.hpp"
-#include "networked_estimation/estimator.hpp"
-#include "networked_estimation/model.hpp"
-#include "networked_estimation/replay_io.hpp"
-#include "networked_estimation/settings.hpp"
+#include "networked_estimation/estimators/estimator.hpp"
+#include "networked_estimation/config/model.hpp"
+#include "networked_estimation/io/atomic_file.hpp"
+#include "networked_estimation/io/replay_csv.hpp"
+#include "networked_estimation/config/estimator_settings.hpp"
 
 using namespace networked_estimation;
 

@@ -4,7 +4,8 @@
 #include <vector>
 
 #include "cli.hpp"
-#include "networked_estimation/replay_io.hpp"
+#include "networked_estimation/io/replay_csv.hpp"
+#include "networked_estimation/io/score.hpp"
 
 using namespace networked_estimation;
 

@@ -10,13 +10,14 @@
 #include <vector>
 
 #include "cli.hpp"
-#include "networked_estimation/error.hpp"
-#include "networked_estimation/loss_model.hpp"
-#include "networked_estimation/model.hpp"
-#include "networked_estimation/random.hpp"
-#include "networked_estimation/replay_io.hpp"
-#include "networked_estimation/settings.hpp"
-#include "networked_estimation/simulator.hpp"
+#include "networked_estimation/common/error.hpp"
+#include "networked_estimation/channel/loss_model.hpp"
+#include "networked_estimation/config/model.hpp"
+#include "networked_estimation/common/random.hpp"
+#include "networked_estimation/io/atomic_file.hpp"
+#include "networked_estimation/io/replay_csv.hpp"
+#include "networked_estimation/config/channel_settings.hpp"
+#include "networked_estimation/simulation/simulator.hpp"
 
 using namespace networked_estimation;
 

@@ -24,10 +24,10 @@
 #include "networked_estimation/Measurement.h"
 #include "networked_estimation/PlantState.h"
 #include "networked_estimation/SetParameters.h"
-#include "networked_estimation/estimator.hpp"
-#include "networked_estimation/model.hpp"
-#include "networked_estimation/random.hpp"
-#include "networked_estimation/settings.hpp"
+#include "networked_estimation/estimators/estimator.hpp"
+#include "networked_estimation/config/model.hpp"
+#include "networked_estimation/common/random.hpp"
+#include "networked_estimation/config/estimator_settings.hpp"
 
 namespace ne = networked_estimation;
 using ne::ChannelEvent;

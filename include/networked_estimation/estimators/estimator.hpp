@@ -1,0 +1,77 @@
+// One small interface for every estimator of the package, and the factory that builds one from a
+// model and estimator settings.
+//
+// Time convention (formats.md): step k takes (x_{k-1|k-1}, P_{k-1|k-1}), the command u_k and the
+// received part of y_k, and produces (x_{k|k}, P_{k|k}).
+#pragma once
+
+#include <Eigen/Dense>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "networked_estimation/config/model.hpp"
+#include "networked_estimation/config/estimator_settings.hpp"
+
+namespace networked_estimation
+{
+
+/// Input of one step. Reuse one Sample across steps to avoid allocations.
+struct Sample
+{
+  /// gamma_k: the sample reached the estimator. kf ignores it (it cannot tell a loss).
+  bool gamma = true;
+  /// Stacked y_k (size m). NaN cells mark a sensor whose data did not arrive; a sensor block is
+  /// either all finite or all NaN. Ignored (may be empty) when gamma is false, except by kf.
+  Eigen::VectorXd y;
+  /// Commanded input u_k (size p; may be empty when the model has no control = zero input).
+  Eigen::VectorXd u;
+  /// nu_k: 1 when u_k reached the actuator, 0 when lost, -1 unknown. Only ack_kf reads it.
+  int nu = -1;
+};
+
+class Estimator
+{
+public:
+  virtual ~Estimator() = default;
+
+  /// One step k-1 -> k. Throws InputError for malformed input (wrong sizes, a partly missing
+  /// sensor block, ack_kf without nu) leaving the estimate untouched, and DivergenceError when the
+  /// covariance stops being finite (the estimator must then be reset()).
+  virtual void step(const Sample& sample) = 0;
+
+  /// x_{k|k}.
+  virtual const Eigen::VectorXd& state() const = 0;
+  /// P_{k|k} (symmetric). For rseio the pseudo-covariance of the paper.
+  virtual const Eigen::MatrixXd& covariance() const = 0;
+  /// aoe/oe: posterior probability that the last command u_k reached the actuator; ack_kf: the
+  /// told nu_k; NaN for the others.
+  virtual double commandArrivalProbability() const { return std::numeric_limits<double>::quiet_NaN(); }
+  /// oe: number of mixture components held (1 for the others).
+  virtual std::size_t components() const { return 1; }
+
+  /// Back to x0, P0 (and the initial mode probabilities), step counter 0.
+  virtual void reset() = 0;
+
+  /// An independent copy in the same state (used to rewind and re-filter a bounded history).
+  virtual std::unique_ptr<Estimator> clone() const = 0;
+
+  virtual Algorithm algorithm() const = 0;
+  /// Number of steps taken since construction / reset.
+  long steps() const { return steps_; }
+  /// Whether the last step used a measurement (some sensor arrived and was fused).
+  bool lastUpdated() const { return last_updated_; }
+
+protected:
+  long steps_ = 0;
+  bool last_updated_ = false;
+};
+
+/// Builds the estimator named by settings.algorithm. Throws ConfigError when the combination is
+/// invalid (e.g. aoe/oe for a model with control but settings without control_link).
+/// The estimator keeps its own copy of the model.
+std::unique_ptr<Estimator> makeEstimator(const Model& model, const EstimatorSettings& settings);
+
+}  // namespace networked_estimation

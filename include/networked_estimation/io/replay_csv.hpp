@@ -1,0 +1,124 @@
+// ROS-free CSV input/output of the command-line tools (docs/formats.md, "Replay input",
+// "Replay output", "Truth"): what `simulate` writes and `replay` reads and writes.
+//
+//   replay input:   k,gamma,y1,...,ym[,u1,...,up][,nu]
+//   replay output:  k,gamma,x1,...,xn,P11,P12,...,Pnn,trace
+//   truth:          k,x1,...,xn,nu          (nu = 1 when u_k reached the actuator)
+//
+// Every reading error is an InputError whose message is
+//   <path>:<line>: <column name>: <problem> (expected ..., found '...')
+// with 1-based line numbers counting the header.
+#pragma once
+
+#include <Eigen/Dense>
+#include <fstream>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+#include "networked_estimation/config/model.hpp"
+
+namespace networked_estimation
+{
+
+// ---------------------------------------------------------------------------------------------
+// Replay input
+
+/// One sample of a replay input file.
+struct ReplayRow
+{
+  long k = 0;
+  bool gamma = true;
+  /// Stacked y_k (size m). NaN where a sensor's cells were empty (per-sensor loss) and, on gamma = 0
+  /// rows, where a cell was empty or `nan`. Finite cells of gamma = 0 rows are kept (kf uses them).
+  Eigen::VectorXd y;
+  /// Commanded u_k (size p; empty when the file has no u columns).
+  Eigen::VectorXd u;
+  /// nu_k (0 or 1); -1 when the file has no nu column.
+  int nu = -1;
+  /// Line of the file this row came from (1-based, the header is line 1).
+  long line = 0;
+};
+
+struct ReplayInput
+{
+  std::string path;  ///< the source named in messages
+  std::vector<ReplayRow> rows;
+  bool has_u = false;
+  bool has_nu = false;
+};
+
+/// Reads and validates a replay input file against the model (number of outputs, sensor blocks,
+/// control inputs). Throws InputError (see the message format above).
+ReplayInput readReplayInput(const std::string& path, const Model& model);
+/// Same, from a stream; `source` names it in messages.
+ReplayInput parseReplayInput(std::istream& in, const std::string& source, const Model& model);
+
+/// Header `k,gamma,y1..ym[,u1..up][,nu]`.
+void writeReplayInputHeader(std::ostream& os, int m, int p, bool with_nu);
+/// One row. NaN entries of y are written as empty cells; u is written when non-empty; nu when
+/// with_nu. Numbers use %.17g.
+void writeReplayInputRow(std::ostream& os, long k, bool gamma, const Eigen::VectorXd& y,
+                         const Eigen::VectorXd& u, bool with_nu = false, int nu = -1);
+
+// ---------------------------------------------------------------------------------------------
+// Replay output
+
+/// Header `k,gamma,x1..xn,P11,P12,...,Pnn,trace`.
+void writeReplayOutputHeader(std::ostream& os, int n);
+/// One row, numbers with %.17g (round-trip exact doubles).
+void writeReplayOutputRow(std::ostream& os, long k, bool gamma, const Eigen::VectorXd& x,
+                          const Eigen::MatrixXd& P);
+
+struct ReplayOutputRow
+{
+  long k = 0;
+  bool gamma = true;
+  Eigen::VectorXd x;
+  Eigen::MatrixXd P;
+  double trace = 0.0;
+};
+
+struct ReplayOutput
+{
+  std::string path;
+  int n = 0;  ///< state dimension, from the header
+  std::vector<ReplayOutputRow> rows;
+};
+
+/// Reads a replay output file (n from the header). Throws InputError.
+ReplayOutput readReplayOutput(const std::string& path);
+ReplayOutput parseReplayOutput(std::istream& in, const std::string& source);
+
+// ---------------------------------------------------------------------------------------------
+// Truth (written by simulate)
+
+struct TruthRow
+{
+  long k = 0;
+  Eigen::VectorXd x;
+  int nu = 1;  ///< 1 when u_k reached the actuator
+};
+
+struct Truth
+{
+  std::string path;
+  int n = 0;
+  std::vector<TruthRow> rows;
+};
+
+/// Header `k,x1..xn,nu`.
+void writeTruthHeader(std::ostream& os, int n);
+void writeTruthRow(std::ostream& os, long k, const Eigen::VectorXd& x, bool nu);
+
+/// Reads a truth file (n from the header). Throws InputError.
+Truth readTruth(const std::string& path);
+Truth parseTruth(std::istream& in, const std::string& source);
+
+// ---------------------------------------------------------------------------------------------
+// Helpers
+
+/// %.17g (round-trip exact for every finite double).
+std::string formatDouble(double value);
+
+}  // namespace networked_estimation

@@ -1,0 +1,49 @@
+// The Estimator nodelet's configuration, parsed and validated from its private parameters (as a
+// YAML map) without ROS, so that every key's check is unit-tested.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "networked_estimation/config/model.hpp"
+#include "networked_estimation/online/online_estimator.hpp"
+#include "networked_estimation/config/estimator_settings.hpp"
+
+namespace YAML
+{
+class Node;
+}
+
+namespace networked_estimation
+{
+
+struct EstimatorNodeConfig
+{
+  std::string model_file;
+  Model model;
+  EstimatorSettings settings;      ///< algorithm, mu, control_link, max_components
+  OnlineOptions online;            ///< late_policy, history_length, max_future_steps, max_past_steps
+  double period = 0.0;             ///< default: the model's
+  double latency_budget = 0.0;     ///< default: half a period
+  std::string input_type = "measurement";  ///< measurement | range | point
+  std::string frame_id = "map";
+  std::string child_frame_id;      ///< default: "<algorithm>_estimate"
+  std::vector<int> position_indices;  ///< default: [0, 1] (or [0] for n = 1)
+  bool publish_tf = true;
+  double trace_bound = 0.0;        ///< default: +inf (no bound)
+  std::size_t queue_size = 1000;
+  bool markov_link = false;        ///< link_model: markov (recovery rate) instead of iid (arrival rate)
+  std::size_t stability_window = 1000;
+  std::size_t stability_min_samples = 100;
+};
+
+/// Parses the parameters (README "The ROS graph": model, algorithm, mu, control_link,
+/// max_components, period, latency_budget, late_policy, history_length, max_future_steps,
+/// max_past_steps, input_type, frame_id, child_frame_id, position_indices, publish_tf, trace_bound,
+/// queue_size, link_model, stability_window, stability_min_samples; diagnostic_period is left to
+/// diagnostic_updater). Throws ConfigError naming `source` and the key, also for an unknown key,
+/// a model file that cannot be read, and ack_kf (the graph does not carry nu_k).
+EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std::string& source);
+
+}  // namespace networked_estimation

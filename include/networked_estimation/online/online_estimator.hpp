@@ -1,0 +1,187 @@
+// Online sample assembly for an estimator fed by a stream (the Estimator nodelet's core, ROS-free).
+//
+// Measurements of each sensor and the known commands arrive one message at a time, possibly lost,
+// late, duplicated or out of order. The caller (the nodelet) calls process() once per sample k at
+// the deadline of step k; process() takes exactly one filter step with what is in hand:
+// gamma_k = 1 iff some sensor's y_k arrived before that call. What arrives for a step already
+// processed is either dropped and counted (LatePolicy::DROP) or fused by rewinding a bounded
+// history and re-filtering (LatePolicy::REWIND).
+//
+// StepClock maps steps to times: stamp_k = t0 + k * period, deadline_k = stamp_k + latency_budget.
+#pragma once
+
+#include <Eigen/Dense>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "networked_estimation/estimators/estimator.hpp"
+#include "networked_estimation/config/model.hpp"
+#include "networked_estimation/config/estimator_settings.hpp"
+
+namespace networked_estimation
+{
+
+enum class LatePolicy
+{
+  DROP,   ///< a measurement for a step already processed is dropped and counted
+  REWIND  ///< it is fused: the filter goes back to the step before it and re-filters to now
+};
+
+/// "drop" / "rewind"; throws ConfigError naming `source` for anything else.
+LatePolicy latePolicyFromString(const std::string& name, const std::string& source);
+std::string toString(LatePolicy p);
+
+struct OnlineOptions
+{
+  LatePolicy late_policy = LatePolicy::DROP;
+  /// Steps kept for rewinding (REWIND): a measurement up to this many steps late is still fused.
+  std::size_t history_length = 100;
+  /// A step this far (or further) ahead of the next step to process is rejected (far future).
+  long max_future_steps = 1000;
+  /// A step this far (or further) behind the next step is rejected as bad input (far past), not
+  /// counted as late. At least history_length.
+  long max_past_steps = 1000;
+};
+
+/// Validates options (history_length >= 1 for rewind, max_future_steps >= 1, max_past_steps >=
+/// history_length). Throws ConfigError naming `source` and the key.
+void validateOnlineOptions(const OnlineOptions& o, const std::string& source);
+
+/// What happened to one offered message.
+enum class Offer
+{
+  ACCEPTED,       ///< in hand for a step not processed yet
+  LATE_FUSED,     ///< late, fused by rewinding (REWIND)
+  LATE_DROPPED,   ///< late: dropped (DROP, or older than the history with REWIND)
+  DUPLICATE,      ///< this sensor's (or command's) data for that step was already in hand: ignored
+  REJECTED        ///< bad input (see reason): wrong size, not finite, unknown sensor, step out of range
+};
+
+struct OfferResult
+{
+  Offer offer = Offer::ACCEPTED;
+  std::string reason;  ///< for REJECTED: what is wrong, naming the field and expected vs found
+};
+
+struct OnlineCounters
+{
+  std::uint64_t processed = 0;        ///< filter steps taken (published estimates)
+  std::uint64_t arrivals = 0;         ///< steps processed with gamma_k = 1
+  std::uint64_t accepted = 0;         ///< measurements in hand before their deadline
+  std::uint64_t late_fused = 0;
+  std::uint64_t late_dropped = 0;
+  std::uint64_t duplicates = 0;
+  std::uint64_t rejected = 0;
+  std::uint64_t rewinds = 0;          ///< re-filterings done (one per late-fused message)
+  std::uint64_t missing_commands = 0; ///< steps processed without the command u_k (zero input used)
+  std::uint64_t divergence_resets = 0;///< the covariance overflowed: the filter was reset to x0, P0
+};
+
+class OnlineEstimator
+{
+public:
+  /// Throws ConfigError (bad settings for the model, bad options).
+  OnlineEstimator(const Model& model, const EstimatorSettings& settings, const OnlineOptions& options);
+
+  /// Whether start() was called since construction / reset().
+  bool started() const { return started_; }
+  /// Begins the timeline: the first step to process is `first_step` (>= 1).
+  void start(long first_step);
+  /// The step the next process() call takes (valid once started).
+  long nextStep() const { return next_; }
+
+  /// Offers y_k of sensor `sensor` (index into model.sensors). `size` must equal the sensor's rows.
+  OfferResult offerMeasurement(long k, std::size_t sensor, const double* y, std::size_t size);
+  /// Offers the command u_k (p values). Only meaningful for models with control.
+  OfferResult offerCommand(long k, const double* u, std::size_t size);
+
+  /// Whether everything step nextStep() can use is in hand (every sensor's y_k, and u_k for a
+  /// model with control): processing it before its deadline gives the same result.
+  bool nextComplete() const;
+
+  /// Takes the filter step nextStep() with what is in hand, then advances nextStep().
+  /// Never throws for data problems: a covariance overflow resets the filter (counted).
+  void process();
+
+  /// The estimator after the last process() (or after a rewind).
+  const Estimator& estimator() const { return *live_; }
+  /// gamma of the last processed step (some sensor's y_k was in hand).
+  bool lastGamma() const { return last_gamma_; }
+  /// Number of sensors whose y_k was in hand at the last processed step.
+  int lastSensorsReceived() const { return last_sensors_; }
+  const OnlineCounters& counters() const { return counters_; }
+  /// The last error a filter step raised (empty: none).
+  const std::string& lastError() const { return last_error_; }
+  const Model& model() const { return model_; }
+  const OnlineOptions& options() const { return options_; }
+
+  /// Everything back to the state after construction (filter at x0, P0, nothing in hand, not
+  /// started). Counters are kept (they count since construction).
+  void reset();
+
+private:
+  struct Slot
+  {
+    long k = -1;             ///< step held in this slot (-1: empty)
+    Eigen::VectorXd y;       ///< stacked y, NaN where a sensor has not arrived
+    std::vector<char> have;  ///< per sensor
+    Eigen::VectorXd u;       ///< empty until the command arrives
+    bool have_u = false;
+  };
+
+  Slot& slot(long k);
+  /// The slot of step k, cleared when it held another step. Null when k is outside the window.
+  Slot* slotFor(long k);
+  /// The filter input of step k from its slot (a loss when nothing arrived for k).
+  void fillSample(long k, Sample& sample) const;
+  void stepChecked(Estimator& est, const Sample& sample);
+  void rewind();
+  OfferResult checkStep(long k) const;
+  /// Counts a rejected offer and returns it with its reason.
+  OfferResult reject(const std::string& why);
+
+  Model model_;
+  EstimatorSettings settings_;
+  OnlineOptions options_;
+  std::unique_ptr<Estimator> live_;
+  std::unique_ptr<Estimator> checkpoint_;  ///< REWIND: the filter at step checkpoint_k_
+  long checkpoint_k_ = 0;
+  std::vector<Slot> ring_;
+  long next_ = 1;
+  bool started_ = false;
+  bool last_gamma_ = false;
+  int last_sensors_ = 0;
+  Sample sample_;
+  OnlineCounters counters_;
+  std::string last_error_;
+};
+
+/// Sample times of a stream: stamp_k = t0 + k period; deadline_k = stamp_k + latency_budget.
+class StepClock
+{
+public:
+  StepClock(double period, double latency_budget) : period_(period), budget_(latency_budget) {}
+  bool anchored() const { return anchored_; }
+  /// Anchors the clock on a sample k stamped t (t0 = t - k period).
+  void anchor(long k, double t)
+  {
+    t0_ = t - static_cast<double>(k) * period_;
+    anchored_ = true;
+  }
+  void clear() { anchored_ = false; }
+  double stamp(long k) const { return t0_ + static_cast<double>(k) * period_; }
+  double deadline(long k) const { return stamp(k) + budget_; }
+  /// The step whose stamp is nearest to t (for message types without a step number).
+  long stepAt(double t) const;
+  double period() const { return period_; }
+  double budget() const { return budget_; }
+
+private:
+  double period_, budget_;
+  double t0_ = 0.0;
+  bool anchored_ = false;
+};
+
+}  // namespace networked_estimation

@@ -1,0 +1,88 @@
+// Plant simulator: the linear plant of a Model with parametric uncertainty (fresh eps_j uniform in
+// [-range_j, range_j] at every step), process and measurement noise, and a known control sequence
+// delivered through a lossy actuator link (zero input applied when a command is lost, as in aoe.md).
+#pragma once
+
+#include <Eigen/Dense>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "networked_estimation/channel/loss_model.hpp"
+#include "networked_estimation/config/model.hpp"
+#include "networked_estimation/common/random.hpp"
+
+namespace networked_estimation
+{
+
+/// The known command sequence u_k (k = 1, 2, ...), the same value in every input channel.
+struct ControlSequence
+{
+  enum class Kind
+  {
+    CONSTANT,  ///< u_k = value
+    STEP,      ///< u_k = 0 for k < step_at, value for k >= step_at
+    PAPER      ///< u_k = value * (1 + exp(-k/10)), aoe.md section 5 (value = 1 gives the paper's)
+  };
+  Kind kind = Kind::PAPER;
+  double value = 1.0;
+  long step_at = 1;
+
+  /// u_k as a p-vector.
+  Eigen::VectorXd at(long k, int p) const;
+
+  /// Parses "constant:V", "step:K:V", "paper" or "paper:V". Throws ConfigError naming `what`.
+  static ControlSequence parse(const std::string& text, const std::string& what);
+};
+
+/// One simulated sample k.
+struct SimulatedSample
+{
+  long k = 0;
+  Eigen::VectorXd x;  ///< true state x_k
+  Eigen::VectorXd y;  ///< y_k = C(eps_k) x_k + v_k (always computed, whether delivered or not)
+  Eigen::VectorXd v;  ///< measurement noise v_k (what the papers' model delivers on a loss)
+  Eigen::VectorXd u;  ///< commanded u_k (p-vector, empty without control)
+  bool nu = true;     ///< u_k reached the actuator
+};
+
+class PlantSimulator
+{
+public:
+  /// Streams: the initial state, process noise, measurement noise and eps each draw from their
+  /// own generator derived from `seed`; the actuator link uses `actuator` (may be null = lossless).
+  PlantSimulator(const Model& model, std::uint64_t seed, ControlSequence control = {},
+                 std::unique_ptr<LossModel> actuator = nullptr);
+
+  /// Advances from x_{k-1} to x_k and returns sample k (k starts at 1).
+  /// x_0 ~ N(model.x0, model.P0) is drawn at construction.
+  const SimulatedSample& step();
+
+  /// Advances with a command applied from outside (the ROS graph, where the actuator link is a
+  /// LossyChannel): `applied` is the u_k that reached the actuator (p values), or null when no
+  /// command arrived (zero input, nu = false). The control sequence and actuator link given to the
+  /// constructor are not used. Throws InputError when `applied` has the wrong size or is not finite.
+  const SimulatedSample& stepApplied(const Eigen::VectorXd* applied);
+
+  const Eigen::VectorXd& state() const { return x_; }
+  long k() const { return k_; }
+
+private:
+  const SimulatedSample& advance(bool nu);
+
+  const Model& model_;
+  ControlSequence control_;
+  std::unique_ptr<LossModel> actuator_;
+  Rng rng_x0_, rng_w_, rng_v_, rng_eps_;
+  Eigen::MatrixXd sqrtQ_, sqrtR_;  ///< lower Cholesky factors
+  Eigen::VectorXd x_;
+  long k_ = 0;
+  SimulatedSample sample_;
+  // Added by the simulator implementation: eps of the last sample (used in A, B of the next
+  // transition) and preallocated work buffers so that step() does not allocate.
+  Eigen::VectorXd eps_;
+  Eigen::MatrixXd Ae_, Be_, Ce_;
+  Eigen::VectorXd zw_, zv_, w_, xn_;
+};
+
+}  // namespace networked_estimation

@@ -1,0 +1,399 @@
+// Stability analysis of Kalman filtering over lossy links (stability.md, aoe.md section 4.2,
+// rseio.md section 4): critical arrival rates, the MARE upper bound with its certificate, the
+// exact test of Marelli et al. (Theorem 14 with Proposition 24 / Corollary 26) where it is
+// computable, the Markov (Gilbert-Elliott) threshold on the recovery rate, and the RSEIO
+// convergence checklist. ROS-free.
+//
+// Every test returns a Verdict (stable / unstable / undecided / not applicable) with the reason and
+// the numbers behind it; an input that violates an assumption of a test gives "not applicable".
+//
+// Conventions: the process noise covariance is B Q B' (n x n); a sensor i is whitened as
+// H_i = L_i^{-1} C_i with R_i = L_i L_i' (so H_i' H_i = C_i' R_i^{-1} C_i). Each sensor has its own
+// link; analyzeStability gives every sensor an independent copy of the given channel (as the
+// simulate tool and the nodelets do).
+#pragma once
+
+#include <Eigen/Dense>
+#include <complex>
+#include <limits>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "networked_estimation/config/model.hpp"
+#include "networked_estimation/config/channel_settings.hpp"
+#include "networked_estimation/config/estimator_settings.hpp"
+
+namespace networked_estimation
+{
+
+/// The outcome of one test.
+struct Verdict
+{
+  enum class Kind
+  {
+    STABLE,         ///< the expected error covariance stays bounded (or the test's notion of convergence holds)
+    UNSTABLE,       ///< it is unbounded
+    UNDECIDED,      ///< the available conditions do not decide (e.g. between a necessary and a sufficient threshold)
+    NOT_APPLICABLE  ///< an assumption of the test fails; `reason` names it
+  };
+  Kind kind = Kind::NOT_APPLICABLE;
+  std::string reason;
+  std::map<std::string, double> numbers;  ///< the quantities the verdict was decided on
+};
+
+/// "stable", "unstable", "undecided", "not applicable".
+std::string toString(Verdict::Kind kind);
+/// "<kind>: <reason>".
+std::string describe(const Verdict& verdict);
+
+/// Numerical tolerances (all relative unless stated).
+struct StabilityTolerances
+{
+  double rank = 1e-9;         ///< singular values below rank * largest (or * scale) count as zero
+  double eigen_cluster = 1e-5; ///< eigenvalues closer than this (relative) are one repeated eigenvalue
+  double modulus = 1e-6;      ///< equal moduli (FMO grouping, strong observability)
+  int max_denominator = 24;    ///< FMO grouping: argument differences / 2 pi = p / q with q <= this
+  double decision = 1e-9;     ///< |alpha|^2 Phi within this of 1 is undecided (Theorem 14 equality)
+};
+
+// ---------------------------------------------------------------------------------------------
+// Eigen-structure helpers
+
+/// Eigenvalues of A (complex, in the order of Eigen::EigenSolver).
+Eigen::VectorXcd eigenvalues(const Eigen::MatrixXd& A);
+/// rho(A) = max |lambda_i|.
+double spectralRadius(const Eigen::MatrixXd& A);
+/// M(A) = prod_i max(1, |lambda_i|) (stability.md 2.1).
+double mahlerMeasure(const Eigen::MatrixXd& A);
+/// h(A) = ln M(A).
+double topologicalEntropy(const Eigen::MatrixXd& A);
+/// Numerical rank: singular values above rel_tol * max(scale, largest singular value).
+int numericalRank(const Eigen::MatrixXcd& M, double rel_tol = 1e-9, double scale = 0.0);
+/// Orthonormal basis of the null space of M (columns), with the same rank rule.
+Eigen::MatrixXcd nullSpace(const Eigen::MatrixXcd& M, double rel_tol = 1e-9, double scale = 0.0);
+/// Geometric = algebraic multiplicity for every eigenvalue cluster.
+bool isDiagonalizable(const Eigen::MatrixXd& A, const StabilityTolerances& tol = {});
+/// rank [C; CA; ...; CA^{n-1}] = n.
+bool isObservable(const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, double rel_tol = 1e-9);
+/// PBH: rank [A - lambda I, G] = n for every eigenvalue with |lambda| >= min_modulus
+/// (min_modulus = 0: full controllability).
+bool modesControllable(const Eigen::MatrixXd& A, const Eigen::MatrixXd& G, double min_modulus = 0.0,
+                       double rel_tol = 1e-9);
+/// PBH: rank [A - lambda I; C] = n for every eigenvalue with |lambda| >= min_modulus (min_modulus = 1:
+/// detectability).
+bool modesObservable(const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, double min_modulus = 0.0,
+                     double rel_tol = 1e-9);
+/// aoe.md 4.2 step 2-3 (Definition 5): A diagonalizable and, for every group of eigenvalues of equal
+/// modulus, C V restricted to the group has full column rank. NOT_APPLICABLE when A is not
+/// diagonalizable; STABLE stands for "strongly observable", UNSTABLE for "not strongly observable".
+Verdict strongObservability(const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, const StabilityTolerances& tol = {});
+
+/// One FMO block (stability.md 3.2, 3.4 step 1) of the eigenvalues with modulus >= min_modulus.
+struct FmoBlock
+{
+  std::complex<double> alpha;                    ///< a representative eigenvalue
+  double modulus = 0.0;                          ///< |alpha|
+  int order = 1;                                 ///< common multiplicative order N_k
+  std::vector<std::complex<double>> eigenvalues; ///< members, with algebraic multiplicity
+  bool diagonalizable = true;                    ///< geometric = algebraic multiplicity for every member
+  bool single_eigenvalue = true;                 ///< all members are the same eigenvalue
+  Eigen::MatrixXcd basis;       ///< n x n_k: eigenvectors (diagonalizable) or generalised eigenspace basis
+  Eigen::VectorXcd diagonal;    ///< diagonalizable: eigenvalue of each basis column
+  Eigen::MatrixXcd eigenspace;  ///< single eigenvalue: basis of ker(A - alpha I)
+};
+/// Groups the eigenvalues with |lambda| >= min_modulus (relative tolerance) into FMO blocks: equal
+/// modulus and argument differences / 2 pi rational with denominator <= tol.max_denominator.
+/// Ordered by decreasing modulus.
+std::vector<FmoBlock> fmoBlocks(const Eigen::MatrixXd& A, double min_modulus = 1.0, const StabilityTolerances& tol = {});
+
+// ---------------------------------------------------------------------------------------------
+// Links
+
+/// The arrival process of one sensor's link: i.i.d. (Bernoulli) or a Gilbert-Elliott chain
+/// (two hidden states, P(lost | state) = loss_good / loss_bad).
+struct LinkModel
+{
+  enum class Kind
+  {
+    IID,
+    GILBERT_ELLIOTT
+  };
+  Kind kind = Kind::IID;
+  double arrival = 1.0;  ///< IID: P(arrived)
+  double p = 0.0;        ///< GE: P(good -> bad)
+  double r = 1.0;        ///< GE: P(bad -> good)
+  double loss_good = 0.0, loss_bad = 1.0;
+
+  static LinkModel iid(double arrival_rate);
+  static LinkModel gilbertElliott(double p, double r, double loss_bad = 1.0, double loss_good = 0.0);
+  /// bernoulli: arrival = 1 - loss; gilbert_elliott: the chain.
+  static LinkModel fromSettings(const ChannelSettings& settings);
+
+  /// GE with loss_bad = 1 and loss_good = 0: the arrival indicator itself is a two-state Markov chain.
+  bool onOff() const { return kind == Kind::GILBERT_ELLIOTT && loss_bad == 1.0 && loss_good == 0.0; }
+  /// Stationary arrival rate (GE on/off: r / (p + r)).
+  double arrivalRate() const;
+  /// Stationary P(arrived at k | lost at k-1) (IID: the arrival rate; GE on/off: r). NaN when a
+  /// loss never happens.
+  double recoveryRate() const;
+  /// lim_T P(T consecutive losses)^{1/T}: 1 - arrival (IID), 1 - r (GE on/off), in general the
+  /// spectral radius of P diag(loss_state).
+  double lossPersistence() const;
+  /// Transition matrix (row-stochastic, rows = current state) and per-state loss probability of
+  /// the hidden chain; one state for IID.
+  Eigen::MatrixXd transition() const;
+  Eigen::VectorXd stateLoss() const;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Marelli et al.: exact test (Theorem 14) via Proposition 24 / Corollary 26
+
+/// How the growth rate Phi_k of one unstable FMO block is computed.
+struct BlockStructure
+{
+  FmoBlock block;
+  enum class Method
+  {
+    LATTICE,            ///< Proposition 24: diagonalizable block, kernel lattice (finite-state channels)
+    SINGLE_EIGENVALUE,  ///< every sensor that sees the block observes it alone (Corollary 26 generalised):
+                        ///< Phi = prod over those sensors of the loss persistence
+    UNAVAILABLE         ///< neither applies; `reason` says why
+  };
+  Method method = Method::UNAVAILABLE;
+  std::string reason;
+  std::vector<bool> relevant;  ///< sensor j sees the block (H_j V_k != 0)
+  /// LATTICE: for every non-trivial lattice element K, seen[K][j][s] = (H_j V_k A_k^s B_K != 0).
+  std::vector<std::vector<std::vector<bool>>> seen;
+};
+
+/// Analyses the blocks of eigenvalues with modulus >= 1 for the (whitened) sensor matrices H.
+/// lattice_cap bounds the number of lattice elements (beyond it the block is UNAVAILABLE).
+std::vector<BlockStructure> analyseBlocks(const Eigen::MatrixXd& A, const std::vector<Eigen::MatrixXd>& H,
+                                          const StabilityTolerances& tol = {}, std::size_t lattice_cap = 512);
+
+/// Phi_k (stability.md 3.3-3.4) of one block for the sensors' links (links.size() = H.size()).
+/// NaN for an UNAVAILABLE block.
+double blockPhi(const BlockStructure& block, const std::vector<LinkModel>& links);
+
+/// Theorem 14: STABLE when |alpha_k|^2 Phi_k < 1 for every block, UNSTABLE when > 1 for some,
+/// UNDECIDED at equality, NOT_APPLICABLE when a block with |alpha| >= 1 is UNAVAILABLE.
+Verdict marelliTest(const std::vector<BlockStructure>& blocks, const std::vector<LinkModel>& links,
+                    const StabilityTolerances& tol = {});
+
+/// Critical common i.i.d. arrival rate (every sensor at rate lambda): inf{lambda : Theorem 14 stable}.
+/// Closed form 1 - |alpha|^{-2/e} per block with e = min over lattice elements of (sensor, shift)
+/// pairs that see it / N_k. Returns 1 + 0 * inf semantics: +inf when some block is unobservable
+/// (never stable), NaN when some block is UNAVAILABLE, 0 without unstable blocks.
+double exactCriticalArrivalRate(const std::vector<BlockStructure>& blocks);
+
+/// Critical common recovery rate r of on/off Gilbert-Elliott links with failure rate p (every
+/// sensor): inf{r : Theorem 14 stable}, by bisection on the exact Phi (to 1e-12). Same special
+/// values as exactCriticalArrivalRate.
+double exactCriticalRecoveryRate(const std::vector<BlockStructure>& blocks, double p);
+
+/// Corollary 26 (22): Phi = (prod_t P(C_t = C^(a) | C_s = C^(a), s < t))^{1/tau}.
+double corollary26Phi(const std::vector<double>& conditional_bad_probabilities);
+
+// ---------------------------------------------------------------------------------------------
+// Yang et al.: bounds and capacities (stability.md 2.1-2.5)
+
+/// Sinopoli / Yang Theorem 1 with a common rate for N sensors: 1 - rho^{-2/N} (0 when rho <= 1).
+double sinopoliLowerBound(double rho, int sensors = 1);
+/// N = 1 closed-form MARE upper bound 1 - 1/M(A)^2 (0 when M = 1).
+double mahlerUpperBound(double mahler);
+/// aoe.md Theorem 5 threshold on the recovery rate: p_t = 1 - rho^{-2} (may be <= 0).
+double aoeRecoveryThreshold(double rho);
+
+/// Capacity quantities of stability.md 2.1-2.2 for per-sensor rates (rates in [0, 1)).
+struct Capacity
+{
+  std::vector<double> individual;   ///< c_i = -1/2 ln(1 - lambda_i)
+  double total = 0.0;               ///< c
+  double lower = 0.0;               ///< c_lower = ln rho(A)
+  double upper = 0.0;               ///< c_upper = h(A)
+  double loss_product = 1.0;        ///< prod (1 - lambda_i)
+  double weighted = 0.0;            ///< sum p_i c_i (Theorem 7)
+  double log_abs_det = 0.0;         ///< ln |det A| (-inf when singular)
+};
+Capacity transmissionCapacity(const Eigen::MatrixXd& A, const std::vector<double>& rates,
+                              const std::vector<int>& sensor_rows);
+
+/// Theorem 5 of Yang et al. via the kernel chain of stability.md 2.4 (rows of each sensor in order,
+/// a row is chosen when it shrinks the unobservable subspace).
+struct EntropySplit
+{
+  bool observable = false;               ///< (H, A) observable (the theorem's assumption)
+  std::vector<double> max_block_entropy; ///< per sensor: max_j h(A_ij) (0 when no row chosen)
+  double sum = 0.0;                      ///< sum_i max_j h(A_ij): c above it suffices for some allocation
+  std::vector<double> sufficient_rate;   ///< per sensor: 1 - exp(-2 max_j h(A_ij))
+  double common_rate = std::numeric_limits<double>::quiet_NaN();  ///< max_i sufficient_rate (common-rate form)
+};
+EntropySplit entropySplit(const Eigen::MatrixXd& A, const std::vector<Eigen::MatrixXd>& H, double rel_tol = 1e-9);
+
+/// One step of the lower bound recursion (Prop. 1): m(G) = loss_product A G A' + Q with
+/// loss_product = prod(1 - lambda_i); G_1 = 0, G_{k+1} = m(G_k) satisfies G_k <= E[P-_k].
+Eigen::MatrixXd lowerBoundStep(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, double loss_product,
+                               const Eigen::MatrixXd& G);
+/// Ḡ = sum_k Atil^k Q Atil'^k with Atil = sqrt(prod(1 - lambda_i)) A (Theorem 2); throws
+/// std::domain_error when prod(1 - lambda_i) rho(A)^2 >= 1.
+Eigen::MatrixXd lowerBoundLimit(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, double loss_product);
+/// F̄ (Remark 3): fixed point of X = A (X^{-1} + S)^{-1} A' + Q with S = sum lambda_i H_i' H_i.
+Eigen::MatrixXd informationLowerBoundLimit(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q,
+                                           const Eigen::MatrixXd& S, int max_iterations = 100000);
+
+struct MareOptions
+{
+  int max_iterations = 1500;
+  double tolerance = 1e-11;        ///< relative: ||X_{k+1} - X_k|| < tolerance * max(1, ||X_k||)
+  double divergence_trace = 1e10;  ///< tr X above it: diverged
+};
+
+struct MareResult
+{
+  enum class Status
+  {
+    CONVERGED,  ///< fixed point reached and certificate rho(T) < 1
+    DIVERGED,   ///< tr X exceeded the divergence level
+    UNDECIDED   ///< iteration cap reached, or converged without certificate
+  };
+  Status status = Status::UNDECIDED;
+  Eigen::MatrixXd X;  ///< last iterate
+  int iterations = 0;
+  double certificate = std::numeric_limits<double>::quiet_NaN();  ///< rho(T) at the fixed point
+};
+/// MARE (18): g(X) = A X A' + Q - A X H'(W ⊙ (H X H' + I))^{-1} H X A' for whitened sensors H_i
+/// with i.i.d. arrival rates lambda_i (sensors with lambda_i = 0 contribute nothing).
+class Mare
+{
+public:
+  Mare(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, const std::vector<Eigen::MatrixXd>& H,
+       const std::vector<double>& rates);
+  /// One step g(X) (symmetrised).
+  Eigen::MatrixXd step(const Eigen::MatrixXd& X) const;
+  /// Gain L(X) = A X H'(W ⊙ (H X H' + I))^{-1} Lambda^{-1} (n x m of the used sensors).
+  Eigen::MatrixXd gain(const Eigen::MatrixXd& X) const;
+  /// rho(T) with T = M0 ⊗ M0 + sum_i Mi ⊗ Mi at L = L(X) (stability.md 2.3 (b)); < 1 certifies
+  /// condition (1) of Theorem 4.
+  double certificateRadius(const Eigen::MatrixXd& X) const;
+  /// Stacked whitened H of the sensors with a positive rate.
+  const Eigen::MatrixXd& stackedH() const { return H_; }
+
+private:
+  friend MareResult solveMare(const Mare&, const MareOptions&, bool);
+  Eigen::MatrixXd A_, Q_, H_, W_;
+  Eigen::VectorXd lambda_rows_, sigma_rows_;
+  std::vector<int> offset_, size_;
+};
+
+/// Iterates the MARE from X_0 = 0 (stability.md 2.3 (a)) and certifies the fixed point ((b)).
+/// With stop_at_certificate, the iteration also stops as soon as the gain of the current iterate
+/// certifies condition (1) (any L with rho(T_L) < 1 does), without reaching the fixed point.
+MareResult solveMare(const Mare& mare, const MareOptions& options = {}, bool stop_at_certificate = false);
+
+/// A critical rate found by bisection, with an explicit undecided band: the MARE diverges at
+/// `diverges_at` (or it is the lower end of the search), converges (certified) at `converges_at`,
+/// and iterations between them hit the cap. Without an undecided band the two differ by the
+/// bisection tolerance.
+struct CriticalBand
+{
+  double diverges_at = std::numeric_limits<double>::quiet_NaN();
+  double converges_at = std::numeric_limits<double>::quiet_NaN();
+  bool undecided_band = false;  ///< some rate inside was neither certified nor diverged
+  int evaluations = 0;
+};
+/// Bisection on a common arrival rate lambda in [lo, hi] for the MARE of all sensors.
+CriticalBand mareCriticalRate(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, const std::vector<Eigen::MatrixXd>& H,
+                              double lo, double hi, double tolerance = 1e-4, const MareOptions& options = {});
+
+// ---------------------------------------------------------------------------------------------
+// Markov arrivals, aoe.md Theorem 5
+
+/// aoe.md 4.2: Assumption 1 (Q, R > 0; (A, C) observable; (A, Q^1/2) controllable; recovery, failure
+/// in (0, 1]), Assumption 2 (diagonalizable, strongly observable), then stable iff
+/// recovery > 1 - rho^{-2}. Q is the n x n process noise covariance.
+Verdict aoeTheorem5(const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, const Eigen::MatrixXd& Q,
+                    const Eigen::MatrixXd& R, double recovery, double failure, const StabilityTolerances& tol = {});
+
+// ---------------------------------------------------------------------------------------------
+// RSEIO, rseio.md 4.3-4.4
+
+/// Gramians of a word r (time order, letters 0 = drop, 1 = arrival) for Phi factors
+/// (A_i, G_i, W_i): O(r) = sum (A_i...A_1)' W_i (A_i...A_1) and
+/// Cg(r) = sum (A_N...A_{i+1}) G_i G_i' (A_N...A_{i+1})'.
+Eigen::MatrixXd wordObservabilityGramian(const std::vector<int>& word, const Eigen::MatrixXd& A1,
+                                         const Eigen::MatrixXd& W1, const Eigen::MatrixXd& A2);
+Eigen::MatrixXd wordControllabilityGramian(const std::vector<int>& word, const Eigen::MatrixXd& A1,
+                                           const Eigen::MatrixXd& G1, const Eigen::MatrixXd& A2,
+                                           const Eigen::MatrixXd& G2);
+/// Theorem 5 checklist (rseio.md 4.4) for the model, mu and the arrival link of the whole
+/// measurement. STABLE means "P_{t|t} converges to a unique stationary distribution" (sufficient
+/// conditions hold); UNDECIDED when a sufficient condition fails; NOT_APPLICABLE when A, Acheck or
+/// Atil is singular or the link is outside the theorem (e.g. a hidden GE chain).
+Verdict rseioTheorem5(const Model& model, double mu, const LinkModel& link, const StabilityTolerances& tol = {});
+
+// ---------------------------------------------------------------------------------------------
+// Top level
+
+/// Results for a set of sensors, each with its own link of the given kind: the whole model, or
+/// one sensor alone.
+struct RateAnalysis
+{
+  std::string name;
+  std::vector<int> sensors;  ///< indices into Model::sensors
+  // i.i.d. arrivals at a common rate lambda on every sensor of the set
+  double lower_bound = 0.0;  ///< necessary: 1 - rho^{-2/N} (Yang Theorem 1 / Sinopoli)
+  double closed_form_upper = std::numeric_limits<double>::quiet_NaN();  ///< N = 1: 1 - 1/M^2; N > 1: Yang Thm 5 common rate
+  CriticalBand mare;          ///< MARE threshold by bisection (NaN fields when A is stable)
+  double exact_rate = std::numeric_limits<double>::quiet_NaN();  ///< Theorem 14, NaN when unavailable
+  std::string exact_method;   ///< how exact_rate was obtained, or why it is unavailable
+  // on/off Gilbert-Elliott links with the channel's failure rate p (or p = 0.5 without a GE channel)
+  double recovery_lower_bound = 0.0;  ///< necessary: rho^2 (1 - r)^N < 1
+  double recovery_exact = std::numeric_limits<double>::quiet_NaN();
+  Verdict aoe_theorem5;       ///< the aoe.md Theorem 5 test (one packet = this set of sensors)
+  std::vector<BlockStructure> blocks;
+  // the given channel
+  Verdict verdict;
+  std::string margin_quantity;  ///< "arrival rate" or "recovery rate"
+  double channel_value = std::numeric_limits<double>::quiet_NaN();  ///< the link's arrival or recovery rate
+  double necessary_threshold = std::numeric_limits<double>::quiet_NaN();  ///< below: unbounded
+  double sufficient_threshold = std::numeric_limits<double>::quiet_NaN(); ///< above: bounded
+  double margin = std::numeric_limits<double>::quiet_NaN();  ///< channel_value - critical (exact, else sufficient)
+};
+
+struct StabilityReport
+{
+  std::string model_name;
+  Eigen::VectorXcd eigenvalues;
+  double spectral_radius = 0.0, mahler_measure = 1.0, entropy = 0.0, log_abs_det = 0.0;
+  bool diagonalizable = true;
+  Verdict strong_observability;   ///< of (A, C) (all sensors stacked)
+  bool noise_excites_unstable_modes = true;  ///< PBH: (A, B Q^1/2) controllable on every |lambda| >= 1
+  bool detectable = true;                    ///< PBH: (C, A) observable on every |lambda| >= 1
+  bool has_channel = false;
+  LinkModel link;                 ///< the channel of every sensor
+  double arrival_rate = std::numeric_limits<double>::quiet_NaN();
+  double recovery_rate = std::numeric_limits<double>::quiet_NaN();
+  Capacity capacity;              ///< for the channel's stationary arrival rate on every sensor
+  EntropySplit entropy_split;
+  RateAnalysis model;             ///< all sensors
+  std::vector<RateAnalysis> sensors;  ///< each sensor alone (empty when options.per_sensor is false)
+  Verdict rseio;                  ///< rseio.md Theorem 5 (NOT_APPLICABLE unless the estimator is rseio)
+  std::string estimator;          ///< the estimator analysed (kfio without settings)
+  std::string estimator_note;     ///< how the verdicts relate to that estimator
+};
+
+struct AnalysisOptions
+{
+  bool per_sensor = true;
+  double bisection_tolerance = 1e-4;
+  MareOptions mare;
+  StabilityTolerances tol;
+};
+
+/// Analyses the model for the sensor link (nullable: thresholds only) and the estimator (nullable:
+/// kfio).
+StabilityReport analyzeStability(const Model& model, const ChannelSettings* sensor_link,
+                                 const EstimatorSettings* estimator = nullptr, const AnalysisOptions& options = {});
+
+}  // namespace networked_estimation

@@ -1,0 +1,428 @@
+// Reading and validating the model file (docs/formats.md, "Model file"). Every rejection is a
+// ConfigError naming the source, line and key path (config/yaml_reader.hpp).
+#include "networked_estimation/config/model.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "config/yaml_reader.hpp"
+#include "networked_estimation/common/error.hpp"
+
+#include <Eigen/Eigenvalues>
+
+namespace networked_estimation
+{
+using namespace detail;
+
+namespace
+{
+
+// ---------------------------------------------------------------------------------------------
+// Model
+// ---------------------------------------------------------------------------------------------
+
+Model parseModelImpl(const YAML::Node& node, const std::string& source)
+{
+  const Reader in(source);
+  in.requireTopMap(node);
+  in.checkKeys(
+      node, "",
+      {"name", "period", "A", "B", "Q", "C", "R", "sensors", "x0", "P0", "uncertainty", "control"});
+
+  Model model;
+  if (node["name"])
+  {
+    model.name = in.string(node["name"], "name");
+  }
+  if (node["period"])
+  {
+    model.period = in.number(node["period"], "period");
+    if (!(model.period > 0.0))
+    {
+      in.fail(node["period"], "period",
+              "expected a positive number of seconds, found " + node["period"].Scalar());
+    }
+  }
+
+  // A: n x n
+  const YAML::Node a_node = in.require(node, "", "A");
+  model.A = in.matrix(a_node, "A", -1, -1, "");
+  if (model.A.rows() != model.A.cols())
+  {
+    in.fail(a_node, "A",
+            "expected a square matrix (n x n), found " + dims(model.A.rows(), model.A.cols()));
+  }
+  const int n = static_cast<int>(model.A.rows());
+  const std::string n_rows = countText("n", n) + " rows";
+  const std::string n_cols = countText("n", n) + " columns";
+
+  // B: n x nw (identity by default), Q: nw x nw
+  if (node["B"])
+  {
+    model.B = in.matrix(node["B"], "B", n, -1, n_rows);
+  }
+  else
+  {
+    model.B = Eigen::MatrixXd::Identity(n, n);
+  }
+  const int nw = static_cast<int>(model.B.cols());
+  const YAML::Node q_node = in.require(node, "", "Q");
+  model.Q = in.matrix(q_node, "Q", nw, nw,
+                      countText("nw", nw) + (node["B"] ? ", the columns of B" : ", B = identity"));
+  checkCovariance(in, q_node, "Q", "Q", model.Q, true);
+
+  // C / R, or sensors
+  const bool has_c = static_cast<bool>(node["C"]);
+  const bool has_r = static_cast<bool>(node["R"]);
+  const YAML::Node sensors_node = node["sensors"];
+  if (sensors_node)
+  {
+    if (has_c || has_r)
+    {
+      in.fail(sensors_node, "sensors",
+              "cannot be combined with C/R (give either C and R, or sensors)");
+    }
+    if (!sensors_node.IsSequence() || sensors_node.size() == 0)
+    {
+      in.fail(
+          sensors_node, "sensors",
+          "expected a non-empty list of sensors ({name, C, R}), found " +
+              (sensors_node.IsSequence() ? std::string("an empty list") : describe(sensors_node)));
+    }
+    std::vector<Eigen::MatrixXd> cs;
+    std::vector<Eigen::MatrixXd> rs;
+    int m = 0;
+    for (std::size_t i = 0; i < sensors_node.size(); ++i)
+    {
+      const YAML::Node s = sensors_node[i];
+      const std::string prefix = indexKey("sensors", i);
+      in.requireMap(s, prefix);
+      in.checkKeys(s, prefix, {"name", "C", "R"});
+      const YAML::Node name_node = in.require(s, prefix, "name");
+      Sensor sensor;
+      sensor.name = in.string(name_node, prefix + ".name");
+      if (sensor.name.empty())
+      {
+        in.fail(name_node, prefix + ".name", "sensor name must not be empty");
+      }
+      for (std::size_t k = 0; k < model.sensors.size(); ++k)
+      {
+        if (model.sensors[k].name == sensor.name)
+        {
+          in.fail(name_node, prefix + ".name",
+                  "duplicate sensor name '" + sensor.name + "' (also " + indexKey("sensors", k) +
+                      ".name)");
+        }
+      }
+      const YAML::Node c_node = in.require(s, prefix, "C");
+      const Eigen::MatrixXd c = in.matrix(c_node, prefix + ".C", -1, n, n_cols);
+      const int size = static_cast<int>(c.rows());
+      const YAML::Node r_node = in.require(s, prefix, "R");
+      const Eigen::MatrixXd r =
+          in.matrix(r_node, prefix + ".R", size, size,
+                    "size = " + std::to_string(size) + ", the rows of " + prefix + ".C");
+      checkCovariance(in, r_node, prefix + ".R", "R", r, true);
+      sensor.offset = m;
+      sensor.size = size;
+      m += size;
+      model.sensors.push_back(sensor);
+      cs.push_back(c);
+      rs.push_back(r);
+    }
+    model.C = Eigen::MatrixXd::Zero(m, n);
+    model.R = Eigen::MatrixXd::Zero(m, m);
+    for (std::size_t i = 0; i < model.sensors.size(); ++i)
+    {
+      const Sensor& s = model.sensors[i];
+      model.C.block(s.offset, 0, s.size, n) = cs[i];
+      model.R.block(s.offset, s.offset, s.size, s.size) = rs[i];
+    }
+  }
+  else
+  {
+    if (!has_c && !has_r)
+    {
+      in.fail(node, "C", "missing required key (give C and R, or sensors)");
+    }
+    if (!has_c)
+    {
+      in.fail(node, "C", "missing required key (R is given)");
+    }
+    if (!has_r)
+    {
+      in.fail(node, "R", "missing required key (C is given)");
+    }
+    model.C = in.matrix(node["C"], "C", -1, n, n_cols);
+    const int m = static_cast<int>(model.C.rows());
+    model.R = in.matrix(node["R"], "R", m, m, countText("m", m) + ", the rows of C");
+    checkCovariance(in, node["R"], "R", "R", model.R, true);
+    Sensor sensor;
+    sensor.name = "y";
+    sensor.offset = 0;
+    sensor.size = m;
+    model.sensors.push_back(sensor);
+  }
+  const int m = static_cast<int>(model.C.rows());
+
+  // x0, P0
+  if (node["x0"])
+  {
+    model.x0 = in.vector(node["x0"], "x0", n, countText("n", n));
+  }
+  else
+  {
+    model.x0 = Eigen::VectorXd::Zero(n);
+  }
+  if (node["P0"])
+  {
+    model.P0 = in.matrix(node["P0"], "P0", n, n, countText("n", n));
+    checkCovariance(in, node["P0"], "P0", "P0", model.P0, false);
+  }
+  else
+  {
+    model.P0 = Eigen::MatrixXd::Identity(n, n);
+  }
+
+  // uncertainty
+  if (const YAML::Node u_node = node["uncertainty"])
+  {
+    if (!u_node.IsSequence())
+    {
+      in.fail(u_node, "uncertainty",
+              "expected a list of {dA, dB, dC, range}, found " + describe(u_node));
+    }
+    for (std::size_t j = 0; j < u_node.size(); ++j)
+    {
+      const YAML::Node e = u_node[j];
+      const std::string prefix = indexKey("uncertainty", j);
+      in.requireMap(e, prefix);
+      in.checkKeys(e, prefix, {"dA", "dB", "dC", "range"});
+      Uncertainty u;
+      u.dA = e["dA"] ? in.matrix(e["dA"], prefix + ".dA", n, n, countText("n", n))
+                     : Eigen::MatrixXd::Zero(n, n);
+      u.dB = e["dB"] ? in.matrix(e["dB"], prefix + ".dB", n, nw,
+                                 countText("n", n) + ", " + countText("nw", nw))
+                     : Eigen::MatrixXd::Zero(n, nw);
+      u.dC = e["dC"] ? in.matrix(e["dC"], prefix + ".dC", m, n,
+                                 countText("m", m) + " stacked rows, " + countText("n", n))
+                     : Eigen::MatrixXd::Zero(m, n);
+      if (e["range"])
+      {
+        u.range = in.nonNegative(e["range"], prefix + ".range", "number");
+      }
+      model.uncertainty.push_back(u);
+    }
+  }
+
+  // control
+  if (const YAML::Node c_node = node["control"])
+  {
+    in.requireMap(c_node, "control");
+    in.checkKeys(c_node, "control", {"Bu"});
+    const YAML::Node bu = in.require(c_node, "control", "Bu");
+    model.Bu = in.matrix(bu, "control.Bu", n, -1, n_rows);
+  }
+  else
+  {
+    model.Bu = Eigen::MatrixXd::Zero(n, 0);
+  }
+
+  validateModel(model, source);
+  return model;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Settings
+// ---------------------------------------------------------------------------------------------
+
+}  // namespace
+
+Model parseModel(const YAML::Node& node, const std::string& source)
+{
+  return guarded(source,
+                 [&]
+                 {
+                   return parseModelImpl(node, source);
+                 });
+}
+
+Model loadModel(const std::string& path)
+{
+  const YAML::Node root = loadYamlFile(path);
+  Model model = parseModel(root, path);
+  if (!root["name"])
+  {
+    model.name = std::filesystem::path(path).stem().string();
+  }
+  return model;
+}
+
+void validateModel(const Model& model, const std::string& source)
+{
+  const auto fail = [&source](const std::string& key, const std::string& problem)
+  {
+    throw ConfigError(message(source, 0, key, problem));
+  };
+  const auto checkSize = [&fail](const std::string& key, const Eigen::MatrixXd& M,
+                                 Eigen::Index rows, Eigen::Index cols, const std::string& hint)
+  {
+    if (M.rows() != rows || M.cols() != cols)
+    {
+      fail(key, "expected " + dims(rows, cols) + (hint.empty() ? "" : " (" + hint + ")") +
+                    ", found " + dims(M.rows(), M.cols()));
+    }
+  };
+  const auto checkFinite =
+      [&fail](const std::string& key, const std::string& label, const Eigen::MatrixXd& M)
+  {
+    const std::string problem = finitenessProblem(M, label);
+    if (!problem.empty())
+    {
+      fail(key, problem);
+    }
+  };
+  const auto checkCov = [&fail, &checkFinite](const std::string& key, const std::string& label,
+                                              const Eigen::MatrixXd& M, bool strict)
+  {
+    checkFinite(key, label, M);
+    std::string problem = symmetryProblem(M, label);
+    if (problem.empty())
+    {
+      problem = definitenessProblem(M, strict);
+    }
+    if (!problem.empty())
+    {
+      fail(key, problem);
+    }
+  };
+
+  if (!std::isfinite(model.period) || model.period < 0.0)
+  {
+    fail("period", "expected a positive number of seconds (or 0 for unset), found " +
+                       formatNumber(model.period));
+  }
+
+  // A
+  if (model.A.size() == 0)
+  {
+    fail("A", "empty matrix");
+  }
+  if (model.A.rows() != model.A.cols())
+  {
+    fail("A", "expected a square matrix (n x n), found " + dims(model.A.rows(), model.A.cols()));
+  }
+  checkFinite("A", "A", model.A);
+  const Eigen::Index n = model.A.rows();
+  const std::string n_text = countText("n", static_cast<int>(n));
+
+  // B, Q
+  if (model.B.rows() != n || model.B.cols() == 0)
+  {
+    fail("B", "expected " + std::to_string(n) + " rows and at least one column (" + n_text +
+                  "), found " + dims(model.B.rows(), model.B.cols()));
+  }
+  checkFinite("B", "B", model.B);
+  const Eigen::Index nw = model.B.cols();
+  checkSize("Q", model.Q, nw, nw, countText("nw", static_cast<int>(nw)) + ", the columns of B");
+  checkCov("Q", "Q", model.Q, true);
+
+  // C, R, sensors
+  if (model.C.rows() == 0 || model.C.cols() != n)
+  {
+    fail("C", "expected at least one row and " + std::to_string(n) + " columns (" + n_text +
+                  "), found " + dims(model.C.rows(), model.C.cols()));
+  }
+  checkFinite("C", "C", model.C);
+  const Eigen::Index m = model.C.rows();
+  checkSize("R", model.R, m, m, countText("m", static_cast<int>(m)) + ", the rows of C");
+  checkCov("R", "R", model.R, true);
+
+  if (model.sensors.empty())
+  {
+    fail("sensors", "at least one sensor is required");
+  }
+  Eigen::Index next = 0;
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < model.sensors.size(); ++i)
+  {
+    const Sensor& s = model.sensors[i];
+    const std::string key = indexKey("sensors", i);
+    if (s.name.empty())
+    {
+      fail(key + ".name", "sensor name must not be empty");
+    }
+    if (!names.insert(s.name).second)
+    {
+      fail(key + ".name", "duplicate sensor name '" + s.name + "'");
+    }
+    if (s.offset != next || s.size < 1)
+    {
+      fail(key, "expected offset " + std::to_string(next) +
+                    " and size >= 1 (sensors cover the rows "
+                    "of C in order), found offset " +
+                    std::to_string(s.offset) + " and size " + std::to_string(s.size));
+    }
+    next += s.size;
+  }
+  if (next != m)
+  {
+    fail("sensors",
+         "the sensors cover " + std::to_string(next) + " rows but C has " + std::to_string(m));
+  }
+  for (const Sensor& a : model.sensors)
+  {
+    for (const Sensor& b : model.sensors)
+    {
+      if (&a != &b && !model.R.block(a.offset, b.offset, a.size, b.size).isZero(0.0))
+      {
+        fail("R", "not block diagonal over sensors (R couples sensors '" + a.name + "' and '" +
+                      b.name + "')");
+      }
+    }
+  }
+
+  // x0, P0
+  if (model.x0.size() != n)
+  {
+    fail("x0", "expected " + std::to_string(n) + " entries (" + n_text + "), found " +
+                   std::to_string(model.x0.size()));
+  }
+  checkFinite("x0", "x0", model.x0);
+  checkSize("P0", model.P0, n, n, n_text);
+  checkCov("P0", "P0", model.P0, false);
+
+  // uncertainty
+  for (std::size_t j = 0; j < model.uncertainty.size(); ++j)
+  {
+    const Uncertainty& u = model.uncertainty[j];
+    const std::string key = indexKey("uncertainty", j);
+    checkSize(key + ".dA", u.dA, n, n, n_text);
+    checkFinite(key + ".dA", "dA", u.dA);
+    checkSize(key + ".dB", u.dB, n, nw, n_text + ", " + countText("nw", static_cast<int>(nw)));
+    checkFinite(key + ".dB", "dB", u.dB);
+    checkSize(key + ".dC", u.dC, m, n,
+              countText("m", static_cast<int>(m)) + " stacked rows, " + n_text);
+    checkFinite(key + ".dC", "dC", u.dC);
+    if (!std::isfinite(u.range) || u.range < 0.0)
+    {
+      fail(key + ".range", "expected a non-negative number, found " + formatNumber(u.range));
+    }
+  }
+
+  // control
+  if (model.Bu.rows() != n)
+  {
+    fail("control.Bu", "expected " + std::to_string(n) + " rows (" + n_text + "; use an " +
+                           std::to_string(n) + "x0 matrix without control), found " +
+                           dims(model.Bu.rows(), model.Bu.cols()));
+  }
+  checkFinite("control.Bu", "Bu", model.Bu);
+}
+
+}  // namespace networked_estimation

@@ -1,0 +1,551 @@
+// Monte Carlo engine, result formatting and the experiment dispatch (montecarlo.hpp).
+#include "networked_estimation/experiments/montecarlo.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cerrno>
+#include <cmath>
+#include <exception>
+#include <sstream>
+#include <sys/stat.h>
+#include <thread>
+
+#include "experiments/montecarlo_experiments.hpp"
+#include "networked_estimation/common/error.hpp"
+#include "networked_estimation/io/json_writer.hpp"
+#include "networked_estimation/io/atomic_file.hpp"
+
+namespace networked_estimation
+{
+
+// ---------------------------------------------------------------------------------------------
+// Engine
+
+void ProgressCounter::add(long runs)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  done_ += runs;
+  if (callback_)
+    callback_(done_, std::max(total_, done_));
+}
+
+int resolveThreads(int requested)
+{
+  if (requested > 0)
+    return requested;
+  const unsigned hw = std::thread::hardware_concurrency();
+  return hw > 0 ? static_cast<int>(hw) : 1;
+}
+
+namespace
+{
+
+/// Welford accumulator of one block (count, mean, M2 per value).
+struct BlockAccumulator
+{
+  long count = 0;
+  std::vector<double> mean, m2;
+
+  void init(std::size_t values)
+  {
+    count = 0;
+    mean.assign(values, 0.0);
+    m2.assign(values, 0.0);
+  }
+
+  void add(const double* v)
+  {
+    ++count;
+    const double inv = 1.0 / static_cast<double>(count);
+    for (std::size_t i = 0; i < mean.size(); ++i)
+    {
+      const double d = v[i] - mean[i];
+      mean[i] += d * inv;
+      m2[i] += d * (v[i] - mean[i]);
+    }
+  }
+
+  /// Chan et al.'s pairwise combination (this = this + other).
+  void merge(const BlockAccumulator& o)
+  {
+    if (o.count == 0)
+      return;
+    if (count == 0)
+    {
+      *this = o;
+      return;
+    }
+    const double na = static_cast<double>(count), nb = static_cast<double>(o.count);
+    const double n = na + nb;
+    for (std::size_t i = 0; i < mean.size(); ++i)
+    {
+      const double d = o.mean[i] - mean[i];
+      mean[i] += d * (nb / n);
+      m2[i] += o.m2[i] + d * d * (na * nb / n);
+    }
+    count += o.count;
+  }
+};
+
+}  // namespace
+
+Moments runMonteCarlo(long runs, std::size_t values, int threads, const WorkerFactory& make_worker,
+                      ProgressCounter* progress, std::vector<double>* raw)
+{
+  const long blocks = (runs + kBlockRuns - 1) / kBlockRuns;
+  std::vector<BlockAccumulator> acc(static_cast<std::size_t>(blocks));
+  if (raw)
+    raw->assign(static_cast<std::size_t>(runs) * values, 0.0);
+  std::atomic<long> next{0};
+  std::atomic<bool> failed{false};
+  std::exception_ptr error;
+  long error_block = -1;
+  std::mutex error_mutex;
+
+  auto work = [&]() {
+    try
+    {
+      RunFunction run = make_worker();
+      std::vector<double> out(values);
+      while (!failed.load())
+      {
+        const long b = next.fetch_add(1);
+        if (b >= blocks)
+          break;
+        try
+        {
+          BlockAccumulator& a = acc[static_cast<std::size_t>(b)];
+          a.init(values);
+          const long r1 = std::min(runs, (b + 1) * kBlockRuns);
+          for (long r = b * kBlockRuns; r < r1; ++r)
+          {
+            double* dst = raw ? raw->data() + static_cast<std::size_t>(r) * values : out.data();
+            run(r, dst);
+            a.add(dst);
+          }
+          if (progress)
+            progress->add(r1 - b * kBlockRuns);
+        }
+        catch (...)
+        {
+          std::lock_guard<std::mutex> lock(error_mutex);
+          // keep the error of the lowest block: the same error whatever the thread count
+          if (!error || b < error_block)
+          {
+            error = std::current_exception();
+            error_block = b;
+          }
+          failed = true;
+        }
+      }
+    }
+    catch (...)
+    {
+      std::lock_guard<std::mutex> lock(error_mutex);
+      if (!error)
+        error = std::current_exception();
+      failed = true;
+    }
+  };
+
+  const int nthreads = static_cast<int>(std::max<long>(1, std::min<long>(resolveThreads(threads), blocks)));
+  if (nthreads == 1)
+    work();
+  else
+  {
+    std::vector<std::thread> pool;
+    for (int t = 0; t < nthreads; ++t)
+      pool.emplace_back(work);
+    for (std::thread& t : pool)
+      t.join();
+  }
+  if (error)
+    std::rethrow_exception(error);
+
+  BlockAccumulator total;
+  total.init(values);
+  for (const BlockAccumulator& a : acc)
+    total.merge(a);
+  Moments m;
+  m.n = total.count;
+  m.mean = total.mean;
+  m.sd.assign(values, 0.0);
+  if (total.count > 1)
+    for (std::size_t i = 0; i < values; ++i)
+      m.sd[i] = std::sqrt(std::max(0.0, total.m2[i] / static_cast<double>(total.count - 1)));
+  return m;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Results
+
+void summarise(ExperimentResult& result)
+{
+  for (CaseResult& c : result.cases)
+    for (SeriesResult& s : c.series)
+    {
+      double sum = 0.0;
+      long count = 0;
+      for (std::size_t i = 0; i < c.x.size() && i < s.mean.size(); ++i)
+        if (c.x[i] >= s.window0 && c.x[i] <= s.window1)
+        {
+          sum += s.mean[i];
+          ++count;
+        }
+      s.time_average = count > 0 ? sum / static_cast<double>(count) : std::nan("");
+      s.final_value = s.mean.empty() ? std::nan("") : s.mean.back();
+    }
+}
+
+namespace
+{
+
+std::string csvField(const std::string& s)
+{
+  if (s.find_first_of(",\"\n") == std::string::npos)
+    return s;
+  std::string out = "\"";
+  for (char c : s)
+  {
+    if (c == '"')
+      out += '"';
+    out += c;
+  }
+  return out + "\"";
+}
+
+/// A JSON number (null for NaN / infinity, which JSON cannot represent).
+std::string jsonNumber(double v)
+{
+  return std::isfinite(v) ? mc::fmt(v) : "null";
+}
+
+std::string jsonStrings(const std::vector<std::string>& v, const std::string& indent)
+{
+  if (v.empty())
+    return "[]";
+  std::string out = "[\n";
+  for (std::size_t i = 0; i < v.size(); ++i)
+    out += indent + "  " + jsonString(v[i]) + (i + 1 < v.size() ? ",\n" : "\n");
+  return out + indent + "]";
+}
+
+}  // namespace
+
+std::string experimentCsv(const ExperimentResult& result)
+{
+  std::ostringstream os;
+  os << "case,series,x,mean,sd,n\n";
+  for (const CaseResult& c : result.cases)
+    for (const SeriesResult& s : c.series)
+      for (std::size_t i = 0; i < c.x.size(); ++i)
+        os << csvField(c.name) << ',' << csvField(s.name) << ',' << mc::fmt(c.x[i]) << ',' << mc::fmt(s.mean[i])
+           << ',' << mc::fmt(s.sd[i]) << ',' << s.n << '\n';
+  return os.str();
+}
+
+std::string experimentJson(const ExperimentResult& r)
+{
+  std::ostringstream os;
+  os << "{\n";
+  os << "  \"experiment\": " << jsonString(r.experiment) << ",\n";
+  os << "  \"runs\": " << r.runs << ",\n";
+  os << "  \"steps\": " << r.steps << ",\n";
+  os << "  \"seed\": " << r.seed << ",\n";
+  os << "  \"threads\": " << r.threads << ",\n";
+  os << "  \"wall_seconds\": " << jsonNumber(r.wall_seconds) << ",\n";
+  os << "  \"x_label\": " << jsonString(r.x_label) << ",\n";
+  os << "  \"y_label\": " << jsonString(r.y_label) << ",\n";
+  os << "  \"log_x\": " << (r.log_x ? "true" : "false") << ",\n";
+  os << "  \"log_y\": " << (r.log_y ? "true" : "false") << ",\n";
+  os << "  \"assumptions\": " << jsonStrings(r.assumptions, "  ") << ",\n";
+  os << "  \"cases\": [";
+  for (std::size_t c = 0; c < r.cases.size(); ++c)
+  {
+    const CaseResult& cr = r.cases[c];
+    os << (c ? ",\n" : "\n") << "    {\n";
+    os << "      \"name\": " << jsonString(cr.name) << ",\n";
+    os << "      \"title\": " << jsonString(cr.title) << ",\n";
+    os << "      \"series\": [";
+    for (std::size_t s = 0; s < cr.series.size(); ++s)
+    {
+      const SeriesResult& sr = cr.series[s];
+      os << (s ? ",\n" : "\n") << "        {\"name\": " << jsonString(sr.name)
+         << ", \"time_average\": " << jsonNumber(sr.time_average) << ", \"final\": " << jsonNumber(sr.final_value)
+         << ", \"window\": [" << jsonNumber(sr.window0) << ", " << jsonNumber(sr.window1) << "]"
+         << (sr.bound ? ", \"bound\": true}" : "}");
+    }
+    os << "\n      ]\n    }";
+  }
+  os << "\n  ],\n";
+  os << "  \"notes\": " << jsonStrings(r.notes, "  ") << "\n";
+  os << "}\n";
+  return os.str();
+}
+
+std::string samplesCsv(const ExperimentResult& r)
+{
+  if (r.sample_columns.empty())
+    return "";
+  std::ostringstream os;
+  os << "case,run";
+  for (const std::string& c : r.sample_columns)
+    os << ',' << csvField(c);
+  os << '\n';
+  const std::size_t cols = r.sample_columns.size();
+  for (const SampleSet& s : r.samples)
+    for (std::size_t row = 0; row * cols < s.values.size(); ++row)
+    {
+      os << csvField(s.case_name) << ',' << row;
+      for (std::size_t j = 0; j < cols; ++j)
+        os << ',' << mc::fmt(s.values[row * cols + j]);
+      os << '\n';
+    }
+  return os.str();
+}
+
+void writeExperiment(const ExperimentResult& result, const std::string& dir)
+{
+  // create DIR (and its parents) when missing
+  std::string partial;
+  std::stringstream ss(dir);
+  std::string part;
+  if (!dir.empty() && dir[0] == '/')
+    partial = "/";
+  while (std::getline(ss, part, '/'))
+  {
+    if (part.empty())
+      continue;
+    partial += part;
+    struct stat st;
+    if (stat(partial.c_str(), &st) != 0)
+    {
+      if (mkdir(partial.c_str(), 0777) != 0 && errno != EEXIST)
+        throw InputError(dir + ": cannot create the output directory (" + partial + ")");
+    }
+    else if (!S_ISDIR(st.st_mode))
+      throw InputError(dir + ": not a directory (" + partial + ")");
+    partial += "/";
+  }
+  const std::string base = (dir.empty() ? std::string(".") : dir) + "/" + result.experiment;
+  AtomicFile csv(base + ".csv");
+  csv.stream() << experimentCsv(result);
+  AtomicFile json(base + ".json");
+  json.stream() << experimentJson(result);
+  if (!result.sample_columns.empty())
+  {
+    AtomicFile samples(base + "_samples.csv");
+    samples.stream() << samplesCsv(result);
+    samples.commit();
+  }
+  csv.commit();
+  json.commit();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Experiments
+
+namespace
+{
+
+struct ExperimentEntry
+{
+  const char* name;
+  long runs, steps;
+  ExperimentResult (*run)(const mc::RunConfig&);
+};
+
+const std::vector<ExperimentEntry>& entries()
+{
+  static const std::vector<ExperimentEntry> e = {
+      {"zhou_fig1", 5000, 500, &mc::zhouFig1}, {"zhou_fig2", 5000, 500, &mc::zhouFig2},
+      {"custom", 1000, 200, &mc::customExperiment}, {"lin_fig2", 1000, 30, &mc::linFig2},
+      {"lin_fig3", 500, 30, &mc::linFig3},   {"lin_fig4", 1000, 30, &mc::linFig4},
+      {"lin_fig5", 1000, 50, &mc::linFig5},  {"yang_fig2", 10000, 40, &mc::yangFig2},
+  };
+  return e;
+}
+
+const ExperimentEntry& entry(const std::string& name)
+{
+  for (const ExperimentEntry& e : entries())
+    if (name == e.name)
+      return e;
+  std::string valid;
+  for (const ExperimentEntry& e : entries())
+    valid += (valid.empty() ? "" : ", ") + std::string(e.name);
+  throw ConfigError("unknown experiment '" + name + "' (valid: " + valid + ")");
+}
+
+}  // namespace
+
+const std::vector<std::string>& experimentNames()
+{
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> v;
+    for (const ExperimentEntry& e : entries())
+      v.push_back(e.name);
+    return v;
+  }();
+  return names;
+}
+
+void checkExperimentName(const std::string& name)
+{
+  entry(name);
+}
+
+void experimentDefaults(const std::string& name, long& runs, long& steps)
+{
+  const ExperimentEntry& e = entry(name);
+  runs = e.runs;
+  steps = e.steps;
+}
+
+ExperimentResult runExperiment(const MonteCarloConfig& config, ProgressCounter* progress)
+{
+  const ExperimentEntry& e = entry(config.experiment);
+  mc::RunConfig rc;
+  rc.runs = config.runs > 0 ? config.runs : e.runs;
+  rc.steps = config.steps > 0 ? config.steps : e.steps;
+  rc.seed = config.seed;
+  rc.threads = resolveThreads(config.threads);
+  rc.config = &config;
+  rc.progress = progress;
+  const auto t0 = std::chrono::steady_clock::now();
+  ExperimentResult r = e.run(rc);
+  const auto t1 = std::chrono::steady_clock::now();
+  r.experiment = e.name;
+  r.runs = rc.runs;
+  r.steps = rc.steps;
+  r.seed = rc.seed;
+  r.threads = rc.threads;
+  r.wall_seconds = std::chrono::duration<double>(t1 - t0).count();
+  summarise(r);
+  return r;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Shared helpers
+
+namespace mc
+{
+
+SeriesResult makeSeries(const std::string& name, const Moments& m, std::size_t first, std::size_t count,
+                        double window0, double window1)
+{
+  SeriesResult s;
+  s.name = name;
+  s.mean.assign(m.mean.begin() + static_cast<std::ptrdiff_t>(first),
+                m.mean.begin() + static_cast<std::ptrdiff_t>(first + count));
+  s.sd.assign(m.sd.begin() + static_cast<std::ptrdiff_t>(first), m.sd.begin() + static_cast<std::ptrdiff_t>(first + count));
+  s.n = m.n;
+  s.window0 = window0;
+  s.window1 = window1;
+  return s;
+}
+
+std::vector<double> stepAxis(long steps)
+{
+  std::vector<double> x(static_cast<std::size_t>(steps));
+  for (long k = 1; k <= steps; ++k)
+    x[static_cast<std::size_t>(k - 1)] = static_cast<double>(k);
+  return x;
+}
+
+Model zhouExampleModel(double delta)
+{
+  Model m;
+  m.name = "zhou_example";
+  m.period = 0.01;
+  m.A.resize(2, 2);
+  m.A << 0.9802, 0.0196, 0.0, 0.9802;
+  m.B = Eigen::MatrixXd::Identity(2, 2);
+  m.Q.resize(2, 2);
+  m.Q << 1.9608, 0.0195, 0.0195, 1.9605;
+  m.C.resize(1, 2);
+  m.C << 1, -1;
+  m.R = Eigen::MatrixXd::Identity(1, 1);
+  m.x0 = Eigen::Vector2d(1, 0);
+  m.P0 = Eigen::MatrixXd::Identity(2, 2);
+  m.sensors.push_back({"y", 0, 1});
+  Uncertainty u;
+  u.dA = Eigen::MatrixXd::Zero(2, 2);
+  u.dA(0, 1) = 0.099;
+  u.dB = Eigen::MatrixXd::Zero(2, 2);
+  u.dC = Eigen::MatrixXd::Zero(1, 2);
+  u.range = delta;
+  m.uncertainty.push_back(u);
+  m.Bu.resize(2, 0);
+  validateModel(m, "zhou_example");
+  return m;
+}
+
+Model aoeExampleModel(double rhoA)
+{
+  Model m;
+  m.name = "aoe_example";
+  m.period = 0.01;
+  m.A.resize(2, 2);
+  m.A << rhoA, 0, 0, 1.005;
+  m.B = Eigen::MatrixXd::Identity(2, 2);
+  m.Q = 20.0 * Eigen::MatrixXd::Identity(2, 2);
+  m.C.resize(2, 2);
+  m.C << 1, -1, 0, 1;
+  m.R = 20.0 * Eigen::MatrixXd::Identity(2, 2);
+  m.x0 = Eigen::Vector2d::Zero();
+  m.P0 = Eigen::MatrixXd::Identity(2, 2);
+  m.sensors.push_back({"y", 0, 2});
+  m.Bu.resize(2, 1);
+  m.Bu << -1, 1;
+  validateModel(m, "aoe_example");
+  return m;
+}
+
+const std::vector<double>& yangRates()
+{
+  static const std::vector<double> rates = {0.2443, 0.4572, 0.7435, 0.6174, 0.1747, 0.6024, 0.8031, 0.3663};
+  return rates;
+}
+
+Model yangExampleModel()
+{
+  Model m;
+  m.name = "yang_example1";
+  m.period = 1.0;
+  m.A.resize(2, 2);
+  m.A << -0.82, 0.53, 0.34, 0.78;
+  m.B = Eigen::MatrixXd::Identity(2, 2);
+  m.Q.resize(2, 2);
+  m.Q << 0.53, 0.21, 0.21, 0.50;
+  const std::vector<std::vector<double>> H = {
+      {-0.69, 0.67},           {1.18, -0.36, 0.70, -0.38}, {-1.58, 1.43},           {-1.71, -2.12},
+      {-0.65, 0.49, -2.01, 0.46}, {1.79, 2.2, 0.59, 0.31},     {1.28, 2.07, -1.00, -0.92}, {0.18, 0.21, 2.04, 0.91},
+  };
+  int rows = 0;
+  for (const auto& h : H)
+    rows += static_cast<int>(h.size()) / 2;
+  m.C.resize(rows, 2);
+  int off = 0;
+  for (std::size_t i = 0; i < H.size(); ++i)
+  {
+    const int p = static_cast<int>(H[i].size()) / 2;
+    for (int r = 0; r < p; ++r)
+    {
+      m.C(off + r, 0) = H[i][2 * r];
+      m.C(off + r, 1) = H[i][2 * r + 1];
+    }
+    m.sensors.push_back({"s" + std::to_string(i + 1), off, p});
+    off += p;
+  }
+  m.R = Eigen::MatrixXd::Identity(rows, rows);
+  m.x0 = Eigen::Vector2d::Zero();
+  m.P0 = Eigen::MatrixXd::Identity(2, 2);
+  m.Bu.resize(2, 0);
+  validateModel(m, "yang_example1");
+  return m;
+}
+
+}  // namespace mc
+
+}  // namespace networked_estimation

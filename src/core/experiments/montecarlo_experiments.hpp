@@ -1,0 +1,61 @@
+// Private: the experiments of montecarlo.cpp and small shared helpers.
+#pragma once
+
+#include <Eigen/Dense>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "networked_estimation/config/model.hpp"
+#include "networked_estimation/experiments/montecarlo.hpp"
+
+namespace networked_estimation
+{
+namespace mc
+{
+
+/// Everything an experiment needs: resolved runs/steps/threads and the seed.
+struct RunConfig
+{
+  long runs = 0, steps = 0;
+  std::uint64_t seed = 1;
+  int threads = 1;
+  const MonteCarloConfig* config = nullptr;
+  ProgressCounter* progress = nullptr;
+};
+
+ExperimentResult zhouFig1(const RunConfig& rc);
+ExperimentResult zhouFig2(const RunConfig& rc);
+ExperimentResult customExperiment(const RunConfig& rc);
+ExperimentResult linFig2(const RunConfig& rc);
+ExperimentResult linFig3(const RunConfig& rc);
+ExperimentResult linFig4(const RunConfig& rc);
+ExperimentResult linFig5(const RunConfig& rc);
+ExperimentResult yangFig2(const RunConfig& rc);
+
+/// rseio.md 5.1: Zhou's example with eps ~ U[-delta, delta].
+Model zhouExampleModel(double delta);
+/// aoe.md 5 with C = [[1, -1], [0, 1]], xbar_0 = 0, P_0 = I.
+Model aoeExampleModel(double rhoA);
+/// stability.md T1: 8 sensors, R_i = I, x_0 ~ N(0, I).
+Model yangExampleModel();
+/// stability.md T1 arrival rates.
+const std::vector<double>& yangRates();
+
+/// A series from the moments `m` at offset `first` (values first .. first + x_count - 1).
+SeriesResult makeSeries(const std::string& name, const Moments& m, std::size_t first, std::size_t count,
+                        double window0, double window1);
+
+/// %.10g.
+inline std::string fmt(double v)
+{
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+/// 1..steps as doubles.
+std::vector<double> stepAxis(long steps);
+
+}  // namespace mc
+}  // namespace networked_estimation

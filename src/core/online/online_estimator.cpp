@@ -1,0 +1,346 @@
+#include "networked_estimation/online/online_estimator.hpp"
+
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "networked_estimation/common/error.hpp"
+
+namespace networked_estimation
+{
+
+LatePolicy latePolicyFromString(const std::string& name, const std::string& source)
+{
+  if (name == "drop")
+    return LatePolicy::DROP;
+  if (name == "rewind")
+    return LatePolicy::REWIND;
+  throw ConfigError(source + ": late_policy: expected drop or rewind, found '" + name + "'");
+}
+
+std::string toString(LatePolicy p)
+{
+  return p == LatePolicy::DROP ? "drop" : "rewind";
+}
+
+void validateOnlineOptions(const OnlineOptions& o, const std::string& source)
+{
+  if (o.history_length < 1)
+    throw ConfigError(source + ": history_length: expected >= 1, found " + std::to_string(o.history_length));
+  if (o.history_length > 100000)
+    throw ConfigError(source + ": history_length: expected <= 100000, found " + std::to_string(o.history_length));
+  if (o.max_future_steps < 1 || o.max_future_steps > 1000000)
+    throw ConfigError(source + ": max_future_steps: expected in [1, 1000000], found " +
+                      std::to_string(o.max_future_steps));
+  if (o.max_past_steps < static_cast<long>(o.history_length) || o.max_past_steps > 1000000)
+    throw ConfigError(source + ": max_past_steps: expected in [history_length = " + std::to_string(o.history_length) +
+                      ", 1000000], found " + std::to_string(o.max_past_steps));
+}
+
+OnlineEstimator::OnlineEstimator(const Model& model, const EstimatorSettings& settings, const OnlineOptions& options)
+  : model_(model), settings_(settings), options_(options)
+{
+  validateOnlineOptions(options_, "online estimator options");
+  live_ = makeEstimator(model_, settings_);
+  if (options_.late_policy == LatePolicy::REWIND)
+    checkpoint_ = live_->clone();
+  const std::size_t width = options_.history_length + static_cast<std::size_t>(options_.max_future_steps) + 1;
+  ring_.resize(width);
+  for (Slot& s : ring_)
+  {
+    s.y = Eigen::VectorXd::Constant(model_.m(), std::numeric_limits<double>::quiet_NaN());
+    s.have.assign(model_.sensors.size(), 0);
+  }
+  sample_.y.resize(model_.m());
+}
+
+void OnlineEstimator::start(long first_step)
+{
+  if (first_step < 1)
+    throw InputError("online estimator: first step must be >= 1, found " + std::to_string(first_step));
+  next_ = first_step;
+  checkpoint_k_ = first_step - 1;
+  started_ = true;
+}
+
+void OnlineEstimator::reset()
+{
+  live_->reset();
+  if (checkpoint_)
+    checkpoint_->reset();
+  for (Slot& s : ring_)
+    s.k = -1;
+  next_ = 1;
+  checkpoint_k_ = 0;
+  started_ = false;
+  last_gamma_ = false;
+  last_sensors_ = 0;
+}
+
+OnlineEstimator::Slot& OnlineEstimator::slot(long k)
+{
+  return ring_[static_cast<std::size_t>(k) % ring_.size()];
+}
+
+OnlineEstimator::Slot* OnlineEstimator::slotFor(long k)
+{
+  Slot& s = slot(k);
+  if (s.k != k)
+  {
+    s.k = k;
+    s.y.setConstant(std::numeric_limits<double>::quiet_NaN());
+    std::fill(s.have.begin(), s.have.end(), 0);
+    s.have_u = false;
+  }
+  return &s;
+}
+
+OfferResult OnlineEstimator::checkStep(long k) const
+{
+  OfferResult r;
+  if (!started_)
+  {
+    r.offer = Offer::REJECTED;
+    r.reason = "the timeline has not started";
+  }
+  else if (k < 1)
+  {
+    r.offer = Offer::REJECTED;
+    r.reason = "step: expected >= 1, found " + std::to_string(k);
+  }
+  else if (k >= next_ + options_.max_future_steps)
+  {
+    r.offer = Offer::REJECTED;
+    r.reason = "step " + std::to_string(k) + " is from the far future: the next step to process is " +
+               std::to_string(next_) + " (max_future_steps " + std::to_string(options_.max_future_steps) + ")";
+  }
+  else if (k <= next_ - options_.max_past_steps)
+  {
+    r.offer = Offer::REJECTED;
+    r.reason = "step " + std::to_string(k) + " is from the far past: the next step to process is " +
+               std::to_string(next_) + " (max_past_steps " + std::to_string(options_.max_past_steps) + ")";
+  }
+  return r;
+}
+
+OfferResult OnlineEstimator::reject(const std::string& why)
+{
+  ++counters_.rejected;
+  OfferResult r;
+  r.offer = Offer::REJECTED;
+  r.reason = why;
+  return r;
+}
+
+OfferResult OnlineEstimator::offerMeasurement(long k, std::size_t sensor, const double* y, std::size_t size)
+{
+  OfferResult r;
+  if (sensor >= model_.sensors.size())
+    return reject("sensor index " + std::to_string(sensor) + " out of range (model has " +
+                  std::to_string(model_.sensors.size()) + " sensors)");
+  const Sensor& sn = model_.sensors[sensor];
+  if (size != static_cast<std::size_t>(sn.size))
+    return reject("y: sensor '" + sn.name + "' expects " + std::to_string(sn.size) + " values, found " +
+                  std::to_string(size));
+  for (std::size_t i = 0; i < size; ++i)
+    if (!std::isfinite(y[i]))
+      return reject("y[" + std::to_string(i) + "] of sensor '" + sn.name + "' is not finite");
+  r = checkStep(k);
+  if (r.offer == Offer::REJECTED)
+    return reject(r.reason);
+  if (k < next_)
+  {
+    const bool rewindable = options_.late_policy == LatePolicy::REWIND && k > checkpoint_k_;
+    Slot& s = slot(k);
+    if (s.k == k && s.have[sensor])
+    {
+      ++counters_.duplicates;
+      r.offer = Offer::DUPLICATE;
+      return r;
+    }
+    if (!rewindable)
+    {
+      ++counters_.late_dropped;
+      r.offer = Offer::LATE_DROPPED;
+      // Remember it for duplicate detection while its step is still held (never claim a slot:
+      // it may belong to a future step by now).
+      if (s.k == k)
+        s.have[sensor] = 1;
+      return r;
+    }
+    Slot* d = slotFor(k);
+    d->have[sensor] = 1;
+    d->y.segment(sn.offset, sn.size) = Eigen::Map<const Eigen::VectorXd>(y, sn.size);
+    ++counters_.late_fused;
+    rewind();
+    r.offer = Offer::LATE_FUSED;
+    return r;
+  }
+  Slot* s = slotFor(k);
+  if (s->have[sensor])
+  {
+    ++counters_.duplicates;
+    r.offer = Offer::DUPLICATE;
+    return r;
+  }
+  s->have[sensor] = 1;
+  s->y.segment(sn.offset, sn.size) = Eigen::Map<const Eigen::VectorXd>(y, sn.size);
+  ++counters_.accepted;
+  r.offer = Offer::ACCEPTED;
+  return r;
+}
+
+OfferResult OnlineEstimator::offerCommand(long k, const double* u, std::size_t size)
+{
+  OfferResult r;
+  if (!model_.hasControl())
+    return reject("command: model '" + model_.name + "' has no control input");
+  if (size != static_cast<std::size_t>(model_.p()))
+    return reject("u: expected " + std::to_string(model_.p()) + " values, found " + std::to_string(size));
+  for (std::size_t i = 0; i < size; ++i)
+    if (!std::isfinite(u[i]))
+      return reject("u[" + std::to_string(i) + "] is not finite");
+  r = checkStep(k);
+  if (r.offer == Offer::REJECTED)
+    return reject(r.reason);
+  Slot& existing = slot(k);
+  if (existing.k == k && existing.have_u)
+  {
+    ++counters_.duplicates;
+    r.offer = Offer::DUPLICATE;
+    return r;
+  }
+  const bool late = k < next_;
+  if (late && !(options_.late_policy == LatePolicy::REWIND && k > checkpoint_k_))
+  {
+    ++counters_.late_dropped;
+    r.offer = Offer::LATE_DROPPED;
+    return r;
+  }
+  Slot* s = slotFor(k);
+  s->u = Eigen::Map<const Eigen::VectorXd>(u, static_cast<Eigen::Index>(size));
+  s->have_u = true;
+  if (late)
+  {
+    ++counters_.late_fused;
+    rewind();
+    r.offer = Offer::LATE_FUSED;
+  }
+  return r;
+}
+
+void OnlineEstimator::fillSample(long k, Sample& sample) const
+{
+  const Slot& s = ring_[static_cast<std::size_t>(k) % ring_.size()];
+  if (s.k != k)  // nothing arrived for step k
+  {
+    sample.gamma = false;
+    sample.y.setConstant(std::numeric_limits<double>::quiet_NaN());
+    sample.u.resize(0);
+    return;
+  }
+  int arrived = 0;
+  for (char h : s.have)
+    arrived += h ? 1 : 0;
+  sample.gamma = arrived > 0;
+  sample.y = s.y;
+  if (s.have_u)
+    sample.u = s.u;
+  else
+    sample.u.resize(0);  // zero input
+}
+
+void OnlineEstimator::stepChecked(Estimator& est, const Sample& sample)
+{
+  try
+  {
+    est.step(sample);
+  }
+  catch (const DivergenceError&)
+  {
+    // The expected error is unbounded on this link: start over from the prior rather than
+    // publish an overflowed covariance.
+    ++counters_.divergence_resets;
+    est.reset();
+  }
+  catch (const InputError& e)
+  {
+    // Cannot happen with offers validated on the way in; if it does, the step is a prediction
+    // (counted) rather than an exception escaping into the caller's thread.
+    ++counters_.rejected;
+    last_error_ = e.what();
+    Sample predict = sample;
+    predict.gamma = false;
+    predict.y.setConstant(std::numeric_limits<double>::quiet_NaN());
+    predict.u.resize(0);
+    est.step(predict);
+  }
+}
+
+bool OnlineEstimator::nextComplete() const
+{
+  if (!started_)
+    return false;
+  const Slot& s = ring_[static_cast<std::size_t>(next_) % ring_.size()];
+  if (s.k != next_ || (model_.hasControl() && !s.have_u))
+    return false;
+  for (char h : s.have)
+    if (!h)
+      return false;
+  return true;
+}
+
+void OnlineEstimator::process()
+{
+  if (!started_)
+    start(1);
+  const long k = next_;
+  Slot& s = slot(k);
+  fillSample(k, sample_);
+  last_sensors_ = 0;
+  if (s.k == k)
+    for (char h : s.have)
+      last_sensors_ += h ? 1 : 0;
+  if (!(s.k == k && s.have_u))
+  {
+    if (model_.hasControl())
+      ++counters_.missing_commands;
+  }
+  // DROP keeps late data out of the filter: a late measurement may sit in the slot for duplicate
+  // detection, but only data accepted before this deadline is used.
+  stepChecked(*live_, sample_);
+  last_gamma_ = sample_.gamma;
+  ++counters_.processed;
+  if (last_gamma_)
+    ++counters_.arrivals;
+  ++next_;
+  if (options_.late_policy == LatePolicy::REWIND)
+  {
+    const long H = static_cast<long>(options_.history_length);
+    while (next_ - 1 - checkpoint_k_ > H)
+    {
+      const long j = checkpoint_k_ + 1;
+      fillSample(j, sample_);
+      stepChecked(*checkpoint_, sample_);
+      checkpoint_k_ = j;
+    }
+  }
+}
+
+void OnlineEstimator::rewind()
+{
+  ++counters_.rewinds;
+  live_ = checkpoint_->clone();
+  for (long j = checkpoint_k_ + 1; j < next_; ++j)
+  {
+    fillSample(j, sample_);
+    stepChecked(*live_, sample_);
+  }
+}
+
+long StepClock::stepAt(double t) const
+{
+  return static_cast<long>(std::llround((t - t0_) / period_));
+}
+
+}  // namespace networked_estimation

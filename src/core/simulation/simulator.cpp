@@ -1,0 +1,313 @@
+#include "networked_estimation/simulation/simulator.hpp"
+
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <utility>
+#include <vector>
+
+#include "networked_estimation/common/error.hpp"
+
+namespace networked_estimation
+{
+
+namespace
+{
+
+/// Splits on ':' (keeping empty fields).
+std::vector<std::string> splitColon(const std::string& text)
+{
+  std::vector<std::string> parts;
+  std::string::size_type start = 0;
+  while (true)
+  {
+    const std::string::size_type pos = text.find(':', start);
+    if (pos == std::string::npos)
+    {
+      parts.push_back(text.substr(start));
+      return parts;
+    }
+    parts.push_back(text.substr(start, pos - start));
+    start = pos + 1;
+  }
+}
+
+/// A whole token as a finite double (no surrounding spaces, no trailing characters).
+bool parseFinite(const std::string& token, double& out)
+{
+  if (token.empty() || std::isspace(static_cast<unsigned char>(token.front())))
+    return false;
+  errno = 0;
+  char* end = nullptr;
+  const double value = std::strtod(token.c_str(), &end);
+  if (end != token.c_str() + token.size() || errno == ERANGE || !std::isfinite(value))
+    return false;
+  out = value;
+  return true;
+}
+
+/// A whole token as a long integer.
+bool parseLong(const std::string& token, long& out)
+{
+  if (token.empty() || std::isspace(static_cast<unsigned char>(token.front())))
+    return false;
+  errno = 0;
+  char* end = nullptr;
+  const long value = std::strtol(token.c_str(), &end, 10);
+  if (end != token.c_str() + token.size() || errno == ERANGE)
+    return false;
+  out = value;
+  return true;
+}
+
+/// Square root S (S S' = P) of a symmetric positive semidefinite matrix, from the pivoted LDLT
+/// factorisation P = T' L D L' T; negative pivots (round-off) are clamped to zero.
+Eigen::MatrixXd psdSqrt(const Eigen::MatrixXd& P)
+{
+  if (P.size() == 0)
+    return P;
+  Eigen::LDLT<Eigen::MatrixXd> ldlt(P);
+  const Eigen::VectorXd d = ldlt.vectorD().cwiseMax(0.0).cwiseSqrt();
+  Eigen::MatrixXd LD = ldlt.matrixL();
+  LD = LD * d.asDiagonal();
+  return ldlt.transpositionsP().transpose() * LD;
+}
+
+Eigen::MatrixXd lowerCholesky(const Eigen::MatrixXd& M, const std::string& name,
+                              const std::string& model_name)
+{
+  Eigen::LLT<Eigen::MatrixXd> llt(M);
+  if (llt.info() != Eigen::Success)
+    throw ConfigError("PlantSimulator: model '" + model_name + "': " + name +
+                      " is not positive definite");
+  return llt.matrixL();
+}
+
+template <typename Derived>
+void requireSize(const Eigen::EigenBase<Derived>& M, Eigen::Index rows, Eigen::Index cols,
+                 const std::string& name, const std::string& model_name)
+{
+  if (M.rows() != rows || M.cols() != cols)
+    throw ConfigError("PlantSimulator: model '" + model_name + "': " + name + " is " +
+                      std::to_string(M.rows()) + "x" + std::to_string(M.cols()) + ", expected " +
+                      std::to_string(rows) + "x" + std::to_string(cols));
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// ControlSequence
+
+Eigen::VectorXd ControlSequence::at(long k, int p) const
+{
+  double u = 0.0;
+  switch (kind)
+  {
+    case Kind::CONSTANT:
+      u = value;
+      break;
+    case Kind::STEP:
+      u = k >= step_at ? value : 0.0;
+      break;
+    case Kind::PAPER:
+      u = value * (1.0 + std::exp(-static_cast<double>(k) / 10.0));
+      break;
+  }
+  return Eigen::VectorXd::Constant(p, u);
+}
+
+ControlSequence ControlSequence::parse(const std::string& text, const std::string& what)
+{
+  const std::vector<std::string> parts = splitColon(text);
+  ControlSequence c;
+  bool ok = false;
+  if (parts[0] == "constant" && parts.size() == 2)
+  {
+    c.kind = Kind::CONSTANT;
+    ok = parseFinite(parts[1], c.value);
+  }
+  else if (parts[0] == "step" && parts.size() == 3)
+  {
+    c.kind = Kind::STEP;
+    ok = parseLong(parts[1], c.step_at) && parseFinite(parts[2], c.value);
+  }
+  else if (parts[0] == "paper" && parts.size() == 1)
+  {
+    c.kind = Kind::PAPER;
+    c.value = 1.0;
+    ok = true;
+  }
+  else if (parts[0] == "paper" && parts.size() == 2)
+  {
+    c.kind = Kind::PAPER;
+    ok = parseFinite(parts[1], c.value);
+  }
+  if (!ok)
+    throw ConfigError(what + ": cannot parse control sequence '" + text +
+                      "' (expected constant:V, step:K:V, paper or paper:V)");
+  return c;
+}
+
+// ---------------------------------------------------------------------------------------------
+// PlantSimulator
+
+PlantSimulator::PlantSimulator(const Model& model, std::uint64_t seed, ControlSequence control,
+                               std::unique_ptr<LossModel> actuator)
+  : model_(model)
+  , control_(control)
+  , actuator_(std::move(actuator))
+  , rng_x0_(deriveSeed(seed, 0))
+  , rng_w_(deriveSeed(seed, 1))
+  , rng_v_(deriveSeed(seed, 2))
+  , rng_eps_(deriveSeed(seed, 3))
+{
+  const int n = model.n(), nw = model.nw(), m = model.m(), p = model.p(), ne = model.ne();
+  const std::string& name = model.name;
+  requireSize(model.A, n, n, "A", name);
+  requireSize(model.B, n, nw, "B", name);
+  requireSize(model.Q, nw, nw, "Q", name);
+  requireSize(model.C, m, n, "C", name);
+  requireSize(model.R, m, m, "R", name);
+  requireSize(model.x0, n, 1, "x0", name);
+  requireSize(model.P0, n, n, "P0", name);
+  if (p > 0)
+    requireSize(model.Bu, n, p, "Bu", name);
+  for (int j = 0; j < ne; ++j)
+  {
+    const Uncertainty& unc = model.uncertainty[j];
+    const std::string idx = "uncertainty[" + std::to_string(j) + "].";
+    // Absent derivatives may be left empty (treated as zero).
+    if (unc.dA.size() > 0)
+      requireSize(unc.dA, n, n, idx + "dA", name);
+    if (unc.dB.size() > 0)
+      requireSize(unc.dB, n, nw, idx + "dB", name);
+    if (unc.dC.size() > 0)
+      requireSize(unc.dC, m, n, idx + "dC", name);
+  }
+
+  sqrtQ_ = lowerCholesky(model.Q, "Q", name);
+  sqrtR_ = lowerCholesky(model.R, "R", name);
+
+  // x_0 ~ N(x0, P0), P0 possibly singular.
+  Eigen::VectorXd z0(n);
+  for (int i = 0; i < n; ++i)
+    z0(i) = rng_x0_.normal();
+  x_ = model.x0 + psdSqrt(model.P0) * z0;
+
+  // eps_0: used in A and B of the first transition.
+  eps_.resize(ne);
+  for (int j = 0; j < ne; ++j)
+  {
+    const double range = model.uncertainty[j].range;
+    eps_(j) = rng_eps_.uniform(-range, range);
+  }
+
+  if (ne > 0)
+  {
+    Ae_.resize(n, n);
+    Be_.resize(n, nw);
+    Ce_.resize(m, n);
+  }
+  zw_.resize(nw);
+  zv_.resize(m);
+  w_.resize(nw);
+  xn_.resize(n);
+  sample_.x.resize(n);
+  sample_.y.resize(m);
+  sample_.v.resize(m);
+}
+
+const SimulatedSample& PlantSimulator::step()
+{
+  const Model& M = model_;
+  ++k_;
+
+  // Command and actuator link.
+  if (M.hasControl())
+    sample_.u = control_.at(k_, M.p());
+  else
+    sample_.u.resize(0);
+  const bool nu = actuator_ ? !actuator_->nextLost() : true;
+  return advance(nu);
+}
+
+const SimulatedSample& PlantSimulator::stepApplied(const Eigen::VectorXd* applied)
+{
+  const Model& M = model_;
+  if (applied && (applied->size() != M.p() || !applied->allFinite()))
+    throw InputError("applied command: expected " + std::to_string(M.p()) + " finite values, found " +
+                     std::to_string(applied->size()) + (applied->allFinite() ? "" : " (not finite)"));
+  ++k_;
+  if (!M.hasControl())
+    sample_.u.resize(0);
+  else if (applied)
+    sample_.u = *applied;
+  else
+    sample_.u.setZero(M.p());
+  return advance(applied != nullptr && M.hasControl());
+}
+
+const SimulatedSample& PlantSimulator::advance(bool nu)
+{
+  const Model& M = model_;
+  const int ne = M.ne();
+
+  // Transition with eps_{k-1}.
+  if (ne > 0)
+  {
+    Ae_ = M.A;
+    Be_ = M.B;
+    for (int j = 0; j < ne; ++j)
+    {
+      const Uncertainty& unc = M.uncertainty[j];
+      if (unc.dA.size() > 0)
+        Ae_ += eps_(j) * unc.dA;
+      if (unc.dB.size() > 0)
+        Be_ += eps_(j) * unc.dB;
+    }
+  }
+  const Eigen::MatrixXd& A = ne > 0 ? Ae_ : M.A;
+  const Eigen::MatrixXd& B = ne > 0 ? Be_ : M.B;
+
+  for (Eigen::Index i = 0; i < zw_.size(); ++i)
+    zw_(i) = rng_w_.normal();
+  w_.noalias() = sqrtQ_.triangularView<Eigen::Lower>() * zw_;
+
+  xn_.noalias() = A * x_;
+  xn_.noalias() += B * w_;
+  if (nu && M.hasControl())
+    xn_.noalias() += M.Bu * sample_.u;
+  x_.swap(xn_);
+
+  // Fresh eps_k for the output (and the next transition).
+  for (int j = 0; j < ne; ++j)
+  {
+    const double range = M.uncertainty[j].range;
+    eps_(j) = rng_eps_.uniform(-range, range);
+  }
+  if (ne > 0)
+  {
+    Ce_ = M.C;
+    for (int j = 0; j < ne; ++j)
+    {
+      const Uncertainty& unc = M.uncertainty[j];
+      if (unc.dC.size() > 0)
+        Ce_ += eps_(j) * unc.dC;
+    }
+  }
+  const Eigen::MatrixXd& C = ne > 0 ? Ce_ : M.C;
+
+  for (Eigen::Index i = 0; i < zv_.size(); ++i)
+    zv_(i) = rng_v_.normal();
+  sample_.v.noalias() = sqrtR_.triangularView<Eigen::Lower>() * zv_;
+  sample_.y.noalias() = C * x_;
+  sample_.y += sample_.v;
+
+  sample_.k = k_;
+  sample_.x = x_;
+  sample_.nu = nu;
+  return sample_;
+}
+
+}  // namespace networked_estimation

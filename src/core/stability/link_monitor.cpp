@@ -1,0 +1,162 @@
+// Live link diagnostics (link_monitor.hpp).
+#include "networked_estimation/stability/link_monitor.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include "networked_estimation/stability/stability.hpp"
+
+namespace networked_estimation
+{
+
+RateEstimate wilsonInterval(std::size_t successes, std::size_t trials, double z)
+{
+  // Wilson score interval: the set of p whose score test |phat - p| / sqrt(p (1 - p) / n) <= z
+  // accepts; unlike the Wald interval it stays inside [0, 1] and keeps its coverage near 0 and 1.
+  RateEstimate e;
+  e.successes = successes;
+  e.trials = trials;
+  if (trials == 0)
+  {
+    e.value = std::numeric_limits<double>::quiet_NaN();
+    return e;
+  }
+  const double n = static_cast<double>(trials);
+  const double p = static_cast<double>(successes) / n;
+  const double z2 = z * z;
+  const double denom = 1.0 + z2 / n;
+  const double center = (p + z2 / (2.0 * n)) / denom;
+  const double half = z / denom * std::sqrt(p * (1.0 - p) / n + z2 / (4.0 * n * n));
+  e.value = p;
+  e.lower = std::max(0.0, center - half);
+  e.upper = std::min(1.0, center + half);
+  return e;
+}
+
+LinkMonitor::LinkMonitor(std::size_t window)
+{
+  if (window < 2)
+    throw std::invalid_argument("LinkMonitor: window must be at least 2");
+  ring_.assign(window, 0);
+}
+
+void LinkMonitor::clear()
+{
+  head_ = count_ = arrivals_ = lost_prev_ = recovered_ = 0;
+  total_ = 0;
+}
+
+void LinkMonitor::add(bool arrived)
+{
+  const std::size_t w = ring_.size();
+  if (count_ == w)
+  {
+    // Evict the oldest sample and the transition (oldest, second oldest).
+    const bool old = ring_[head_] != 0;
+    const bool next = ring_[(head_ + 1) % w] != 0;
+    arrivals_ -= old ? 1 : 0;
+    if (!old)
+    {
+      --lost_prev_;
+      recovered_ -= next ? 1 : 0;
+    }
+    head_ = (head_ + 1) % w;
+    --count_;
+  }
+  if (count_ > 0)
+  {
+    const bool last = ring_[(head_ + count_ - 1) % w] != 0;
+    if (!last)
+    {
+      ++lost_prev_;
+      recovered_ += arrived ? 1 : 0;
+    }
+  }
+  ring_[(head_ + count_) % w] = arrived ? 1 : 0;
+  ++count_;
+  arrivals_ += arrived ? 1 : 0;
+  ++total_;
+}
+
+RateEstimate LinkMonitor::arrivalRate() const
+{
+  return wilsonInterval(arrivals_, count_);
+}
+
+RateEstimate LinkMonitor::recoveryRate() const
+{
+  return wilsonInterval(recovered_, lost_prev_);
+}
+
+LinkThresholds linkThresholds(const StabilityReport& report, std::size_t min_samples)
+{
+  const RateAnalysis& ra = report.model;
+  LinkThresholds t;
+  t.min_samples = min_samples;
+  const bool markov = report.has_channel && report.link.kind == LinkModel::Kind::GILBERT_ELLIOTT;
+  t.quantity = markov ? "recovery rate" : "arrival rate";
+  double nec = ra.necessary_threshold, suf = ra.sufficient_threshold;
+  if (std::isnan(nec))
+    nec = markov ? ra.recovery_lower_bound : ra.lower_bound;
+  if (std::isnan(suf) || suf > 1.0)
+    suf = 1.0;
+  t.necessary = nec;
+  t.sufficient = std::max(nec, suf);
+  return t;
+}
+
+std::string toString(LinkStatus::Level level)
+{
+  switch (level)
+  {
+    case LinkStatus::Level::OK:
+      return "OK";
+    case LinkStatus::Level::WARN:
+      return "WARN";
+    case LinkStatus::Level::ERROR:
+      return "ERROR";
+  }
+  return "?";
+}
+
+LinkStatus classifyLink(const RateEstimate& e, const LinkThresholds& t)
+{
+  LinkStatus s;
+  std::ostringstream os;
+  os.precision(3);
+  if (e.trials < t.min_samples)
+  {
+    s.level = LinkStatus::Level::WARN;
+    os << "not enough samples to estimate the " << t.quantity << " (" << e.trials << " < " << t.min_samples << ")";
+  }
+  else if (e.upper < t.necessary)
+  {
+    s.level = LinkStatus::Level::ERROR;
+    os << "expected error covariance unbounded at this " << t.quantity << " (" << e.value << " < critical "
+       << t.necessary << ")";
+  }
+  else if (e.lower > t.sufficient)
+  {
+    s.level = LinkStatus::Level::OK;
+    os << t.quantity << " " << e.value << " [" << e.lower << ", " << e.upper << "] above the critical " << t.sufficient;
+  }
+  else if (e.lower >= t.necessary && e.upper <= t.sufficient)
+  {
+    s.level = LinkStatus::Level::WARN;
+    os << t.quantity << " " << e.value << " inside the undecided band [" << t.necessary << ", " << t.sufficient
+       << "]: boundedness not guaranteed";
+  }
+  else
+  {
+    s.level = LinkStatus::Level::WARN;
+    os << t.quantity << " " << e.value << " [" << e.lower << ", " << e.upper << "] too close to the critical "
+       << (e.lower < t.necessary ? t.necessary : t.sufficient);
+  }
+  s.message = os.str();
+  return s;
+}
+
+}  // namespace networked_estimation
