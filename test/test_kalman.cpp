@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "networked_estimation/common/error.hpp"
+#include "networked_estimation/common/index_select.hpp"
 #include "networked_estimation/estimators/estimator.hpp"
 #include "test_support.hpp"
 
@@ -120,7 +121,7 @@ TEST(MultiSensor, PerSensorLossFusesOnlyArrivedSensors)
       }
       est->step(s);
       if (!rows.empty())
-        josephUpdate(x, P, m.C(rows, Eigen::all), m.R(rows, rows), s.y(rows));
+        josephUpdate(x, P, selectRows(m.C, rows), selectBlock(m.R, rows, rows), selectEntries(s.y, rows));
       ASSERT_EQ(est->lastUpdated(), !rows.empty());
       ASSERT_LT(maxAbsDiff(est->state(), x), 1e-9 * (1 + x.norm())) << toString(a) << " k " << k;
       ASSERT_LT(maxAbsDiff(est->covariance(), P), 1e-9 * P.norm()) << toString(a) << " k " << k;

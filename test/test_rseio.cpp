@@ -6,6 +6,7 @@
 #include <map>
 
 #include "networked_estimation/common/error.hpp"
+#include "networked_estimation/common/index_select.hpp"
 #include "networked_estimation/estimators/estimator.hpp"
 #include "networked_estimation/estimators/rseio.hpp"
 #include "test_support.hpp"
@@ -273,10 +274,10 @@ TEST(Rseio, PartialArrivalUsesReceivedSensorsOnly)
   Model m = randomModel(rng, 3, 2, {1, 2}, 2, 0);
   Model sub = m;
   const std::vector<int> rows = {1, 2};
-  sub.C = m.C(rows, Eigen::all);
-  sub.R = m.R(rows, rows);
+  sub.C = selectRows(m.C, rows);
+  sub.R = selectBlock(m.R, rows, rows);
   for (auto& u : sub.uncertainty)
-    u.dC = MatrixXd(u.dC(rows, Eigen::all));
+    u.dC = selectRows(u.dC, rows);
   singleSensor(sub);
   const VectorXd y2 = randomMatrix(rng, 2, 1);
   VectorXd xb;

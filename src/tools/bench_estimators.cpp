@@ -698,7 +698,6 @@ int main(int argc, char** argv)
   }
   CollectingReporter reporter(cpu_time);
   benchmark::RunSpecifiedBenchmarks(&reporter);
-  benchmark::Shutdown();
   if (!reporter.timings().empty())
   {
     networked_estimation::printSummary(reporter.timings(), reporter.cpuTime());

@@ -1,4 +1,5 @@
 #include "estimators/estimator_common.hpp"
+#include "networked_estimation/common/index_select.hpp"
 
 #include <cmath>
 #include <sstream>
@@ -75,8 +76,8 @@ int ArrivalSelector::select(const Sample& sample, bool ignore_gamma)
     ya_[i] = sample.y[idx_[i]];
   if (idx_ != last_idx_)
   {
-    Ca_ = model_.C(idx_, Eigen::all);
-    Ra_ = model_.R(idx_, idx_);
+    Ca_ = selectRows(model_.C, idx_);
+    Ra_ = selectBlock(model_.R, idx_, idx_);
     last_idx_ = idx_;
   }
   return rows_;

@@ -1,5 +1,6 @@
 // RSEIO, rseio.md section 2.5 (Theorem 1, corrected, Gram form) and 2.5b (known input).
 #include "estimators/rseio_estimator.hpp"
+#include "networked_estimation/common/index_select.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -27,7 +28,7 @@ RseioSensitivity rseioSensitivity(const Model& model, const std::vector<int>& ro
       idx.push_back(i);
   const int ma = static_cast<int>(idx.size());
   const int ne = model.ne();
-  const Eigen::MatrixXd C = model.C(idx, Eigen::all);
+  const Eigen::MatrixXd C = selectRows(model.C, idx);
   RseioSensitivity s;
   s.S.setZero(2 * ne * ma, model.n());
   s.T.setZero(2 * ne * ma, model.nw());
@@ -35,7 +36,7 @@ RseioSensitivity rseioSensitivity(const Model& model, const std::vector<int>& ro
   for (int k = 0; k < ne; ++k)
   {
     const Uncertainty& e = model.uncertainty[k];
-    const Eigen::MatrixXd dC = e.dC(idx, Eigen::all);
+    const Eigen::MatrixXd dC = selectRows(e.dC, idx);
     const int r0 = 2 * k * ma;
     s.S.middleRows(r0, ma) = C * e.dA;
     s.S.middleRows(r0 + ma, ma) = dC * model.A;

@@ -1,6 +1,7 @@
 // Stability analysis, part 1: eigen-structure helpers, FMO blocks, links and the exact test of
 // Marelli et al. (stability.md 3.2-3.5).
 #include "networked_estimation/stability/stability.hpp"
+#include "networked_estimation/common/index_select.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -220,7 +221,7 @@ Verdict strongObservability(const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, 
         group.push_back(j);
         done[j] = true;
       }
-    const Eigen::MatrixXcd sub = Ct(Eigen::all, group);
+    const Eigen::MatrixXcd sub = selectCols(Ct, group);
     const int rank = numericalRank(sub, 1e-8, std::max(1.0, C.norm()));
     if (rank < static_cast<int>(group.size()))
     {
