@@ -33,6 +33,7 @@
 
 #include "networked_estimation/Estimate.h"
 #include "networked_estimation/Measurement.h"
+#include "load_failure.hpp"
 
 namespace networked_estimation
 {
@@ -110,10 +111,9 @@ private:
     pnh.param("nominal_stamps", nominal_stamps_, false);  // stamp = scheduled time instead of now
     if (!(rate_ > 0.0) || !(duration_ > 0.0) || !(start_delay_ >= 0.0))
     {
-      NODELET_FATAL("BenchSource: rate and duration must be > 0 and start_delay >= 0 (rate %g, duration %g, "
-                    "start_delay %g); nothing will be published",
-                    rate_, duration_, start_delay_);
-      return;
+      refuseLoad(getName(), "BenchSource not started: rate and duration must be > 0 and start_delay >= 0 (rate " +
+                                std::to_string(rate_) + ", duration " + std::to_string(duration_) + ", start_delay " +
+                                std::to_string(start_delay_) + ")");
     }
     pub_ = nh.advertise<Measurement>("out", 1000);
     thread_ = std::thread(&BenchSource::run, this);

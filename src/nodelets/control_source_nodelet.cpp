@@ -1,4 +1,4 @@
-// ControlSource nodelet: the known command sequence u_k (constant, step, or aoe.md's
+// ControlSource nodelet: the known command sequence u_k (constant, step, or Lin et al.'s
 // 1 + exp(-k/10)) as ControlInput on `command`, the input of the actuator link.
 //
 // It follows the plant: on PlantState k (from `plant_state`) it sends the command for step k + 1,
@@ -14,6 +14,7 @@
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/config/model.hpp"
 #include "networked_estimation/simulation/simulator.hpp"
+#include "load_failure.hpp"
 #include "param_yaml.hpp"
 
 namespace networked_estimation
@@ -39,8 +40,7 @@ private:
     }
     catch (const ConfigError& e)
     {
-      NODELET_FATAL("ControlSource not started: %s", e.what());
-      return;
+      refuseLoad(getName(), std::string("ControlSource not started: ") + e.what());
     }
     pub_ = nh.advertise<ControlInput>("command", 1000);
     sub_ = nh.subscribe("plant_state", 1000, &ControlSourceNodelet::onState, this, ros::TransportHints().tcpNoDelay());

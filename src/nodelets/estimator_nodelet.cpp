@@ -34,6 +34,7 @@
 #include "networked_estimation/stability/link_monitor.hpp"
 #include "networked_estimation/online/online_estimator.hpp"
 #include "networked_estimation/stability/stability.hpp"
+#include "load_failure.hpp"
 #include "param_yaml.hpp"
 #include "worker.hpp"
 
@@ -56,8 +57,7 @@ private:
     }
     catch (const ConfigError& e)
     {
-      NODELET_FATAL("Estimator not started: %s", e.what());
-      return;
+      refuseLoad(getName(), std::string("Estimator not started: ") + e.what());
     }
     estimate_pub_ = nh.advertise<Estimate>("estimate", 1000);
     trace_pub_ = nh.advertise<std_msgs::Float64>("covariance_trace", 1000);

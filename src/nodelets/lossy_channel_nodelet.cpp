@@ -34,6 +34,7 @@
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/Range.h>
 #include "networked_estimation/SetParameters.h"
+#include "load_failure.hpp"
 #include "param_yaml.hpp"
 #include "worker.hpp"
 
@@ -129,8 +130,7 @@ private:
     }
     catch (const ConfigError& e)
     {
-      NODELET_FATAL("LossyChannel not started, nothing will be forwarded: %s", e.what());
-      return;
+      refuseLoad(getName(), std::string("LossyChannel not started, nothing will be forwarded: ") + e.what());
     }
     pnh.param("queue_size", queue_size_, 1000);
     channel_ = std::make_unique<LossyChannel>(settings_);
@@ -138,9 +138,8 @@ private:
     {
       if (!advertiseKnown(nh, type_, static_cast<uint32_t>(queue_size_), out_pub_))
       {
-        NODELET_FATAL("LossyChannel not started: %s: type: expected one of %s, found '%s'", source.c_str(),
-                      kKnownTypes, type_.c_str());
-        return;
+        refuseLoad(getName(), "LossyChannel not started: " + source + ": type: expected one of " +
+                                  std::string(kKnownTypes) + ", found '" + type_ + "'");
       }
       advertised_ = true;
       has_header_ = true;  // every listed type starts with a Header

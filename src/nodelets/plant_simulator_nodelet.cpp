@@ -1,7 +1,7 @@
 // PlantSimulator nodelet: runs the core PlantSimulator of a model file at the model's period and
 // publishes y_k per sensor (Measurement), the ground truth (PlantState and a tf2 frame). A command
 // is applied at step k only when ControlInput k has arrived on `command` (the output of the
-// actuator link) by then; otherwise the input is zero (aoe.md).
+// actuator link) by then; otherwise the input is zero (as in Lin et al.'s model).
 //
 // Clock: a ros::Timer (wall time, or /clock under use_sim_time). With ~publish_clock the plant
 // drives /clock itself (sim time advancing one period per step, ~time_scale times real time, and
@@ -24,6 +24,7 @@
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/config/model.hpp"
 #include "networked_estimation/simulation/simulator.hpp"
+#include "load_failure.hpp"
 #include "param_yaml.hpp"
 
 namespace networked_estimation
@@ -61,8 +62,7 @@ private:
     }
     catch (const ConfigError& e)
     {
-      NODELET_FATAL("PlantSimulator not started: %s", e.what());
-      return;
+      refuseLoad(getName(), std::string("PlantSimulator not started: ") + e.what());
     }
     sim_ = std::make_unique<PlantSimulator>(model_, seed_);
     for (const Sensor& s : model_.sensors)

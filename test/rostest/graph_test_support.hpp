@@ -2,8 +2,10 @@
 #pragma once
 
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <nodelet/NodeletList.h>
 #include <ros/ros.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <mutex>
@@ -54,6 +56,21 @@ bool waitFor(P pred, double timeout)
     ros::WallDuration(0.005).sleep();
   }
   return pred();
+}
+
+/// The nodelets a manager has loaded (its `list` service), or nothing when it does not answer.
+inline std::vector<std::string> loadedNodelets(const std::string& manager)
+{
+  nodelet::NodeletList srv;
+  if (!ros::service::waitForService(manager + "/list", ros::Duration(10.0)) ||
+      !ros::service::call(manager + "/list", srv))
+    return {};
+  return srv.response.nodelets;
+}
+
+inline bool isLoaded(const std::vector<std::string>& nodelets, const std::string& name)
+{
+  return std::find(nodelets.begin(), nodelets.end(), name) != nodelets.end();
 }
 
 /// Value of key in the latest diagnostics status whose name contains `name`.

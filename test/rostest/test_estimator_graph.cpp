@@ -422,7 +422,7 @@ TEST(EstimatorGraph, StabilityDiagnosticFlipsWithTheArrivalRate)
 
 // Foreign input types: PointStamped (two 2-row position sensors) and Range (one scalar sensor)
 // carry no step number; the estimator matches them to the nearest step by stamp. The estimates equal
-// the offline filter on the same values. Bad parameters stop an estimator at load, with a FATAL
+// the offline filter on the same values. Bad parameters make an estimator's load fail, with a FATAL
 // message naming the key (or the file).
 TEST(EstimatorGraph, ForeignTypesAndBadParameters)
 {
@@ -516,6 +516,12 @@ TEST(EstimatorGraph, ForeignTypesAndBadParameters)
     ros::WallDuration(0.2).sleep();
     EXPECT_EQ(none.sub.getNumPublishers(), 0u) << t;
   }
+  // The refused estimators' loads failed (onInit threw): the manager holds only the two good ones.
+  const std::vector<std::string> loaded = loadedNodelets("/manager");
+  EXPECT_TRUE(isLoaded(loaded, "/point/estimator")) << loaded.size();
+  EXPECT_TRUE(isLoaded(loaded, "/range/estimator")) << loaded.size();
+  for (const char* n : {"/bad_policy/estimator", "/bad_key/estimator", "/bad_model/estimator", "/bad_mu/estimator"})
+    EXPECT_FALSE(isLoaded(loaded, n)) << n;
 }
 
 // A bag recorded with `rosbag record` from a running graph replays (`rosbag play --clock`) into a

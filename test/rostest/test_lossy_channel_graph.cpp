@@ -193,7 +193,7 @@ TEST(LossyChannelGraph, SameSeedSameEvents)
   EXPECT_GT(differ_c, 50);  // a different seed gives a different sequence
 }
 
-// (f): bad parameters: the channel refuses to start and forwards nothing.
+// (f): bad parameters: the channel's load fails (onInit throws), so nothing is forwarded.
 TEST(LossyChannelGraph, BadParametersForwardNothing)
 {
   ros::NodeHandle nh;
@@ -210,6 +210,9 @@ TEST(LossyChannelGraph, BadParametersForwardNothing)
   ros::WallDuration(0.5).sleep();
   EXPECT_EQ(out.size(), 0u);
   EXPECT_EQ(out.sub.getNumPublishers(), 0u);
+  // The load itself failed: the manager holds no nodelet named /channel.
+  const std::vector<std::string> loaded = loadedNodelets("/manager");
+  EXPECT_FALSE(isLoaded(loaded, "/channel"));
 }
 
 // Runtime change: set_parameters degrades the link mid-run, from the next message on; a bad
