@@ -1,4 +1,4 @@
-// AOE, OE and ACK-KF against the self-checks T1-T6 of aoe.md's appendix and Theorems 1 and 3.
+// AOE, OE and ACK-KF against self-checks T1-T6 (each stated below) and Lin et al.'s Theorems 1 and 3.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -32,7 +32,7 @@ VectorXd paperInput(int k)
   return VectorXd::Constant(1, 1.0 + std::exp(-k / 10.0));
 }
 
-// The appendix setup: rho_A = 1.2910, xbar_0 = 0, P_0 = I, nuhat_0 = pi_nu.
+// The setup of the self-checks (Lin et al.'s example): rho_A = 1.2910, xbar_0 = 0, P_0 = I, nuhat_0 = pi_nu.
 struct Trio
 {
   Model model = aoeModel(1.2910);

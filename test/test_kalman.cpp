@@ -68,7 +68,7 @@ TEST(Kfio, MatchesTextbookJosephFilter)
   EXPECT_EQ(est->steps(), 200);
 }
 
-// stability.md 1.2: with block-diagonal R the stacked update equals sequential updates.
+// docs/algorithms.md 2.3: with block-diagonal R the stacked update equals sequential updates.
 TEST(MultiSensor, StackedUpdateEqualsSequentialUpdates)
 {
   Rng rng(2);
@@ -156,7 +156,7 @@ TEST(Kf, UsesNoiseSamplesThatKfioIgnores)
 namespace
 {
 // Observable and unstable (spectral radius 1.15). With arrival rate g, E[P] is unbounded when
-// 1.15^2 (1 - g) > 1 (stability.md 2.5), i.e. for g < 0.244: P sweeps through many decades.
+// 1.15^2 (1 - g) > 1 (docs/stability.md 3.1), i.e. for g < 0.244: P sweeps through many decades.
 Model unstableModel()
 {
   Rng rng(5);

@@ -1,5 +1,5 @@
 // Monte Carlo engine and experiments (montecarlo.hpp): determinism across thread counts, the
-// qualitative claims of rseio.md 5.4, the bounds of aoe.md 4.1 (28), stability.md T1 references.
+// qualitative claims of Zhou's Fig. 1, the bounds (28) of Lin et al.'s Theorem 3, Yang et al.'s Example 1.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -98,7 +98,7 @@ TEST(MonteCarlo, ThreadCountDoesNotChangeResults)
 
 TEST(MonteCarlo, ZhouFig1QualitativeClaims)
 {
-  // rseio.md 5.4 at 2000 runs over the paper's horizon; time averages over k = 80..500.
+  // Zhou's claims about his Fig. 1, at 2000 runs over the paper's horizon; time averages over k = 80..500.
   const ExperimentResult r = run("zhou_fig1", 2000, 500, 0);
   for (const CaseResult& c : r.cases)
   {

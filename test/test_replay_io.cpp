@@ -1,4 +1,4 @@
-// CSV input/output of the tools (formats.md "Replay input", "Replay output"), the truth file,
+// CSV input/output of the tools (docs/formats.md, "Replay input", "Replay output"), the truth file,
 // scoring and AtomicFile.
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // RSEIO against its definition: the minimiser of the cost (2), checked by brute force
-// (rseio.md section 6 item 4, extended by section 2.5b for a known input), the reductions of
-// section 3 and the Theorem 2 analysis form (section 2.6).
+// (docs/algorithms.md 6.4, extended by 4.6 for a known input), the reductions (4.7) and the
+// Theorem 2 analysis form (4.9).
 #include <gtest/gtest.h>
 
 #include <map>
@@ -28,7 +28,7 @@ EstimatorSettings rseioSettings(double mu)
   return s;
 }
 
-// S, T, Sc written out from rseio.md 2.3 / 2.5b, independently of rseioSensitivity().
+// S, T, Sc written out from docs/algorithms.md 4.3 / 4.6, independently of rseioSensitivity().
 void sensitivity(const Model& m, MatrixXd& S, MatrixXd& T, MatrixXd& Sc)
 {
   const int r = 2 * m.ne() * m.m();
@@ -82,7 +82,7 @@ double relErr(const MatrixXd& a, const MatrixXd& b)
 
 }  // namespace
 
-// rseio.md 6.4: with non-zero dA, dB and dC (T != 0) the printed Qhat and Ahat of the OCR text are
+// docs/algorithms.md 6.1: with non-zero dA, dB and dC (T != 0) the printed Qhat and Ahat of the OCR text are
 // off by about 0.5; the corrected Theorem 1 must equal the brute-force minimiser to rounding.
 TEST(Rseio, EqualsBruteForceMinimiserOnRandomCases)
 {
@@ -112,7 +112,7 @@ TEST(Rseio, EqualsBruteForceMinimiserOnRandomCases)
   EXPECT_GE(forms["gram"], 5);
 }
 
-// Section 2.5b: with a known input and non-zero dC the estimate carries a correction term.
+// docs/algorithms.md 4.6: with a known input and non-zero dC the estimate carries a correction term.
 TEST(Rseio, EqualsBruteForceMinimiserWithKnownInput)
 {
   Rng rng(77);
@@ -207,7 +207,7 @@ TEST(Rseio, NoUncertaintyIsKfioForAnyMu)
   EXPECT_LT(maxAbsDiff(a->state(), b->state()), 1e-12);
 }
 
-// Theorem 2 (section 2.6): the analysis form gives the same P+ as Theorem 1 on arrival steps.
+// Theorem 2 (docs/algorithms.md 4.9): the analysis form gives the same P+ as Theorem 1 on arrival steps.
 TEST(Rseio, TheoremTwoFormAgreesWithTheoremOne)
 {
   Rng rng(31);
@@ -236,7 +236,7 @@ TEST(Rseio, TheoremTwoFormAgreesWithTheoremOne)
   EXPECT_GE(checked, 25);
 }
 
-// rseio.md 5.2: the example's derived quantities for mu = 0.8.
+// Zhou's example: its derived quantities for mu = 0.8 (docs/algorithms.md 6.1, Z6).
 TEST(Rseio, ZhouExampleAnalysisValues)
 {
   const Model m = zhouModel();

@@ -1,5 +1,5 @@
-// Stability analysis (stability.hpp) against the acceptance values of stability.md section 5 and
-// aoe.md section 5, random systems with one-dimensional unstable modes, and a Monte Carlo check of
+// Stability analysis (stability.hpp) against reference cases T1-T8 (each described below) and
+// Lin et al.'s example, random systems with one-dimensional unstable modes, and a Monte Carlo check of
 // the critical rate.
 #include <gtest/gtest.h>
 
@@ -77,7 +77,7 @@ ChannelSettings gilbert(double p, double r, double loss_bad = 1.0, double loss_g
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
-// stability.md T1 (Yang et al. Example 1)
+// T1: Yang et al.'s Example 1 (eight sensors, stable A)
 
 TEST(Stability, T1ReferenceValues)
 {
@@ -152,7 +152,7 @@ TEST(Stability, T1ReportIsStable)
 }
 
 // ---------------------------------------------------------------------------------------------
-// T2 (Marelli et al. 7.3) via Corollary 26
+// T2: the example of Marelli et al.'s Section 7.3, via Corollary 26
 
 TEST(Stability, T2Corollary26)
 {
@@ -180,7 +180,8 @@ TEST(Stability, T2Corollary26)
 }
 
 // ---------------------------------------------------------------------------------------------
-// T3, T4, T7: single sensor, exact rate vs bounds, MARE threshold
+// T3: A = diag(2, -2), T4: A = diag(2, 3) (both with c = [1 1]), T7: a Jordan block with c = [1 0]:
+// single sensor, exact rate vs bounds, MARE threshold
 
 TEST(Stability, T3TwoMinusTwo)
 {
@@ -274,7 +275,7 @@ TEST(Stability, T8ExcitationArithmetic)
 }
 
 // ---------------------------------------------------------------------------------------------
-// aoe.md section 5: thresholds 0.4 and 0.7
+// Lin et al.'s example (their Section 7): thresholds 0.4 and 0.7
 
 TEST(Stability, AoeThresholds)
 {
@@ -292,7 +293,7 @@ TEST(Stability, AoeThresholds)
     // Via the general exact test (Markov form of Corollary 26) and the report.
     const ChannelSettings ge = gilbert(0.05, c.second + 0.01);
     const StabilityReport rep = analyzeStability(m, &ge);
-    EXPECT_NEAR(rep.model.recovery_exact, c.second, 1e-6);  // spec values have 6 decimals
+    EXPECT_NEAR(rep.model.recovery_exact, c.second, 1e-6);  // the reference values have 6 decimals
     EXPECT_EQ(rep.model.verdict.kind, Verdict::Kind::STABLE);
     EXPECT_EQ(rep.model.aoe_theorem5.kind, Verdict::Kind::STABLE);
     EXPECT_NEAR(rep.model.margin, 0.01, 1e-6);
@@ -312,7 +313,7 @@ TEST(Stability, AoeTheorem5NotApplicable)
   const Verdict j = aoeTheorem5(mat(2, 2, {1.2, 1, 0, 1.2}), mat(1, 2, {1, 0}), Qn, mat(1, 1, {1}), 0.9, 0.5);
   EXPECT_EQ(j.kind, Verdict::Kind::NOT_APPLICABLE);
   EXPECT_NE(j.reason.find("diagonalizable"), std::string::npos);
-  // A hidden GE chain (loss_good > 0) is not the on/off chain of aoe.md.
+  // A hidden GE chain (loss_good > 0) is not the on/off chain of Lin et al.
   const ChannelSettings ge = gilbert(0.05, 0.4, 1.0, 0.005);
   const StabilityReport rep = analyzeStability(m, &ge);
   EXPECT_EQ(rep.model.aoe_theorem5.kind, Verdict::Kind::NOT_APPLICABLE);

@@ -42,13 +42,13 @@ inline void singleSensor(Model& m)
   m.sensors.push_back({"y", 0, static_cast<int>(m.C.rows())});
 }
 
-/// rseio.md section 5.1 (the zhou example), as the Monte Carlo experiments build it.
+/// Zhou's example (Section IV of his paper), as the Monte Carlo experiments build it.
 inline Model zhouModel(double range = 1.0)
 {
   return mc::zhouExampleModel(range);
 }
 
-/// aoe.md section 5 with C = [[1, -1], [0, 1]] (the spec author's reading of the garbled C).
+/// Lin et al.'s example with C = [[1, -1], [0, 1]] (our reading of the garbled C; docs/algorithms.md 6.2).
 inline Model aoeModel(double rhoA = 1.2910)
 {
   return mc::aoeExampleModel(rhoA);

@@ -197,7 +197,7 @@ int main(int argc, char** argv)
   out << "mean |e|^2: time-averaged squared error against PlantState; tr(P): the filter's own claim of it\n"
          "(a ratio near 1 means the filter is consistent; one run's ratio scatters widely when long loss bursts\n"
          "dominate; rseio's P is the paper's pseudo-covariance, and rseio equals kfio on a model without\n"
-         "uncertainty, rseio.md section 3).\n";
+         "uncertainty, docs/algorithms.md 4.7).\n";
   std::fputs(out.str().c_str(), stdout);
   std::fflush(stdout);
   if (!text_output.empty())

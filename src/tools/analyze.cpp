@@ -105,7 +105,7 @@ void printSet(std::ostream& os, const RateAnalysis& r)
   os << "  exact critical arrival rate     " << txt(r.exact_rate) << "  (" << r.exact_method << ")\n";
   os << "  Markov: critical recovery rate  " << txt(r.recovery_exact) << " (necessary " << txt(r.recovery_lower_bound)
      << ")\n";
-  os << "  aoe.md Theorem 5                " << describe(r.aoe_theorem5) << "\n";
+  os << "  Lin et al.'s Theorem 5          " << describe(r.aoe_theorem5) << "\n";
   os << "  verdict                         " << describe(r.verdict) << "\n";
   os << "  margin                          " << r.margin_quantity << " " << txt(r.channel_value) << " - critical "
      << txt(r.sufficient_threshold) << " = " << txt(r.margin) << "\n";

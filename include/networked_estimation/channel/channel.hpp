@@ -1,4 +1,4 @@
-// The ROS-free engine of the LossyChannel nodelet (formats.md "Channel settings"): drops, delays,
+// The ROS-free engine of the LossyChannel nodelet (docs/formats.md, "Channel settings"): drops, delays,
 // duplicates and reorders messages like Linux netem, reproducibly from a seed. The caller keeps
 // the message objects (keyed by its own sequence numbers) and drives the engine with times in
 // seconds; the engine makes every decision and keeps the in-flight schedule.

@@ -1,4 +1,4 @@
-// Packet loss models (formats.md "Channel settings"), with netem's semantics:
+// Packet loss models (docs/formats.md, "Channel settings"), with netem's semantics:
 //   bernoulli:        each message lost independently with probability `loss`
 //   gilbert_elliott:  two-state Markov chain, p = P(good -> bad), r = P(bad -> good),
 //                     P(lost | bad) = loss_bad (netem 1-h), P(lost | good) = loss_good (netem 1-k).

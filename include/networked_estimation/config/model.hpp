@@ -1,4 +1,4 @@
-// The linear plant and its sensors (formats.md, "Model file").
+// The linear plant and its sensors (docs/formats.md, "Model file").
 //
 //   x_k = A x_{k-1} + nu_k Bu u_k + B w_{k-1}      w ~ N(0, Q)
 //   y_k = C x_k + v_k                               v ~ N(0, R), received iff gamma_k = 1

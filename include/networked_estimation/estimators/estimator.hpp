@@ -1,7 +1,7 @@
 // One small interface for every estimator of the package, and the factory that builds one from a
 // model and estimator settings.
 //
-// Time convention (formats.md): step k takes (x_{k-1|k-1}, P_{k-1|k-1}), the command u_k and the
+// Time convention (docs/algorithms.md 1.2): step k takes (x_{k-1|k-1}, P_{k-1|k-1}), the command u_k and the
 // received part of y_k, and produces (x_{k|k}, P_{k|k}).
 #pragma once
 

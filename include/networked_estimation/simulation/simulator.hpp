@@ -1,6 +1,6 @@
 // Plant simulator: the linear plant of a Model with parametric uncertainty (fresh eps_j uniform in
 // [-range_j, range_j] at every step), process and measurement noise, and a known control sequence
-// delivered through a lossy actuator link (zero input applied when a command is lost, as in aoe.md).
+// delivered through a lossy actuator link (zero input applied when a command is lost, as in Lin et al.).
 #pragma once
 
 #include <Eigen/Dense>
@@ -22,7 +22,7 @@ struct ControlSequence
   {
     CONSTANT,  ///< u_k = value
     STEP,      ///< u_k = 0 for k < step_at, value for k >= step_at
-    PAPER      ///< u_k = value * (1 + exp(-k/10)), aoe.md section 5 (value = 1 gives the paper's)
+    PAPER      ///< u_k = value * (1 + exp(-k/10)), Lin et al.'s example (value = 1 gives the paper's)
   };
   Kind kind = Kind::PAPER;
   double value = 1.0;

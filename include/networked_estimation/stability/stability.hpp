@@ -1,5 +1,5 @@
-// Stability analysis of Kalman filtering over lossy links (stability.md, aoe.md section 4.2,
-// rseio.md section 4): critical arrival rates, the MARE upper bound with its certificate, the
+// Stability analysis of Kalman filtering over lossy links (docs/stability.md; Lin et al., Theorem 5;
+// Zhou, Theorem 5): critical arrival rates, the MARE upper bound with its certificate, the
 // exact test of Marelli et al. (Theorem 14 with Proposition 24 / Corollary 26) where it is
 // computable, the Markov (Gilbert-Elliott) threshold on the recovery rate, and the RSEIO
 // convergence checklist. ROS-free.
@@ -64,7 +64,7 @@ struct StabilityTolerances
 Eigen::VectorXcd eigenvalues(const Eigen::MatrixXd& A);
 /// rho(A) = max |lambda_i|.
 double spectralRadius(const Eigen::MatrixXd& A);
-/// M(A) = prod_i max(1, |lambda_i|) (stability.md 2.1).
+/// M(A) = prod_i max(1, |lambda_i|) (docs/stability.md 1.3).
 double mahlerMeasure(const Eigen::MatrixXd& A);
 /// h(A) = ln M(A).
 double topologicalEntropy(const Eigen::MatrixXd& A);
@@ -84,12 +84,12 @@ bool modesControllable(const Eigen::MatrixXd& A, const Eigen::MatrixXd& G, doubl
 /// detectability).
 bool modesObservable(const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, double min_modulus = 0.0,
                      double rel_tol = 1e-9);
-/// aoe.md 4.2 step 2-3 (Definition 5): A diagonalizable and, for every group of eigenvalues of equal
+/// Lin et al.'s Definition 5 (docs/stability.md 1.3): A diagonalizable and, for every group of eigenvalues of equal
 /// modulus, C V restricted to the group has full column rank. NOT_APPLICABLE when A is not
 /// diagonalizable; STABLE stands for "strongly observable", UNSTABLE for "not strongly observable".
 Verdict strongObservability(const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, const StabilityTolerances& tol = {});
 
-/// One FMO block (stability.md 3.2, 3.4 step 1) of the eigenvalues with modulus >= min_modulus.
+/// One FMO block (docs/stability.md 1.3, 3.5) of the eigenvalues with modulus >= min_modulus.
 struct FmoBlock
 {
   std::complex<double> alpha;                    ///< a representative eigenvalue
@@ -172,7 +172,7 @@ struct BlockStructure
 std::vector<BlockStructure> analyseBlocks(const Eigen::MatrixXd& A, const std::vector<Eigen::MatrixXd>& H,
                                           const StabilityTolerances& tol = {}, std::size_t lattice_cap = 512);
 
-/// Phi_k (stability.md 3.3-3.4) of one block for the sensors' links (links.size() = H.size()).
+/// Phi_k (docs/stability.md 3.5) of one block for the sensors' links (links.size() = H.size()).
 /// NaN for an UNAVAILABLE block.
 double blockPhi(const BlockStructure& block, const std::vector<LinkModel>& links);
 
@@ -196,16 +196,16 @@ double exactCriticalRecoveryRate(const std::vector<BlockStructure>& blocks, doub
 double corollary26Phi(const std::vector<double>& conditional_bad_probabilities);
 
 // ---------------------------------------------------------------------------------------------
-// Yang et al.: bounds and capacities (stability.md 2.1-2.5)
+// Yang et al.: bounds and capacities (docs/stability.md 3.1-3.3, 3.8)
 
 /// Sinopoli / Yang Theorem 1 with a common rate for N sensors: 1 - rho^{-2/N} (0 when rho <= 1).
 double sinopoliLowerBound(double rho, int sensors = 1);
 /// N = 1 closed-form MARE upper bound 1 - 1/M(A)^2 (0 when M = 1).
 double mahlerUpperBound(double mahler);
-/// aoe.md Theorem 5 threshold on the recovery rate: p_t = 1 - rho^{-2} (may be <= 0).
+/// Lin et al.'s Theorem 5 threshold on the recovery rate: p_t = 1 - rho^{-2} (may be <= 0).
 double aoeRecoveryThreshold(double rho);
 
-/// Capacity quantities of stability.md 2.1-2.2 for per-sensor rates (rates in [0, 1)).
+/// Capacity quantities of docs/stability.md 3.8 for per-sensor rates (rates in [0, 1)).
 struct Capacity
 {
   std::vector<double> individual;   ///< c_i = -1/2 ln(1 - lambda_i)
@@ -219,7 +219,7 @@ struct Capacity
 Capacity transmissionCapacity(const Eigen::MatrixXd& A, const std::vector<double>& rates,
                               const std::vector<int>& sensor_rows);
 
-/// Theorem 5 of Yang et al. via the kernel chain of stability.md 2.4 (rows of each sensor in order,
+/// Theorem 5 of Yang et al. via the kernel chain of docs/stability.md 3.3 (rows of each sensor in order,
 /// a row is chosen when it shrinks the unobservable subspace).
 struct EntropySplit
 {
@@ -273,7 +273,7 @@ public:
   Eigen::MatrixXd step(const Eigen::MatrixXd& X) const;
   /// Gain L(X) = A X H'(W ⊙ (H X H' + I))^{-1} Lambda^{-1} (n x m of the used sensors).
   Eigen::MatrixXd gain(const Eigen::MatrixXd& X) const;
-  /// rho(T) with T = M0 ⊗ M0 + sum_i Mi ⊗ Mi at L = L(X) (stability.md 2.3 (b)); < 1 certifies
+  /// rho(T) with T = M0 ⊗ M0 + sum_i Mi ⊗ Mi at L = L(X) (docs/stability.md 3.2); < 1 certifies
   /// condition (1) of Theorem 4.
   double certificateRadius(const Eigen::MatrixXd& X) const;
   /// Stacked whitened H of the sensors with a positive rate.
@@ -286,7 +286,7 @@ private:
   std::vector<int> offset_, size_;
 };
 
-/// Iterates the MARE from X_0 = 0 (stability.md 2.3 (a)) and certifies the fixed point ((b)).
+/// Iterates the MARE from X_0 = 0 and certifies the fixed point (docs/stability.md 3.2).
 /// With stop_at_certificate, the iteration also stops as soon as the gain of the current iterate
 /// certifies condition (1) (any L with rho(T_L) < 1 does), without reaching the fixed point.
 MareResult solveMare(const Mare& mare, const MareOptions& options = {}, bool stop_at_certificate = false);
@@ -307,16 +307,16 @@ CriticalBand mareCriticalRate(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q
                               double lo, double hi, double tolerance = 1e-4, const MareOptions& options = {});
 
 // ---------------------------------------------------------------------------------------------
-// Markov arrivals, aoe.md Theorem 5
+// Markov arrivals, Lin et al.'s Theorem 5
 
-/// aoe.md 4.2: Assumption 1 (Q, R > 0; (A, C) observable; (A, Q^1/2) controllable; recovery, failure
-/// in (0, 1]), Assumption 2 (diagonalizable, strongly observable), then stable iff
-/// recovery > 1 - rho^{-2}. Q is the n x n process noise covariance.
+/// Lin et al.'s Theorem 5 (docs/stability.md 3.7): Assumption 1 (Q, R > 0; (A, C) observable;
+/// (A, Q^1/2) controllable; recovery, failure in (0, 1]), Assumption 2 (diagonalizable, strongly
+/// observable), then stable iff recovery > 1 - rho^{-2}. Q is the n x n process noise covariance.
 Verdict aoeTheorem5(const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, const Eigen::MatrixXd& Q,
                     const Eigen::MatrixXd& R, double recovery, double failure, const StabilityTolerances& tol = {});
 
 // ---------------------------------------------------------------------------------------------
-// RSEIO, rseio.md 4.3-4.4
+// RSEIO, Zhou's Theorem 5 (docs/stability.md 3.9)
 
 /// Gramians of a word r (time order, letters 0 = drop, 1 = arrival) for Phi factors
 /// (A_i, G_i, W_i): O(r) = sum (A_i...A_1)' W_i (A_i...A_1) and
@@ -326,7 +326,7 @@ Eigen::MatrixXd wordObservabilityGramian(const std::vector<int>& word, const Eig
 Eigen::MatrixXd wordControllabilityGramian(const std::vector<int>& word, const Eigen::MatrixXd& A1,
                                            const Eigen::MatrixXd& G1, const Eigen::MatrixXd& A2,
                                            const Eigen::MatrixXd& G2);
-/// Theorem 5 checklist (rseio.md 4.4) for the model, mu and the arrival link of the whole
+/// Zhou's Theorem 5 checklist (docs/stability.md 3.9) for the model, mu and the arrival link of the whole
 /// measurement. STABLE means "P_{t|t} converges to a unique stationary distribution" (sufficient
 /// conditions hold); UNDECIDED when a sufficient condition fails; NOT_APPLICABLE when A, Acheck or
 /// Atil is singular or the link is outside the theorem (e.g. a hidden GE chain).
@@ -350,7 +350,7 @@ struct RateAnalysis
   // on/off Gilbert-Elliott links with the channel's failure rate p (or p = 0.5 without a GE channel)
   double recovery_lower_bound = 0.0;  ///< necessary: rho^2 (1 - r)^N < 1
   double recovery_exact = std::numeric_limits<double>::quiet_NaN();
-  Verdict aoe_theorem5;       ///< the aoe.md Theorem 5 test (one packet = this set of sensors)
+  Verdict aoe_theorem5;       ///< Lin et al.'s Theorem 5 test (one packet = this set of sensors)
   std::vector<BlockStructure> blocks;
   // the given channel
   Verdict verdict;
@@ -378,7 +378,7 @@ struct StabilityReport
   EntropySplit entropy_split;
   RateAnalysis model;             ///< all sensors
   std::vector<RateAnalysis> sensors;  ///< each sensor alone (empty when options.per_sensor is false)
-  Verdict rseio;                  ///< rseio.md Theorem 5 (NOT_APPLICABLE unless the estimator is rseio)
+  Verdict rseio;                  ///< Zhou's Theorem 5 (NOT_APPLICABLE unless the estimator is rseio)
   std::string estimator;          ///< the estimator analysed (kfio without settings)
   std::string estimator_note;     ///< how the verdicts relate to that estimator
 };

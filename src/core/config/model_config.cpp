@@ -1,5 +1,5 @@
 // Reading and validating the model file (docs/formats.md, "Model file"). Every rejection is a
-// ConfigError naming the source, line and key path (config/yaml_reader.hpp).
+// ConfigError naming the source, line and key path (src/core/config/yaml_reader.hpp).
 #include "networked_estimation/config/model.hpp"
 
 #include <yaml-cpp/yaml.h>

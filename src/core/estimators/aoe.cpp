@@ -1,4 +1,4 @@
-// AOE and OE for non-acknowledged control links with Markov losses (aoe.md sections 2 and 3).
+// AOE and OE for non-acknowledged control links with Markov losses (docs/algorithms.md 5.3, 5.4).
 #include "estimators/aoe_estimators.hpp"
 
 #include <algorithm>

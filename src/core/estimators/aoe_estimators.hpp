@@ -7,7 +7,7 @@ namespace networked_estimation
 namespace detail
 {
 
-/// Markov chain of the actuator link (aoe.md): q1 = recovery, q2 = failure.
+/// Markov chain of the actuator link (docs/algorithms.md 5.1): q1 = recovery, q2 = failure.
 struct ControlLink
 {
   double q1 = 0.5, q2 = 0.5;
@@ -17,7 +17,7 @@ struct ControlLink
   double stationary() const { return q1 + q2 > 0.0 ? q1 / (q1 + q2) : 1.0; }
 };
 
-/// Approximate optimal estimator (aoe.md section 3): a 2-component mixture over nu_k collapsed to
+/// Approximate optimal estimator (docs/algorithms.md 5.4): a 2-component mixture over nu_k collapsed to
 /// one Gaussian by moment matching each step.
 class Aoe : public EstimatorBase
 {
@@ -34,7 +34,7 @@ private:
   Eigen::VectorXd z0_, dlt_, wd_;
 };
 
-/// Exact optimal estimator (aoe.md section 2): a Gaussian mixture over the command-loss history
+/// Exact optimal estimator (docs/algorithms.md 5.3): a Gaussian mixture over the command-loss history
 /// with one shared covariance, log-weights, and a cap keeping the largest weights.
 class OptimalEstimator : public EstimatorBase
 {

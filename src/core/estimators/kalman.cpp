@@ -2,7 +2,7 @@
 // which command it applies.
 //   kf:     every finite sample is a measurement (it cannot tell a loss); u applied as delivered.
 //   kfio:   Sinopoli's filter: updates only when gamma_k = 1; u applied as delivered.
-//   ack_kf: kfio told nu_k: applies nu_k Bu u_k (aoe.md section 4.3).
+//   ack_kf: kfio told nu_k: applies nu_k Bu u_k (docs/algorithms.md 5.2).
 #include "estimators/kalman_filter.hpp"
 
 namespace networked_estimation

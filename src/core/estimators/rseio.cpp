@@ -1,4 +1,4 @@
-// RSEIO, rseio.md section 2.5 (Theorem 1, corrected, Gram form) and 2.5b (known input).
+// RSEIO, docs/algorithms.md 4.4 (Theorem 1, corrected, Gram form) and 4.6 (known input).
 #include "estimators/rseio_estimator.hpp"
 #include "networked_estimation/common/index_select.hpp"
 
@@ -245,7 +245,7 @@ void Rseio::arrivalPrediction(const RseioGrams& g, bool has_input, const Eigen::
 //   H = Fx P A' + Fw Q B',  N = I + lam (Fx P Fx' + Fw Q Fw'),
 //   xpred = [A B] M^{-1} (D [x; 0] - lam [S T]'c) + Bu u
 //         = A x - lam H' N^{-1} Fx x + Bu u - lam ([A B] D^{-1} g - lam H' N^{-1} F D^{-1} g),
-// where g = [S T]'c = [SBu; TBu] u is the known-input term of section 2.5b. Equal to Theorem 1
+// where g = [S T]'c = [SBu; TBu] u is the known-input term of docs/algorithms.md 4.6. Equal to Theorem 1
 // (checked against the brute-force minimiser in the tests) at O(n^2 rho + rho^2 n) on top of kfio.
 void Rseio::rankPrediction(const RseioGrams& g, bool has_input, const Eigen::VectorXd& u)
 {

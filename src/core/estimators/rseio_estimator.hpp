@@ -15,7 +15,7 @@ struct RseioGrams
 {
   Eigen::MatrixXd Sss, Sst, Stt;  ///< S'S, S'T, T'T
   Eigen::MatrixXd Fs;             ///< Fs'Fs = Sss, rank(Sss) rows: Phat is a low-rank downdate of P
-  Eigen::MatrixXd SBu, TBu;       ///< S'Sc Bu, T'Sc Bu: the known-input correction (section 2.5b)
+  Eigen::MatrixXd SBu, TBu;       ///< S'Sc Bu, T'Sc Bu: the known-input correction (docs/algorithms.md 4.6)
   bool hasS = false, hasT = false, hasC = false;
   // Rank form: [Fx Fw]'[Fx Fw] = [S T]'[S T] with rho = rank rows (see Rseio::rankPrediction).
   bool rankForm = false;
@@ -32,7 +32,7 @@ public:
 
 private:
   const RseioGrams& grams();
-  /// Theorem 1 in Gram form (rseio.md 2.5): Phat, Qhat, Bhat, Ahat. Used when rho > n.
+  /// Theorem 1 in Gram form (docs/algorithms.md 4.4): Phat, Qhat, Bhat, Ahat. Used when rho > n.
   void arrivalPrediction(const RseioGrams& g, bool has_input, const Eigen::VectorXd& u);
   /// The same prediction as a rank-rho downdate of the nominal one (used when rho <= n).
   void rankPrediction(const RseioGrams& g, bool has_input, const Eigen::VectorXd& u);

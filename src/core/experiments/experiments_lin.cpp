@@ -1,4 +1,4 @@
-// Experiments lin_fig2 .. lin_fig5 (aoe.md sections 4.1, 5): OE / AOE / ACK covariances and the
+// Experiments lin_fig2 .. lin_fig5 (Lin et al., Theorem 3 and Section 7): OE / AOE / ACK covariances and the
 // upper sequence S_k of (27) on the example of Lin et al.
 #include <cmath>
 #include <memory>
@@ -25,7 +25,7 @@ const std::uint64_t kFixedGammaStream = 1ULL << 62;
 struct LinParams
 {
   double rho = 1.2910;
-  double p1 = 0.8, p2 = 0.5;  ///< sensor link: recovery, failure (aoe.md 1)
+  double p1 = 0.8, p2 = 0.5;  ///< sensor link: recovery, failure (Lin et al.'s p1, p2)
   double q1 = 0.5, q2 = 0.5;  ///< actuator link
   long steps = 30;            ///< simulated steps (AOE, ACK, S run over all of them)
   long oe_steps = 0;          ///< OE steps (0: no OE)
@@ -142,7 +142,8 @@ Moments linRuns(const RunConfig& rc, const LinParams& lp)
 std::vector<std::string> commonAssumptions()
 {
   return {
-      "model of aoe.md 5 with C = [[1, -1], [0, 1]] (reading of the garbled C), Q = R = 20 I, Bu = [-1; 1]",
+      "model of Lin et al.'s example (their Section 7) with C = [[1, -1], [0, 1]] (reading of the garbled C), "
+      "Q = R = 20 I, Bu = [-1; 1]",
       "xbar_0 = 0, P_0 = I (x_0 ~ N(0, I)), nuhat_0 = pi_nu; u_k = 1 + exp(-k/10), zero input when lost",
       "Markov links start in their stationary law (gamma_1 ~ pi_gamma, nu_1 ~ pi_nu)",
       "U = (1 + e^{-0.1})^2 Bu Bu' = 3.628406 [[1, -1], [-1, 1]] (tightest bound for k >= 1) in S_k of (27)",
@@ -295,7 +296,7 @@ ExperimentResult linFig2(const RunConfig& rc)
   res.assumptions.push_back("p1 grid: 10 points from p_t + 0.02 to 1, p_t = 1 - rho_A^-2; p2 = q1 = q2 = 0.5");
   res.notes = {"OE capped at max_components = " + std::to_string(cap) +
                    " (largest weights kept): an approximation of the exact OE beyond k = 8",
-               "aoe.md 6 item 11: the paper's E_{I_30}[P^e_50] is read as k = " + std::to_string(T) +
+               "the paper's E_{I_30}[P^e_50] (Section 7; its indices disagree) is read as k = " + std::to_string(T) +
                    "; k = " + std::to_string(T2) + " is reported too",
                "time_average of a sweep series = mean over the grid points"};
   return res;

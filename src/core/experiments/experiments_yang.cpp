@@ -1,4 +1,4 @@
-// Experiment yang_fig2 (stability.md T1): lower bound G_k, Monte Carlo E[P-_k] and the MARE upper
+// Experiment yang_fig2 (Yang et al.'s Example 1): lower bound G_k, Monte Carlo E[P-_k] and the MARE upper
 // bound V_k for 8 sensors with i.i.d. per-sensor arrivals.
 #include <cmath>
 #include <limits>
@@ -107,8 +107,8 @@ ExperimentResult yangFig2(const RunConfig& rc)
   res.x_label = "k";
   res.y_label = "trace";
   res.assumptions = {
-      "stability.md T1: A, Q, H_i as given, R_i = I, lambda = (0.2443, 0.4572, 0.7435, 0.6174, 0.1747, 0.6024, "
-      "0.8031, 0.3663), i.i.d. arrivals per sensor",
+      "Yang et al.'s Example 1: A, Q, H_i as given, R_i = I, lambda = (0.2443, 0.4572, 0.7435, 0.6174, 0.1747, "
+      "0.6024, 0.8031, 0.3663), i.i.d. arrivals per sensor",
       "x_0 ~ N(0, I): Pi = I, P-_1 = A Pi A' + Q = V_1; G_1 = 0",
       "the plotted scalar is the trace",
       "P-_k depends only on the arrivals: the Monte Carlo draws the arrivals only (run r: "

@@ -1,4 +1,4 @@
-// Experiments zhou_fig1, zhou_fig2 (rseio.md section 5) and custom.
+// Experiments zhou_fig1, zhou_fig2 (Zhou's example, Section IV of the paper) and custom.
 #include <memory>
 
 #include "experiments/montecarlo_experiments.hpp"
@@ -18,7 +18,7 @@ namespace mc
 namespace
 {
 
-const double kArrival = 0.8;  // gamma-bar of rseio.md 5.1
+const double kArrival = 0.8;  // gamma-bar of Zhou's example
 
 EstimatorSettings settingsOf(Algorithm a, double mu = 1.0)
 {
@@ -159,7 +159,7 @@ ExperimentResult zhouFig1(const RunConfig& rc)
   res.y_label = "MSE_k = mean ||x_k - xhat_k|k||^2";
   res.log_y = true;
   res.assumptions = {
-      "plant of rseio.md 5.1: eps_k ~ U[-delta, delta] fresh every step, A(eps)(1,2) = 0.0196 + 0.099 eps",
+      "plant of Zhou's example: eps_k ~ U[-delta, delta] fresh every step, A(eps)(1,2) = 0.0196 + 0.099 eps",
       "x_0 ~ N([1, 0]', I); xhat_0|0 = [1, 0]', P_0|0 = I; y_0 not used (first sample k = 1)",
       "gamma_k i.i.d. Bernoulli(0.8); when gamma_k = 0 the sample carries y_k = v_k",
       "KF and RSE use every sample (including the noise-only ones); RSE = rseio with gamma forced to 1",

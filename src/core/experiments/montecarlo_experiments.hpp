@@ -33,13 +33,13 @@ ExperimentResult linFig4(const RunConfig& rc);
 ExperimentResult linFig5(const RunConfig& rc);
 ExperimentResult yangFig2(const RunConfig& rc);
 
-/// rseio.md 5.1: Zhou's example with eps ~ U[-delta, delta].
+/// Zhou's example (Section IV of the paper) with eps ~ U[-delta, delta].
 Model zhouExampleModel(double delta);
-/// aoe.md 5 with C = [[1, -1], [0, 1]], xbar_0 = 0, P_0 = I.
+/// Lin et al.'s example (their Section 7) with C = [[1, -1], [0, 1]], xbar_0 = 0, P_0 = I.
 Model aoeExampleModel(double rhoA);
-/// stability.md T1: 8 sensors, R_i = I, x_0 ~ N(0, I).
+/// Yang et al.'s Example 1: 8 sensors, R_i = I, x_0 ~ N(0, I).
 Model yangExampleModel();
-/// stability.md T1 arrival rates.
+/// The arrival rates of Yang et al.'s Example 1.
 const std::vector<double>& yangRates();
 
 /// A series from the moments `m` at offset `first` (values first .. first + x_count - 1).

@@ -110,7 +110,7 @@ RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const s
   const double p_markov = ctx.has_channel && ctx.link.kind == LinkModel::Kind::GILBERT_ELLIOTT ? ctx.link.p : 0.5;
   ra.recovery_exact = stable_A ? 0.0 : exactCriticalRecoveryRate(ra.blocks, p_markov);
 
-  // aoe.md Theorem 5: one packet carrying the whole measurement of the set.
+  // Lin et al.'s Theorem 5: one packet carrying the whole measurement of the set.
   if (!ctx.has_channel)
   {
     ra.aoe_theorem5.kind = Verdict::Kind::NOT_APPLICABLE;
@@ -120,14 +120,15 @@ RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const s
   else if (N != 1)
   {
     ra.aoe_theorem5.kind = Verdict::Kind::NOT_APPLICABLE;
-    ra.aoe_theorem5.reason = std::to_string(N) + " sensors on independent links; aoe.md Theorem 5 covers one packet";
+    ra.aoe_theorem5.reason =
+        std::to_string(N) + " sensors on independent links; Lin et al.'s Theorem 5 covers one packet";
     ra.aoe_theorem5.numbers["p_t"] = aoeRecoveryThreshold(ctx.rho);
   }
   else if (ctx.link.kind == LinkModel::Kind::GILBERT_ELLIOTT && !ctx.link.onOff())
   {
     ra.aoe_theorem5.kind = Verdict::Kind::NOT_APPLICABLE;
     ra.aoe_theorem5.reason = "the arrivals of a Gilbert-Elliott chain with loss_good > 0 or loss_bad < 1 are not "
-                             "the two-state Markov chain of aoe.md";
+                             "the two-state Markov chain of Lin et al.";
     ra.aoe_theorem5.numbers["p_t"] = aoeRecoveryThreshold(ctx.rho);
   }
   else
@@ -317,12 +318,12 @@ StabilityReport analyzeStability(const Model& model, const ChannelSettings* sens
     case Algorithm::AOE:
     case Algorithm::OE:
     case Algorithm::ACK_KF:
-      rep.estimator_note = "OE, AOE and the ACK Kalman filter are stable together (aoe.md Theorem 4); the verdicts "
-                           "concern that Kalman filter with intermittent observations";
+      rep.estimator_note = "OE, AOE and the ACK Kalman filter are stable together (Lin et al.'s Theorem 4); the "
+                           "verdicts concern that Kalman filter with intermittent observations";
       break;
     case Algorithm::RSEIO:
       rep.estimator_note = "the rate verdicts concern the Kalman filter with intermittent observations (rseio with mu "
-                           "= 1); the rseio verdict is rseio.md Theorem 5";
+                           "= 1); the rseio verdict is Zhou's Theorem 5";
       break;
     case Algorithm::KF:
       rep.estimator_note = "kf treats lost samples as measurements: its covariance is that of a Kalman filter without "

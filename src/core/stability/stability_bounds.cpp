@@ -1,5 +1,6 @@
-// Stability analysis, part 2: the bounds and capacities of Yang et al. (stability.md 2.1-2.5), the
-// MARE with its certificate and bisection, aoe.md Theorem 5 and the RSEIO checklist (rseio.md 4.4).
+// Stability analysis, part 2: the bounds and capacities of Yang et al. (docs/stability.md 3.1-3.3,
+// 3.8), the MARE with its certificate and bisection (3.2), Lin et al.'s Theorem 5 (3.7) and Zhou's
+// RSEIO checklist (3.9).
 #include "networked_estimation/stability/stability.hpp"
 
 #include <algorithm>
@@ -447,22 +448,22 @@ Verdict aoeTheorem5(const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, const Ei
   if (rho <= 1.0)
   {
     v.kind = Verdict::Kind::STABLE;
-    os << "aoe.md Theorem 5: rho(A) = " << rho << " <= 1, stable for every recovery rate > 0";
+    os << "Lin et al.'s Theorem 5: rho(A) = " << rho << " <= 1, stable for every recovery rate > 0";
   }
   else if (recovery > pt + tol.decision)
   {
     v.kind = Verdict::Kind::STABLE;
-    os << "aoe.md Theorem 5: recovery rate " << recovery << " > p_t = 1 - rho(A)^-2 = " << pt;
+    os << "Lin et al.'s Theorem 5: recovery rate " << recovery << " > p_t = 1 - rho(A)^-2 = " << pt;
   }
   else if (recovery < pt - tol.decision)
   {
     v.kind = Verdict::Kind::UNSTABLE;
-    os << "aoe.md Theorem 5: recovery rate " << recovery << " < p_t = 1 - rho(A)^-2 = " << pt;
+    os << "Lin et al.'s Theorem 5: recovery rate " << recovery << " < p_t = 1 - rho(A)^-2 = " << pt;
   }
   else
   {
     v.kind = Verdict::Kind::UNDECIDED;
-    os << "aoe.md Theorem 5: recovery rate " << recovery << " = p_t = " << pt << " (not covered)";
+    os << "Lin et al.'s Theorem 5: recovery rate " << recovery << " = p_t = " << pt << " (not covered)";
   }
   v.reason = os.str();
   return v;
@@ -513,7 +514,7 @@ Verdict rseioTheorem5(const Model& model, double mu, const LinkModel& link, cons
     v.numbers["gbar"] = link.arrival;
     if (!(link.arrival > 0.0))
     {
-      v.reason = "rseio.md Theorem 5 needs gbar > 0";
+      v.reason = "Zhou's Theorem 5 needs gbar > 0";
       return v;
     }
   }
@@ -521,7 +522,7 @@ Verdict rseioTheorem5(const Model& model, double mu, const LinkModel& link, cons
   {
     if (!link.onOff())
     {
-      v.reason = "rseio.md Theorem 5: the arrivals of a Gilbert-Elliott chain with loss_good > 0 or loss_bad < 1 "
+      v.reason = "Zhou's Theorem 5: the arrivals of a Gilbert-Elliott chain with loss_good > 0 or loss_bad < 1 "
                  "are not a Markov chain";
       return v;
     }
@@ -529,14 +530,14 @@ Verdict rseioTheorem5(const Model& model, double mu, const LinkModel& link, cons
     v.numbers["beta"] = 1.0 - link.r;
     if (!(link.p > 0.0 && link.p < 1.0 && link.r > 0.0 && link.r < 1.0))
     {
-      v.reason = "rseio.md Theorem 5 needs 0 < alpha, beta < 1 (0 < p, r < 1)";
+      v.reason = "Zhou's Theorem 5 needs 0 < alpha, beta < 1 (0 < p, r < 1)";
       return v;
     }
   }
   if (std::abs(Eigen::FullPivLU<Eigen::MatrixXd>(model.A).determinant()) == 0.0 ||
       !Eigen::FullPivLU<Eigen::MatrixXd>(model.A).isInvertible())
   {
-    v.reason = "rseio.md 4: A must be invertible";
+    v.reason = "Zhou's Theorem 5: A must be invertible";
     return v;
   }
   RseioAnalysisForm f;
@@ -546,12 +547,12 @@ Verdict rseioTheorem5(const Model& model, double mu, const LinkModel& link, cons
   }
   catch (const ConfigError& e)
   {
-    v.reason = std::string("rseio.md 4: ") + e.what();
+    v.reason = std::string("Zhou's Theorem 5: ") + e.what();
     return v;
   }
   if (!Eigen::FullPivLU<Eigen::MatrixXd>(f.Atil).isInvertible())
   {
-    v.reason = "rseio.md 4: Atil must be invertible";
+    v.reason = "Zhou's Theorem 5: Atil must be invertible";
     return v;
   }
   const Eigen::MatrixXd& A1 = f.Atil;
@@ -601,20 +602,20 @@ Verdict rseioTheorem5(const Model& model, double mu, const LinkModel& link, cons
     const bool obs = pd(wordObservabilityGramian(std::vector<int>(n, 1), A1, W1, A2));
     const bool con = pd(wordControllabilityGramian(std::vector<int>(n, 1), A1, G1, A2, G2));
     v.kind = obs && con ? Verdict::Kind::STABLE : Verdict::Kind::UNDECIDED;
-    v.reason = obs && con ? "rseio.md Theorem 5 (gbar = 1): (Atil, H1) observable and (Atil, G1) controllable; "
+    v.reason = obs && con ? "Zhou's Theorem 5 (gbar = 1): (Atil, H1) observable and (Atil, G1) controllable; "
                             "P converges"
-                          : "rseio.md Theorem 5 (gbar = 1): (Atil, H1) not observable or (Atil, G1) not controllable";
+                          : "Zhou's Theorem 5 (gbar = 1): (Atil, H1) not observable or (Atil, G1) not controllable";
     return v;
   }
   if (m_obs >= 0 && !ctrl.empty())
   {
     v.kind = Verdict::Kind::STABLE;
-    v.reason = "rseio.md Theorem 5: observability word with m = " + std::to_string(m_obs) + " and controllability " +
+    v.reason = "Zhou's Theorem 5: observability word with m = " + std::to_string(m_obs) + " and controllability " +
                ctrl + multi + "; P_{t|t} converges to a unique stationary distribution";
     return v;
   }
   v.kind = Verdict::Kind::UNDECIDED;
-  v.reason = std::string("rseio.md Theorem 5: the sufficient conditions do not hold (") +
+  v.reason = std::string("Zhou's Theorem 5: the sufficient conditions do not hold (") +
              (m_obs < 0 ? "no observability word" : "no controllability word") + ")" + multi;
   return v;
 }

@@ -1,5 +1,5 @@
 // Stability analysis, part 1: eigen-structure helpers, FMO blocks, links and the exact test of
-// Marelli et al. (stability.md 3.2-3.5).
+// Marelli et al. (docs/stability.md 3.5).
 #include "networked_estimation/stability/stability.hpp"
 #include "networked_estimation/common/index_select.hpp"
 
