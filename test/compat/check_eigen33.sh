@@ -10,7 +10,8 @@
 # Eigen part is SKIPPED and says so; with NE_REQUIRE_COMPAT=1 a skip is a failure.
 set -euo pipefail
 build="$1"
-src="$(cd -P "$2" && pwd)"   # the real folder (a workspace may link to it)
+# The repository's real folder: a workspace's package folder may hold links into it.
+src="$(dirname "$(readlink -f "$2/CMakeLists.txt")")"
 fail=0
 
 # 1. Library features newer than GCC 9 (Noetic) and google benchmark 1.5.0.
