@@ -20,7 +20,7 @@
 # other: cores used meanwhile by the rest of the machine (other processes, steal): noise when above
 # about 0.1. load1 (CSV only): the 1-minute load average at the end of the run, the benchmark included.
 set -euo pipefail
-source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
+source "$(dirname "${BASH_SOURCE[0]}")/workspace.sh"
 source "$(dirname "${BASH_SOURCE[0]}")/bench_lib.sh"
 
 BASE_RATE="${NE_BENCH_BASE_RATE:-1000}"

@@ -10,7 +10,7 @@
 # Builds nothing (scripts/build.sh first). Results: $WS/bench/estimator.csv, logs in
 # $WS/bench/estimator_runs/, a table on stdout.
 set -euo pipefail
-source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
+source "$(dirname "${BASH_SOURCE[0]}")/workspace.sh"
 source "$(dirname "${BASH_SOURCE[0]}")/bench_lib.sh"
 
 BASE_RATE="${NE_BENCH_BASE_RATE:-1000}"

@@ -1,4 +1,4 @@
-# Shared by the benchmark scripts (sourced after env.sh): the built workspace's environment, a free
+# Shared by the benchmark scripts (sourced after workspace.sh): the built workspace's environment, a free
 # port for a private master, and stopping a roslaunch cleanly.
 if [ ! -f "$WS/devel/setup.bash" ]; then
   echo "no build in $WS: run scripts/build.sh first" >&2

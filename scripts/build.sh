@@ -2,9 +2,9 @@
 # Builds the package in a catkin workspace inside the repository (.ws/, git-ignored).
 # Usage: scripts/build.sh [--tests]     (--tests also builds the test binaries)
 set -euo pipefail
-source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
-mkdir -p "$WS/src" "$ROS_HOME"
-ln -sfn "$REPO" "$WS/src/networked_estimation"
+source "$(dirname "${BASH_SOURCE[0]}")/workspace.sh"
+mkdir -p "$ROS_HOME"
+link_package
 JOBS="${NE_JOBS:-$(nproc)}"
 cd "$WS"
 catkin_make -j"$JOBS" -DCMAKE_BUILD_TYPE=Release > "$WS/build.log" 2>&1 || { tail -n 60 "$WS/build.log"; echo "build failed (full log: $WS/build.log)"; exit 1; }

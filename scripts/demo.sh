@@ -9,7 +9,7 @@ set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 bash "$HERE/install_deps.sh"
 bash "$HERE/build.sh"
-source "$HERE/env.sh"
+source "$HERE/workspace.sh"
 BIN="$WS/devel/lib/networked_estimation"
 OUT="$WS/demo"
 CFG="$REPO/config"
@@ -84,7 +84,7 @@ $(sed 's/^/   /' "$OUT/zhou_delta10/score.txt")
 3) Lin et al.'s example: unstable plant, commands cross a Markov-lossy link (q1 = 0.3, q2 = 0.4)
    with no acknowledgement, measurements a Bernoulli-lossy one; 100 steps.
    aoe/oe weigh both outcomes of every command; kfio assumes every command arrived; ack_kf is
-   told which arrived, and its covariance is a lower bound on aoe's and oe's (aoe.md Theorem 3).
+   told which arrived, and its covariance is a lower bound on aoe's and oe's (Lin et al.'s Theorem 3).
    One short run's errors differ by noise: montecarlo --experiment lin_fig4 / lin_fig5 averages.
 $(sed 's/^/   /' "$OUT/aoe_nack/score.txt")
 EOF

@@ -5,7 +5,7 @@ set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 bash "$HERE/install_deps.sh"
 bash "$HERE/build.sh" --tests
-source "$HERE/env.sh"
+source "$HERE/workspace.sh"
 set +u; source "$WS/devel/setup.bash"; set -u
 cd "$WS/build"
 ctest --output-on-failure -j"${NE_JOBS:-$(nproc)}"
