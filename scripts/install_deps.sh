@@ -7,7 +7,7 @@ PACKAGES=(
   libtf2-ros-dev libtf2-eigen-dev libdiagnostic-updater-dev libtopic-tools-dev
   libgeometry-msgs-dev libsensor-msgs-dev libros-rosgraph-msgs-dev
   libyaml-cpp-dev libeigen3-dev libgtest-dev googletest libbenchmark-dev
-  python3-matplotlib
+  python3-matplotlib python3-numpy catkin-lint
 )
 missing=()
 for p in "${PACKAGES[@]}"; do
