@@ -1,0 +1,60 @@
+// One simulated run of a plant behind lossy links: the PlantSimulator, one independent loss stream
+// per sensor (each sensor with its own channel settings, or lossless), and optionally a lossy
+// actuator link. It is what `simulate` writes to its files and what `montecarlo --experiment custom`
+// feeds to the estimators, so that a custom run equals simulate + replay + score for the same seed.
+//
+// Seeds, from the run's seed S: the plant PlantSimulator(model, S); sensor s's link
+// deriveSeed(S ^ settings.seed, 100 + s); the actuator link deriveSeed(S ^ settings.seed, 200).
+#pragma once
+
+#include <Eigen/Dense>
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "networked_estimation/channel/loss_model.hpp"
+#include "networked_estimation/config/channel_settings.hpp"
+#include "networked_estimation/config/model.hpp"
+#include "networked_estimation/estimators/estimator.hpp"
+#include "networked_estimation/simulation/simulator.hpp"
+
+namespace networked_estimation
+{
+
+struct LossyRunOptions
+{
+  /// One entry per sensor (empty = every sensor lossless): that sensor's link, or none (lossless).
+  std::vector<std::optional<ChannelSettings>> sensor_links;
+  /// The controller-to-actuator link (models with control); none = every command arrives.
+  std::optional<ChannelSettings> actuator_link;
+  ControlSequence control;
+  /// What the y cells of a step with no sensor arrived hold: the measurement noise v_k (the
+  /// papers' model, y_k = gamma_k C x_k + v_k; default) or nothing (NaN).
+  bool noise_on_loss = true;
+};
+
+class LossyRun
+{
+public:
+  LossyRun(const Model& model, std::uint64_t seed, const LossyRunOptions& options);
+
+  /// Advances to step k = k() + 1. Returns the true sample; received() is what reached the
+  /// estimator: a lost sensor's cells are NaN, gamma = 1 when at least one sensor arrived.
+  /// Throws DivergenceError when the plant state stops being representable (see PlantSimulator).
+  const SimulatedSample& step();
+
+  /// The estimator's view of the last step (gamma, y with NaN cells, u; nu = -1).
+  const Sample& received() const { return received_; }
+  long k() const { return sim_.k(); }
+
+private:
+  const Model& model_;
+  bool noise_on_loss_;
+  std::vector<std::unique_ptr<LossModel>> links_;  ///< null = lossless
+  PlantSimulator sim_;
+  Sample received_;
+};
+
+}  // namespace networked_estimation
