@@ -2,7 +2,9 @@
 // hand (no YAML). Statistical tolerances are 5 standard errors derived from the sample size.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -10,6 +12,7 @@
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/channel/loss_model.hpp"
 #include "networked_estimation/simulation/simulator.hpp"
+#include "test_support.hpp"
 
 namespace ne = networked_estimation;
 
@@ -400,6 +403,7 @@ TEST(PlantSimulator, EpsDrawsAreUniformAndTimedCorrectly)
   m.Q(0, 0) = 1e-30;
   m.R(0, 0) = 1e-30;
   ne::PlantSimulator sim(m, 99);
+  sim.setStateLimit(std::numeric_limits<double>::infinity());  // noise below rounding on purpose
   const int N = 10000;
   double prev_x = sim.state()(0);
   ASSERT_EQ(prev_x, 1.0);
@@ -428,4 +432,122 @@ TEST(PlantSimulator, EpsDrawsAreUniformAndTimedCorrectly)
   EXPECT_NEAR(sum / N, 0.0, 5.0 * range / std::sqrt(3.0 * N));
   EXPECT_NEAR(sum2 / N, range * range / 3.0,
               5.0 * std::sqrt(4.0 / 45.0) * range * range / std::sqrt(N));
+}
+
+// ------------------------------------------------------------------------------------------------
+// Rounding floor (simulator.hpp): the state may not outgrow the noise in double precision
+
+namespace
+{
+
+/// test/rostest/models/rotation_unstable.yaml: a rotation scaled by rho = 1.2, unit noises, C = [1 0].
+ne::Model rotationModel()
+{
+  ne::Model m;
+  m.name = "rotation";
+  m.period = 0.01;
+  m.A = mat(2, 2, {0.0, -1.2, 1.2, 0.0});
+  m.B = Eigen::MatrixXd::Identity(2, 2);
+  m.Q = Eigen::MatrixXd::Identity(2, 2);
+  m.C = mat(1, 2, {1.0, 0.0});
+  m.R = mat(1, 1, {1.0});
+  m.x0 = Eigen::Vector2d::Zero();
+  m.P0 = Eigen::MatrixXd::Identity(2, 2);
+  m.sensors = {ne::Sensor{"y", 0, 1}};
+  return m;
+}
+
+const double kEps = std::numeric_limits<double>::epsilon();
+
+}  // namespace
+
+TEST(PlantSimulator, UnstablePlantStopsAtTheRoundingFloor)
+{
+  const ne::Model m = rotationModel();
+  ne::PlantSimulator sim(m, 7), applied(m, 7);
+  // sigma = min(sqrt(lambda_min(R)) / ||C||_inf, sqrt(lambda_min(B Q B'))) = 1
+  EXPECT_NEAR(sim.stateLimit(), 1e-3 / kEps, 1e-9 / kEps);
+  long k_thrown = 0;
+  std::string message;
+  for (long k = 1; k <= 1000 && k_thrown == 0; ++k)
+  {
+    try
+    {
+      const ne::SimulatedSample& s = sim.step();
+      ASSERT_LE(s.x.lpNorm<Eigen::Infinity>(), sim.stateLimit()) << "k = " << k;
+      ASSERT_TRUE(s.y.allFinite()) << "k = " << k;
+    }
+    catch (const ne::DivergenceError& e)
+    {
+      k_thrown = k;
+      message = e.what();
+    }
+  }
+  // ||x_k|| ~ 1.2^k: the floor 4.5e12 is crossed near k = 155, long before overflow (k ~ 3900).
+  ASSERT_GT(k_thrown, 100);
+  ASSERT_LT(k_thrown, 200);
+  EXPECT_EQ(sim.k(), k_thrown);
+  EXPECT_GT(sim.state().lpNorm<Eigen::Infinity>(), sim.stateLimit());
+  EXPECT_NE(message.find("model 'rotation'"), std::string::npos) << message;
+  EXPECT_NE(message.find("at step k = " + std::to_string(k_thrown) + ","), std::string::npos) << message;
+  EXPECT_NE(message.find("||x_k||_inf = "), std::string::npos) << message;
+  EXPECT_NE(message.find("beyond the limit 4.5e+12"), std::string::npos) << message;
+  EXPECT_NE(message.find("rounding floor"), std::string::npos) << message;
+
+  // stepApplied (the nodelet's path) stops at the same step.
+  for (long k = 1; k < k_thrown; ++k)
+    ASSERT_NO_THROW(applied.stepApplied(nullptr)) << "k = " << k;
+  EXPECT_THROW(applied.stepApplied(nullptr), ne::DivergenceError);
+}
+
+TEST(PlantSimulator, StableModelNeverReachesTheRoundingFloor)
+{
+  // config/models/zhou_example.yaml (as the experiments build it), 10^5 steps.
+  const ne::Model m = ne::test::zhouModel(1.0);
+  ne::PlantSimulator sim(m, 3);
+  double worst = 0.0;
+  for (long k = 1; k <= 100000; ++k)
+    worst = std::max(worst, sim.step().x.lpNorm<Eigen::Infinity>());
+  EXPECT_EQ(sim.k(), 100000);
+  EXPECT_LT(worst, 1e-6 * sim.stateLimit());  // stationary: ||x|| of a few tens
+}
+
+TEST(PlantSimulator, FloorScalesWithTheSmallestNoiseInStateUnits)
+{
+  ne::Model m = rotationModel();
+  m.C = mat(1, 2, {4.0, -1.0});  // ||C||_inf = 5
+  m.R = mat(1, 1, {9.0});        // measurement: 3 / 5
+  EXPECT_NEAR(ne::PlantSimulator(m, 1).stateLimit(), 1e-3 * 0.6 / kEps, 1e-9 / kEps);
+  m.Q = mat(2, 2, {0.01, 0.0, 0.0, 4.0});  // process noise: sqrt(0.01)
+  EXPECT_NEAR(ne::PlantSimulator(m, 1).stateLimit(), 1e-3 * 0.1 / kEps, 1e-9 / kEps);
+  // A direction without process noise has none to lose: only the non-zero eigenvalue of B Q B'.
+  m.B = mat(2, 1, {0.0, 2.0});
+  m.Q = mat(1, 1, {1.0});
+  EXPECT_NEAR(ne::PlantSimulator(m, 1).stateLimit(), 1e-3 * 0.6 / kEps, 1e-9 / kEps);
+  // The uncertain output gain counts with its range: ||C(eps)||_inf <= 5 + 2 * 0.5.
+  ne::Uncertainty u;
+  u.dC = mat(1, 2, {0.0, 0.5});
+  u.range = 2.0;
+  m.uncertainty = {u};
+  EXPECT_NEAR(ne::PlantSimulator(m, 1).stateLimit(), 1e-3 * 0.5 / kEps, 1e-9 / kEps);
+}
+
+TEST(PlantSimulator, NonFiniteStateIsRefusedWhateverTheLimit)
+{
+  ne::Model m = scalarModel(1e300, 1.0);
+  m.Q(0, 0) = 1.0;
+  m.R(0, 0) = 1.0;
+  ne::PlantSimulator sim(m, 2);
+  sim.setStateLimit(std::numeric_limits<double>::infinity());
+  ASSERT_NO_THROW(sim.step());  // x_1 = 1e300
+  try
+  {
+    sim.step();  // x_2 = inf
+    FAIL() << "no DivergenceError";
+  }
+  catch (const ne::DivergenceError& e)
+  {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("model 'scalar' is no longer finite at step k = 2"), std::string::npos) << message;
+  }
 }

@@ -164,6 +164,8 @@ private:
 
   void tick(const ros::Time& stamp)
   {
+    if (stopped_)
+      return;
     if (max_steps_ > 0 && k_ >= max_steps_)
     {
       if (!finished_)
@@ -197,7 +199,22 @@ private:
       commands_.erase(commands_.begin(), commands_.upper_bound(k));
       k_ = k;
     }
-    const SimulatedSample& s = sim_->stepApplied(have_u ? &u : nullptr);
+    const SimulatedSample* sp = nullptr;
+    try
+    {
+      sp = &sim_->stepApplied(have_u ? &u : nullptr);
+    }
+    catch (const DivergenceError& e)
+    {
+      // The state crossed the rounding floor (or overflowed): step k is not published, nor any
+      // later one. The nodelet stays loaded; with ~publish_clock the clock runs its tail and stops.
+      stopped_ = finished_ = true;
+      if (ros_timer_)
+        ros_timer_.stop();
+      NODELET_ERROR("PlantSimulator: stopped at step k = %ld, nothing more is published: %s", k_, e.what());
+      return;
+    }
+    const SimulatedSample& s = *sp;
     if (s.nu && model_.hasControl())
       ++applied_;
     for (std::size_t i = 0; i < model_.sensors.size(); ++i)
@@ -260,7 +277,7 @@ private:
   std::mutex mutex_;
   std::map<long, Eigen::VectorXd> commands_;
   long k_ = 0;
-  bool started_ = false, finished_ = false;
+  bool started_ = false, finished_ = false, stopped_ = false;  // stopped_: beyond the rounding floor
   std::uint64_t applied_ = 0, late_commands_ = 0;
 };
 

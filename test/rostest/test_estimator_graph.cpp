@@ -9,13 +9,16 @@
 #include <rosgraph_msgs/Log.h>
 #include <sensor_msgs/Range.h>
 
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <limits>
 #include <map>
+#include <mutex>
 #include <sstream>
+#include <thread>
 #include <vector>
 
 #include "graph_test_support.hpp"
@@ -385,6 +388,38 @@ TEST(EstimatorGraph, BadInputIsRejectedAndATimeJumpResets)
 TEST(EstimatorGraph, StabilityDiagnosticFlipsWithTheArrivalRate)
 {
   ros::NodeHandle nh;
+  // The measurements come from the test at 100 Hz (the diagnostic depends on the arrivals only):
+  // a simulated open-loop x_k = 1.1 x_{k-1} + w would reach the simulator's rounding floor near
+  // k = 300, before the window has refilled under load. Their values are y = 0.
+  ros::Publisher source = nh.advertise<Measurement>("plant/measurement", 1000);
+  ASSERT_TRUE(waitFor([&] { return source.getNumSubscribers() > 0; }, 20.0));
+  std::atomic<bool> stop{false};
+  std::thread feeder([&] {
+    ros::WallTime next = ros::WallTime::now();
+    for (long k = 1; !stop; ++k)
+    {
+      Measurement m;
+      m.header.stamp = ros::Time::now();
+      m.step = static_cast<std::uint64_t>(k);
+      m.sensor = "y";
+      m.y = {0.0};
+      source.publish(m);
+      next += ros::WallDuration(0.01);
+      const ros::WallDuration wait = next - ros::WallTime::now();
+      if (wait > ros::WallDuration(0))
+        wait.sleep();
+    }
+  });
+  struct Join
+  {
+    std::atomic<bool>& stop;
+    std::thread& t;
+    ~Join()
+    {
+      stop = true;
+      t.join();
+    }
+  } join{stop, feeder};
   std::mutex mutex;
   int level = -1;
   std::string message;

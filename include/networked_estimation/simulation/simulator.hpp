@@ -46,6 +46,26 @@ struct SimulatedSample
   bool nu = true;     ///< u_k reached the actuator
 };
 
+/// Rounding floor. An unstable plant's state grows until the noise is lost in its rounding: past
+/// that point y_k = C x_k + v_k carries v_k in its last bits only (or not at all), and an estimator
+/// "reconstructs" x_k to rounding, so every error statistic is silently wrong (an MSE of 0). The
+/// simulator refuses to go there: step() and stepApplied() throw DivergenceError at the first k with
+///
+///   ||x_k||_inf > limit = 1e-3 * sigma / eps,   eps = 2^-52 (DBL_EPSILON, 2.2e-16),
+///   sigma = min( sqrt(lambda_min(R)) / c,  sqrt(lambda_min+(B Q B')) ),
+///   c = ||C||_inf + sum_j range_j ||dC_j||_inf   (a bound on ||C(eps_k)||_inf),
+///
+/// sigma being the smallest standard deviation of the noise in state units: the measurement noise
+/// through the largest output gain, and the process noise over its smallest non-zero direction
+/// (lambda_min+: the smallest eigenvalue above n eps lambda_max; a direction without process noise
+/// has none to lose). Beyond the limit the rounding of x_k and of C x_k (about ||x_k|| eps and
+/// c ||x_k|| eps) is at least a thousandth of a noise the estimator is supposed to see; the factor
+/// 1e3 leaves room for the amplification of that rounding by the filter's own arithmetic (the
+/// innovation y - C xhat cancels two numbers of size c ||x||). Both noises count: past the floor of
+/// the process noise the simulated plant no longer realises Q either. R must be positive definite
+/// (the constructor refuses a singular R, so sigma > 0); c = 0 (no output depends on x) drops the
+/// measurement term. A non-finite state is refused the same way, whatever the limit. The limit is
+/// computed once at construction; each step costs one norm. After the error, do not step again.
 class PlantSimulator
 {
 public:
@@ -56,6 +76,8 @@ public:
 
   /// Advances from x_{k-1} to x_k and returns sample k (k starts at 1).
   /// x_0 ~ N(model.x0, model.P0) is drawn at construction.
+  /// Throws DivergenceError (naming the model, k, ||x_k||_inf and the limit) when x_k crosses the
+  /// rounding floor (see above) or is not finite.
   const SimulatedSample& step();
 
   /// Advances with a command applied from outside (the ROS graph, where the actuator link is a
@@ -67,8 +89,15 @@ public:
   const Eigen::VectorXd& state() const { return x_; }
   long k() const { return k_; }
 
+  /// The rounding floor: the largest ||x_k||_inf accepted (1e-3 sigma / eps, see above).
+  double stateLimit() const { return state_limit_; }
+  /// Replaces the limit, e.g. by infinity in a test that uses noise below rounding on purpose (exact
+  /// recursions). A non-finite state is still refused.
+  void setStateLimit(double limit) { state_limit_ = limit; }
+
 private:
   const SimulatedSample& advance(bool nu);
+  [[noreturn]] void throwBeyondFloor() const;
 
   const Model& model_;
   ControlSequence control_;
@@ -83,6 +112,9 @@ private:
   Eigen::VectorXd eps_;
   Eigen::MatrixXd Ae_, Be_, Ce_;
   Eigen::VectorXd zw_, zv_, w_, xn_;
+  // The rounding floor: limit on ||x_k||_inf and the noise standard deviation it derives from.
+  double state_limit_ = 0.0, noise_sd_ = 0.0;
+  const char* noise_kind_ = "";
 };
 
 }  // namespace networked_estimation

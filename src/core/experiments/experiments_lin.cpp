@@ -1,6 +1,7 @@
 // Experiments lin_fig2 .. lin_fig5 (Lin et al., Theorem 3 and Section 7): OE / AOE / ACK covariances and the
 // upper sequence S_k of (27) on the example of Lin et al.
 #include <cmath>
+#include <limits>
 #include <memory>
 
 #include "experiments/montecarlo_experiments.hpp"
@@ -89,6 +90,10 @@ Moments linRuns(const RunConfig& rc, const LinParams& lp)
       control.value = 1.0;
       PlantSimulator sim(m, deriveSeed(rs, 0), control,
                          std::make_unique<GilbertElliottLoss>(lp.q2, lp.q1, 1.0, 0.0, deriveSeed(rs, 2)));
+      // These experiments report covariance traces, not errors against the state; the rho = 1.826
+      // plant of lin_fig2 reaches the rounding floor near k = 46 of its 50 steps (stated in the
+      // assumptions), so the floor check is off here.
+      sim.setStateLimit(std::numeric_limits<double>::infinity());
       GilbertElliottLoss sensor(lp.p2, lp.p1, 1.0, 0.0, deriveSeed(rs, 1));
       st->ack->reset();
       st->aoe->reset();
@@ -100,7 +105,16 @@ Moments linRuns(const RunConfig& rc, const LinParams& lp)
       for (long k = 1; k <= T; ++k)
       {
         const std::size_t i = static_cast<std::size_t>(k - 1);
-        const SimulatedSample& ss = sim.step();
+        const SimulatedSample* sp = nullptr;
+        try
+        {
+          sp = &sim.step();  // refuses a state beyond the rounding floor (simulator.hpp)
+        }
+        catch (const DivergenceError& e)
+        {
+          throw DivergenceError("run " + std::to_string(r) + ": " + e.what());
+        }
+        const SimulatedSample& ss = *sp;
         const bool gamma = lp.fixed_gamma ? (*lp.fixed_gamma)[i] != 0 : !sensor.nextLost();
         sample.gamma = gamma;
         sample.y = ss.y;
@@ -148,6 +162,9 @@ std::vector<std::string> commonAssumptions()
       "Markov links start in their stationary law (gamma_1 ~ pi_gamma, nu_1 ~ pi_nu)",
       "U = (1 + e^{-0.1})^2 Bu Bu' = 3.628406 [[1, -1], [-1, 1]] (tightest bound for k >= 1) in S_k of (27)",
       "traces of the filters' internal covariances (P_k, P^e_k, P^ACK_k), averaged over runs",
+      "the simulator's rounding-floor check is off: no error against the state is reported; at rho = 1.826 "
+      "(lin_fig2) the state reaches the floor near k = 46, where its rounding is at most about 1 % of the "
+      "noise standard deviation and enters only the AOE/OE mixture weights",
   };
 }
 

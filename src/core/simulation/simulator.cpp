@@ -1,9 +1,12 @@
 #include "networked_estimation/simulation/simulator.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <utility>
 #include <vector>
 
@@ -82,6 +85,37 @@ Eigen::MatrixXd lowerCholesky(const Eigen::MatrixXd& M, const std::string& name,
     throw ConfigError("PlantSimulator: model '" + model_name + "': " + name +
                       " is not positive definite");
   return llt.matrixL();
+}
+
+/// The rounding floor's fraction of the noise (simulator.hpp: limit = kFloorFraction sigma / eps).
+constexpr double kFloorFraction = 1e-3;
+
+/// The smallest eigenvalue of the symmetric positive semidefinite M above n eps lambda_max (the
+/// numerically non-zero ones); 0 when there is none.
+double smallestNonZeroEigenvalue(const Eigen::MatrixXd& M)
+{
+  if (M.size() == 0)
+    return 0.0;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(M, Eigen::EigenvaluesOnly);
+  const Eigen::VectorXd& ev = es.eigenvalues();  // ascending
+  const double tol = static_cast<double>(M.rows()) * std::numeric_limits<double>::epsilon() * ev(ev.size() - 1);
+  for (Eigen::Index i = 0; i < ev.size(); ++i)
+    if (ev(i) > tol)
+      return ev(i);
+  return 0.0;
+}
+
+/// ||M||_inf (largest absolute row sum); 0 for an empty matrix.
+double infNorm(const Eigen::MatrixXd& M)
+{
+  return M.size() == 0 ? 0.0 : M.cwiseAbs().rowwise().sum().maxCoeff();
+}
+
+std::string shortNumber(double v)
+{
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
 }
 
 template <typename Derived>
@@ -189,6 +223,23 @@ PlantSimulator::PlantSimulator(const Model& model, std::uint64_t seed, ControlSe
   sqrtQ_ = lowerCholesky(model.Q, "Q", name);
   sqrtR_ = lowerCholesky(model.R, "R", name);
 
+  // The rounding floor (simulator.hpp): the smallest noise standard deviation in state units.
+  // R is positive definite here (lowerCholesky refused it otherwise).
+  double c = infNorm(model.C);
+  for (int j = 0; j < ne; ++j)
+    if (model.uncertainty[j].dC.size() > 0)
+      c += std::abs(model.uncertainty[j].range) * infNorm(model.uncertainty[j].dC);
+  const double sd_v = c > 0.0 && m > 0
+                          ? std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(
+                                                        model.R, Eigen::EigenvaluesOnly).eigenvalues()(0))) / c
+                          : std::numeric_limits<double>::infinity();
+  const double lw = nw > 0 ? smallestNonZeroEigenvalue(model.B * model.Q * model.B.transpose()) : 0.0;
+  const double sd_w = lw > 0.0 ? std::sqrt(lw) : std::numeric_limits<double>::infinity();
+  noise_sd_ = std::min(sd_v, sd_w);
+  noise_kind_ = sd_v <= sd_w ? "measurement noise sqrt(lambda_min(R)) / ||C||_inf"
+                             : "process noise sqrt(lambda_min+(B Q B'))";
+  state_limit_ = kFloorFraction * noise_sd_ / std::numeric_limits<double>::epsilon();
+
   // x_0 ~ N(x0, P0), P0 possibly singular.
   Eigen::VectorXd z0(n);
   for (int i = 0; i < n; ++i)
@@ -280,6 +331,14 @@ const SimulatedSample& PlantSimulator::advance(bool nu)
     xn_.noalias() += M.Bu * sample_.u;
   x_.swap(xn_);
 
+  // The rounding floor (one pass over x_k; a NaN fails the comparison).
+  for (Eigen::Index i = 0; i < x_.size(); ++i)
+  {
+    const double a = std::abs(x_(i));
+    if (!(a <= state_limit_) || a == std::numeric_limits<double>::infinity())
+      throwBeyondFloor();
+  }
+
   // Fresh eps_k for the output (and the next transition).
   for (int j = 0; j < ne; ++j)
   {
@@ -308,6 +367,21 @@ const SimulatedSample& PlantSimulator::advance(bool nu)
   sample_.x = x_;
   sample_.nu = nu;
   return sample_;
+}
+
+void PlantSimulator::throwBeyondFloor() const
+{
+  const std::string what = "PlantSimulator: the plant state of model '" + model_.name + "'";
+  const std::string k = std::to_string(k_);
+  if (!x_.allFinite())
+    throw DivergenceError(what + " is no longer finite at step k = " + k +
+                          " (an unstable plant overflows): simulate fewer steps");
+  const double norm = x_.lpNorm<Eigen::Infinity>();
+  throw DivergenceError(what + " reached ||x_k||_inf = " + shortNumber(norm) + " at step k = " + k +
+                        ", beyond the limit " + shortNumber(state_limit_) + " where rounding (||x_k||_inf * eps = " +
+                        shortNumber(norm * std::numeric_limits<double>::epsilon()) + ") exceeds " +
+                        shortNumber(kFloorFraction) + " of the smallest noise standard deviation in state units (" +
+                        noise_kind_ + " = " + shortNumber(noise_sd_) + "): results from this step on would be below the rounding floor; simulate fewer steps");
 }
 
 }  // namespace networked_estimation
