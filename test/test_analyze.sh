@@ -49,6 +49,78 @@ if d["all_sensors"]["verdict"]["kind"] != "stable" or d["rseio"]["kind"] != "sta
     sys.exit(1)
 PY
 
+# A link per sensor: A = diag(2, 3), sensor s1 sees the mode 2, s2 the mode 3 (stable iff
+# lambda_1 > 3/4 and lambda_2 > 8/9), each with its own file.
+cat >"$TMP/two.yaml" <<'YAML'
+name: two_modes
+period: 0.1
+A: [[2, 0], [0, 3]]
+Q: [[1, 0], [0, 1]]
+sensors:
+  - {name: s1, C: [[1, 0]], R: [[1]]}
+  - {name: s2, C: [[0, 1]], R: [[1]]}
+x0: [0, 0]
+P0: [[1, 0], [0, 1]]
+YAML
+printf 'model: bernoulli\nloss: 0.2\n' >"$TMP/loss_0.2.yaml"
+printf 'model: bernoulli\nloss: 0.1\n' >"$TMP/loss_0.1.yaml"
+check "per-sensor channels" 0 "$BIN" --model "$TMP/two.yaml" --channel "s1=$TMP/loss_0.2.yaml" --channel "s2=$TMP/loss_0.1.yaml"
+grep -q "^  s1: .*loss_0.2.yaml (--channel s1=" "$TMP/out" || { echo "FAIL: no link line for s1"; cat "$TMP/out"; fail=1; }
+grep -q "^  s2: .*loss_0.1.yaml (--channel s2=" "$TMP/out" || { echo "FAIL: no link line for s2"; fail=1; }
+grep -q "^  s1: arrival rate 0.8, needs 0.75" "$TMP/out" || { echo "FAIL: no margin line for s1"; cat "$TMP/out"; fail=1; }
+grep -q "c_upper" "$TMP/out" || { echo "FAIL: no capacity line"; fail=1; }
+check "per-sensor channels json" 0 "$BIN" --model "$TMP/two.yaml" --channel "s1=$TMP/loss_0.2.yaml" \
+  --channel "s2=$TMP/loss_0.1.yaml" --json
+python3 - "$TMP/out" <<'PY' || fail=1
+import json, sys
+d = json.load(open(sys.argv[1]))
+l = d["links"]
+ok = len(l) == 2 and [x["sensor"] for x in l] == ["s1", "s2"] and d["all_sensors"]["verdict"]["kind"] == "stable"
+ok = ok and abs(l[0]["arrival_rate"] - 0.8) < 1e-12 and abs(l[1]["arrival_rate"] - 0.9) < 1e-12
+ok = ok and abs(l[0]["margin"]["converges_at"] - 0.75) < 1e-6 and abs(l[1]["margin"]["converges_at"] - 8 / 9) < 1e-6
+ok = ok and "s1=" in l[0]["origin"] and "no Gilbert-Elliott link" in l[0]["markov_threshold"]
+ok = ok and d["channel"]["uniform"] is False and d["channel"]["capacity"] > d["channel"]["capacity_lower"]
+if not ok:
+    print("FAIL: per-sensor JSON", d["links"], d["all_sensors"]["verdict"])
+    sys.exit(1)
+PY
+# One sensor on its own file, the other on the common one (and the other way round).
+check "common and per-sensor channel" 0 "$BIN" --model "$TMP/two.yaml" --channel "$TMP/loss_0.1.yaml" --channel "s1=$TMP/loss_0.2.yaml"
+grep -q "^  s2: .*loss_0.1.yaml" "$TMP/out" || { echo "FAIL: s2 does not get the common channel"; cat "$TMP/out"; fail=1; }
+check "not a sensor" 2 "$BIN" --model "$TMP/two.yaml" --channel "gps=$TMP/loss_0.2.yaml"
+grep -q "gps" "$TMP/err" || { echo "FAIL: the message does not name the unknown sensor"; cat "$TMP/err"; fail=1; }
+check "sensor given twice" 2 "$BIN" --model "$TMP/two.yaml" --channel "s1=$TMP/loss_0.2.yaml" --channel "s1=$TMP/loss_0.1.yaml"
+
+# Rotation by 90 degrees scaled by 1.2 on an on/off link with p = 0.5: stable for r in about
+# (0.538, 0.962) only; the report gives the interval, never a single critical recovery rate.
+cat >"$TMP/rot.yaml" <<'YAML'
+name: rotation
+period: 0.1
+A: [[0, -1.2], [1.2, 0]]
+Q: [[1, 0], [0, 1]]
+C: [[1, 0]]
+R: [[1]]
+x0: [0, 0]
+P0: [[1, 0], [0, 1]]
+YAML
+printf 'model: gilbert_elliott\np: 0.5\nr: 0.6\nloss_bad: 1.0\nloss_good: 0.0\n' >"$TMP/ge_0.6.yaml"
+check "rotation" 0 "$BIN" --model "$TMP/rot.yaml" --channel "$TMP/ge_0.6.yaml"
+grep -q "^  verdict  *stable" "$TMP/out" || { echo "FAIL: rotation verdict"; cat "$TMP/out"; fail=1; }
+if grep -q "critical recovery rate  *inf" "$TMP/out"; then echo "FAIL: rotation reports a critical recovery rate inf"; fail=1; fi
+check "rotation json" 0 "$BIN" --model "$TMP/rot.yaml" --channel "$TMP/ge_0.6.yaml" --json
+python3 - "$TMP/out" <<'PY' || fail=1
+import json, sys
+d = json.load(open(sys.argv[1]))
+m = d["links"][0]["margin"]
+iv = m["stable_intervals"]
+ok = m["quantity"] == "recovery rate" and m["half_line"] is False and len(iv) == 1
+ok = ok and abs(iv[0][0] - 0.538451) < 1e-5 and abs(iv[0][1] - 0.961549) < 1e-5 and m["margin"] > 0
+ok = ok and d["all_sensors"]["recovery_exact"] is None and len(d["all_sensors"]["recovery_stable_intervals"]) == 1
+if not ok:
+    print("FAIL: rotation JSON", d["links"][0], d["all_sensors"]["recovery_stable_intervals"])
+    sys.exit(1)
+PY
+
 # Bad inputs: a model with a non-square A, a missing file, an unknown flag.
 cat >"$TMP/bad.yaml" <<'YAML'
 name: bad

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
 
 #include "networked_estimation/estimators/estimator.hpp"
 #include "networked_estimation/stability/stability.hpp"
@@ -72,6 +73,45 @@ ChannelSettings gilbert(double p, double r, double loss_bad = 1.0, double loss_g
   c.loss_bad = loss_bad;
   c.loss_good = loss_good;
   return c;
+}
+
+/// Model with one sensor per row block of C (names s1, s2, ...), Q = I, R = I.
+Model multiModel(const MatrixXd& A, const std::vector<MatrixXd>& Cs)
+{
+  Model m;
+  m.name = "multi";
+  m.period = 1.0;
+  const int n = static_cast<int>(A.rows());
+  int rows = 0;
+  for (const MatrixXd& c : Cs)
+    rows += static_cast<int>(c.rows());
+  m.A = A;
+  m.B = MatrixXd::Identity(n, n);
+  m.Q = MatrixXd::Identity(n, n);
+  m.C.resize(rows, n);
+  m.sensors.clear();
+  int r0 = 0;
+  for (std::size_t i = 0; i < Cs.size(); ++i)
+  {
+    m.C.middleRows(r0, Cs[i].rows()) = Cs[i];
+    m.sensors.push_back({"s" + std::to_string(i + 1), r0, static_cast<int>(Cs[i].rows())});
+    r0 += static_cast<int>(Cs[i].rows());
+  }
+  m.R = MatrixXd::Identity(rows, rows);
+  m.x0 = Eigen::VectorXd::Zero(n);
+  m.P0 = MatrixXd::Identity(n, n);
+  m.Bu.resize(n, 0);
+  validateModel(m, "multi");
+  return m;
+}
+
+/// Per-sensor Bernoulli links at these arrival rates (a negative rate: lossless, no channel).
+std::vector<std::optional<ChannelSettings>> iidLinks(const std::vector<double>& rates)
+{
+  std::vector<std::optional<ChannelSettings>> out;
+  for (double r : rates)
+    out.push_back(r < 0 ? std::nullopt : std::optional<ChannelSettings>(bernoulli(1.0 - r)));
+  return out;
 }
 
 }  // namespace
@@ -560,5 +600,171 @@ TEST(Stability, MonteCarloCriticalRate)
     EXPECT_LT(ra, 1.3) << c.A;
     EXPECT_GT(rb, 1.6) << c.A;
     std::printf("critical %.6f: growth ratio k=8/k=5 above %.3f below %.3f\n", crit, ra, rb);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// A link per sensor: verdicts for a rate vector, capacities, per-sensor margins and intervals
+
+// A = diag(2, 3), sensor 1 sees the mode 2 only, sensor 2 the mode 3 only: two 1-D blocks, each
+// with Phi = 1 - lambda of its one sensor, so E[P] is bounded iff 4 (1 - lambda_1) < 1 and
+// 9 (1 - lambda_2) < 1, i.e. lambda_1 > 3/4 and lambda_2 > 8/9 (Theorem 14, 1-D blocks).
+TEST(StabilityLinks, SeparateModesUnequalRates)
+{
+  const Model m = multiModel(mat(2, 2, {2, 0, 0, 3}), {mat(1, 2, {1, 0}), mat(1, 2, {0, 1})});
+  const auto kind = [&](double l1, double l2) { return analyzeStability(m, iidLinks({l1, l2})).model.verdict.kind; };
+  EXPECT_EQ(kind(0.76, 0.89), Verdict::Kind::STABLE);
+  EXPECT_EQ(kind(0.8, 0.95), Verdict::Kind::STABLE);
+  EXPECT_EQ(kind(0.74, 0.95), Verdict::Kind::UNSTABLE);
+  EXPECT_EQ(kind(0.8, 0.88), Verdict::Kind::UNSTABLE);
+  // Capacity above c_upper = h(A) = ln 6 and still unstable: the capacity only promises that SOME
+  // allocation is stable (Yang et al., Theorem 6).
+  const StabilityReport big = analyzeStability(m, iidLinks({0.7, 0.9999}));
+  EXPECT_NEAR(big.capacity.upper, std::log(6.0), 1e-12);
+  EXPECT_GT(big.capacity.total, big.capacity.upper);
+  EXPECT_EQ(big.model.verdict.kind, Verdict::Kind::UNSTABLE);
+  EXPECT_NE(big.capacity_note.find("does NOT"), std::string::npos) << big.capacity_note;
+  EXPECT_FALSE(big.uniform_links);
+  // Below c_lower = ln 3 every allocation diverges.
+  const StabilityReport small = analyzeStability(m, iidLinks({0.5, 0.5}));
+  EXPECT_LT(small.capacity.total, small.capacity.lower);
+  EXPECT_NE(small.capacity_note.find("every allocation"), std::string::npos) << small.capacity_note;
+  // The rate each sensor needs, the other fixed: 3/4 and 8/9, decided by Theorem 14 (tolerance 1e-7).
+  const StabilityReport rep = analyzeStability(m, iidLinks({0.8, 0.9}));
+  ASSERT_EQ(rep.links.size(), 2u);
+  for (const SensorLinkReport& l : rep.links)
+  {
+    EXPECT_TRUE(l.margin.half_line);
+    EXPECT_EQ(l.margin.quantity, "arrival rate");
+    EXPECT_NE(l.markov_note.find("no Gilbert-Elliott link"), std::string::npos) << l.markov_note;
+  }
+  EXPECT_NEAR(rep.links[0].margin.band.converges_at, 0.75, 1e-6);
+  EXPECT_NEAR(rep.links[1].margin.band.converges_at, 8.0 / 9.0, 1e-6);
+  EXPECT_LE(rep.links[1].margin.band.diverges_at, rep.links[1].margin.band.converges_at);
+  EXPECT_NEAR(rep.links[0].margin.margin, 0.8 - 0.75, 1e-6);
+  // With sensor 1 below 3/4 no rate of sensor 2 helps.
+  const StabilityReport bad = analyzeStability(m, iidLinks({0.7, 0.9}));
+  EXPECT_TRUE(std::isnan(bad.links[1].margin.band.converges_at));
+  EXPECT_EQ(bad.links[1].margin.band.diverges_at, 1.0);
+  // A lossless sensor is an i.i.d. link with arrival 1.
+  const StabilityReport lossless = analyzeStability(m, iidLinks({0.8, -1}));
+  EXPECT_TRUE(lossless.links[1].lossless);
+  EXPECT_EQ(lossless.model.verdict.kind, Verdict::Kind::STABLE);
+  EXPECT_EQ(analyzeStability(m, iidLinks({0.7, -1})).model.verdict.kind, Verdict::Kind::UNSTABLE);
+}
+
+// T3's block (A = diag(2, -2), order 2) seen by two sensors c = [1 1]: each 1-D lattice element is
+// seen by each sensor at one of the two phases, so Phi = ((1 - lambda_1)(1 - lambda_2))^{1/2} and
+// E[P] is bounded iff 16 (1 - lambda_1)(1 - lambda_2) < 1. With lambda_1 = 0.9 sensor 2 needs
+// lambda_2 > 1 - 1/1.6 = 0.375.
+TEST(StabilityLinks, LatticeBlockUnequalRates)
+{
+  const Model m = multiModel(mat(2, 2, {2, 0, 0, -2}), {mat(1, 2, {1, 1}), mat(1, 2, {1, 1})});
+  EXPECT_EQ(analyzeStability(m, iidLinks({0.9, 0.5})).model.verdict.kind, Verdict::Kind::STABLE);
+  EXPECT_EQ(analyzeStability(m, iidLinks({0.9, 0.3})).model.verdict.kind, Verdict::Kind::UNSTABLE);
+  EXPECT_EQ(analyzeStability(m, iidLinks({0.5, 0.9})).model.verdict.kind, Verdict::Kind::STABLE);
+  const StabilityReport rep = analyzeStability(m, iidLinks({0.9, 0.5}));
+  EXPECT_NEAR(rep.links[1].margin.band.converges_at, 0.375, 1e-6);
+  EXPECT_NEAR(rep.links[0].margin.band.converges_at, 0.875, 1e-6);  // 1 - 1/(16 * 0.5)
+  // i.i.d. links: a half-line even for a lattice block.
+  EXPECT_TRUE(rep.links[1].margin.half_line);
+  // Without a Gilbert-Elliott link the Markov threshold of this p-dependent block is not computed
+  // (no failure rate is assumed).
+  const StabilityReport none = analyzeStability(simpleModel(mat(2, 2, {2, 0, 0, -2}), mat(1, 2, {1, 1})), nullptr);
+  EXPECT_TRUE(std::isnan(none.model.recovery_exact));
+  EXPECT_NE(none.model.recovery_note.find("failure rate p unknown"), std::string::npos) << none.model.recovery_note;
+}
+
+// T4's modes (A = diag(2, 3)) both seen by two sensors c = [1 1]: two 1-D blocks with
+// Phi = (1 - lambda_1)(1 - lambda_2); the block 3 decides: 9 (1 - lambda_1)(1 - lambda_2) < 1.
+// With lambda_1 = 0.5, sensor 2 needs lambda_2 > 1 - 2/9 = 7/9.
+TEST(StabilityLinks, OneDimensionalBlocksExactRate)
+{
+  const Model m = multiModel(mat(2, 2, {2, 0, 0, 3}), {mat(1, 2, {1, 1}), mat(1, 2, {1, 1})});
+  const StabilityReport rep = analyzeStability(m, iidLinks({0.5, 0.9}));
+  EXPECT_EQ(rep.model.verdict.kind, Verdict::Kind::STABLE);
+  EXPECT_NEAR(rep.links[1].margin.band.converges_at, 7.0 / 9.0, 1e-6);
+  // 9 (1 - lambda_1) 0.1 < 1 for every lambda_1: sensor 1 needs nothing.
+  EXPECT_EQ(rep.links[0].margin.band.converges_at, 0.0);
+  EXPECT_EQ(analyzeStability(m, iidLinks({0.5, 0.75})).model.verdict.kind, Verdict::Kind::UNSTABLE);
+  // The same verdict function is public.
+  std::vector<LinkModel> links = {LinkModel::iid(0.5), LinkModel::iid(0.8)};
+  EXPECT_EQ(stabilityVerdict(m, {0, 1}, links).kind, Verdict::Kind::STABLE);
+  links[1] = LinkModel::iid(0.77);
+  EXPECT_EQ(stabilityVerdict(m, {0, 1}, links).kind, Verdict::Kind::UNSTABLE);
+  // The single-channel form is the per-sensor form with the same link everywhere.
+  const ChannelSettings ch = bernoulli(0.2);
+  const StabilityReport one = analyzeStability(m, &ch);
+  const StabilityReport per = analyzeStability(m, iidLinks({0.8, 0.8}));
+  EXPECT_EQ(one.model.verdict.kind, per.model.verdict.kind);
+  EXPECT_EQ(one.model.margin, per.model.margin);
+  EXPECT_TRUE(per.uniform_links);
+}
+
+// Rotation by 90 degrees scaled by 1.2, c = [1 0], on/off Gilbert-Elliott link with p = 0.5. The
+// block {+-1.2i} has order 2 and c sees each 1-D lattice element at one phase of two, so
+// Phi = [P^2]_bad,bad^{1/2} = ((1 - r)^2 + r p)^{1/2} and the verdict is stable iff
+// (1 - r)^2 + 0.5 r < 1/1.2^4, i.e. r in (0.538451, 0.961549) (the roots of
+// r^2 - 1.5 r + 1 - 1/2.0736, to 6 decimals): not a half-line.
+TEST(StabilityLinks, RotationStableInterval)
+{
+  const Model m = simpleModel(mat(2, 2, {0, -1.2, 1.2, 0}), mat(1, 2, {1, 0}));
+  const auto at = [&](double r) {
+    const ChannelSettings ge = gilbert(0.5, r);
+    return analyzeStability(m, &ge);
+  };
+  EXPECT_EQ(at(0.45).model.verdict.kind, Verdict::Kind::UNSTABLE);
+  EXPECT_EQ(at(0.6).model.verdict.kind, Verdict::Kind::STABLE);
+  EXPECT_EQ(at(0.75).model.verdict.kind, Verdict::Kind::STABLE);
+  EXPECT_EQ(at(0.9).model.verdict.kind, Verdict::Kind::STABLE);
+  EXPECT_EQ(at(0.97).model.verdict.kind, Verdict::Kind::UNSTABLE);
+  const StabilityReport rep = at(0.6);
+  ASSERT_EQ(rep.links.size(), 1u);
+  const SensorMargin& mg = rep.links[0].margin;
+  EXPECT_EQ(mg.quantity, "recovery rate");
+  EXPECT_FALSE(mg.half_line);
+  ASSERT_EQ(mg.stable.size(), 1u);
+  EXPECT_NEAR(mg.stable[0].lower, 0.538451, 1e-6);
+  EXPECT_NEAR(mg.stable[0].upper, 0.961549, 1e-6);
+  EXPECT_NEAR(mg.margin, 0.6 - mg.stable[0].lower, 1e-12);
+  // The report never contradicts its verdicts: no single critical recovery rate, the same interval
+  // for the set, thresholds unknown rather than inf.
+  EXPECT_TRUE(std::isnan(rep.model.recovery_exact));
+  ASSERT_EQ(rep.model.recovery_stable.size(), 1u);
+  EXPECT_NEAR(rep.model.recovery_stable[0].lower, mg.stable[0].lower, 1e-9);
+  EXPECT_TRUE(std::isnan(rep.model.sufficient_threshold));
+  EXPECT_GT(rep.model.margin, 0.0);
+  EXPECT_LT(at(0.97).model.margin, 0.0);
+  // Each edge separates the verdicts of the same function.
+  const auto kind = [&](double r) { return stabilityVerdict(m, {0}, {LinkModel::gilbertElliott(0.5, r)}).kind; };
+  EXPECT_EQ(kind(mg.stable[0].lower + 1e-6), Verdict::Kind::STABLE);
+  EXPECT_EQ(kind(mg.stable[0].lower - 1e-6), Verdict::Kind::UNSTABLE);
+  EXPECT_EQ(kind(mg.stable[0].upper - 1e-6), Verdict::Kind::STABLE);
+  EXPECT_EQ(kind(mg.stable[0].upper + 1e-6), Verdict::Kind::UNSTABLE);
+}
+
+// A hidden Gilbert-Elliott chain has no recovery-rate margin; a Jordan pair (Theorem 14
+// unavailable) gets its margin from the necessary condition and the MARE, with a band.
+TEST(StabilityLinks, MarginFallbacks)
+{
+  const Model m = multiModel(mat(2, 2, {2, 0, 0, 3}), {mat(1, 2, {1, 0}), mat(1, 2, {0, 1})});
+  std::vector<std::optional<ChannelSettings>> links = iidLinks({0.8, 0.95});
+  links[0] = gilbert(0.05, 0.4, 1.0, 0.005);
+  const StabilityReport rep = analyzeStability(m, links);
+  EXPECT_TRUE(rep.links[0].margin.quantity.empty());
+  EXPECT_NE(rep.links[0].margin.note.find("not applicable"), std::string::npos);
+  EXPECT_NE(rep.links[0].markov_note.find("not applicable"), std::string::npos);
+  const MatrixXd J = mat(4, 4, {1.5, 1, 0, 0, 0, 1.5, 0, 0, 0, 0, -1.5, 1, 0, 0, 0, -1.5});
+  const Model mj = multiModel(J, {mat(1, 4, {1, 0, 1, 0}), mat(1, 4, {1, 0, 1, 0})});
+  const StabilityReport rj = analyzeStability(mj, iidLinks({0.9, 0.9}));
+  const SensorMargin& mg = rj.links[1].margin;
+  EXPECT_TRUE(mg.half_line);
+  ASSERT_TRUE(std::isfinite(mg.band.converges_at));
+  EXPECT_EQ(stabilityVerdict(mj, {0, 1}, {LinkModel::iid(0.9), LinkModel::iid(mg.band.converges_at)}).kind,
+            Verdict::Kind::STABLE);
+  if (std::isfinite(mg.band.diverges_at))
+  {
+    EXPECT_NE(stabilityVerdict(mj, {0, 1}, {LinkModel::iid(0.9), LinkModel::iid(mg.band.diverges_at)}).kind,
+              Verdict::Kind::STABLE);
   }
 }

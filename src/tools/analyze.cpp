@@ -1,4 +1,4 @@
-// analyze: stability analysis of a model over a lossy sensor link (stability.hpp).
+// analyze: stability analysis of a model with a lossy link per sensor (stability.hpp, sensor_links.hpp).
 #include <cmath>
 #include <iostream>
 #include <sstream>
@@ -8,6 +8,7 @@
 #include "networked_estimation/config/model.hpp"
 #include "networked_estimation/config/channel_settings.hpp"
 #include "networked_estimation/config/estimator_settings.hpp"
+#include "networked_estimation/config/sensor_links.hpp"
 #include "networked_estimation/stability/stability.hpp"
 
 using namespace networked_estimation;
@@ -38,6 +39,36 @@ std::string jverdict(const Verdict& v)
   return out + "}}";
 }
 
+std::string jintervals(const std::vector<RateInterval>& v)
+{
+  std::string out = "[";
+  for (std::size_t i = 0; i < v.size(); ++i)
+    out += (i ? ", " : "") + std::string("[") + jnum(v[i].lower) + ", " + jnum(v[i].upper) + "]";
+  return out + "]";
+}
+
+std::string jlink(const SensorLinkReport& l, const std::string& origin)
+{
+  std::ostringstream os;
+  const SensorMargin& m = l.margin;
+  os << "{\"sensor\": " << jsonString(l.sensor) << ", \"origin\": " << jsonString(origin) << ", \"kind\": "
+     << jsonString(l.lossless ? "lossless" : l.link.kind == LinkModel::Kind::IID ? "bernoulli" : "gilbert_elliott")
+     << ", \"arrival_rate\": " << jnum(l.arrival_rate) << ", \"recovery_rate\": " << jnum(l.recovery_rate);
+  if (l.link.kind == LinkModel::Kind::GILBERT_ELLIOTT)
+    os << ", \"p\": " << jnum(l.link.p) << ", \"r\": " << jnum(l.link.r);
+  else
+    os << ", \"p\": null, \"r\": null";
+  os << ", \"on_off\": " << (l.link.onOff() ? "true" : "false") << ", \"capacity\": " << jnum(l.capacity)
+     << ", \"margin\": {\"quantity\": " << (m.quantity.empty() ? "null" : jsonString(m.quantity))
+     << ", \"value\": " << jnum(m.value) << ", \"half_line\": " << (m.half_line ? "true" : "false")
+     << ", \"diverges_at\": " << jnum(m.band.diverges_at) << ", \"converges_at\": " << jnum(m.band.converges_at)
+     << ", \"undecided_band\": " << (m.band.undecided_band ? "true" : "false")
+     << ", \"stable_intervals\": " << jintervals(m.stable) << ", \"scan_points\": " << m.scan_points
+     << ", \"margin\": " << jnum(m.margin) << ", \"note\": " << jsonString(m.note) << "}"
+     << ", \"markov_threshold\": " << jsonString(l.markov_note) << "}";
+  return os.str();
+}
+
 std::string jset(const RateAnalysis& r)
 {
   std::ostringstream os;
@@ -49,14 +80,17 @@ std::string jset(const RateAnalysis& r)
      << ", \"mare_undecided_band\": " << (r.mare.undecided_band ? "true" : "false")
      << ", \"exact_rate\": " << jnum(r.exact_rate) << ", \"exact_method\": " << jsonString(r.exact_method)
      << ", \"recovery_lower_bound\": " << jnum(r.recovery_lower_bound) << ", \"recovery_exact\": " << jnum(r.recovery_exact)
+     << ", \"recovery_note\": " << jsonString(r.recovery_note)
+     << ", \"recovery_stable_intervals\": " << jintervals(r.recovery_stable)
      << ", \"aoe_theorem5\": " << jverdict(r.aoe_theorem5) << ", \"verdict\": " << jverdict(r.verdict)
      << ", \"margin_quantity\": " << jsonString(r.margin_quantity) << ", \"channel_value\": " << jnum(r.channel_value)
      << ", \"necessary_threshold\": " << jnum(r.necessary_threshold)
-     << ", \"sufficient_threshold\": " << jnum(r.sufficient_threshold) << ", \"margin\": " << jnum(r.margin) << "}";
+     << ", \"sufficient_threshold\": " << jnum(r.sufficient_threshold) << ", \"margin\": " << jnum(r.margin)
+     << ", \"stable_intervals\": " << jintervals(r.stable_intervals) << "}";
   return os.str();
 }
 
-std::string json(const StabilityReport& rep)
+std::string json(const StabilityReport& rep, const SensorLinks& sl)
 {
   std::ostringstream os;
   os << "{\n  \"model\": " << jsonString(rep.model_name) << ",\n  \"eigenvalues\": [";
@@ -73,9 +107,14 @@ std::string json(const StabilityReport& rep)
        << ", \"arrival_rate\": " << jnum(rep.arrival_rate) << ", \"recovery_rate\": " << jnum(rep.recovery_rate)
        << ", \"on_off\": " << (rep.link.onOff() ? "true" : "false") << ", \"capacity\": " << jnum(rep.capacity.total)
        << ", \"capacity_lower\": " << jnum(rep.capacity.lower) << ", \"capacity_upper\": " << jnum(rep.capacity.upper)
-       << "}";
+       << ", \"capacity_note\": " << jsonString(rep.capacity_note)
+       << ", \"uniform\": " << (rep.uniform_links ? "true" : "false") << "}";
   else
     os << "null";
+  os << ",\n  \"links\": [";
+  for (std::size_t i = 0; i < rep.links.size(); ++i)
+    os << (i ? ",\n    " : "\n    ") << jlink(rep.links[i], i < sl.origin.size() ? sl.origin[i] : "");
+  os << (rep.links.empty() ? "]" : "\n  ]");
   os << ",\n  \"estimator\": " << jsonString(rep.estimator)
      << ",\n  \"estimator_note\": " << jsonString(rep.estimator_note)
      << ",\n  \"rseio\": " << jverdict(rep.rseio) << ",\n  \"all_sensors\": " << jset(rep.model) << ",\n  \"sensors\": [";
@@ -95,6 +134,14 @@ std::string txt(double v)
   return os.str();
 }
 
+std::string intervals(const std::vector<RateInterval>& v)
+{
+  std::string out;
+  for (const RateInterval& in : v)
+    out += (out.empty() ? "" : ", ") + std::string("[") + txt(in.lower) + ", " + txt(in.upper) + "]";
+  return out.empty() ? "none" : out;
+}
+
 void printSet(std::ostream& os, const RateAnalysis& r)
 {
   os << "[" << r.name << "]\n";
@@ -103,12 +150,46 @@ void printSet(std::ostream& os, const RateAnalysis& r)
      << txt(r.mare.converges_at) << (r.mare.undecided_band ? " (undecided band between)" : "") << "\n";
   os << "  closed-form upper bound         " << txt(r.closed_form_upper) << "\n";
   os << "  exact critical arrival rate     " << txt(r.exact_rate) << "  (" << r.exact_method << ")\n";
-  os << "  Markov: critical recovery rate  " << txt(r.recovery_exact) << " (necessary " << txt(r.recovery_lower_bound)
-     << ")\n";
+  os << "  Markov: critical recovery rate  ";
+  if (!r.recovery_stable.empty())
+    os << "none (not a half-line): stable for r in " << intervals(r.recovery_stable);
+  else
+    os << txt(r.recovery_exact);
+  os << " (necessary " << txt(r.recovery_lower_bound) << "; " << r.recovery_note << ")\n";
   os << "  Lin et al.'s Theorem 5          " << describe(r.aoe_theorem5) << "\n";
   os << "  verdict                         " << describe(r.verdict) << "\n";
-  os << "  margin                          " << r.margin_quantity << " " << txt(r.channel_value) << " - critical "
-     << txt(r.sufficient_threshold) << " = " << txt(r.margin) << "\n";
+  if (r.margin_quantity.rfind("per-sensor", 0) == 0)
+    os << "  margin                          per sensor, the other links fixed: see [per-sensor links]\n";
+  else if (!r.stable_intervals.empty())
+    os << "  margin                          " << r.margin_quantity << " " << txt(r.channel_value) << ", stable for "
+       << intervals(r.stable_intervals) << ": distance to the nearest edge " << txt(r.margin)
+       << (r.margin > 0 ? " (inside)" : " (outside)") << "\n";
+  else
+    os << "  margin                          " << r.margin_quantity << " " << txt(r.channel_value) << " - critical "
+       << txt(r.sufficient_threshold) << " = " << txt(r.margin) << "\n";
+}
+
+void printLinks(std::ostream& os, const StabilityReport& rep)
+{
+  os << "[per-sensor links: the rate each sensor needs, the other sensors' links fixed]\n";
+  for (const SensorLinkReport& l : rep.links)
+  {
+    const SensorMargin& m = l.margin;
+    os << "  " << l.sensor << ": ";
+    if (m.quantity.empty())
+      os << m.note << "\n";
+    else if (!m.half_line)
+      os << m.quantity << " " << txt(m.value) << ", stable for " << intervals(m.stable) << ", distance to the nearest edge "
+         << txt(m.margin) << "\n    (" << m.note << ")\n";
+    else if (std::isnan(m.band.converges_at))
+      os << m.quantity << " " << txt(m.value) << ", no stable rate: " << m.note << "\n";
+    else
+      os << m.quantity << " " << txt(m.value) << ", needs " << txt(m.band.converges_at) << " (diverges at "
+         << txt(m.band.diverges_at) << ", converges at " << txt(m.band.converges_at)
+         << (m.band.undecided_band ? ", undecided band between" : "") << "), margin " << txt(m.margin) << "\n    ("
+         << m.note << ")\n";
+    os << "    Markov threshold: " << l.markov_note << "\n";
+  }
 }
 
 }  // namespace
@@ -116,31 +197,30 @@ void printSet(std::ostream& os, const RateAnalysis& r)
 int main(int argc, char** argv)
 {
   cli::CommandLine cl("analyze",
-                      "Stability analysis of a model over a lossy sensor link: eigenvalues and rho(A), the\n"
+                      "Stability analysis of a model over lossy sensor links: eigenvalues and rho(A), the\n"
                       "necessary lower bound, the MARE upper bound, the exact critical rate when available, the\n"
-                      "Markov threshold on the recovery rate, the verdict for the channel and the margin, for the\n"
-                      "model and for each sensor alone. Every sensor gets its own link with the channel's settings.",
+                      "Markov threshold on the recovery rate, the capacity, the verdict for the links and the\n"
+                      "margin, for the model and for each sensor alone, and per sensor the rate it needs with the\n"
+                      "other links fixed. Every sensor has its own link: --channel FILE for every sensor without one\n"
+                      "of its own, --channel NAME=FILE for sensor NAME (repeatable); a sensor with neither is lossless.",
                       {
                           {"model", "FILE", "model (YAML)", true, false},
-                          {"channel", "FILE", "sensor-to-estimator channel settings (YAML)", false, false},
+                          {"channel", "[NAME=]FILE",
+                           "sensor-to-estimator channel settings (YAML): every sensor, or sensor NAME", false, true},
                           {"estimator", "FILE", "estimator settings (YAML; default kfio)", false, false},
                           {"json", "", "print JSON", false, false},
                       });
   return cli::runTool(cl, argc, argv, [&]() -> int {
     const Model model = loadModel(cl.get("model"));
-    ChannelSettings channel;
-    const bool has_channel = cl.has("channel");
-    if (has_channel)
-      channel = loadChannelSettings(cl.get("channel"));
+    const SensorLinks links = resolveSensorLinks(model, cl.getAll("channel"));
     EstimatorSettings est;
     const bool has_est = cl.has("estimator");
     if (has_est)
       est = loadEstimatorSettings(cl.get("estimator"));
-    const StabilityReport rep =
-        analyzeStability(model, has_channel ? &channel : nullptr, has_est ? &est : nullptr);
+    const StabilityReport rep = analyzeStability(model, links.link, has_est ? &est : nullptr);
     if (cl.has("json"))
     {
-      std::cout << json(rep);
+      std::cout << json(rep, links);
       return 0;
     }
     std::cout << "model " << rep.model_name << ": n = " << model.n() << ", " << model.sensors.size() << " sensor(s)\n";
@@ -156,12 +236,27 @@ int main(int argc, char** argv)
               << ", diagonalizable: " << (rep.diagonalizable ? "yes" : "no") << "\n";
     std::cout << "strong observability: " << describe(rep.strong_observability) << "\n";
     if (rep.has_channel)
-      std::cout << "channel: arrival rate " << txt(rep.arrival_rate) << ", recovery rate " << txt(rep.recovery_rate)
-                << "\n";
+    {
+      std::cout << "links:\n";
+      std::istringstream lines(links.describe());
+      for (std::string line; std::getline(lines, line);)
+        std::cout << "  " << line << "\n";
+      if (rep.uniform_links)
+        std::cout << "channel: arrival rate " << txt(rep.arrival_rate) << ", recovery rate " << txt(rep.recovery_rate)
+                  << "\n";
+      else
+        for (const SensorLinkReport& l : rep.links)
+          std::cout << "channel " << l.sensor << ": arrival rate " << txt(l.arrival_rate) << ", recovery rate "
+                    << txt(l.recovery_rate) << "\n";
+      std::cout << "capacity c = " << txt(rep.capacity.total) << " (c_lower = ln rho(A) = " << txt(rep.capacity.lower)
+                << ", c_upper = h(A) = " << txt(rep.capacity.upper) << "): " << rep.capacity_note << "\n";
+    }
     std::cout << "estimator " << rep.estimator << ": " << rep.estimator_note << "\n";
     if (rep.estimator == "rseio")
       std::cout << "rseio: " << describe(rep.rseio) << "\n";
     printSet(std::cout, rep.model);
+    if (rep.has_channel)
+      printLinks(std::cout, rep);
     if (model.sensors.size() > 1)
       for (const RateAnalysis& r : rep.sensors)
         printSet(std::cout, r);

@@ -9,14 +9,16 @@
 //
 // Conventions: the process noise covariance is B Q B' (n x n); a sensor i is whitened as
 // H_i = L_i^{-1} C_i with R_i = L_i L_i' (so H_i' H_i = C_i' R_i^{-1} C_i). Each sensor has its own
-// link; analyzeStability gives every sensor an independent copy of the given channel (as the
-// simulate tool and the nodelets do).
+// link: analyzeStability takes one (optional) channel per sensor, a sensor without one being
+// lossless; the single-channel form gives every sensor an independent copy of the one channel (as
+// the simulate tool and the nodelets do).
 #pragma once
 
 #include <Eigen/Dense>
 #include <complex>
 #include <limits>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -335,6 +337,15 @@ Verdict rseioTheorem5(const Model& model, double mu, const LinkModel& link, cons
 // ---------------------------------------------------------------------------------------------
 // Top level
 
+/// An interval of a rate on which the verdict is stable (docs/stability.md 4.3). An edge inside
+/// (0, 1) was located by bisection to the tolerance and lies on the stable side of the change; an
+/// edge at 0 or 1 is the end of the range.
+struct RateInterval
+{
+  double lower = std::numeric_limits<double>::quiet_NaN();
+  double upper = std::numeric_limits<double>::quiet_NaN();
+};
+
 /// Results for a set of sensors, each with its own link of the given kind: the whole model, or
 /// one sensor alone.
 struct RateAnalysis
@@ -347,9 +358,15 @@ struct RateAnalysis
   CriticalBand mare;          ///< MARE threshold by bisection (NaN fields when A is stable)
   double exact_rate = std::numeric_limits<double>::quiet_NaN();  ///< Theorem 14, NaN when unavailable
   std::string exact_method;   ///< how exact_rate was obtained, or why it is unavailable
-  // on/off Gilbert-Elliott links with the channel's failure rate p (or p = 0.5 without a GE channel)
+  // on/off Gilbert-Elliott links at a common recovery rate r with the links' failure rate p. When
+  // the threshold depends on p and the set has no common Gilbert-Elliott p, none is assumed:
+  // recovery_exact is NaN and recovery_note says why.
   double recovery_lower_bound = 0.0;  ///< necessary: rho^2 (1 - r)^N < 1
-  double recovery_exact = std::numeric_limits<double>::quiet_NaN();
+  double recovery_exact = std::numeric_limits<double>::quiet_NaN();  ///< NaN when not a half-line
+  std::string recovery_note;          ///< the p used, "independent of p", or why not applicable
+  /// The stable set of the common r when it is not a half-line (lattice blocks of order > 1):
+  /// intervals found by a scan with bisection at each change (recovery_exact is then NaN).
+  std::vector<RateInterval> recovery_stable;
   Verdict aoe_theorem5;       ///< Lin et al.'s Theorem 5 test (one packet = this set of sensors)
   std::vector<BlockStructure> blocks;
   // the given channel
@@ -359,6 +376,46 @@ struct RateAnalysis
   double necessary_threshold = std::numeric_limits<double>::quiet_NaN();  ///< below: unbounded
   double sufficient_threshold = std::numeric_limits<double>::quiet_NaN(); ///< above: bounded
   double margin = std::numeric_limits<double>::quiet_NaN();  ///< channel_value - critical (exact, else sufficient)
+  /// The stable set of channel_value when it is not a half-line (then the thresholds are NaN and
+  /// the margin is the distance to the nearest edge, positive inside).
+  std::vector<RateInterval> stable_intervals;
+};
+
+/// The rate one sensor needs, the other sensors' links fixed (docs/stability.md 4.3): the verdict
+/// of the whole set (the same function as the report's verdict) along this sensor's arrival rate
+/// (i.i.d. or lossless link) or recovery rate (on/off Gilbert-Elliott link with its own p).
+struct SensorMargin
+{
+  std::string quantity;   ///< "arrival rate" or "recovery rate"; empty when not applicable
+  std::string note;       ///< how the rate was found, or why there is none ("not applicable: ...")
+  double value = std::numeric_limits<double>::quiet_NaN();  ///< this sensor's rate now
+  /// The stable set along the rate is an upper half-line [converges_at, 1] (i.i.d. links; on/off
+  /// links unless a lattice block of order > 1 is seen by this sensor). Otherwise it was found by a
+  /// scan and is given as `stable` intervals, never as one threshold.
+  bool half_line = true;
+  /// half_line: unstable at and below diverges_at (NaN: no rate found unstable), stable at and above
+  /// converges_at (NaN: not stable even at rate 1); undecided_band when undecided rates lie between.
+  CriticalBand band;
+  std::vector<RateInterval> stable;  ///< the stable set found (half_line: [converges_at, 1] or empty)
+  int scan_points = 0;               ///< not half_line: grid points of the scan on [0, 1]
+  /// half_line: value - converges_at. Otherwise the distance from value to the nearest edge of the
+  /// stable set: positive inside a stable interval, negative outside.
+  double margin = std::numeric_limits<double>::quiet_NaN();
+};
+
+/// One sensor's link and what it needs.
+struct SensorLinkReport
+{
+  std::string sensor;
+  bool lossless = false;    ///< no channel: an i.i.d. link with arrival 1
+  LinkModel link;
+  double arrival_rate = 1.0;
+  double recovery_rate = std::numeric_limits<double>::quiet_NaN();
+  double capacity = std::numeric_limits<double>::infinity();  ///< c_i = -1/2 ln(1 - arrival rate)
+  SensorMargin margin;      ///< in the set of all sensors, the others' links fixed (only with per_sensor)
+  /// The Markov (recovery-rate) threshold for this sensor: its margin when it has an on/off
+  /// Gilbert-Elliott link; "not applicable: ..." otherwise (no failure rate p is assumed).
+  std::string markov_note;
 };
 
 struct StabilityReport
@@ -370,11 +427,15 @@ struct StabilityReport
   Verdict strong_observability;   ///< of (A, C) (all sensors stacked)
   bool noise_excites_unstable_modes = true;  ///< PBH: (A, B Q^1/2) controllable on every |lambda| >= 1
   bool detectable = true;                    ///< PBH: (C, A) observable on every |lambda| >= 1
-  bool has_channel = false;
-  LinkModel link;                 ///< the channel of every sensor
+  bool has_channel = false;       ///< some sensor has a channel
+  bool uniform_links = true;      ///< every sensor has the same link (then `link` is that link)
+  LinkModel link;                 ///< the channel of every sensor (uniform_links), else of sensor 0
   double arrival_rate = std::numeric_limits<double>::quiet_NaN();
   double recovery_rate = std::numeric_limits<double>::quiet_NaN();
-  Capacity capacity;              ///< for the channel's stationary arrival rate on every sensor
+  Capacity capacity;              ///< for each sensor's stationary arrival rate (lossless: 1, c_i = inf)
+  /// What the capacity implies for this rate vector (Yang et al., Theorems 2 and 6).
+  std::string capacity_note;
+  std::vector<SensorLinkReport> links;  ///< per sensor (empty without any channel)
   EntropySplit entropy_split;
   RateAnalysis model;             ///< all sensors
   std::vector<RateAnalysis> sensors;  ///< each sensor alone (empty when options.per_sensor is false)
@@ -385,15 +446,27 @@ struct StabilityReport
 
 struct AnalysisOptions
 {
-  bool per_sensor = true;
-  double bisection_tolerance = 1e-4;
+  bool per_sensor = true;  ///< each sensor alone (StabilityReport::sensors) and each sensor's margin
+  double bisection_tolerance = 1e-4;  ///< MARE bisections (and margins decided by the MARE)
+  double exact_tolerance = 1e-7;      ///< margins and intervals decided by Theorem 14
+  int scan_points = 200;              ///< scan of a rate whose stable set is not a half-line
   MareOptions mare;
   StabilityTolerances tol;
 };
 
-/// Analyses the model for the sensor link (nullable: thresholds only) and the estimator (nullable:
-/// kfio).
+/// Analyses the model with one link per sensor (links[i] for model.sensors[i]; none = lossless, an
+/// i.i.d. link with arrival 1) and the estimator (nullable: kfio). When no sensor has a link the
+/// report holds the thresholds only (verdicts "not applicable: no channel given").
+StabilityReport analyzeStability(const Model& model, const std::vector<std::optional<ChannelSettings>>& links,
+                                 const EstimatorSettings* estimator = nullptr, const AnalysisOptions& options = {});
+
+/// The same with an independent copy of one channel on every sensor (nullable: thresholds only).
 StabilityReport analyzeStability(const Model& model, const ChannelSettings* sensor_link,
                                  const EstimatorSettings* estimator = nullptr, const AnalysisOptions& options = {});
+
+/// The verdict of docs/stability.md 2.1 for the model's sensors `set` with links (one per sensor of
+/// the set): the function that analyzeStability and the per-sensor margins use.
+Verdict stabilityVerdict(const Model& model, const std::vector<int>& set, const std::vector<LinkModel>& links,
+                         const AnalysisOptions& options = {});
 
 }  // namespace networked_estimation
