@@ -10,7 +10,7 @@ if [ $# -ne 2 ]; then
 fi
 BIN=$(cd "$1" && pwd)
 ROOT=$(cd "$2" && pwd)
-for tool in simulate replay score; do
+for tool in simulate replay score montecarlo; do
   if [ ! -x "$BIN/$tool" ]; then
     echo "missing tool $BIN/$tool" >&2
     exit 2
@@ -49,6 +49,8 @@ lines() { wc -l <"$1" | tr -d ' '; }
 # rc_and_grep RC EXPECTED PATTERN FILE: the exit code is EXPECTED and FILE matches PATTERN.
 rc_and_grep() { [ "$1" = "$2" ] && grep -Eq "$3" "$4"; }
 differ() { ! cmp -s "$1" "$2"; }
+# no_files DIR: DIR is absent or holds no file (no output, no temporary file).
+no_files() { [ ! -e "$1" ] || [ -z "$(find "$1" -type f)" ]; }
 
 # --- simulate + replay + score on the zhou example -------------------------------------------
 Z=$WORK/zhou
@@ -119,6 +121,32 @@ cat "$WORK/err.txt"
 check "divergence: exit code 3 and the step named" rc_and_grep "$rc" 3 "diverged at step k = [0-9]+" "$WORK/err.txt"
 check "divergence: no output file" [ -z "$(find "$B" -name 'blowup_out.csv*')" ]
 
+# the rounding floor: an unstable plant (rho = 1.2) simulated until its state ~1e12 outgrows the
+# unit noise in double precision is refused (exit 3, the step named), below it the run is fine
+ROT=$ROOT/test/rostest/models/rotation_unstable.yaml
+F=$WORK/floor
+run_rc rc "$BIN/simulate" --model "$ROT" --channel "$BERNOULLI" --steps 300 --seed 3 --out "$F/long"
+cat "$WORK/err.txt"
+check "rounding floor: simulate exits 3 naming the step" \
+  rc_and_grep "$rc" 3 "model 'rotation' reached \|\|x_k\|\|_inf = .* at step k = [0-9]+, .*rounding floor" "$WORK/err.txt"
+check "rounding floor: simulate leaves no output file" no_files "$F/long"
+run_rc rc "$BIN/simulate" --model "$ROT" --channel "$BERNOULLI" --steps 100 --seed 3 --out "$F/short"
+check "below the rounding floor (100 steps): simulate exits 0" [ "$rc" = 0 ]
+check "below the rounding floor: truth.csv has header + 100 rows" [ "$(lines "$F/short/truth.csv")" = 101 ]
+run_rc rc "$BIN/replay" --model "$ROT" --settings "$EST/kfio.yaml" --input "$F/short/input.csv" --output "$F/short/kfio.csv"
+check "below the rounding floor: replay exits 0" [ "$rc" = 0 ]
+run_rc rc "$BIN/score" --truth "$F/short/truth.csv" --estimate kfio="$F/short/kfio.csv"
+check "below the rounding floor: score exits 0" rc_and_grep "$rc" 0 "^kfio +100 " "$WORK/out.txt"
+run_rc rc "$BIN/montecarlo" --experiment custom --model "$ROT" --channel "$BERNOULLI" --settings "$EST/kfio.yaml" \
+  --steps 300 --runs 20 --out "$F/mc"
+cat "$WORK/err.txt"
+check "rounding floor: montecarlo custom exits 3 naming the run and the step" \
+  rc_and_grep "$rc" 3 "run [0-9]+: .*model 'rotation' reached .* at step k = [0-9]+, " "$WORK/err.txt"
+check "rounding floor: montecarlo writes no file" no_files "$F/mc"
+run_rc rc "$BIN/montecarlo" --experiment custom --model "$ROT" --channel "$BERNOULLI" --settings "$EST/kfio.yaml" \
+  --steps 100 --runs 20 --out "$F/mc_short"
+check "below the rounding floor: montecarlo custom exits 0" [ "$rc" = 0 ]
+
 run_rc rc "$BIN/replay" --model "$ZHOU" --settings "$EST/kfio.yaml" --input "$Z/input.csv" --output "$B/o.csv" --bogus 1
 check "unknown option: exit code 2" [ "$rc" = 2 ]
 check "unknown option: usage printed" grep -q "usage: replay" "$WORK/err.txt"
@@ -128,9 +156,10 @@ run_rc rc "$BIN/score" --help
 check "--help: exit code 0 and usage" rc_and_grep "$rc" 0 "usage: score" "$WORK/out.txt"
 
 # --- the aoe example: bursty sensor link, lossy actuator link, aoe and ack_kf -------------------
-# (the plant is open-loop unstable, so keep the horizon short enough not to overflow)
+# (the plant is open-loop unstable, rho = 1.291: keep the horizon below the rounding floor, which
+# its state crosses from k ~ 105 on)
 A=$WORK/aoe
-run_rc rc "$BIN/simulate" --model "$AOE" --channel "$BURSTY" --actuator-channel "$BURSTY" --steps 500 --seed 5 \
+run_rc rc "$BIN/simulate" --model "$AOE" --channel "$BURSTY" --actuator-channel "$BURSTY" --steps 100 --seed 5 \
   --out "$A"
 cat "$WORK/out.txt"
 check "simulate aoe_example with an actuator channel exits 0" [ "$rc" = 0 ]
@@ -147,8 +176,81 @@ check "replay ack_kf without nu: exit code 2 and message" rc_and_grep "$rc" 2 "a
 check "replay ack_kf without nu: no output file" [ ! -e "$A/ack2.csv" ]
 run_rc rc "$BIN/score" --truth "$A/truth.csv" --estimate aoe="$A/aoe.csv" --estimate ack_kf="$A/ack.csv"
 cat "$WORK/out.txt"
-check "score prints a row for aoe" rc_and_grep "$rc" 0 "^aoe +500 " "$WORK/out.txt"
-check "score prints a row for ack_kf" rc_and_grep "$rc" 0 "^ack_kf +500 " "$WORK/out.txt"
+check "score prints a row for aoe" rc_and_grep "$rc" 0 "^aoe +100 " "$WORK/out.txt"
+check "score prints a row for ack_kf" rc_and_grep "$rc" 0 "^ack_kf +100 " "$WORK/out.txt"
+
+# --- a link per sensor: --channel NAME=FILE, and montecarlo custom = simulate + replay + score ----
+TRACK=$ROOT/config/models/tracking_2d.yaml
+WIFI=$ROOT/config/channels/wifi_bursty.yaml
+L=$WORK/links
+run_rc rc "$BIN/simulate" --model "$TRACK" --channel gnss="$WIFI" --channel camera="$BERNOULLI" --steps 400 \
+  --seed 21 --out "$L/sim"
+check "simulate with a channel per sensor exits 0 and prints each sensor's link" \
+  rc_and_grep "$rc" 0 "camera: .*bernoulli_0.2.yaml \(--channel camera=" "$WORK/out.txt"
+# each sensor has its own loss pattern: some rows have only the gnss cells empty, some only the camera's
+check "the two sensors are lost independently" bash -c '
+  awk -F, "NR > 1 && \$3 == \"\" && \$5 != \"\" { a = 1 } NR > 1 && \$3 != \"\" && \$5 == \"\" { b = 1 } END { exit !(a && b) }" "$0"' \
+  "$L/sim/input.csv"
+run_rc rc "$BIN/simulate" --model "$TRACK" --channel lidar="$WIFI" --steps 10 --seed 1 --out "$L/bad"
+check "--channel NAME=FILE with NAME not a sensor: exit 2 naming it and the sensors" \
+  rc_and_grep "$rc" 2 "'lidar' is not a sensor of model 'tracking_2d' \(its sensors: gnss, camera\)" "$WORK/err.txt"
+check "--channel NAME=FILE with NAME not a sensor: no output" no_files "$L/bad"
+run_rc rc "$BIN/simulate" --model "$TRACK" --channel camera="$WIFI" --steps 50 --seed 1 --out "$L/one"
+check "a sensor without a channel is lossless, and says so" rc_and_grep "$rc" 0 "gnss: lossless" "$WORK/out.txt"
+check "the lossless sensor is never lost" bash -c '! awk -F, "NR > 1 && \$3 == \"\"" "$0" | grep -q .' "$L/one/input.csv"
+
+# Run r of montecarlo custom is simulate --seed S+r: with one run and S = 21 its per-step MSE equals
+# ||x_k - xhat_k||^2 from simulate's truth and replay's output (both printed round-trip exact), and
+# its time average equals score's mse. Tolerance 1e-9 relative: montecarlo prints 10 significant
+# digits (a rounding of at most 5e-10 relative); any difference in the runs would be far larger.
+equal_runs() {  # model, settings (comma list), simulate dir, montecarlo dir, --channel / --actuator-channel args...
+  local model=$1 settings=$2 sim=$3 mc=$4
+  shift 4
+  "$BIN/montecarlo" --experiment custom --model "$model" --settings "$settings" --runs 1 --steps 60 --seed 21 \
+    --threads 1 --out "$mc" "$@" >/dev/null 2>&1 || return 1
+  "$BIN/simulate" --model "$model" --steps 60 --seed 21 --out "$sim" "$@" >/dev/null || return 1
+  local f name est=()
+  for f in ${settings//,/ }; do
+    name=$(basename "$f" .yaml)
+    "$BIN/replay" --model "$model" --settings "$f" --input "$sim/input.csv" --output "$sim/$name.csv" \
+      --truth "$sim/truth.csv" || return 1
+    est+=(--estimate "$name=$sim/$name.csv")
+  done
+  "$BIN/score" --truth "$sim/truth.csv" "${est[@]}" --from 1 --csv >"$sim/score.csv" || return 1
+  /usr/bin/python3 - "$sim" "$mc/custom.csv" "$mc/custom.json" "$settings" <<'PY'
+import csv, json, os, sys
+sim, mc_csv, mc_json, settings = sys.argv[1:5]
+names = [os.path.splitext(os.path.basename(f))[0] for f in settings.split(",")]
+truth = {int(r["k"]): r for r in csv.DictReader(open(os.path.join(sim, "truth.csv")))}
+mc = {}
+for r in csv.DictReader(open(mc_csv)):
+    mc[(r["series"], int(float(r["x"])))] = float(r["mean"])
+summary = {s["name"]: s["time_average"] for c in json.load(open(mc_json))["cases"] for s in c["series"]}
+scores = {r["name"]: float(r["mse"]) for r in csv.DictReader(open(os.path.join(sim, "score.csv")))}
+bad = 0
+for name in names:
+    for r in csv.DictReader(open(os.path.join(sim, name + ".csv"))):
+        k = int(r["k"])
+        n = len([c for c in r if c.startswith("x")])
+        e2 = sum((float(truth[k]["x%d" % (i + 1)]) - float(r["x%d" % (i + 1)])) ** 2 for i in range(n))
+        if abs(e2 - mc[(name, k)]) > 1e-9 * max(1e-300, abs(e2)):
+            print("step", k, name, "montecarlo", mc[(name, k)], "simulate+replay", e2); bad += 1
+    if abs(summary[name] - scores[name]) > 1e-9 * abs(scores[name]):
+        print(name, "time average", summary[name], "score", scores[name]); bad += 1
+sys.exit(1 if bad else 0)
+PY
+}
+check "montecarlo custom = simulate + replay + score: a link per sensor (kfio, rseio)" \
+  equal_runs "$TRACK" "$EST/kfio.yaml,$EST/rseio.yaml" "$L/eq1" "$L/mc1" --channel gnss="$WIFI" --channel camera="$BERNOULLI"
+check "montecarlo custom = simulate + replay + score: lossy actuator link (aoe, ack_kf, kfio)" \
+  equal_runs "$AOE" "$EST/aoe.yaml,$A/ack_kf.yaml,$EST/kfio.yaml" "$L/eq2" "$L/mc2" --channel "$BURSTY" \
+  --actuator-channel "$ROOT/config/channels/actuator_q1_0.3_q2_0.4.yaml"
+run_rc rc "$BIN/montecarlo" --experiment custom --model "$TRACK" --settings "$EST/kfio.yaml" --runs 1 --steps 5 \
+  --actuator-channel "$BURSTY" --out "$L/mc3"
+check "montecarlo --actuator-channel on a model without control: exit 2 naming it" \
+  rc_and_grep "$rc" 2 "model 'tracking_2d' has no control" "$WORK/err.txt"
+run_rc rc "$BIN/montecarlo" --experiment zhou_fig1 --channel "$BURSTY" --out "$L/mc4"
+check "--channel is only for the custom experiment: exit 2" rc_and_grep "$rc" 2 "only for --experiment custom" "$WORK/err.txt"
 
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

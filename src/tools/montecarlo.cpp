@@ -75,7 +75,8 @@ int main(int argc, char** argv)
       "Runs a Monte Carlo experiment and writes DIR/NAME.csv (case,series,x,mean,sd,n) and DIR/NAME.json\n"
       "(metadata, assumptions, per-series summaries); zhou_fig2 also writes DIR/zhou_fig2_samples.csv.\n"
       "Results do not depend on --threads. Experiments: " +
-          names + ".\nExit codes: 0 ok, 2 bad arguments or files, 3 an estimator diverged.",
+          names + ".\nExit codes: 0 ok, 2 bad arguments or files, 3 an estimator diverged, or a run's plant state\n"
+          "crossed the rounding floor (the message names the run and the step: use fewer --steps).",
       {
           {"experiment", "NAME", "experiment to run", true, false},
           {"runs", "N", "Monte Carlo runs (default: per experiment)", false, false},
@@ -84,7 +85,12 @@ int main(int argc, char** argv)
           {"threads", "J", "worker threads (default: hardware concurrency)", false, false},
           {"out", "DIR", "output directory (created when missing)", true, false},
           {"model", "FILE", "custom: model file (YAML)", false, false},
-          {"channel", "FILE", "custom: sensor link channel settings (YAML)", false, false},
+          {"channel", "[NAME=]FILE",
+           "custom: sensor link channel settings (YAML) for every sensor, or NAME=FILE for sensor NAME; a sensor "
+           "with neither is lossless",
+           false, true},
+          {"actuator-channel", "FILE", "custom: controller-to-actuator channel settings (default: lossless)", false,
+           false},
           {"settings", "S1,S2,...", "custom: estimator settings files, comma-separated", false, false},
       });
   return cli::runTool(cl, argc, argv, [&]() -> int {
@@ -103,17 +109,17 @@ int main(int argc, char** argv)
     cfg.seed = cl.getUint64("seed", 1);
     cfg.threads = static_cast<int>(cl.getLong("threads", 0, 1, 1024));
     const bool custom = cfg.experiment == "custom";
-    for (const char* key : {"model", "channel", "settings"})
-    {
+    for (const char* key : {"model", "settings"})
       if (custom && !cl.has(key))
         throw cli::UsageError(std::string("experiment custom needs --") + key);
+    for (const char* key : {"model", "channel", "actuator-channel", "settings"})
       if (!custom && cl.has(key))
         throw cli::UsageError(std::string("option '--") + key + "' is only for --experiment custom");
-    }
     if (custom)
     {
       cfg.model_path = cl.get("model");
-      cfg.channel_path = cl.get("channel");
+      cfg.channel_args = cl.getAll("channel");
+      cfg.actuator_channel_path = cl.get("actuator-channel");
       cfg.settings_paths = splitComma(cl.get("settings"));
       if (cfg.settings_paths.empty())
         throw cli::UsageError("option '--settings': expected comma-separated settings files");

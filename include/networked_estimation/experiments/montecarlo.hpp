@@ -134,7 +134,10 @@ struct MonteCarloConfig
   std::uint64_t seed = 1;
   int threads = 0;  ///< 0 = hardware concurrency
   // custom only
-  std::string model_path, channel_path;
+  std::string model_path;
+  /// The --channel options: FILE (every sensor) and NAME=FILE (that sensor), see sensor_links.hpp.
+  std::vector<std::string> channel_args;
+  std::string actuator_channel_path;  ///< empty: every command arrives
   std::vector<std::string> settings_paths;
 };
 

@@ -2,6 +2,8 @@
 #include <memory>
 
 #include "experiments/montecarlo_experiments.hpp"
+#include "networked_estimation/simulation/lossy_run.hpp"
+#include "networked_estimation/config/sensor_links.hpp"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/estimators/estimator.hpp"
 #include "networked_estimation/channel/loss_model.hpp"
@@ -69,7 +71,16 @@ Moments squaredErrorRuns(const RunConfig& rc, const Model& model, const ChannelS
       Sample& sample = st->sample;
       for (long k = 1; k <= T; ++k)
       {
-        const SimulatedSample& s = sim.step();
+        const SimulatedSample* sp = nullptr;
+        try
+        {
+          sp = &sim.step();  // refuses a state beyond the rounding floor (simulator.hpp)
+        }
+        catch (const DivergenceError& err)
+        {
+          throw DivergenceError("run " + std::to_string(r) + ": " + err.what());
+        }
+        const SimulatedSample& s = *sp;
         const bool gamma = !st->loss->nextLost();
         sample.y = gamma ? s.y : s.v;
         if (model.hasControl())
@@ -239,30 +250,87 @@ ExperimentResult zhouFig2(const RunConfig& rc)
 ExperimentResult customExperiment(const RunConfig& rc)
 {
   const MonteCarloConfig& cfg = *rc.config;
-  if (cfg.model_path.empty() || cfg.channel_path.empty() || cfg.settings_paths.empty())
-    throw ConfigError("experiment custom: needs a model, a channel and at least one settings file");
+  if (cfg.model_path.empty() || cfg.settings_paths.empty())
+    throw ConfigError("experiment custom: needs a model and at least one settings file");
   const Model model = loadModel(cfg.model_path);
-  const ChannelSettings channel = loadChannelSettings(cfg.channel_path);
-  std::vector<ErrorFilter> filters;
+  const SensorLinks links = resolveSensorLinks(model, cfg.channel_args);
+  LossyRunOptions options;
+  options.sensor_links = links.link;
+  if (model.hasControl())
+    options.control = ControlSequence::parse("paper", "control");  // simulate's default sequence
+  if (!cfg.actuator_channel_path.empty())
+  {
+    if (!model.hasControl())
+      throw ConfigError("--actuator-channel: model '" + model.name + "' has no control input");
+    options.actuator_link = loadChannelSettings(cfg.actuator_channel_path);
+  }
+  std::vector<EstimatorSettings> settings;
   std::vector<std::string> names;
   for (const std::string& p : cfg.settings_paths)
   {
-    ErrorFilter f;
-    f.settings = loadEstimatorSettings(p);
-    makeEstimator(model, f.settings);  // validates the combination before any run
-    filters.push_back(f);
+    settings.push_back(loadEstimatorSettings(p));
+    makeEstimator(model, settings.back());  // validates the combination before any run
     names.push_back(stem(p));
   }
   if (rc.progress)
     rc.progress->setTotal(rc.runs);
   const long T = rc.steps;
-  const Moments m = squaredErrorRuns(rc, model, channel, filters);
+  const std::size_t nf = settings.size();
+  const std::uint64_t seed = rc.seed;
+  // Run r is exactly `simulate --seed seed + r` with the same links, replayed by every estimator
+  // (replay's Sample: the received y and gamma, the commanded u; ack_kf is told nu_k).
+  WorkerFactory factory = [&model, &settings, &options, T, seed, nf]() -> RunFunction {
+    auto est = std::make_shared<std::vector<std::unique_ptr<Estimator>>>();
+    for (const EstimatorSettings& s : settings)
+      est->push_back(makeEstimator(model, s));
+    return [est, &model, &options, T, seed, nf](long r, double* out) {
+      LossyRun run(model, seed + static_cast<std::uint64_t>(r), options);
+      for (auto& e : *est)
+        e->reset();
+      Sample sample;
+      for (long k = 1; k <= T; ++k)
+      {
+        const SimulatedSample* sp = nullptr;
+        try
+        {
+          sp = &run.step();  // refuses a state beyond the rounding floor (simulator.hpp)
+        }
+        catch (const DivergenceError& err)
+        {
+          throw DivergenceError("run " + std::to_string(r) + ": " + err.what());
+        }
+        const SimulatedSample& s = *sp;
+        sample = run.received();
+        for (std::size_t j = 0; j < nf; ++j)
+        {
+          Estimator& e = *(*est)[j];
+          sample.nu = e.algorithm() == Algorithm::ACK_KF ? (s.nu ? 1 : 0) : -1;
+          try
+          {
+            e.step(sample);
+          }
+          catch (const DivergenceError& err)
+          {
+            throw DivergenceError(toString(e.algorithm()) + " diverged in run " + std::to_string(r) + " at k = " +
+                                  std::to_string(k) + ": " + err.what());
+          }
+          out[j * static_cast<std::size_t>(T) + static_cast<std::size_t>(k - 1)] = (s.x - e.state()).squaredNorm();
+        }
+      }
+    };
+  };
+  const Moments m = runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress);
   ExperimentResult res;
   CaseResult c;
   c.name = model.name.empty() ? stem(cfg.model_path) : model.name;
-  c.title = "model " + cfg.model_path + ", channel " + cfg.channel_path;
+  std::string described = links.describe();
+  for (char& ch : described)
+    if (ch == '\n')
+      ch = ';';
+  c.title = "model " + cfg.model_path + "; links " + described +
+            (cfg.actuator_channel_path.empty() ? "" : " actuator " + cfg.actuator_channel_path);
   c.x = stepAxis(T);
-  for (std::size_t j = 0; j < filters.size(); ++j)
+  for (std::size_t j = 0; j < nf; ++j)
     c.series.push_back(makeSeries(names[j], m, j * static_cast<std::size_t>(T), static_cast<std::size_t>(T), 1.0,
                                   static_cast<double>(T)));
   res.cases.push_back(c);
@@ -270,10 +338,12 @@ ExperimentResult customExperiment(const RunConfig& rc)
   res.y_label = "MSE_k = mean ||x_k - xhat_k|k||^2";
   res.log_y = true;
   res.assumptions = {
-      "x_0 ~ N(x0, P0) of the model; the estimators start from x0, P0",
-      "the channel's loss model decides gamma_k (the channel seed key is ignored: run r uses "
-      "deriveSeed(deriveSeed(seed, r), 1)); a lost sample carries y_k = v_k (only kf uses it)",
-      "with control: u_k = 1 + exp(-k/10) (paper sequence), actuator link lossless (nu_k = 1)",
+      "run r is exactly `simulate --seed S+r` with the same --channel / --actuator-channel options (S = --seed), "
+      "replayed by every estimator: x_0 ~ N(x0, P0) of the model, the estimators start from x0, P0",
+      "each sensor has its own independent loss stream (its own link, or lossless); gamma_k = 1 when at least "
+      "one sensor arrived; a step where none arrived carries y_k = v_k (only kf uses it)",
+      "with control: u_k = 1 + exp(-k/10) (paper sequence); a command lost on the actuator link applies zero "
+      "input; ack_kf is told whether each command arrived",
   };
   res.notes = {"time_average = mean of MSE_k over k in [1, steps]"};
   return res;
