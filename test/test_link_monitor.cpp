@@ -3,8 +3,12 @@
 
 #include <cmath>
 
+#include "networked_estimation/stability/joint_link_monitor.hpp"
 #include "networked_estimation/stability/link_monitor.hpp"
 #include "networked_estimation/common/random.hpp"
+#include "networked_estimation/config/channel_settings.hpp"
+
+#include <optional>
 
 using namespace networked_estimation;
 
@@ -20,7 +24,7 @@ TEST(LinkMonitor, CountsMatchBruteForceOverTheWindow)
     all.push_back(a);
     mon.add(a);
     const std::size_t n = std::min<std::size_t>(all.size(), w);
-    std::size_t arr = 0, lost = 0, rec = 0;
+    std::size_t arr = 0, lost = 0, rec = 0, from_arrived = 0, failed = 0;
     for (std::size_t i = all.size() - n; i < all.size(); ++i)
     {
       arr += all[i] ? 1 : 0;
@@ -29,11 +33,18 @@ TEST(LinkMonitor, CountsMatchBruteForceOverTheWindow)
         ++lost;
         rec += all[i] ? 1 : 0;
       }
+      if (i > all.size() - n && all[i - 1])
+      {
+        ++from_arrived;
+        failed += all[i] ? 0 : 1;
+      }
     }
     ASSERT_EQ(mon.samples(), n);
     ASSERT_EQ(mon.arrivals(), arr) << k;
     ASSERT_EQ(mon.lossTransitions(), lost) << k;
     ASSERT_EQ(mon.recoveries(), rec) << k;
+    ASSERT_EQ(mon.arrivalTransitions(), from_arrived) << k;
+    ASSERT_EQ(mon.failures(), failed) << k;
   }
   EXPECT_EQ(mon.total(), 500u);
   mon.clear();
@@ -61,10 +72,11 @@ TEST(LinkMonitor, CoverageOnMarkovChain)
   // true standard deviations: coverage about 74 %. We require >= 120 of 200 windows (the binomial
   // standard deviation is 6.2, so 120 is 5.8 sd below). The recovery transitions are i.i.d. given that
   // the previous sample was lost (Markov property): nominal 95 % coverage; we require >= 170 (85 %,
-  // 6.5 binomial sd below 190).
+  // 6.5 binomial sd below 190). The failure transitions are likewise i.i.d. given that the previous
+  // sample arrived: the same bound for the failure rate p = 0.1.
   Rng rng(11);
   bool arrived = true;
-  int cover_a = 0, cover_r = 0;
+  int cover_a = 0, cover_r = 0, cover_p = 0;
   for (int win = 0; win < 200; ++win)
   {
     LinkMonitor mon(2000);
@@ -73,12 +85,14 @@ TEST(LinkMonitor, CoverageOnMarkovChain)
       arrived = arrived ? !rng.bernoulli(0.1) : rng.bernoulli(0.4);
       mon.add(arrived);
     }
-    const RateEstimate a = mon.arrivalRate(), r = mon.recoveryRate();
+    const RateEstimate a = mon.arrivalRate(), r = mon.recoveryRate(), p = mon.failureRate();
     cover_a += (a.lower <= 0.8 && 0.8 <= a.upper) ? 1 : 0;
     cover_r += (r.lower <= 0.4 && 0.4 <= r.upper) ? 1 : 0;
+    cover_p += (p.lower <= 0.1 && 0.1 <= p.upper) ? 1 : 0;
   }
   EXPECT_GE(cover_a, 120);
   EXPECT_GE(cover_r, 170);
+  EXPECT_GE(cover_p, 170);
 }
 
 TEST(LinkMonitor, Classification)
@@ -102,4 +116,104 @@ TEST(LinkMonitor, Classification)
   const LinkStatus few = classifyLink(wilsonInterval(1, 10), t);
   EXPECT_EQ(few.level, LinkStatus::Level::WARN);
   EXPECT_NE(few.message.find("not enough samples"), std::string::npos);
+}
+
+// ---------------------------------------------------------------------------------------------
+// JointLinkMonitor: one window per sensor and the joint verdict of the same core test as analyze.
+
+namespace
+{
+
+Model scalarTwoSensors(double a)
+{
+  Model m;
+  m.name = "two";
+  m.A = Eigen::MatrixXd::Constant(1, 1, a);
+  m.B = Eigen::MatrixXd::Identity(1, 1);
+  m.Q = Eigen::MatrixXd::Identity(1, 1);
+  m.C = Eigen::MatrixXd::Ones(2, 1);
+  m.R = Eigen::MatrixXd::Identity(2, 2);
+  m.sensors = {{"a", 0, 1}, {"b", 1, 1}};
+  m.x0 = Eigen::VectorXd::Zero(1);
+  m.P0 = Eigen::MatrixXd::Identity(1, 1);
+  m.Bu = Eigen::MatrixXd(1, 0);
+  validateModel(m, "two");
+  return m;
+}
+
+}  // namespace
+
+// x_k = 1.5 x_{k-1} + w with two sensors y = x + v, each arriving with probability 0.3: the
+// per-sensor critical rate is 1/3 (1.5^2 (1 - l)^2 < 1), so E[P] is unbounded, although "some
+// sensor arrived" has rate 0.51 (what a single union window saw, and called OK). With 5000 samples
+// the Wilson half-width is 1.96 sqrt(0.21 / 5000) = 0.013, so 0.3 + 0.013 < 1/3: ERROR. At 0.5 per
+// sensor (1.5^2 * 0.25 = 0.56 < 1, interval +-0.014): OK. The point verdict equals analyze's at the
+// same rates.
+TEST(JointLinkMonitor, PerSensorRatesDecideAndUnionDoesNot)
+{
+  const Model m = scalarTwoSensors(1.5);
+  for (double rate : {0.3, 0.5})
+  {
+    JointLinkMonitor mon(m, 5000, false, 100);
+    LinkMonitor any(5000);
+    Rng rng(17);
+    for (int k = 0; k < 5000; ++k)
+    {
+      const bool a = rng.bernoulli(rate), b = rng.bernoulli(rate);
+      mon.add({a, b});
+      any.add(a || b);
+    }
+    const JointLinkStatus st = mon.evaluate();
+    ASSERT_EQ(st.sensors.size(), 2u);
+    EXPECT_NEAR(st.sensors[0].arrival.value, rate, 0.03);
+    EXPECT_EQ(st.status.level, rate < 0.4 ? LinkStatus::Level::ERROR : LinkStatus::Level::OK) << st.status.message;
+    if (rate < 0.4)
+      EXPECT_GT(any.arrivalRate().lower, 0.45);  // the union rate looks healthy
+    ChannelSettings ca, cb;
+    ca.loss = 1.0 - st.sensors[0].arrival.value;
+    cb.loss = 1.0 - st.sensors[1].arrival.value;
+    const StabilityReport rep = analyzeStability(m, std::vector<std::optional<ChannelSettings>>{ca, cb});
+    EXPECT_EQ(st.point.kind, rep.model.verdict.kind) << rep.model.verdict.reason;
+  }
+  JointLinkMonitor few(m, 500, false, 100);
+  for (int k = 0; k < 50; ++k)
+    few.add({true, false});
+  EXPECT_EQ(few.evaluate().status.level, LinkStatus::Level::WARN);
+  EXPECT_THROW(few.add({true}), std::invalid_argument);
+}
+
+// Markov links, nothing assumed: A = diag(2, -2), c = [1 1] (one sensor) with an on/off chain of
+// failure rate p = 0.05 has a critical recovery rate of 0.860 (at p = 0.5 none would exist). The
+// monitor estimates p and r from the sequence: r = 0.95 is OK and r = 0.6 ERROR. 40000 samples: with
+// p = 0.05, about 40000 * 0.05 / (0.05 + r) losses, i.e. >= 2000 recovery trials: r's interval is
+// +-0.02 at most, far from 0.860 on both sides.
+TEST(JointLinkMonitor, MarkovLinksEstimatedNotAssumed)
+{
+  Model m;
+  m.name = "diag";
+  m.A = Eigen::Vector2d(2.0, -2.0).asDiagonal();
+  m.B = Eigen::MatrixXd::Identity(2, 2);
+  m.Q = Eigen::MatrixXd::Identity(2, 2);
+  m.C = Eigen::RowVector2d(1.0, 1.0);
+  m.R = Eigen::MatrixXd::Identity(1, 1);
+  m.sensors = {{"y", 0, 1}};
+  m.x0 = Eigen::VectorXd::Zero(2);
+  m.P0 = Eigen::MatrixXd::Identity(2, 2);
+  m.Bu = Eigen::MatrixXd(2, 0);
+  validateModel(m, "diag");
+  for (double r : {0.95, 0.6})
+  {
+    JointLinkMonitor mon(m, 40000, true, 200);
+    Rng rng(23);
+    bool arrived = true;
+    for (int k = 0; k < 40000; ++k)
+    {
+      arrived = arrived ? !rng.bernoulli(0.05) : rng.bernoulli(r);
+      mon.add({arrived});
+    }
+    const JointLinkStatus st = mon.evaluate();
+    EXPECT_NEAR(st.sensors[0].failure.value, 0.05, 0.01);
+    EXPECT_NEAR(st.sensors[0].recovery.value, r, 0.04);
+    EXPECT_EQ(st.status.level, r > 0.86 ? LinkStatus::Level::OK : LinkStatus::Level::ERROR) << st.status.message;
+  }
 }

@@ -43,6 +43,10 @@ public:
   /// Transitions (k-1, k) with both samples in the window and sample k-1 lost.
   std::size_t lossTransitions() const { return lost_prev_; }
   std::size_t recoveries() const { return recovered_; }
+  /// Transitions (k-1, k) with both samples in the window and sample k-1 arrived, and those of
+  /// them where sample k was lost.
+  std::size_t arrivalTransitions() const { return count_ > 0 ? count_ - 1 - lost_prev_ : 0; }
+  std::size_t failures() const { return failed_; }
   /// Samples seen since construction / clear().
   std::uint64_t total() const { return total_; }
 
@@ -50,11 +54,13 @@ public:
   RateEstimate arrivalRate() const;
   /// P(arrived at k | lost at k-1), Wilson interval over the transitions in the window.
   RateEstimate recoveryRate() const;
+  /// P(lost at k | arrived at k-1) (a Gilbert-Elliott on/off link's p), Wilson interval.
+  RateEstimate failureRate() const;
 
 private:
   std::vector<std::uint8_t> ring_;
   std::size_t head_ = 0;  ///< index of the oldest sample
-  std::size_t count_ = 0, arrivals_ = 0, lost_prev_ = 0, recovered_ = 0;
+  std::size_t count_ = 0, arrivals_ = 0, lost_prev_ = 0, recovered_ = 0, failed_ = 0;
   std::uint64_t total_ = 0;
 };
 

@@ -45,7 +45,7 @@ LinkMonitor::LinkMonitor(std::size_t window)
 
 void LinkMonitor::clear()
 {
-  head_ = count_ = arrivals_ = lost_prev_ = recovered_ = 0;
+  head_ = count_ = arrivals_ = lost_prev_ = recovered_ = failed_ = 0;
   total_ = 0;
 }
 
@@ -63,6 +63,10 @@ void LinkMonitor::add(bool arrived)
       --lost_prev_;
       recovered_ -= next ? 1 : 0;
     }
+    else
+    {
+      failed_ -= next ? 0 : 1;
+    }
     head_ = (head_ + 1) % w;
     --count_;
   }
@@ -73,6 +77,10 @@ void LinkMonitor::add(bool arrived)
     {
       ++lost_prev_;
       recovered_ += arrived ? 1 : 0;
+    }
+    else
+    {
+      failed_ += arrived ? 0 : 1;
     }
   }
   ring_[(head_ + count_) % w] = arrived ? 1 : 0;
@@ -89,6 +97,11 @@ RateEstimate LinkMonitor::arrivalRate() const
 RateEstimate LinkMonitor::recoveryRate() const
 {
   return wilsonInterval(recovered_, lost_prev_);
+}
+
+RateEstimate LinkMonitor::failureRate() const
+{
+  return wilsonInterval(failed_, arrivalTransitions());
 }
 
 LinkThresholds linkThresholds(const StabilityReport& report, std::size_t min_samples)

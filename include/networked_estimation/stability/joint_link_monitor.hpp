@@ -1,0 +1,66 @@
+// The live stability verdict of a multi-sensor estimator: one window per sensor (its own arrival
+// sequence, not "some sensor arrived"), each link estimated from its own sequence with 95 %
+// intervals (i.i.d.: the arrival rate; Markov: the failure rate p and the recovery rate r, nothing
+// assumed), and the joint verdict from the estimated links through the same core test as analyze
+// (stabilityVerdict). The interval ends give a pessimistic and an optimistic set of links:
+//   OK     the pessimistic links are stable (every link at the bad end of its interval),
+//   ERROR  even the optimistic links are unstable,
+//   WARN   otherwise (the intervals straddle the boundary, undecided, or too few samples).
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "networked_estimation/config/model.hpp"
+#include "networked_estimation/stability/link_monitor.hpp"
+#include "networked_estimation/stability/stability.hpp"
+
+namespace networked_estimation
+{
+
+/// One sensor's link as measured.
+struct SensorLinkEstimate
+{
+  std::string sensor;
+  RateEstimate arrival;   ///< P(arrived)
+  RateEstimate recovery;  ///< P(arrived | lost before) (Markov mode)
+  RateEstimate failure;   ///< P(lost | arrived before) (Markov mode)
+};
+
+struct JointLinkStatus
+{
+  LinkStatus status;  ///< OK / WARN / ERROR and its message
+  std::vector<SensorLinkEstimate> sensors;
+  Verdict pessimistic, optimistic, point;  ///< the verdicts at the interval ends and the estimates
+  std::vector<LinkModel> pessimistic_links, optimistic_links, point_links;
+};
+
+class JointLinkMonitor
+{
+public:
+  /// markov: estimate on/off Gilbert-Elliott links (p and r) instead of i.i.d. arrival rates.
+  /// window >= 2; min_samples: fewer trials than this (arrivals, or transitions in Markov mode) in
+  /// any sensor's window give WARN. The model must outlive the monitor.
+  JointLinkMonitor(const Model& model, std::size_t window, bool markov, std::size_t min_samples);
+
+  /// Records one step: arrived[s] for every sensor s of the model (size = sensors). Throws
+  /// std::invalid_argument on a wrong size.
+  void add(const std::vector<bool>& arrived);
+  void clear();
+  std::size_t sensors() const { return monitors_.size(); }
+  const LinkMonitor& sensor(std::size_t s) const { return monitors_[s]; }
+  bool markov() const { return markov_; }
+
+  /// The estimates and the joint verdict now (three calls of stabilityVerdict).
+  JointLinkStatus evaluate() const;
+
+private:
+  const Model& model_;
+  bool markov_;
+  std::size_t min_samples_;
+  std::vector<LinkMonitor> monitors_;
+  std::vector<int> all_;
+};
+
+}  // namespace networked_estimation

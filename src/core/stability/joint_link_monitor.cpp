@@ -1,0 +1,141 @@
+// The live per-sensor stability verdict (joint_link_monitor.hpp).
+#include "networked_estimation/stability/joint_link_monitor.hpp"
+
+#include <algorithm>
+#include <sstream>
+#include <stdexcept>
+
+namespace networked_estimation
+{
+namespace
+{
+
+/// On/off Gilbert-Elliott link with failure p and recovery r, kept inside (0, 1] so that the chain
+/// is defined (an interval end of exactly 0 for r would be a link that never recovers).
+LinkModel onOff(double p, double r)
+{
+  const double tiny = 1e-9;
+  return LinkModel::gilbertElliott(std::min(1.0, std::max(tiny, p)), std::min(1.0, std::max(tiny, r)));
+}
+
+std::string rates(const std::vector<SensorLinkEstimate>& sensors, bool markov)
+{
+  std::ostringstream os;
+  os.precision(3);
+  for (std::size_t i = 0; i < sensors.size(); ++i)
+  {
+    const SensorLinkEstimate& s = sensors[i];
+    os << (i ? ", " : "") << s.sensor << " ";
+    if (markov)
+      os << "p " << s.failure.value << " r " << s.recovery.value;
+    else
+      os << s.arrival.value << " [" << s.arrival.lower << ", " << s.arrival.upper << "]";
+  }
+  return os.str();
+}
+
+}  // namespace
+
+JointLinkMonitor::JointLinkMonitor(const Model& model, std::size_t window, bool markov, std::size_t min_samples)
+  : model_(model), markov_(markov), min_samples_(min_samples)
+{
+  for (std::size_t s = 0; s < model.sensors.size(); ++s)
+  {
+    monitors_.emplace_back(window);
+    all_.push_back(static_cast<int>(s));
+  }
+}
+
+void JointLinkMonitor::add(const std::vector<bool>& arrived)
+{
+  if (arrived.size() != monitors_.size())
+    throw std::invalid_argument("JointLinkMonitor: " + std::to_string(arrived.size()) + " arrival flags for " +
+                                std::to_string(monitors_.size()) + " sensors");
+  for (std::size_t s = 0; s < monitors_.size(); ++s)
+    monitors_[s].add(arrived[s]);
+}
+
+void JointLinkMonitor::clear()
+{
+  for (LinkMonitor& m : monitors_)
+    m.clear();
+}
+
+JointLinkStatus JointLinkMonitor::evaluate() const
+{
+  JointLinkStatus out;
+  std::size_t fewest = static_cast<std::size_t>(-1);
+  std::string fewest_sensor;
+  for (std::size_t s = 0; s < monitors_.size(); ++s)
+  {
+    const LinkMonitor& m = monitors_[s];
+    SensorLinkEstimate e;
+    e.sensor = model_.sensors[s].name;
+    e.arrival = m.arrivalRate();
+    e.recovery = m.recoveryRate();
+    e.failure = m.failureRate();
+    // Markov: a link that lost nothing in the window has no recovery trials; it counts by its
+    // failure trials, and its recovery rate is taken as 1 (isolated losses at most: no loss was seen).
+    const std::size_t trials =
+        markov_ ? (e.recovery.trials ? std::min(e.recovery.trials, e.failure.trials) : e.failure.trials)
+                : e.arrival.trials;
+    if (trials < fewest)
+    {
+      fewest = trials;
+      fewest_sensor = e.sensor;
+    }
+    if (markov_)
+    {
+      const double r_low = e.recovery.trials ? e.recovery.lower : 1.0;
+      const double r_high = e.recovery.trials ? e.recovery.upper : 1.0;
+      const double r_point = e.recovery.trials ? e.recovery.value : 1.0;
+      const double p_point = e.failure.trials ? e.failure.value : 0.5;
+      out.pessimistic_links.push_back(onOff(e.failure.upper, r_low));
+      out.optimistic_links.push_back(onOff(e.failure.lower, r_high));
+      out.point_links.push_back(onOff(p_point, r_point));
+    }
+    else
+    {
+      const double point = e.arrival.trials ? e.arrival.value : 0.0;
+      out.pessimistic_links.push_back(LinkModel::iid(e.arrival.lower));
+      out.optimistic_links.push_back(LinkModel::iid(e.arrival.upper));
+      out.point_links.push_back(LinkModel::iid(point));
+    }
+    out.sensors.push_back(e);
+  }
+  AnalysisOptions options;
+  options.per_sensor = false;
+  out.pessimistic = stabilityVerdict(model_, all_, out.pessimistic_links, options);
+  out.optimistic = stabilityVerdict(model_, all_, out.optimistic_links, options);
+  out.point = stabilityVerdict(model_, all_, out.point_links, options);
+
+  std::ostringstream os;
+  const std::string what = markov_ ? "links (p, r)" : "arrival rates";
+  if (fewest < min_samples_)
+  {
+    out.status.level = LinkStatus::Level::WARN;
+    os << "not enough samples to estimate sensor " << fewest_sensor << "'s link (" << fewest << " < " << min_samples_
+       << ")";
+  }
+  else if (out.pessimistic.kind == Verdict::Kind::STABLE)
+  {
+    out.status.level = LinkStatus::Level::OK;
+    os << "bounded even at the low ends of the intervals (" << rates(out.sensors, markov_) << ")";
+  }
+  else if (out.optimistic.kind == Verdict::Kind::UNSTABLE)
+  {
+    out.status.level = LinkStatus::Level::ERROR;
+    os << "expected error covariance unbounded at these " << what << " (" << rates(out.sensors, markov_)
+       << "), even at the high ends of the intervals: " << out.optimistic.reason;
+  }
+  else
+  {
+    out.status.level = LinkStatus::Level::WARN;
+    os << "boundedness not guaranteed at these " << what << " (" << rates(out.sensors, markov_)
+       << "): at the estimates " << toString(out.point.kind) << ", " << out.point.reason;
+  }
+  out.status.message = os.str();
+  return out;
+}
+
+}  // namespace networked_estimation
