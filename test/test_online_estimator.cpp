@@ -329,6 +329,9 @@ TEST(OnlineEstimator, MultiSensorPerSensorArrivals)
     }
     on.process();
     EXPECT_EQ(on.lastSensorsReceived(), int(arrived[k - 1][0]) + int(arrived[k - 1][1]));
+    ASSERT_EQ(on.lastArrived().size(), 2u);
+    EXPECT_EQ(on.lastArrived()[0], bool(arrived[k - 1][0]));
+    EXPECT_EQ(on.lastArrived()[1], bool(arrived[k - 1][1]));
   }
   EXPECT_EQ(on.estimator().state(), offline(model, settingsFor(ne::Algorithm::KFIO), s, arrived).back());
 }

@@ -31,6 +31,7 @@
 #include "networked_estimation/Measurement.h"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/online/estimator_node_config.hpp"
+#include "networked_estimation/stability/joint_link_monitor.hpp"
 #include "networked_estimation/stability/link_monitor.hpp"
 #include "networked_estimation/online/online_estimator.hpp"
 #include "networked_estimation/stability/stability.hpp"
@@ -119,20 +120,21 @@ private:
     queue_size_ = static_cast<uint32_t>(c.queue_size);
     online_ = std::make_unique<OnlineEstimator>(c.model, settings_, c.online);
     clock_ = StepClock(c.period, c.latency_budget);
-    // Live stability: the link's arrival rate (iid) or recovery rate (markov) over a window of
-    // steps, against the critical rates of the model (stability.hpp, as `analyze` prints them).
-    ChannelSettings assumed;  // only the kind matters for which thresholds are reported
-    if (c.markov_link)
+    // Live stability: every sensor's own arrival sequence over a window of steps, its link
+    // estimated from it (iid: the arrival rate; markov: failure and recovery rates, nothing
+    // assumed), and the joint verdict of the same core test as `analyze` (JointLinkMonitor).
+    // For a single i.i.d. sensor the critical rates are shown too (stability.hpp).
+    markov_link_ = c.markov_link;
+    if (!c.markov_link && c.model.sensors.size() == 1)
     {
-      assumed.model = LossModelKind::GILBERT_ELLIOTT;
-      assumed.p = 0.5;
-      assumed.r = 0.5;
+      AnalysisOptions only_model;
+      only_model.per_sensor = false;
+      const StabilityReport report = analyzeStability(c.model, nullptr, &settings_, only_model);
+      thresholds_ = linkThresholds(report, c.stability_min_samples);
+      show_thresholds_ = true;
     }
-    AnalysisOptions only_model;  // the thresholds of the whole sensor set; no per-sensor analyses
-    only_model.per_sensor = false;
-    const StabilityReport report = analyzeStability(c.model, &assumed, &settings_, only_model);
-    thresholds_ = linkThresholds(report, c.stability_min_samples);
-    link_monitor_ = std::make_unique<LinkMonitor>(c.stability_window);
+    joint_ = std::make_unique<JointLinkMonitor>(online_->model(), c.stability_window, c.markov_link,
+                                                c.stability_min_samples);
   }
 
 
@@ -280,7 +282,7 @@ private:
       for (int j = 0; j < n; ++j)
         e->covariance[static_cast<std::size_t>(i) * n + j] = P(i, j);  // row-major (REP-103)
     e->covariance_trace = P.trace();
-    link_monitor_->add(e->gamma);
+    joint_->add(online_->lastArrived());
     const double q = est.commandArrivalProbability();
     e->command_arrival_probability = std::isfinite(q) ? q : -1.0;
     last_trace_ = e->covariance_trace;
@@ -366,7 +368,7 @@ private:
         NODELET_WARN("Estimator %s: time jumped back by %.3f s: estimator reset, waiting for the stream to restart",
                      toString(settings_.algorithm).c_str(), last_now - now);
         online_->reset();
-        link_monitor_->clear();
+        joint_->clear();
         clock_.clear();
         last_now = -std::numeric_limits<double>::infinity();
         continue;
@@ -425,28 +427,59 @@ private:
 
   void diagnoseLink(diagnostic_updater::DiagnosticStatusWrapper& stat)
   {
-    std::lock_guard<std::mutex> lock(mutex_);
-    const bool markov = thresholds_.quantity == "recovery rate";
-    const RateEstimate r = markov ? link_monitor_->recoveryRate() : link_monitor_->arrivalRate();
-    const LinkStatus status = classifyLink(r, thresholds_);
+    // The windows are copied under the lock; the verdict (three core stability tests, a few
+    // milliseconds) is evaluated outside it, so the filter thread is never held up by it.
+    std::unique_ptr<JointLinkMonitor> snapshot;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      snapshot = std::make_unique<JointLinkMonitor>(*joint_);
+    }
+    const JointLinkStatus js = snapshot->evaluate();
+    const LinkStatus& status = js.status;
     const unsigned char level = status.level == LinkStatus::Level::OK     ? diagnostic_msgs::DiagnosticStatus::OK
                                 : status.level == LinkStatus::Level::WARN ? diagnostic_msgs::DiagnosticStatus::WARN
                                                                           : diagnostic_msgs::DiagnosticStatus::ERROR;
     stat.summary(level, status.message);
-    stat.add("quantity", thresholds_.quantity);
-    stat.add("estimate", r.value);
-    stat.add("95% lower", r.lower);
-    stat.add("95% upper", r.upper);
-    stat.add("samples", r.trials);
-    stat.add("critical (necessary)", thresholds_.necessary);
-    stat.add("critical (sufficient)", thresholds_.sufficient);
-    stat.add("margin", r.value - thresholds_.sufficient);
+    stat.add("link model", markov_link_ ? "markov (failure p and recovery r estimated per sensor)"
+                                        : "iid (arrival rate estimated per sensor)");
+    for (const SensorLinkEstimate& e : js.sensors)
+    {
+      if (markov_link_)
+      {
+        stat.addf(e.sensor + " failure rate p", "%g [%g, %g] (%zu transitions)", e.failure.value, e.failure.lower,
+                  e.failure.upper, e.failure.trials);
+        stat.addf(e.sensor + " recovery rate r", "%g [%g, %g] (%zu transitions)", e.recovery.value,
+                  e.recovery.lower, e.recovery.upper, e.recovery.trials);
+      }
+      else
+      {
+        stat.addf(e.sensor + " arrival rate", "%g [%g, %g] (%zu samples)", e.arrival.value, e.arrival.lower,
+                  e.arrival.upper, e.arrival.trials);
+      }
+    }
+    stat.add("verdict at the estimates", toString(js.point.kind) + ": " + js.point.reason);
+    stat.add("verdict at the low ends", toString(js.pessimistic.kind));
+    stat.add("verdict at the high ends", toString(js.optimistic.kind));
+    if (show_thresholds_ && !js.sensors.empty())
+    {
+      const RateEstimate& r = js.sensors[0].arrival;
+      stat.add("quantity", thresholds_.quantity);
+      stat.add("estimate", r.value);
+      stat.add("95% lower", r.lower);
+      stat.add("95% upper", r.upper);
+      stat.add("samples", r.trials);
+      stat.add("critical (necessary)", thresholds_.necessary);
+      stat.add("critical (sufficient)", thresholds_.sufficient);
+      stat.add("margin", r.value - thresholds_.sufficient);
+    }
   }
 
   EstimatorSettings settings_;
   std::unique_ptr<OnlineEstimator> online_;
-  LinkThresholds thresholds_;
-  std::unique_ptr<LinkMonitor> link_monitor_;
+  LinkThresholds thresholds_;  ///< single i.i.d. sensor: its critical rates (shown in the diagnostics)
+  bool show_thresholds_ = false;
+  bool markov_link_ = false;
+  std::unique_ptr<JointLinkMonitor> joint_;
   StepClock clock_{1.0, 0.0};
   std::string input_type_, frame_id_, child_frame_id_;
   std::vector<int> positions_;

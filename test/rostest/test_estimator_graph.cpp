@@ -455,6 +455,83 @@ TEST(EstimatorGraph, StabilityDiagnosticFlipsWithTheArrivalRate)
   ASSERT_TRUE(waitFor([&] { return levelIs(diagnostic_msgs::DiagnosticStatus::OK); }, 30.0)) << "last: " << message;
 }
 
+// Per-sensor live verdict: each sensor's own window and the joint test of analyze. The test
+// publishes straight to the estimator at 500 Hz, dropping each sensor's sample itself (fixed seed).
+// 4000-step windows: a Wilson half-width of 1.96 sqrt(0.21 / 4000) = 0.014, so 0.3 + 0.014 stays
+// below the critical 1/3 (ERROR even at the high ends), and at 0.6 each the low ends 0.585 give
+// 2.25 * 0.415^2 = 0.39 < 1 (OK).
+TEST(EstimatorGraph, StabilityVerdictPerSensor)
+{
+  ros::NodeHandle nh;
+  ros::Publisher pa = nh.advertise<Measurement>("kfio/measurement/a", 10000);
+  ros::Publisher pb = nh.advertise<Measurement>("kfio/measurement/b", 10000);
+  ASSERT_TRUE(waitFor([&] { return pa.getNumSubscribers() > 0 && pb.getNumSubscribers() > 0; }, 20.0));
+  std::mutex mutex;
+  int level = -1;
+  std::string message;
+  std::map<std::string, std::string> values;
+  ros::Subscriber sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
+      "/diagnostics", 100, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& a) {
+        for (const auto& st : a->status)
+          if (st.name.find("link stability") != std::string::npos)
+          {
+            std::lock_guard<std::mutex> lock(mutex);
+            level = st.level;
+            message = st.message;
+            for (const auto& kv : st.values)
+              values[kv.key] = kv.value;
+          }
+      });
+  std::atomic<double> rate{0.3};
+  std::atomic<bool> stop{false};
+  std::thread feeder([&] {
+    ne::Rng rng(31);
+    const ros::Time t0 = ros::Time::now();
+    ros::WallTime next = ros::WallTime::now();
+    for (long k = 1; !stop; ++k)
+    {
+      for (int s = 0; s < 2; ++s)
+      {
+        if (!rng.bernoulli(rate))
+          continue;
+        Measurement m;
+        m.header.stamp = t0 + ros::Duration(0.002 * k);
+        m.step = static_cast<std::uint64_t>(k);
+        m.sensor = s == 0 ? "a" : "b";
+        m.y = {0.0};
+        (s == 0 ? pa : pb).publish(m);
+      }
+      next += ros::WallDuration(0.002);
+      const ros::WallDuration wait = next - ros::WallTime::now();
+      if (wait > ros::WallDuration(0))
+        wait.sleep();
+    }
+  });
+  struct Join
+  {
+    std::atomic<bool>& stop;
+    std::thread& t;
+    ~Join()
+    {
+      stop = true;
+      t.join();
+    }
+  } join{stop, feeder};
+  auto levelIs = [&](int want) {
+    std::lock_guard<std::mutex> lock(mutex);
+    return level == want;
+  };
+  ASSERT_TRUE(waitFor([&] { return levelIs(diagnostic_msgs::DiagnosticStatus::ERROR); }, 60.0)) << "last: " << message;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    EXPECT_NE(message.find("unbounded"), std::string::npos) << message;
+    EXPECT_EQ(values.count("a arrival rate"), 1u);
+    EXPECT_EQ(values.count("b arrival rate"), 1u);
+  }
+  rate = 0.6;
+  ASSERT_TRUE(waitFor([&] { return levelIs(diagnostic_msgs::DiagnosticStatus::OK); }, 60.0)) << "last: " << message;
+}
+
 // Foreign input types: PointStamped (two 2-row position sensors) and Range (one scalar sensor)
 // carry no step number; the estimator matches them to the nearest step by stamp. The estimates equal
 // the offline filter on the same values. Bad parameters make an estimator's load fail, with a FATAL

@@ -111,6 +111,8 @@ public:
   bool lastGamma() const { return last_gamma_; }
   /// Number of sensors whose y_k was in hand at the last processed step.
   int lastSensorsReceived() const { return last_sensors_; }
+  /// Per sensor (model order), whether its y_k was in hand at the last processed step.
+  const std::vector<bool>& lastArrived() const { return last_arrived_; }
   const OnlineCounters& counters() const { return counters_; }
   /// The last error a filter step raised (empty: none).
   const std::string& lastError() const { return last_error_; }
@@ -153,6 +155,7 @@ private:
   bool started_ = false;
   bool last_gamma_ = false;
   int last_sensors_ = 0;
+  std::vector<bool> last_arrived_;
   Sample sample_;
   OnlineCounters counters_;
   std::string last_error_;

@@ -298,9 +298,13 @@ void OnlineEstimator::process()
   Slot& s = slot(k);
   fillSample(k, sample_);
   last_sensors_ = 0;
+  last_arrived_.assign(model_.sensors.size(), false);
   if (s.k == k)
-    for (char h : s.have)
-      last_sensors_ += h ? 1 : 0;
+    for (std::size_t i = 0; i < s.have.size(); ++i)
+    {
+      last_arrived_[i] = s.have[i] != 0;
+      last_sensors_ += s.have[i] ? 1 : 0;
+    }
   if (!(s.k == k && s.have_u))
   {
     if (model_.hasControl())
