@@ -6,10 +6,12 @@
 #include <ros/ros.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <map>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace
@@ -57,6 +59,39 @@ bool waitFor(P pred, double timeout)
   }
   return pred();
 }
+
+/// Calls f(k) for k = 1, 2, ... every `period` seconds of wall time on a thread of its own, until
+/// destroyed (the destructor stops and joins it).
+class PeriodicFeeder
+{
+public:
+  template <class F>
+  PeriodicFeeder(double period, F f)
+    : thread_([this, period, f]() mutable {
+        ros::WallTime next = ros::WallTime::now();
+        for (long k = 1; !stop_; ++k)
+        {
+          f(k);
+          next += ros::WallDuration(period);
+          const ros::WallDuration wait = next - ros::WallTime::now();
+          if (wait > ros::WallDuration(0))
+            wait.sleep();
+        }
+      })
+  {
+  }
+  ~PeriodicFeeder()
+  {
+    stop_ = true;
+    thread_.join();
+  }
+  PeriodicFeeder(const PeriodicFeeder&) = delete;
+  PeriodicFeeder& operator=(const PeriodicFeeder&) = delete;
+
+private:
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
 
 /// The nodelets a manager has loaded (its `list` service), or nothing when it does not answer.
 inline std::vector<std::string> loadedNodelets(const std::string& manager)

@@ -393,33 +393,14 @@ TEST(EstimatorGraph, StabilityDiagnosticFlipsWithTheArrivalRate)
   // k = 300, before the window has refilled under load. Their values are y = 0.
   ros::Publisher source = nh.advertise<Measurement>("plant/measurement", 1000);
   ASSERT_TRUE(waitFor([&] { return source.getNumSubscribers() > 0; }, 20.0));
-  std::atomic<bool> stop{false};
-  std::thread feeder([&] {
-    ros::WallTime next = ros::WallTime::now();
-    for (long k = 1; !stop; ++k)
-    {
-      Measurement m;
-      m.header.stamp = ros::Time::now();
-      m.step = static_cast<std::uint64_t>(k);
-      m.sensor = "y";
-      m.y = {0.0};
-      source.publish(m);
-      next += ros::WallDuration(0.01);
-      const ros::WallDuration wait = next - ros::WallTime::now();
-      if (wait > ros::WallDuration(0))
-        wait.sleep();
-    }
+  PeriodicFeeder feeder(0.01, [&](long k) {
+    Measurement m;
+    m.header.stamp = ros::Time::now();
+    m.step = static_cast<std::uint64_t>(k);
+    m.sensor = "y";
+    m.y = {0.0};
+    source.publish(m);
   });
-  struct Join
-  {
-    std::atomic<bool>& stop;
-    std::thread& t;
-    ~Join()
-    {
-      stop = true;
-      t.join();
-    }
-  } join{stop, feeder};
   std::mutex mutex;
   int level = -1;
   std::string message;
@@ -483,40 +464,21 @@ TEST(EstimatorGraph, StabilityVerdictPerSensor)
           }
       });
   std::atomic<double> rate{0.3};
-  std::atomic<bool> stop{false};
-  std::thread feeder([&] {
-    ne::Rng rng(31);
-    const ros::Time t0 = ros::Time::now();
-    ros::WallTime next = ros::WallTime::now();
-    for (long k = 1; !stop; ++k)
+  ne::Rng rng(31);
+  const ros::Time t0 = ros::Time::now();
+  PeriodicFeeder feeder(0.002, [&](long k) {
+    for (int s = 0; s < 2; ++s)
     {
-      for (int s = 0; s < 2; ++s)
-      {
-        if (!rng.bernoulli(rate))
-          continue;
-        Measurement m;
-        m.header.stamp = t0 + ros::Duration(0.002 * k);
-        m.step = static_cast<std::uint64_t>(k);
-        m.sensor = s == 0 ? "a" : "b";
-        m.y = {0.0};
-        (s == 0 ? pa : pb).publish(m);
-      }
-      next += ros::WallDuration(0.002);
-      const ros::WallDuration wait = next - ros::WallTime::now();
-      if (wait > ros::WallDuration(0))
-        wait.sleep();
+      if (!rng.bernoulli(rate))
+        continue;
+      Measurement m;
+      m.header.stamp = t0 + ros::Duration(0.002 * k);
+      m.step = static_cast<std::uint64_t>(k);
+      m.sensor = s == 0 ? "a" : "b";
+      m.y = {0.0};
+      (s == 0 ? pa : pb).publish(m);
     }
   });
-  struct Join
-  {
-    std::atomic<bool>& stop;
-    std::thread& t;
-    ~Join()
-    {
-      stop = true;
-      t.join();
-    }
-  } join{stop, feeder};
   auto levelIs = [&](int want) {
     std::lock_guard<std::mutex> lock(mutex);
     return level == want;

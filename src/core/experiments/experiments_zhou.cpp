@@ -38,6 +38,45 @@ struct ErrorFilter
   bool force_gamma = false;
 };
 
+/// Advances a simulated run (PlantSimulator or LossyRun), naming run r in a rounding-floor error.
+template <class Run>
+const SimulatedSample& stepRun(Run& run, long r)
+{
+  try
+  {
+    return run.step();  // refuses a state beyond the rounding floor (simulator.hpp)
+  }
+  catch (const DivergenceError& err)
+  {
+    throw DivergenceError("run " + std::to_string(r) + ": " + err.what());
+  }
+}
+
+/// Steps every filter on the sample (gamma forced for those that take every sample, ack_kf told
+/// nu_k) and records filter j's squared error at out[j T + k - 1].
+void stepFilters(const std::vector<std::unique_ptr<Estimator>>& est, const std::vector<ErrorFilter>& filters,
+                 Sample& sample, const SimulatedSample& s, long r, long k, long T, double* out)
+{
+  const bool gamma = sample.gamma;
+  for (std::size_t j = 0; j < est.size(); ++j)
+  {
+    Estimator& e = *est[j];
+    sample.gamma = filters[j].force_gamma || gamma;
+    sample.nu = e.algorithm() == Algorithm::ACK_KF ? (s.nu ? 1 : 0) : -1;
+    try
+    {
+      e.step(sample);
+    }
+    catch (const DivergenceError& err)
+    {
+      throw DivergenceError(toString(e.algorithm()) + " diverged in run " + std::to_string(r) + " at k = " +
+                            std::to_string(k) + ": " + err.what());
+    }
+    out[j * static_cast<std::size_t>(T) + static_cast<std::size_t>(k - 1)] = (s.x - e.state()).squaredNorm();
+  }
+  sample.gamma = gamma;
+}
+
 /// Squared error ||x_k - xhat_k||^2, k = 1..T, of several estimators fed the same simulated data
 /// (plant of `model`, sensor link `channel`; y_k = v_k when a sample is lost). Values per run:
 /// filter-major, T per filter. Run r: plant seed deriveSeed(rs, 0), channel seed deriveSeed(rs, 1)
@@ -48,7 +87,7 @@ Moments squaredErrorRuns(const RunConfig& rc, const Model& model, const ChannelS
   const long T = rc.steps;
   const std::uint64_t seed = rc.seed;
   const std::size_t nf = filters.size();
-  WorkerFactory factory = [&model, &channel, &filters, T, seed, nf]() -> RunFunction {
+  WorkerFactory factory = [&model, &channel, &filters, T, seed]() -> RunFunction {
     struct State
     {
       std::vector<std::unique_ptr<Estimator>> est;
@@ -62,7 +101,7 @@ Moments squaredErrorRuns(const RunConfig& rc, const Model& model, const ChannelS
     st->sample.y.resize(model.m());
     if (model.hasControl())
       st->sample.u.resize(model.p());
-    return [st, &model, &filters, T, seed, nf](long r, double* out) {
+    return [st, &model, &filters, T, seed](long r, double* out) {
       const std::uint64_t rs = deriveSeed(seed, static_cast<std::uint64_t>(r));
       PlantSimulator sim(model, deriveSeed(rs, 0));
       st->loss->reseed(deriveSeed(rs, 1));
@@ -71,36 +110,13 @@ Moments squaredErrorRuns(const RunConfig& rc, const Model& model, const ChannelS
       Sample& sample = st->sample;
       for (long k = 1; k <= T; ++k)
       {
-        const SimulatedSample* sp = nullptr;
-        try
-        {
-          sp = &sim.step();  // refuses a state beyond the rounding floor (simulator.hpp)
-        }
-        catch (const DivergenceError& err)
-        {
-          throw DivergenceError("run " + std::to_string(r) + ": " + err.what());
-        }
-        const SimulatedSample& s = *sp;
+        const SimulatedSample& s = stepRun(sim, r);
         const bool gamma = !st->loss->nextLost();
         sample.y = gamma ? s.y : s.v;
         if (model.hasControl())
           sample.u = s.u;
-        for (std::size_t j = 0; j < nf; ++j)
-        {
-          Estimator& e = *st->est[j];
-          sample.gamma = filters[j].force_gamma || gamma;
-          sample.nu = e.algorithm() == Algorithm::ACK_KF ? (s.nu ? 1 : 0) : -1;
-          try
-          {
-            e.step(sample);
-          }
-          catch (const DivergenceError& err)
-          {
-            throw DivergenceError(toString(e.algorithm()) + " diverged in run " + std::to_string(r) + " at k = " +
-                                  std::to_string(k) + ": " + err.what());
-          }
-          out[j * static_cast<std::size_t>(T) + static_cast<std::size_t>(k - 1)] = (s.x - e.state()).squaredNorm();
-        }
+        sample.gamma = gamma;
+        stepFilters(st->est, filters, sample, s, r, k, T, out);
       }
     };
   };
@@ -264,58 +280,37 @@ ExperimentResult customExperiment(const RunConfig& rc)
       throw ConfigError("--actuator-channel: model '" + model.name + "' has no control input");
     options.actuator_link = loadChannelSettings(cfg.actuator_channel_path);
   }
-  std::vector<EstimatorSettings> settings;
+  std::vector<ErrorFilter> filters;
   std::vector<std::string> names;
   for (const std::string& p : cfg.settings_paths)
   {
-    settings.push_back(loadEstimatorSettings(p));
-    makeEstimator(model, settings.back());  // validates the combination before any run
+    ErrorFilter f;
+    f.settings = loadEstimatorSettings(p);
+    makeEstimator(model, f.settings);  // validates the combination before any run
+    filters.push_back(f);
     names.push_back(stem(p));
   }
   if (rc.progress)
     rc.progress->setTotal(rc.runs);
   const long T = rc.steps;
-  const std::size_t nf = settings.size();
+  const std::size_t nf = filters.size();
   const std::uint64_t seed = rc.seed;
   // Run r is exactly `simulate --seed seed + r` with the same links, replayed by every estimator
   // (replay's Sample: the received y and gamma, the commanded u; ack_kf is told nu_k).
-  WorkerFactory factory = [&model, &settings, &options, T, seed, nf]() -> RunFunction {
+  WorkerFactory factory = [&model, &filters, &options, T, seed]() -> RunFunction {
     auto est = std::make_shared<std::vector<std::unique_ptr<Estimator>>>();
-    for (const EstimatorSettings& s : settings)
-      est->push_back(makeEstimator(model, s));
-    return [est, &model, &options, T, seed, nf](long r, double* out) {
+    for (const ErrorFilter& f : filters)
+      est->push_back(makeEstimator(model, f.settings));
+    return [est, &model, &filters, &options, T, seed](long r, double* out) {
       LossyRun run(model, seed + static_cast<std::uint64_t>(r), options);
       for (auto& e : *est)
         e->reset();
       Sample sample;
       for (long k = 1; k <= T; ++k)
       {
-        const SimulatedSample* sp = nullptr;
-        try
-        {
-          sp = &run.step();  // refuses a state beyond the rounding floor (simulator.hpp)
-        }
-        catch (const DivergenceError& err)
-        {
-          throw DivergenceError("run " + std::to_string(r) + ": " + err.what());
-        }
-        const SimulatedSample& s = *sp;
+        const SimulatedSample& s = stepRun(run, r);
         sample = run.received();
-        for (std::size_t j = 0; j < nf; ++j)
-        {
-          Estimator& e = *(*est)[j];
-          sample.nu = e.algorithm() == Algorithm::ACK_KF ? (s.nu ? 1 : 0) : -1;
-          try
-          {
-            e.step(sample);
-          }
-          catch (const DivergenceError& err)
-          {
-            throw DivergenceError(toString(e.algorithm()) + " diverged in run " + std::to_string(r) + " at k = " +
-                                  std::to_string(k) + ": " + err.what());
-          }
-          out[j * static_cast<std::size_t>(T) + static_cast<std::size_t>(k - 1)] = (s.x - e.state()).squaredNorm();
-        }
+        stepFilters(*est, filters, sample, s, r, k, T, out);
       }
     };
   };

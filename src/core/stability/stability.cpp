@@ -607,10 +607,8 @@ std::string capacityNote(const StabilityReport& rep, bool any_markov)
   return out;
 }
 
-}  // namespace
-
-Verdict stabilityVerdict(const Model& model, const std::vector<int>& set, const std::vector<LinkModel>& links,
-                         const AnalysisOptions& options)
+/// The model's quantities every verdict uses (links are filled in by the caller).
+Context modelContext(const Model& model, const AnalysisOptions& options)
 {
   Context ctx;
   ctx.model = &model;
@@ -621,6 +619,15 @@ Verdict stabilityVerdict(const Model& model, const std::vector<int>& set, const 
   ctx.rho = spectralRadius(model.A);
   const Eigen::MatrixXd G = model.B * Eigen::LLT<Eigen::MatrixXd>(model.Q).matrixL().toDenseMatrix();
   ctx.excited = modesControllable(model.A, G, 1.0, 1e-9);
+  return ctx;
+}
+
+}  // namespace
+
+Verdict stabilityVerdict(const Model& model, const std::vector<int>& set, const std::vector<LinkModel>& links,
+                         const AnalysisOptions& options)
+{
+  const Context ctx = modelContext(model, options);
   return setVerdict(ctx, makeSet(ctx, set), links);
 }
 
@@ -650,15 +657,7 @@ StabilityReport analyzeStability(const Model& model, const std::vector<std::opti
   rep.diagonalizable = isDiagonalizable(model.A, options.tol);
   rep.strong_observability = strongObservability(model.A, model.C, options.tol);
 
-  Context ctx;
-  ctx.model = &model;
-  ctx.options = &options;
-  ctx.Qn = model.B * model.Q * model.B.transpose();
-  ctx.Qn = 0.5 * (ctx.Qn + ctx.Qn.transpose());
-  ctx.H = whitenedSensors(model);
-  ctx.rho = rep.spectral_radius;
-  const Eigen::MatrixXd G = model.B * Eigen::LLT<Eigen::MatrixXd>(model.Q).matrixL().toDenseMatrix();
-  ctx.excited = modesControllable(model.A, G, 1.0, 1e-9);
+  Context ctx = modelContext(model, options);
   rep.noise_excites_unstable_modes = ctx.excited;
   rep.detectable = modesObservable(model.A, model.C, 1.0, 1e-9);
   const std::size_t S = model.sensors.size();
