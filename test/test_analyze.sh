@@ -139,5 +139,48 @@ check "missing model" 2 "$BIN" --model "$TMP/none.yaml"
 check "unknown flag" 2 "$BIN" --model "$SRC/config/models/aoe_example.yaml" --bogus
 check "help" 0 "$BIN" --help
 
+# Gan and Liu from a recorded arrival pattern (--trace): a rotation seen by c = [1 0] (R = 1) with
+# the periodic pattern arrive, arrive, lost, lost, ... recorded as `rostopic echo -p` of ~events.
+# With h = 4 every block sees both coordinates: excitation (1/2)/5 = 0.1 per block, lambda = 0.9,
+# A3 holds for p = 1 and fails for p = 2 (norm 1). A replay input CSV gives every sensor's pattern.
+cat >"$TMP/rot90.yaml" <<'YAML'
+name: rot90
+A: [[0, -1], [1, 0]]
+Q: [[1, 0], [0, 1]]
+C: [[1, 0]]
+R: [[1]]
+YAML
+{
+  echo "%time,field.header.seq,field.header.stamp,field.header.frame_id,field.seq,field.input_stamp,field.outcome,field.duplicated,field.state,field.delay,field.sampled_delay"
+  for i in $(seq 0 399); do echo "$i,$i,$i,,$i,0,$(( i % 4 < 2 ? 0 : 1 )),False,0,0.0,0.0"; done
+} >"$TMP/events.csv"
+check "--trace NAME=events.csv" 0 "$BIN" --model "$TMP/rot90.yaml" --trace y="$TMP/events.csv" --block 4 --json
+python3 - "$TMP/out" <<'PY' || fail=1
+import json, sys
+g = json.load(open(sys.argv[1]))["gan_liu"]
+ok = len(g) == 1 and g[0]["sensor"] == "y" and g[0]["samples"] == 400 and g[0]["h"] == 4
+ok = ok and abs(g[0]["lambda"] - 0.9) < 1e-12 and abs(g[0]["lambda_block_min"] - 0.1) < 1e-12
+ok = ok and g[0]["a3"][0]["holds"] and not g[0]["a3"][1]["holds"] and g[0]["verdict"]["kind"] == "stable"
+ok = ok and "conservative" in g[0]["caveat"]
+if not ok:
+    print("FAIL: Gan-Liu trace values", g)
+    sys.exit(1)
+PY
+check "--trace text output" 0 "$BIN" --model "$TMP/rot90.yaml" --trace y="$TMP/events.csv" --block 4
+grep -q "lambda = 0.9" "$TMP/out" || { echo "FAIL: the text output lacks lambda"; cat "$TMP/out"; fail=1; }
+grep -q "very conservative" "$TMP/out" || { echo "FAIL: the text output lacks the caveat"; fail=1; }
+printf 'k,gamma,y1\n1,1,0.5\n2,0,\n3,1,0.1\n4,1,0.2\n' >"$TMP/replay.csv"
+check "--trace replay input" 0 "$BIN" --model "$TMP/rot90.yaml" --trace "$TMP/replay.csv" --json
+python3 -c 'import json,sys; g=json.load(open(sys.argv[1]))["gan_liu"]; sys.exit(0 if g[0]["samples"] == 4 else 1)' "$TMP/out" \
+  || { echo "FAIL: replay input trace"; fail=1; }
+check "--trace with a NAME that is not a sensor" 2 "$BIN" --model "$TMP/rot90.yaml" --trace lidar="$TMP/events.csv"
+grep -q "'lidar' is not a sensor of model 'rot90'" "$TMP/err" || { echo "FAIL: the message does not name lidar"; cat "$TMP/err"; fail=1; }
+check "--trace events without field.outcome" 2 "$BIN" --model "$TMP/rot90.yaml" --trace y="$TMP/replay.csv"
+grep -q "no column field.outcome" "$TMP/err" || { echo "FAIL: the message does not name the column"; cat "$TMP/err"; fail=1; }
+check "--trace replay input with the wrong columns" 2 "$BIN" --model "$SRC/config/models/tracking_2d.yaml" --trace "$TMP/replay.csv"
+grep -q "replay.csv" "$TMP/err" || { echo "FAIL: the message does not name the file"; cat "$TMP/err"; fail=1; }
+check "--trace on a two-row sensor" 0 "$BIN" --model "$SRC/config/models/tracking_2d.yaml" --trace gnss="$TMP/events.csv"
+grep -q "not applicable: Gan and Liu treat a scalar output" "$TMP/out" || { echo "FAIL: two-row sensor"; cat "$TMP/out"; fail=1; }
+
 if [ $fail = 0 ]; then echo "test_analyze: all passed"; fi
 exit $fail

@@ -9,6 +9,8 @@
 #include "networked_estimation/config/channel_settings.hpp"
 #include "networked_estimation/config/estimator_settings.hpp"
 #include "networked_estimation/config/sensor_links.hpp"
+#include "networked_estimation/io/arrival_trace.hpp"
+#include "networked_estimation/stability/excitation.hpp"
 #include "networked_estimation/stability/stability.hpp"
 
 using namespace networked_estimation;
@@ -90,7 +92,65 @@ std::string jset(const RateAnalysis& r)
   return os.str();
 }
 
-std::string json(const StabilityReport& rep, const SensorLinks& sl)
+/// Gan and Liu's evidence for one sensor's recorded arrivals (a scalar output only).
+struct TraceEvidence
+{
+  std::string sensor;
+  std::size_t samples = 0;
+  bool applicable = false;
+  std::string reason;  ///< why not applicable
+  ExcitationReport report;
+};
+
+std::vector<TraceEvidence> traceEvidence(const Model& model, const std::vector<std::string>& specs, int h)
+{
+  std::vector<TraceEvidence> out;
+  for (const std::string& spec : specs)
+  {
+    const ArrivalTrace trace = readArrivalTrace(spec, model);
+    for (std::size_t s = 0; s < model.sensors.size(); ++s)
+    {
+      if (trace.arrivals[s].empty())
+        continue;
+      const Sensor& sensor = model.sensors[s];
+      TraceEvidence e;
+      e.sensor = sensor.name;
+      e.samples = trace.arrivals[s].size();
+      if (sensor.size != 1)
+        e.reason = "not applicable: Gan and Liu treat a scalar output (sensor " + sensor.name + " has " +
+                   std::to_string(sensor.size) + " rows)";
+      else if (e.samples < static_cast<std::size_t>(h))
+        e.reason = "not applicable: the trace of " + sensor.name + " has " + std::to_string(e.samples) +
+                   " samples, fewer than one block of h = " + std::to_string(h);
+      else
+      {
+        e.applicable = true;
+        e.report = ganLiuTrace(model.A, model.C.middleRows(sensor.offset, 1), model.R(sensor.offset, sensor.offset),
+                               trace.arrivals[s], h);
+      }
+      out.push_back(e);
+    }
+  }
+  return out;
+}
+
+std::string jtrace(const TraceEvidence& e)
+{
+  std::ostringstream os;
+  os << "{\"sensor\": " << jsonString(e.sensor) << ", \"samples\": " << e.samples;
+  if (!e.applicable)
+    return os.str() + ", \"verdict\": {\"kind\": \"not_applicable\", \"reason\": " + jsonString(e.reason) + "}}";
+  const ExcitationReport& r = e.report;
+  os << ", \"h\": " << r.h << ", \"lambda_block_min\": " << jnum(r.lambda_block) << ", \"lambda\": " << jnum(r.lambda)
+     << ", \"norm_A\": " << jnum(r.norm_A) << ", \"a3\": [";
+  for (std::size_t i = 0; i < r.a3.size(); ++i)
+    os << (i ? ", " : "") << "{\"p\": " << r.a3[i].p << ", \"printed\": " << jnum(r.a3[i].printed)
+       << ", \"proof\": " << jnum(r.a3[i].proof) << ", \"holds\": " << (r.a3[i].holds() ? "true" : "false") << "}";
+  os << "], \"verdict\": " << jverdict(r.verdict) << ", \"caveat\": " << jsonString(ExcitationReport::caveat()) << "}";
+  return os.str();
+}
+
+std::string json(const StabilityReport& rep, const SensorLinks& sl, const std::vector<TraceEvidence>& traces)
 {
   std::ostringstream os;
   os << "{\n  \"model\": " << jsonString(rep.model_name) << ",\n  \"eigenvalues\": [";
@@ -120,7 +180,10 @@ std::string json(const StabilityReport& rep, const SensorLinks& sl)
      << ",\n  \"rseio\": " << jverdict(rep.rseio) << ",\n  \"all_sensors\": " << jset(rep.model) << ",\n  \"sensors\": [";
   for (std::size_t i = 0; i < rep.sensors.size(); ++i)
     os << (i ? ",\n    " : "\n    ") << jset(rep.sensors[i]);
-  os << "\n  ]\n}\n";
+  os << "\n  ],\n  \"gan_liu\": [";
+  for (std::size_t i = 0; i < traces.size(); ++i)
+    os << (i ? ",\n    " : "\n    ") << jtrace(traces[i]);
+  os << (traces.empty() ? "]" : "\n  ]") << "\n}\n";
   return os.str();
 }
 
@@ -208,6 +271,12 @@ int main(int argc, char** argv)
                           {"channel", "[NAME=]FILE",
                            "sensor-to-estimator channel settings (YAML): every sensor, or sensor NAME", false, true},
                           {"estimator", "FILE", "estimator settings (YAML; default kfio)", false, false},
+                          {"trace", "[NAME=]FILE",
+                           "a recorded arrival pattern: a replay input CSV (every sensor), or NAME=FILE, a `rostopic "
+                           "echo -p` of a LossyChannel's ~events for sensor NAME (repeatable): Gan and Liu's "
+                           "excitation evidence, for any loss pattern",
+                           false, true},
+                          {"block", "H", "block length h of the excitation evidence (default n)", false, false},
                           {"json", "", "print JSON", false, false},
                       });
   return cli::runTool(cl, argc, argv, [&]() -> int {
@@ -217,10 +286,12 @@ int main(int argc, char** argv)
     const bool has_est = cl.has("estimator");
     if (has_est)
       est = loadEstimatorSettings(cl.get("estimator"));
+    const int h = static_cast<int>(cl.getLong("block", model.n(), 1, 10000));
+    const std::vector<TraceEvidence> traces = traceEvidence(model, cl.getAll("trace"), h);
     const StabilityReport rep = analyzeStability(model, links.link, has_est ? &est : nullptr);
     if (cl.has("json"))
     {
-      std::cout << json(rep, links);
+      std::cout << json(rep, links, traces);
       return 0;
     }
     std::cout << "model " << rep.model_name << ": n = " << model.n() << ", " << model.sensors.size() << " sensor(s)\n";
@@ -260,6 +331,25 @@ int main(int argc, char** argv)
     if (model.sensors.size() > 1)
       for (const RateAnalysis& r : rep.sensors)
         printSet(std::cout, r);
+    if (!traces.empty())
+    {
+      std::cout << "Gan and Liu, from the recorded arrivals (any loss pattern; " << ExcitationReport::caveat() << "):\n";
+      for (const TraceEvidence& e : traces)
+      {
+        std::cout << "  " << e.sensor << " (" << e.samples << " samples): ";
+        if (!e.applicable)
+        {
+          std::cout << e.reason << "\n";
+          continue;
+        }
+        const ExcitationReport& r = e.report;
+        std::cout << "h = " << r.h << ", smallest block excitation " << txt(r.lambda_block) << ", lambda = "
+                  << txt(r.lambda) << ", ||A|| = " << txt(r.norm_A) << "\n    A3 (printed / proof form):";
+        for (const ExcitationA3& a : r.a3)
+          std::cout << " p = " << a.p << ": " << txt(a.printed) << " / " << txt(a.proof) << (a.holds() ? " holds;" : " fails;");
+        std::cout << "\n    verdict: " << describe(r.verdict) << "\n";
+      }
+    }
     return 0;
   });
 }
