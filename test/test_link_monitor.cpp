@@ -1,6 +1,7 @@
 // LinkMonitor (link_monitor.hpp): windowed counts, Wilson intervals and the classification.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "networked_estimation/stability/joint_link_monitor.hpp"
@@ -45,6 +46,8 @@ TEST(LinkMonitor, CountsMatchBruteForceOverTheWindow)
     ASSERT_EQ(mon.recoveries(), rec) << k;
     ASSERT_EQ(mon.arrivalTransitions(), from_arrived) << k;
     ASSERT_EQ(mon.failures(), failed) << k;
+    const std::vector<bool> win = mon.window();
+    ASSERT_TRUE(std::equal(win.begin(), win.end(), all.end() - static_cast<long>(n))) << k;
   }
   EXPECT_EQ(mon.total(), 500u);
   mon.clear();

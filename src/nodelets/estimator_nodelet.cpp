@@ -31,6 +31,7 @@
 #include "networked_estimation/Measurement.h"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/online/estimator_node_config.hpp"
+#include "networked_estimation/stability/excitation.hpp"
 #include "networked_estimation/stability/joint_link_monitor.hpp"
 #include "networked_estimation/stability/link_monitor.hpp"
 #include "networked_estimation/online/online_estimator.hpp"
@@ -135,6 +136,28 @@ private:
     }
     joint_ = std::make_unique<JointLinkMonitor>(online_->model(), c.stability_window, c.markov_link,
                                                 c.stability_min_samples);
+    // Gan and Liu's Theorem 1 as a runtime invariant: it is about the Kalman filter of one scalar
+    // output along the sequence it actually ran (so kfio with late data dropped; a rewind rewrites
+    // the past).
+    const Model& m = online_->model();
+    Qn_ = m.B * m.Q * m.B.transpose();
+    if (settings_.algorithm == Algorithm::KFIO && m.sensors.size() == 1 && m.sensors[0].size == 1 &&
+        c.online.late_policy == LatePolicy::DROP)
+    {
+      try
+      {
+        theorem1_ = std::make_unique<Theorem1Monitor>(m.A, Qn_, m.C, m.R(0, 0), m.n());
+        theorem1_->start(m.A * m.P0 * m.A.transpose() + Qn_);
+      }
+      catch (const std::invalid_argument& e)
+      {
+        theorem1_note_ = std::string("not applicable: ") + e.what();
+      }
+    }
+    else
+    {
+      theorem1_note_ = "not applicable: checked for kfio on one scalar sensor with late_policy drop";
+    }
   }
 
 
@@ -283,6 +306,19 @@ private:
         e->covariance[static_cast<std::size_t>(i) * n + j] = P(i, j);  // row-major (REP-103)
     e->covariance_trace = P.trace();
     joint_->add(online_->lastArrived());
+    if (theorem1_)
+    {
+      const Model& m = online_->model();
+      if (online_->counters().divergence_resets != theorem1_resets_)
+      {
+        theorem1_resets_ = online_->counters().divergence_resets;  // the filter restarted from its prior
+        theorem1_->start(m.A * m.P0 * m.A.transpose() + Qn_);
+      }
+      else
+      {
+        theorem1_->add(online_->lastGamma(), m.A * P * m.A.transpose() + Qn_);
+      }
+    }
     const double q = est.commandArrivalProbability();
     e->command_arrival_probability = std::isfinite(q) ? q : -1.0;
     last_trace_ = e->covariance_trace;
@@ -369,6 +405,8 @@ private:
                      toString(settings_.algorithm).c_str(), last_now - now);
         online_->reset();
         joint_->clear();
+        if (theorem1_)
+          theorem1_->start(online_->model().A * online_->model().P0 * online_->model().A.transpose() + Qn_);
         clock_.clear();
         last_now = -std::numeric_limits<double>::infinity();
         continue;
@@ -430,16 +468,29 @@ private:
     // The windows are copied under the lock; the verdict (three core stability tests, a few
     // milliseconds) is evaluated outside it, so the filter thread is never held up by it.
     std::unique_ptr<JointLinkMonitor> snapshot;
+    Theorem1Check t1;
+    long t1_violations = 0;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       snapshot = std::make_unique<JointLinkMonitor>(*joint_);
+      if (theorem1_)
+      {
+        t1 = theorem1_->check();
+        t1_violations = theorem1_->violations();
+      }
     }
     const JointLinkStatus js = snapshot->evaluate();
     const LinkStatus& status = js.status;
-    const unsigned char level = status.level == LinkStatus::Level::OK     ? diagnostic_msgs::DiagnosticStatus::OK
-                                : status.level == LinkStatus::Level::WARN ? diagnostic_msgs::DiagnosticStatus::WARN
-                                                                          : diagnostic_msgs::DiagnosticStatus::ERROR;
-    stat.summary(level, status.message);
+    unsigned char level = status.level == LinkStatus::Level::OK     ? diagnostic_msgs::DiagnosticStatus::OK
+                          : status.level == LinkStatus::Level::WARN ? diagnostic_msgs::DiagnosticStatus::WARN
+                                                                    : diagnostic_msgs::DiagnosticStatus::ERROR;
+    std::string message = status.message;
+    if (t1_violations > 0 && level == diagnostic_msgs::DiagnosticStatus::OK)
+    {
+      level = diagnostic_msgs::DiagnosticStatus::WARN;
+      message += "; Gan and Liu's Theorem 1 inequality failed (a numerical problem of the filter)";
+    }
+    stat.summary(level, message);
     stat.add("link model", markov_link_ ? "markov (failure p and recovery r estimated per sensor)"
                                         : "iid (arrival rate estimated per sensor)");
     for (const SensorLinkEstimate& e : js.sensors)
@@ -457,6 +508,28 @@ private:
                   e.arrival.upper, e.arrival.trials);
       }
     }
+    // Gan and Liu: evidence that holds for any loss pattern (no i.i.d. or Markov assumption), from
+    // each scalar sensor's window; A3 is very conservative, so a failure is no evidence of instability.
+    const Model& m = online_->model();
+    for (std::size_t si = 0; si < m.sensors.size(); ++si)
+    {
+      const Sensor& sensor = m.sensors[si];
+      const std::vector<bool> window = snapshot->sensor(si).window();
+      if (sensor.size != 1 || window.size() < static_cast<std::size_t>(m.n()))
+        continue;
+      const ExcitationReport gl =
+          ganLiuTrace(m.A, m.C.middleRows(sensor.offset, 1), m.R(sensor.offset, sensor.offset), window, m.n(), 2);
+      stat.addf(sensor.name + " Gan-Liu excitation", "lambda %g (h = %d, smallest block %g)", gl.lambda, gl.h,
+                gl.lambda_block);
+      stat.addf(sensor.name + " Gan-Liu A3 (printed / proof)", "p = 1: %g / %g; p = 2: %g / %g", gl.a3[0].printed,
+                gl.a3[0].proof, gl.a3[1].printed, gl.a3[1].proof);
+      stat.add(sensor.name + " Gan-Liu verdict", toString(gl.verdict.kind) + ": " + gl.verdict.reason);
+    }
+    if (theorem1_)
+      stat.addf("Gan-Liu Theorem 1 (runtime invariant)", "%s over %ld blocks (worst lhs - rhs %g)",
+                t1_violations ? "FAILED" : "holds", t1.blocks, t1.worst);
+    else
+      stat.add("Gan-Liu Theorem 1 (runtime invariant)", theorem1_note_);
     stat.add("verdict at the estimates", toString(js.point.kind) + ": " + js.point.reason);
     stat.add("verdict at the low ends", toString(js.pessimistic.kind));
     stat.add("verdict at the high ends", toString(js.optimistic.kind));
@@ -480,6 +553,11 @@ private:
   bool show_thresholds_ = false;
   bool markov_link_ = false;
   std::unique_ptr<JointLinkMonitor> joint_;
+  std::unique_ptr<Theorem1Monitor> theorem1_;  ///< kfio, one scalar sensor, drop: Gan-Liu Theorem 1 checked
+  std::string theorem1_note_;
+  std::uint64_t theorem1_resets_ = 0;
+  Eigen::MatrixXd Qn_;  ///< B Q B'
+
   StepClock clock_{1.0, 0.0};
   std::string input_type_, frame_id_, child_frame_id_;
   std::vector<int> positions_;

@@ -405,6 +405,7 @@ TEST(EstimatorGraph, StabilityDiagnosticFlipsWithTheArrivalRate)
   int level = -1;
   std::string message;
   double necessary = std::nan("");
+  std::map<std::string, std::string> values;
   ros::Subscriber sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
       "/diagnostics", 100, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& a) {
         for (const auto& st : a->status)
@@ -414,8 +415,11 @@ TEST(EstimatorGraph, StabilityDiagnosticFlipsWithTheArrivalRate)
             level = st.level;
             message = st.message;
             for (const auto& kv : st.values)
+            {
               if (kv.key == "critical (necessary)")
                 necessary = std::stod(kv.value);
+              values[kv.key] = kv.value;
+            }
           }
       });
   auto levelIs = [&](int want) {
@@ -434,6 +438,12 @@ TEST(EstimatorGraph, StabilityDiagnosticFlipsWithTheArrivalRate)
   ASSERT_TRUE(set.call(srv) && srv.response.success) << srv.response.message;
   // A window of 200 steps at 100 Hz refills in 2 s.
   ASSERT_TRUE(waitFor([&] { return levelIs(diagnostic_msgs::DiagnosticStatus::OK); }, 30.0)) << "last: " << message;
+  // Gan and Liu's evidence for the scalar sensor, and their Theorem 1 holding along the run (kfio,
+  // one scalar sensor, late data dropped: the invariant is checked at every block).
+  std::lock_guard<std::mutex> lock(mutex);
+  ASSERT_EQ(values.count("y Gan-Liu excitation"), 1u);
+  EXPECT_EQ(values["Gan-Liu Theorem 1 (runtime invariant)"].rfind("holds over ", 0), 0u)
+      << values["Gan-Liu Theorem 1 (runtime invariant)"];
 }
 
 // Per-sensor live verdict: each sensor's own window and the joint test of analyze. The test

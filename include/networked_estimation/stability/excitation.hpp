@@ -90,4 +90,38 @@ struct Theorem1Check
 Theorem1Check ganLiuTheorem1(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, const Eigen::MatrixXd& c, double R,
                              const std::vector<Eigen::MatrixXd>& predicted, const std::vector<bool>& arrivals, int h);
 
+/// Theorem 1 checked as a filter runs (the live form of ganLiuTheorem1): feed P'_0 with start(),
+/// then after every step k the arrival gamma_{k-1}... in P3's indexing: add(gamma_i, P'_{i+1}).
+/// O(h n^3) per completed block; the constants are computed once.
+class Theorem1Monitor
+{
+public:
+  /// Throws std::invalid_argument when A is singular (A1) or the inputs do not fit.
+  Theorem1Monitor(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, const Eigen::MatrixXd& c, double R, int h);
+  /// The prediction covariance P'_0 the run starts from (also a restart).
+  void start(const Eigen::MatrixXd& P0);
+  /// The arrival gamma_i used to go from P'_i to P'_{i+1}, and P'_{i+1}.
+  void add(bool gamma, const Eigen::MatrixXd& P_next);
+  const Theorem1Check& check() const { return check_; }
+  long violations() const { return violations_; }
+
+private:
+  Eigen::MatrixXd A_, Q_, c_;
+  double R_;
+  int h_;
+  std::vector<Eigen::MatrixXd> Ai_;          ///< A^-j, j = 0..h
+  std::vector<Eigen::MatrixXd> terms_;       ///< Gram terms, j = 0..h-1
+  Eigen::MatrixXd backQ_;                    ///< sum_{j=1}^h A^-j Q A^-j'
+  double b_A_ = 0.0, growth_ = 0.0;
+  bool started_ = false;
+  long block_ = 0;                           ///< index m of the block being filled
+  int pos_ = 0;                              ///< steps of it seen
+  Eigen::MatrixXd S_;                        ///< P'_{mh} + backQ
+  Eigen::MatrixXd G_;                        ///< realised Gram matrix of block m
+  double T_block_ = 0.0;                     ///< T_{m+1} so far
+  double T_prev_ = 0.0;                      ///< T_m
+  Theorem1Check check_;
+  long violations_ = 0;
+};
+
 }  // namespace networked_estimation

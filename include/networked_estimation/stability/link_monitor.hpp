@@ -49,6 +49,8 @@ public:
   std::size_t failures() const { return failed_; }
   /// Samples seen since construction / clear().
   std::uint64_t total() const { return total_; }
+  /// The indicators in the window, oldest first.
+  std::vector<bool> window() const;
 
   /// P(arrived), Wilson interval over the window.
   RateEstimate arrivalRate() const;

@@ -207,22 +207,24 @@ ExcitationReport ganLiuTrace(const Eigen::MatrixXd& A, const Eigen::MatrixXd& c,
   return rep;
 }
 
-Theorem1Check ganLiuTheorem1(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, const Eigen::MatrixXd& c, double R,
-                             const std::vector<Eigen::MatrixXd>& predicted, const std::vector<bool>& arrivals, int h)
+Theorem1Monitor::Theorem1Monitor(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, const Eigen::MatrixXd& c,
+                                 double R, int h)
+  : A_(A), Q_(Q), c_(c), R_(R), h_(h)
 {
   checkInputs(A, c, R, h);
   const Eigen::Index n = A.rows();
+  if (Q.rows() != n || Q.cols() != n)
+    throw std::invalid_argument("Gan-Liu Theorem 1: Q must be n x n");
   Eigen::FullPivLU<Eigen::MatrixXd> lu(A);
   if (!lu.isInvertible())
     throw std::invalid_argument("Gan-Liu Theorem 1: A must be invertible (A1)");
   const Eigen::MatrixXd Ainv = lu.inverse();
-  // A^{-j} for j = 0..h and the constants of the inequality.
-  std::vector<Eigen::MatrixXd> Ai(h + 1, Eigen::MatrixXd::Identity(n, n));
+  Ai_.assign(h + 1, Eigen::MatrixXd::Identity(n, n));
   for (int j = 1; j <= h; ++j)
-    Ai[j] = Ainv * Ai[j - 1];
-  Eigen::MatrixXd backQ = Eigen::MatrixXd::Zero(n, n);  // sum_{j=1}^h A^-j Q A^-j'
+    Ai_[j] = Ainv * Ai_[j - 1];
+  backQ_ = Eigen::MatrixXd::Zero(n, n);
   for (int j = 1; j <= h; ++j)
-    backQ += Ai[j] * Q * Ai[j].transpose();
+    backQ_ += Ai_[j] * Q * Ai_[j].transpose();
   double forward = 0.0;  // tr sum_{j=0}^h A^j Q A^j'
   Eigen::MatrixXd Aj = Eigen::MatrixXd::Identity(n, n);
   for (int j = 0; j <= h; ++j)
@@ -230,42 +232,69 @@ Theorem1Check ganLiuTheorem1(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q,
     forward += (Aj * Q * Aj.transpose()).trace();
     Aj = A * Aj;
   }
-  const double b_A = h * forward + 2.0 * h * backQ.trace();
-  const double growth = std::pow(spectralNorm(A), 2.0 * h);
-  const std::vector<Eigen::MatrixXd> terms = gramTerms(A, c, h);
+  b_A_ = h * forward + 2.0 * h * backQ_.trace();
+  growth_ = std::pow(spectralNorm(A), 2.0 * h);
+  terms_ = gramTerms(A, c, h);
+}
 
-  const long blocks = static_cast<long>(std::min(arrivals.size(), predicted.size() - 1) / static_cast<std::size_t>(h));
-  auto T = [&](long m) {  // T_{m+1}: block m's predictions P'_{mh+1} .. P'_{(m+1)h}
-    double t = 0.0;
-    for (int j = 0; j < h; ++j)
-    {
-      const Eigen::MatrixXd& P = predicted[static_cast<std::size_t>(m * h + j + 1)];
-      t += (Ai[j + 1] * P * Ai[j + 1].transpose()).trace();
-    }
-    return t;
-  };
-  Theorem1Check out;
-  out.blocks = blocks;
-  double T_prev = blocks > 0 ? T(0) : 0.0;  // T_1
-  for (long m = 1; m < blocks; ++m)
+void Theorem1Monitor::start(const Eigen::MatrixXd& P0)
+{
+  started_ = true;
+  block_ = 0;
+  pos_ = 0;
+  S_ = P0 + backQ_;
+  G_ = Eigen::MatrixXd::Zero(A_.rows(), A_.cols());
+  T_block_ = T_prev_ = 0.0;
+}
+
+void Theorem1Monitor::add(bool gamma, const Eigen::MatrixXd& P_next)
+{
+  if (!started_)
+    throw std::logic_error("Theorem1Monitor: start() first");
+  // Step i = m h + pos: its regressor enters block m's Gram matrix, P'_{i+1} its T.
+  if (gamma)
+    G_ += terms_[pos_];
+  T_block_ += (Ai_[pos_ + 1] * P_next * Ai_[pos_ + 1].transpose()).trace();
+  if (++pos_ < h_)
+    return;
+  // Block m complete: T_{m+1} = T_block_. The inequality holds for m >= 1.
+  if (block_ >= 1)
   {
-    const Eigen::MatrixXd S = predicted[static_cast<std::size_t>(m * h)] + backQ;
-    Eigen::MatrixXd G = Eigen::MatrixXd::Zero(n, n);
-    for (int j = 0; j < h; ++j)
-      if (arrivals[static_cast<std::size_t>(m * h + j)])
-        G += terms[j];
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (S + S.transpose()), Eigen::EigenvaluesOnly);
-    const double a = (S * S * G).trace() / (h * (1.0 + R) * S.trace() * (1.0 + es.eigenvalues().maxCoeff()));
-    const double T_next = T(m);
-    const double gap = T_next - ((1.0 - a) * growth * T_prev + b_A);
-    if (gap > out.worst)
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (S_ + S_.transpose()), Eigen::EigenvaluesOnly);
+    const double a = (S_ * S_ * G_).trace() / (h_ * (1.0 + R_) * S_.trace() * (1.0 + es.eigenvalues().maxCoeff()));
+    const double gap = T_block_ - ((1.0 - a) * growth_ * T_prev_ + b_A_);
+    ++check_.blocks;
+    if (gap > check_.worst)
     {
-      out.worst = gap;
-      out.block = m;
+      check_.worst = gap;
+      check_.block = block_;
     }
-    T_prev = T_next;
+    if (gap > 1e-9 * (1.0 + std::abs(T_block_)))
+      ++violations_;
   }
-  return out;
+  else
+  {
+    ++check_.blocks;
+  }
+  T_prev_ = T_block_;
+  T_block_ = 0.0;
+  S_ = P_next + backQ_;  // P'_{(m+1)h}
+  G_.setZero();
+  pos_ = 0;
+  ++block_;
+}
+
+Theorem1Check ganLiuTheorem1(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, const Eigen::MatrixXd& c, double R,
+                             const std::vector<Eigen::MatrixXd>& predicted, const std::vector<bool>& arrivals, int h)
+{
+  Theorem1Monitor mon(A, Q, c, R, h);
+  if (predicted.empty())
+    return mon.check();
+  mon.start(predicted[0]);
+  const std::size_t steps = std::min(arrivals.size(), predicted.size() - 1);
+  for (std::size_t i = 0; i < steps; ++i)
+    mon.add(arrivals[i], predicted[i + 1]);
+  return mon.check();
 }
 
 }  // namespace networked_estimation

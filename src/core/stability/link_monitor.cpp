@@ -89,6 +89,14 @@ void LinkMonitor::add(bool arrived)
   ++total_;
 }
 
+std::vector<bool> LinkMonitor::window() const
+{
+  std::vector<bool> out(count_);
+  for (std::size_t i = 0; i < count_; ++i)
+    out[i] = ring_[(head_ + i) % ring_.size()] != 0;
+  return out;
+}
+
 RateEstimate LinkMonitor::arrivalRate() const
 {
   return wilsonInterval(arrivals_, count_);
