@@ -31,9 +31,7 @@
 #include "networked_estimation/Measurement.h"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/online/estimator_node_config.hpp"
-#include "networked_estimation/stability/excitation.hpp"
-#include "networked_estimation/stability/joint_link_monitor.hpp"
-#include "networked_estimation/stability/link_monitor.hpp"
+#include "networked_estimation/stability/live_stability.hpp"
 #include "networked_estimation/online/online_estimator.hpp"
 #include "networked_estimation/stability/stability.hpp"
 #include "load_failure.hpp"
@@ -121,43 +119,15 @@ private:
     queue_size_ = static_cast<uint32_t>(c.queue_size);
     online_ = std::make_unique<OnlineEstimator>(c.model, settings_, c.online);
     clock_ = StepClock(c.period, c.latency_budget);
-    // Live stability: every sensor's own arrival sequence over a window of steps, its link
-    // estimated from it (iid: the arrival rate; markov: failure and recovery rates, nothing
-    // assumed), and the joint verdict of the same core test as `analyze` (JointLinkMonitor).
-    // For a single i.i.d. sensor the critical rates are shown too (stability.hpp).
-    markov_link_ = c.markov_link;
-    if (!c.markov_link && c.model.sensors.size() == 1)
-    {
-      AnalysisOptions only_model;
-      only_model.per_sensor = false;
-      const StabilityReport report = analyzeStability(c.model, nullptr, &settings_, only_model);
-      thresholds_ = linkThresholds(report, c.stability_min_samples);
-      show_thresholds_ = true;
-    }
-    joint_ = std::make_unique<JointLinkMonitor>(online_->model(), c.stability_window, c.markov_link,
-                                                c.stability_min_samples);
-    // Gan and Liu's Theorem 1 as a runtime invariant: it is about the Kalman filter of one scalar
-    // output along the sequence it actually ran (so kfio with late data dropped; a rewind rewrites
-    // the past).
-    const Model& m = online_->model();
-    Qn_ = m.B * m.Q * m.B.transpose();
-    if (settings_.algorithm == Algorithm::KFIO && m.sensors.size() == 1 && m.sensors[0].size == 1 &&
-        c.online.late_policy == LatePolicy::DROP)
-    {
-      try
-      {
-        theorem1_ = std::make_unique<Theorem1Monitor>(m.A, Qn_, m.C, m.R(0, 0), m.n());
-        theorem1_->start(m.A * m.P0 * m.A.transpose() + Qn_);
-      }
-      catch (const std::invalid_argument& e)
-      {
-        theorem1_note_ = std::string("not applicable: ") + e.what();
-      }
-    }
-    else
-    {
-      theorem1_note_ = "not applicable: checked for kfio on one scalar sensor with late_policy drop";
-    }
+    // Live stability (stability/live_stability.hpp): one window per sensor and the joint verdict
+    // of the same core test as `analyze`, the critical rates of a single i.i.d. sensor, and Gan
+    // and Liu's evidence.
+    LiveStabilityOptions live;
+    live.window = c.stability_window;
+    live.markov = c.markov_link;
+    live.min_samples = c.stability_min_samples;
+    live.late_data_dropped = c.online.late_policy == LatePolicy::DROP;
+    live_ = std::make_unique<LiveStability>(online_->model(), settings_, live);
   }
 
 
@@ -305,20 +275,9 @@ private:
       for (int j = 0; j < n; ++j)
         e->covariance[static_cast<std::size_t>(i) * n + j] = P(i, j);  // row-major (REP-103)
     e->covariance_trace = P.trace();
-    joint_->add(online_->lastArrived());
-    if (theorem1_)
-    {
-      const Model& m = online_->model();
-      if (online_->counters().divergence_resets != theorem1_resets_)
-      {
-        theorem1_resets_ = online_->counters().divergence_resets;  // the filter restarted from its prior
-        theorem1_->start(m.A * m.P0 * m.A.transpose() + Qn_);
-      }
-      else
-      {
-        theorem1_->add(online_->lastGamma(), m.A * P * m.A.transpose() + Qn_);
-      }
-    }
+    const std::uint64_t resets = online_->counters().divergence_resets;
+    live_->add(online_->lastArrived(), online_->lastGamma(), P, resets != resets_seen_);
+    resets_seen_ = resets;
     const double q = est.commandArrivalProbability();
     e->command_arrival_probability = std::isfinite(q) ? q : -1.0;
     last_trace_ = e->covariance_trace;
@@ -404,9 +363,7 @@ private:
         NODELET_WARN("Estimator %s: time jumped back by %.3f s: estimator reset, waiting for the stream to restart",
                      toString(settings_.algorithm).c_str(), last_now - now);
         online_->reset();
-        joint_->clear();
-        if (theorem1_)
-          theorem1_->start(online_->model().A * online_->model().P0 * online_->model().A.transpose() + Qn_);
+        live_->clear();
         clock_.clear();
         last_now = -std::numeric_limits<double>::infinity();
         continue;
@@ -465,98 +422,27 @@ private:
 
   void diagnoseLink(diagnostic_updater::DiagnosticStatusWrapper& stat)
   {
-    // The windows are copied under the lock; the verdict (three core stability tests, a few
-    // milliseconds) is evaluated outside it, so the filter thread is never held up by it.
-    std::unique_ptr<JointLinkMonitor> snapshot;
-    Theorem1Check t1;
-    long t1_violations = 0;
+    // Copied under the lock, evaluated outside it (three core stability tests and the Gan-Liu
+    // evidence, well under a millisecond), so the filter thread is never held up by it.
+    std::unique_ptr<LiveStability> snapshot;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      snapshot = std::make_unique<JointLinkMonitor>(*joint_);
-      if (theorem1_)
-      {
-        t1 = theorem1_->check();
-        t1_violations = theorem1_->violations();
-      }
+      snapshot = std::make_unique<LiveStability>(*live_);
     }
-    const JointLinkStatus js = snapshot->evaluate();
-    const LinkStatus& status = js.status;
-    unsigned char level = status.level == LinkStatus::Level::OK     ? diagnostic_msgs::DiagnosticStatus::OK
-                          : status.level == LinkStatus::Level::WARN ? diagnostic_msgs::DiagnosticStatus::WARN
-                                                                    : diagnostic_msgs::DiagnosticStatus::ERROR;
-    std::string message = status.message;
-    if (t1_violations > 0 && level == diagnostic_msgs::DiagnosticStatus::OK)
-    {
-      level = diagnostic_msgs::DiagnosticStatus::WARN;
-      message += "; Gan and Liu's Theorem 1 inequality failed (a numerical problem of the filter)";
-    }
-    stat.summary(level, message);
-    stat.add("link model", markov_link_ ? "markov (failure p and recovery r estimated per sensor)"
-                                        : "iid (arrival rate estimated per sensor)");
-    for (const SensorLinkEstimate& e : js.sensors)
-    {
-      if (markov_link_)
-      {
-        stat.addf(e.sensor + " failure rate p", "%g [%g, %g] (%zu transitions)", e.failure.value, e.failure.lower,
-                  e.failure.upper, e.failure.trials);
-        stat.addf(e.sensor + " recovery rate r", "%g [%g, %g] (%zu transitions)", e.recovery.value,
-                  e.recovery.lower, e.recovery.upper, e.recovery.trials);
-      }
-      else
-      {
-        stat.addf(e.sensor + " arrival rate", "%g [%g, %g] (%zu samples)", e.arrival.value, e.arrival.lower,
-                  e.arrival.upper, e.arrival.trials);
-      }
-    }
-    // Gan and Liu: evidence that holds for any loss pattern (no i.i.d. or Markov assumption), from
-    // each scalar sensor's window; A3 is very conservative, so a failure is no evidence of instability.
-    const Model& m = online_->model();
-    for (std::size_t si = 0; si < m.sensors.size(); ++si)
-    {
-      const Sensor& sensor = m.sensors[si];
-      const std::vector<bool> window = snapshot->sensor(si).window();
-      if (sensor.size != 1 || window.size() < static_cast<std::size_t>(m.n()))
-        continue;
-      const ExcitationReport gl =
-          ganLiuTrace(m.A, m.C.middleRows(sensor.offset, 1), m.R(sensor.offset, sensor.offset), window, m.n(), 2);
-      stat.addf(sensor.name + " Gan-Liu excitation", "lambda %g (h = %d, smallest block %g)", gl.lambda, gl.h,
-                gl.lambda_block);
-      stat.addf(sensor.name + " Gan-Liu A3 (printed / proof)", "p = 1: %g / %g; p = 2: %g / %g", gl.a3[0].printed,
-                gl.a3[0].proof, gl.a3[1].printed, gl.a3[1].proof);
-      stat.add(sensor.name + " Gan-Liu verdict", toString(gl.verdict.kind) + ": " + gl.verdict.reason);
-    }
-    if (theorem1_)
-      stat.addf("Gan-Liu Theorem 1 (runtime invariant)", "%s over %ld blocks (worst lhs - rhs %g)",
-                t1_violations ? "FAILED" : "holds", t1.blocks, t1.worst);
-    else
-      stat.add("Gan-Liu Theorem 1 (runtime invariant)", theorem1_note_);
-    stat.add("verdict at the estimates", toString(js.point.kind) + ": " + js.point.reason);
-    stat.add("verdict at the low ends", toString(js.pessimistic.kind));
-    stat.add("verdict at the high ends", toString(js.optimistic.kind));
-    if (show_thresholds_ && !js.sensors.empty())
-    {
-      const RateEstimate& r = js.sensors[0].arrival;
-      stat.add("quantity", thresholds_.quantity);
-      stat.add("estimate", r.value);
-      stat.add("95% lower", r.lower);
-      stat.add("95% upper", r.upper);
-      stat.add("samples", r.trials);
-      stat.add("critical (necessary)", thresholds_.necessary);
-      stat.add("critical (sufficient)", thresholds_.sufficient);
-      stat.add("margin", r.value - thresholds_.sufficient);
-    }
+    const LiveStabilityReport report = snapshot->evaluate();
+    const unsigned char level = report.status.level == LinkStatus::Level::OK ? diagnostic_msgs::DiagnosticStatus::OK
+                                : report.status.level == LinkStatus::Level::WARN
+                                    ? diagnostic_msgs::DiagnosticStatus::WARN
+                                    : diagnostic_msgs::DiagnosticStatus::ERROR;
+    stat.summary(level, report.status.message);
+    for (const auto& kv : report.values)
+      stat.add(kv.first, kv.second);
   }
 
   EstimatorSettings settings_;
   std::unique_ptr<OnlineEstimator> online_;
-  LinkThresholds thresholds_;  ///< single i.i.d. sensor: its critical rates (shown in the diagnostics)
-  bool show_thresholds_ = false;
-  bool markov_link_ = false;
-  std::unique_ptr<JointLinkMonitor> joint_;
-  std::unique_ptr<Theorem1Monitor> theorem1_;  ///< kfio, one scalar sensor, drop: Gan-Liu Theorem 1 checked
-  std::string theorem1_note_;
-  std::uint64_t theorem1_resets_ = 0;
-  Eigen::MatrixXd Qn_;  ///< B Q B'
+  std::unique_ptr<LiveStability> live_;
+  std::uint64_t resets_seen_ = 0;  ///< divergence resets of the filter already told to live_
 
   StepClock clock_{1.0, 0.0};
   std::string input_type_, frame_id_, child_frame_id_;

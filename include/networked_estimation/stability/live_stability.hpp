@@ -1,0 +1,65 @@
+// Everything the Estimator's live `link stability` diagnostic knows, ROS-free: one arrival window
+// per sensor and the joint verdict (JointLinkMonitor), the critical rates of a single i.i.d.
+// sensor, Gan and Liu's excitation evidence per scalar sensor, and their Theorem 1 checked along
+// the filter's own covariances (kfio on one scalar sensor with late data dropped). The nodelet
+// feeds it after every filter step and copies it (cheap) to evaluate outside its lock.
+#pragma once
+
+#include <Eigen/Dense>
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "networked_estimation/config/estimator_settings.hpp"
+#include "networked_estimation/config/model.hpp"
+#include "networked_estimation/stability/excitation.hpp"
+#include "networked_estimation/stability/joint_link_monitor.hpp"
+#include "networked_estimation/stability/link_monitor.hpp"
+
+namespace networked_estimation
+{
+
+struct LiveStabilityOptions
+{
+  std::size_t window = 1000;
+  bool markov = false;  ///< estimate on/off Gilbert-Elliott links (p, r) instead of i.i.d. rates
+  std::size_t min_samples = 100;
+  bool late_data_dropped = true;  ///< Theorem 1 is checked only on the sequence the filter ran
+};
+
+struct LiveStabilityReport
+{
+  LinkStatus status;
+  std::vector<std::pair<std::string, std::string>> values;  ///< the diagnostic's key-value pairs
+};
+
+class LiveStability
+{
+public:
+  /// The model must outlive this object (and its copies).
+  LiveStability(const Model& model, const EstimatorSettings& settings, const LiveStabilityOptions& options);
+
+  /// After a filter step: which sensors arrived, gamma, the filtered covariance P_{k|k}, and
+  /// whether the filter restarted from its prior at this step (a covariance overflow).
+  void add(const std::vector<bool>& arrived, bool gamma, const Eigen::MatrixXd& P, bool restarted);
+  /// Time went back: start over.
+  void clear();
+  /// The status and its key-values (three joint stability tests and the Gan-Liu evidence).
+  LiveStabilityReport evaluate() const;
+
+private:
+  Eigen::MatrixXd predictedFromPrior() const;
+
+  const Model* model_;
+  LiveStabilityOptions options_;
+  JointLinkMonitor joint_;
+  Eigen::MatrixXd Qn_;                  ///< B Q B'
+  std::optional<LinkThresholds> thresholds_;  ///< a single i.i.d. sensor: its critical rates
+  std::optional<Theorem1Monitor> theorem1_;
+  std::string theorem1_note_;
+};
+
+}  // namespace networked_estimation
