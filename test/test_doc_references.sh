@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Every reference in the repository to a document or file must point inside the repository:
 #  1. no file names a folder outside it (../shared, a workplace spec or seed file), nor one of the
-#     internal specification files by name (rseio.md, aoe.md, stability.md, formats.md) except as a
+#     internal specification files by name (the maths and formats specifications) except as a
 #     path into docs/;
 #  2. every relative link in a Markdown file ([text](path), ![alt](path)) names a file that exists;
 #  3. every repo path written in any tracked file (docs/..., config/..., launch/..., scripts/...,

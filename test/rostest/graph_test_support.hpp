@@ -109,10 +109,13 @@ inline bool isLoaded(const std::vector<std::string>& nodelets, const std::string
 }
 
 /// Value of key in the latest diagnostics status whose name contains `name`.
+/// Also the status's level (-1 before the first) and message.
 struct DiagnosticsProbe
 {
   std::mutex mutex;
   std::map<std::string, std::string> values;
+  int level = -1;
+  std::string message;
   ros::Subscriber sub;
   explicit DiagnosticsProbe(ros::NodeHandle& nh, const std::string& name)
   {
@@ -122,6 +125,8 @@ struct DiagnosticsProbe
             if (s.name.find(name) != std::string::npos)
             {
               std::lock_guard<std::mutex> lock(mutex);
+              level = s.level;
+              message = s.message;
               for (const auto& kv : s.values)
                 values[kv.key] = kv.value;
             }
@@ -132,6 +137,22 @@ struct DiagnosticsProbe
     std::lock_guard<std::mutex> lock(mutex);
     auto it = values.find(key);
     return it == values.end() ? std::nan("") : std::stod(it->second);
+  }
+  std::string text(const std::string& key)
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    auto it = values.find(key);
+    return it == values.end() ? std::string() : it->second;
+  }
+  bool levelIs(int want)
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    return level == want;
+  }
+  std::string lastMessage()
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    return message;
   }
 };
 

@@ -401,49 +401,23 @@ TEST(EstimatorGraph, StabilityDiagnosticFlipsWithTheArrivalRate)
     m.y = {0.0};
     source.publish(m);
   });
-  std::mutex mutex;
-  int level = -1;
-  std::string message;
-  double necessary = std::nan("");
-  std::map<std::string, std::string> values;
-  ros::Subscriber sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
-      "/diagnostics", 100, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& a) {
-        for (const auto& st : a->status)
-          if (st.name.find("link stability") != std::string::npos)
-          {
-            std::lock_guard<std::mutex> lock(mutex);
-            level = st.level;
-            message = st.message;
-            for (const auto& kv : st.values)
-            {
-              if (kv.key == "critical (necessary)")
-                necessary = std::stod(kv.value);
-              values[kv.key] = kv.value;
-            }
-          }
-      });
-  auto levelIs = [&](int want) {
-    std::lock_guard<std::mutex> lock(mutex);
-    return level == want;
-  };
-  ASSERT_TRUE(waitFor([&] { return levelIs(diagnostic_msgs::DiagnosticStatus::ERROR); }, 40.0)) << "last: " << message;
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    EXPECT_NEAR(necessary, 1.0 - 1.0 / 1.21, 1e-6);
-    EXPECT_NE(message.find("unbounded"), std::string::npos) << message;
-  }
+  DiagnosticsProbe link(nh, "link stability");
+  ASSERT_TRUE(waitFor([&] { return link.levelIs(diagnostic_msgs::DiagnosticStatus::ERROR); }, 40.0))
+      << "last: " << link.lastMessage();
+  EXPECT_NEAR(link.get("critical (necessary)"), 1.0 - 1.0 / 1.21, 1e-6);
+  EXPECT_NE(link.lastMessage().find("unbounded"), std::string::npos) << link.lastMessage();
   ros::ServiceClient set = nh.serviceClient<ne::SetParameters>("sensor_link/set_parameters");
   ne::SetParameters srv;
   srv.request.yaml = "{loss: 0.02}";
   ASSERT_TRUE(set.call(srv) && srv.response.success) << srv.response.message;
   // A window of 200 steps at 100 Hz refills in 2 s.
-  ASSERT_TRUE(waitFor([&] { return levelIs(diagnostic_msgs::DiagnosticStatus::OK); }, 30.0)) << "last: " << message;
+  ASSERT_TRUE(waitFor([&] { return link.levelIs(diagnostic_msgs::DiagnosticStatus::OK); }, 30.0))
+      << "last: " << link.lastMessage();
   // Gan and Liu's evidence for the scalar sensor, and their Theorem 1 holding along the run (kfio,
   // one scalar sensor, late data dropped: the invariant is checked at every block).
-  std::lock_guard<std::mutex> lock(mutex);
-  ASSERT_EQ(values.count("y Gan-Liu excitation"), 1u);
-  EXPECT_EQ(values["Gan-Liu Theorem 1 (runtime invariant)"].rfind("holds over ", 0), 0u)
-      << values["Gan-Liu Theorem 1 (runtime invariant)"];
+  EXPECT_FALSE(link.text("y Gan-Liu excitation").empty());
+  EXPECT_EQ(link.text("Gan-Liu Theorem 1 (runtime invariant)").rfind("holds over ", 0), 0u)
+      << link.text("Gan-Liu Theorem 1 (runtime invariant)");
 }
 
 // Per-sensor live verdict: each sensor's own window and the joint test of analyze. The test
@@ -457,22 +431,7 @@ TEST(EstimatorGraph, StabilityVerdictPerSensor)
   ros::Publisher pa = nh.advertise<Measurement>("kfio/measurement/a", 10000);
   ros::Publisher pb = nh.advertise<Measurement>("kfio/measurement/b", 10000);
   ASSERT_TRUE(waitFor([&] { return pa.getNumSubscribers() > 0 && pb.getNumSubscribers() > 0; }, 20.0));
-  std::mutex mutex;
-  int level = -1;
-  std::string message;
-  std::map<std::string, std::string> values;
-  ros::Subscriber sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
-      "/diagnostics", 100, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& a) {
-        for (const auto& st : a->status)
-          if (st.name.find("link stability") != std::string::npos)
-          {
-            std::lock_guard<std::mutex> lock(mutex);
-            level = st.level;
-            message = st.message;
-            for (const auto& kv : st.values)
-              values[kv.key] = kv.value;
-          }
-      });
+  DiagnosticsProbe link(nh, "link stability");
   std::atomic<double> rate{0.3};
   ne::Rng rng(31);
   const ros::Time t0 = ros::Time::now();
@@ -489,19 +448,14 @@ TEST(EstimatorGraph, StabilityVerdictPerSensor)
       (s == 0 ? pa : pb).publish(m);
     }
   });
-  auto levelIs = [&](int want) {
-    std::lock_guard<std::mutex> lock(mutex);
-    return level == want;
-  };
-  ASSERT_TRUE(waitFor([&] { return levelIs(diagnostic_msgs::DiagnosticStatus::ERROR); }, 60.0)) << "last: " << message;
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    EXPECT_NE(message.find("unbounded"), std::string::npos) << message;
-    EXPECT_EQ(values.count("a arrival rate"), 1u);
-    EXPECT_EQ(values.count("b arrival rate"), 1u);
-  }
+  ASSERT_TRUE(waitFor([&] { return link.levelIs(diagnostic_msgs::DiagnosticStatus::ERROR); }, 60.0))
+      << "last: " << link.lastMessage();
+  EXPECT_NE(link.lastMessage().find("unbounded"), std::string::npos) << link.lastMessage();
+  EXPECT_FALSE(link.text("a arrival rate").empty());
+  EXPECT_FALSE(link.text("b arrival rate").empty());
   rate = 0.6;
-  ASSERT_TRUE(waitFor([&] { return levelIs(diagnostic_msgs::DiagnosticStatus::OK); }, 60.0)) << "last: " << message;
+  ASSERT_TRUE(waitFor([&] { return link.levelIs(diagnostic_msgs::DiagnosticStatus::OK); }, 60.0))
+      << "last: " << link.lastMessage();
 }
 
 // Foreign input types: PointStamped (two 2-row position sensors) and Range (one scalar sensor)
