@@ -270,6 +270,11 @@ TEST(LiveStability, SingleScalarSensorWithKfio)
   EXPECT_EQ(r.status.level, LinkStatus::Level::OK) << r.status.message;
   EXPECT_NEAR(std::stod(valueOf(r, "critical (necessary)")), 1.0 - 1.0 / 1.21, 1e-6);
   EXPECT_NE(valueOf(r, "y Gan-Liu excitation"), "<missing>");
+  // the rate this sensor needs: its own critical rate 1 - 1/1.1^2 = 0.1736 (to the bisection's
+  // tolerance, 1e-4), with its estimate now
+  const std::string need = valueOf(r, "y needs");
+  ASSERT_EQ(need.rfind("arrival rate >= ", 0), 0u) << need;
+  EXPECT_NEAR(std::stod(need.substr(16)), 1.0 - 1.0 / 1.21, 2e-4) << need;
   EXPECT_EQ(valueOf(r, "Gan-Liu Theorem 1 (runtime invariant)").rfind("holds over 600 blocks", 0), 0u)
       << valueOf(r, "Gan-Liu Theorem 1 (runtime invariant)");
 
@@ -301,6 +306,7 @@ TEST(LiveStability, MarkovKeysPerSensor)
     joint.add({a, b});
   }
   const LiveStabilityReport r = live.evaluate();
+  EXPECT_EQ(valueOf(r, "a needs").rfind("recovery rate >= ", 0), 0u) << valueOf(r, "a needs");
   EXPECT_NE(valueOf(r, "a failure rate p"), "<missing>");
   EXPECT_NE(valueOf(r, "b recovery rate r"), "<missing>");
   EXPECT_EQ(valueOf(r, "critical (necessary)"), "<missing>");

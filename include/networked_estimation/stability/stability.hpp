@@ -464,6 +464,11 @@ StabilityReport analyzeStability(const Model& model, const std::vector<std::opti
 StabilityReport analyzeStability(const Model& model, const ChannelSettings* sensor_link,
                                  const EstimatorSettings* estimator = nullptr, const AnalysisOptions& options = {});
 
+/// For every sensor of the model with these links (one per sensor): the rate it needs, the other
+/// sensors' links fixed (the report's per-sensor margins, computed the same way).
+std::vector<SensorMargin> sensorMargins(const Model& model, const std::vector<LinkModel>& links,
+                                        const AnalysisOptions& options = {});
+
 /// The verdict of docs/stability.md 2.1 for the model's sensors `set` with links (one per sensor of
 /// the set): the function that analyzeStability and the per-sensor margins use.
 Verdict stabilityVerdict(const Model& model, const std::vector<int>& set, const std::vector<LinkModel>& links,

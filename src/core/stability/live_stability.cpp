@@ -1,6 +1,7 @@
 // The live link stability diagnostic (live_stability.hpp).
 #include "networked_estimation/stability/live_stability.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <stdexcept>
 
@@ -23,6 +24,38 @@ std::string rate(const RateEstimate& e, const char* unit)
   char buf[128];
   std::snprintf(buf, sizeof buf, "%g [%g, %g] (%zu %s)", e.value, e.lower, e.upper, e.trials, unit);
   return buf;
+}
+
+/// "arrival rate >= 0.111 (now 0.5)", the stable intervals, or why there is no such rate.
+std::string describeNeed(const SensorMargin& m)
+{
+  if (m.quantity.empty())
+    return m.note;
+  std::string out = m.quantity;
+  if (m.half_line)
+  {
+    if (!std::isfinite(m.band.converges_at))
+      return out + ": " + m.note;
+    out += " >= " + number(m.band.converges_at);
+  }
+  else
+  {
+    out += " in";
+    for (const RateInterval& r : m.stable)
+      out += " [" + number(r.lower) + ", " + number(r.upper) + "]";
+    if (m.stable.empty())
+      out += " no interval";
+  }
+  return out + " (now " + number(m.value) + ")";
+}
+
+/// Margins need an estimate for every sensor.
+bool everySensorEstimated(const JointLinkStatus& js)
+{
+  for (const SensorLinkEstimate& e : js.sensors)
+    if (e.arrival.trials == 0)
+      return false;
+  return !js.sensors.empty();
 }
 
 }  // namespace
@@ -101,6 +134,16 @@ LiveStabilityReport LiveStability::evaluate() const
     {
       add(e.sensor + " arrival rate", rate(e.arrival, "samples"));
     }
+  }
+  // Per sensor: the rate it needs, the other links at their estimates (the same bisection or scan
+  // as analyze's per-sensor margins).
+  if (everySensorEstimated(js))
+  {
+    AnalysisOptions margin_options;
+    margin_options.per_sensor = false;
+    const std::vector<SensorMargin> margins = sensorMargins(*model_, js.point_links, margin_options);
+    for (std::size_t i = 0; i < margins.size(); ++i)
+      add(js.sensors[i].sensor + " needs", describeNeed(margins[i]));
   }
   add("verdict at the estimates", toString(js.point.kind) + ": " + js.point.reason);
   add("verdict at the low ends", toString(js.pessimistic.kind));

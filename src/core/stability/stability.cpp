@@ -624,6 +624,24 @@ Context modelContext(const Model& model, const AnalysisOptions& options)
 
 }  // namespace
 
+std::vector<SensorMargin> sensorMargins(const Model& model, const std::vector<LinkModel>& links,
+                                        const AnalysisOptions& options)
+{
+  if (links.size() != model.sensors.size())
+    throw std::invalid_argument("sensorMargins: " + std::to_string(links.size()) + " links for " +
+                                std::to_string(model.sensors.size()) + " sensors");
+  Context ctx = modelContext(model, options);
+  ctx.links = links;
+  std::vector<int> every;
+  for (std::size_t i = 0; i < model.sensors.size(); ++i)
+    every.push_back(static_cast<int>(i));
+  const SetData all = makeSet(ctx, every);
+  std::vector<SensorMargin> out;
+  for (std::size_t i = 0; i < model.sensors.size(); ++i)
+    out.push_back(sensorMargin(ctx, all, static_cast<int>(i)));
+  return out;
+}
+
 Verdict stabilityVerdict(const Model& model, const std::vector<int>& set, const std::vector<LinkModel>& links,
                          const AnalysisOptions& options)
 {
