@@ -10,6 +10,7 @@
 #include "networked_estimation/stability/link_monitor.hpp"
 #include "networked_estimation/common/random.hpp"
 #include "networked_estimation/config/channel_settings.hpp"
+#include "test_support.hpp"
 
 #include <optional>
 
@@ -131,19 +132,7 @@ namespace
 
 Model scalarTwoSensors(double a)
 {
-  Model m;
-  m.name = "two";
-  m.A = Eigen::MatrixXd::Constant(1, 1, a);
-  m.B = Eigen::MatrixXd::Identity(1, 1);
-  m.Q = Eigen::MatrixXd::Identity(1, 1);
-  m.C = Eigen::MatrixXd::Ones(2, 1);
-  m.R = Eigen::MatrixXd::Identity(2, 2);
-  m.sensors = {{"a", 0, 1}, {"b", 1, 1}};
-  m.x0 = Eigen::VectorXd::Zero(1);
-  m.P0 = Eigen::MatrixXd::Identity(1, 1);
-  m.Bu = Eigen::MatrixXd(1, 0);
-  validateModel(m, "two");
-  return m;
+  return test::scalarTwoSensorModel(a, "a", "b");
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "networked_estimation/common/error.hpp"
+#include "test_support.hpp"
 
 namespace ne = networked_estimation;
 
@@ -14,19 +15,7 @@ namespace
 
 ne::Model twoSensors(bool control)
 {
-  ne::Model m;
-  m.name = "two";
-  m.A = Eigen::MatrixXd::Constant(1, 1, 0.9);
-  m.B = Eigen::MatrixXd::Identity(1, 1);
-  m.Q = Eigen::MatrixXd::Identity(1, 1);
-  m.C = Eigen::MatrixXd::Ones(2, 1);
-  m.R = Eigen::MatrixXd::Identity(2, 2);
-  m.sensors = {{"gps", 0, 1}, {"camera", 1, 1}};
-  m.x0 = Eigen::VectorXd::Zero(1);
-  m.P0 = Eigen::MatrixXd::Identity(1, 1);
-  m.Bu = control ? Eigen::MatrixXd::Ones(1, 1) : Eigen::MatrixXd(1, 0);
-  ne::validateModel(m, "two");
-  return m;
+  return ne::test::scalarTwoSensorModel(0.9, "gps", "camera", control);
 }
 
 ne::ChannelSettings bernoulli(double loss)

@@ -14,6 +14,25 @@ namespace networked_estimation
 namespace test
 {
 
+/// x_k = a x_{k-1} + w (Q = 1) seen by two scalar sensors y = x + v (R = I) named `first` and
+/// `second`, with a scalar control input (Bu = 1) when `control`; validated.
+inline Model scalarTwoSensorModel(double a, const std::string& first, const std::string& second, bool control = false)
+{
+  Model m;
+  m.name = "two";
+  m.A = Eigen::MatrixXd::Constant(1, 1, a);
+  m.B = Eigen::MatrixXd::Identity(1, 1);
+  m.Q = Eigen::MatrixXd::Identity(1, 1);
+  m.C = Eigen::MatrixXd::Ones(2, 1);
+  m.R = Eigen::MatrixXd::Identity(2, 2);
+  m.sensors = {{first, 0, 1}, {second, 1, 1}};
+  m.x0 = Eigen::VectorXd::Zero(1);
+  m.P0 = Eigen::MatrixXd::Identity(1, 1);
+  m.Bu = control ? Eigen::MatrixXd::Ones(1, 1) : Eigen::MatrixXd(1, 0);
+  validateModel(m, "two");
+  return m;
+}
+
 inline Eigen::MatrixXd randomMatrix(Rng& rng, int r, int c, double scale = 1.0)
 {
   Eigen::MatrixXd M(r, c);
