@@ -1,6 +1,7 @@
-// Stability analysis (stability.hpp) against reference cases T1-T8 (each described below) and
-// Lin et al.'s example, random systems with one-dimensional unstable modes, and a Monte Carlo check of
-// the critical rate.
+// Stability analysis (stability.hpp) against reference cases T1-T8 (each described below), Lin et
+// al.'s example, random systems with one-dimensional unstable modes, and per-sensor links (i.i.d.
+// and Gilbert-Elliott) against closed forms. The Monte Carlo cross-checks are in
+// test_stability_montecarlo.cpp.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,111 +11,11 @@
 
 #include "networked_estimation/estimators/estimator.hpp"
 #include "networked_estimation/stability/stability.hpp"
-#include "test_support.hpp"
+#include "stability_test_support.hpp"
 
 using namespace networked_estimation;
 using namespace networked_estimation::test;
 using Eigen::MatrixXd;
-
-namespace
-{
-
-MatrixXd mat(int r, int c, std::initializer_list<double> v)
-{
-  MatrixXd M(r, c);
-  auto it = v.begin();
-  for (int i = 0; i < r; ++i)
-    for (int j = 0; j < c; ++j)
-      M(i, j) = *it++;
-  return M;
-}
-
-/// Single-sensor model with Q = I, R = I.
-Model simpleModel(const MatrixXd& A, const MatrixXd& C)
-{
-  Model m;
-  m.name = "t";
-  m.period = 1.0;
-  m.A = A;
-  m.B = MatrixXd::Identity(A.rows(), A.rows());
-  m.Q = MatrixXd::Identity(A.rows(), A.rows());
-  m.C = C;
-  m.R = MatrixXd::Identity(C.rows(), C.rows());
-  m.x0 = Eigen::VectorXd::Zero(A.rows());
-  m.P0 = MatrixXd::Identity(A.rows(), A.rows());
-  singleSensor(m);
-  m.Bu.resize(A.rows(), 0);
-  validateModel(m, "t");
-  return m;
-}
-
-MareResult::Status mareAt(const MatrixXd& A, const MatrixXd& C, double lambda)
-{
-  const Mare mare(A, MatrixXd::Identity(A.rows(), A.rows()), {C}, {lambda});
-  MareOptions o;
-  o.max_iterations = 200000;
-  return solveMare(mare, o).status;
-}
-
-ChannelSettings bernoulli(double loss)
-{
-  ChannelSettings c;
-  c.model = LossModelKind::BERNOULLI;
-  c.loss = loss;
-  return c;
-}
-
-ChannelSettings gilbert(double p, double r, double loss_bad = 1.0, double loss_good = 0.0)
-{
-  ChannelSettings c;
-  c.model = LossModelKind::GILBERT_ELLIOTT;
-  c.p = p;
-  c.r = r;
-  c.loss_bad = loss_bad;
-  c.loss_good = loss_good;
-  return c;
-}
-
-/// Model with one sensor per row block of C (names s1, s2, ...), Q = I, R = I.
-Model multiModel(const MatrixXd& A, const std::vector<MatrixXd>& Cs)
-{
-  Model m;
-  m.name = "multi";
-  m.period = 1.0;
-  const int n = static_cast<int>(A.rows());
-  int rows = 0;
-  for (const MatrixXd& c : Cs)
-    rows += static_cast<int>(c.rows());
-  m.A = A;
-  m.B = MatrixXd::Identity(n, n);
-  m.Q = MatrixXd::Identity(n, n);
-  m.C.resize(rows, n);
-  m.sensors.clear();
-  int r0 = 0;
-  for (std::size_t i = 0; i < Cs.size(); ++i)
-  {
-    m.C.middleRows(r0, Cs[i].rows()) = Cs[i];
-    m.sensors.push_back({"s" + std::to_string(i + 1), r0, static_cast<int>(Cs[i].rows())});
-    r0 += static_cast<int>(Cs[i].rows());
-  }
-  m.R = MatrixXd::Identity(rows, rows);
-  m.x0 = Eigen::VectorXd::Zero(n);
-  m.P0 = MatrixXd::Identity(n, n);
-  m.Bu.resize(n, 0);
-  validateModel(m, "multi");
-  return m;
-}
-
-/// Per-sensor Bernoulli links at these arrival rates (a negative rate: lossless, no channel).
-std::vector<std::optional<ChannelSettings>> iidLinks(const std::vector<double>& rates)
-{
-  std::vector<std::optional<ChannelSettings>> out;
-  for (double r : rates)
-    out.push_back(r < 0 ? std::nullopt : std::optional<ChannelSettings>(bernoulli(1.0 - r)));
-  return out;
-}
-
-}  // namespace
 
 // ---------------------------------------------------------------------------------------------
 // T1: Yang et al.'s Example 1 (eight sensors, stable A)
@@ -532,78 +433,6 @@ TEST(Stability, RseioChecklist)
 }
 
 // ---------------------------------------------------------------------------------------------
-// Monte Carlo: E[trace P] bounded at 1.1x the critical rate, growing at 0.9x
-
-namespace
-{
-
-/// Sample mean over runs of trace P_k, k = 1..steps, of KFIO with i.i.d. per-sensor arrivals at
-/// rate lambda (fixed seed).
-std::vector<double> meanTrace(const Model& m, double lambda, int runs, int steps)
-{
-  EstimatorSettings s;
-  s.algorithm = Algorithm::KFIO;
-  auto est = makeEstimator(m, s);
-  Sample sample;
-  sample.y = Eigen::VectorXd::Zero(m.m());
-  std::vector<double> mean(steps, 0.0);
-  for (int r = 0; r < runs; ++r)
-  {
-    Rng rng(deriveSeed(77, static_cast<std::uint64_t>(r)));
-    est->reset();
-    for (int k = 0; k < steps; ++k)
-    {
-      bool any = false;
-      for (const Sensor& sn : m.sensors)
-      {
-        const bool a = rng.bernoulli(lambda);
-        any = any || a;
-        sample.y.segment(sn.offset, sn.size).setConstant(a ? 0.0 : std::numeric_limits<double>::quiet_NaN());
-      }
-      sample.gamma = any;
-      est->step(sample);
-      mean[k] += est->covariance().trace() / runs;
-    }
-  }
-  return mean;
-}
-
-}  // namespace
-
-TEST(Stability, MonteCarloCriticalRate)
-{
-  // E[P_k] is driven by loss bursts: a burst of length j has probability ~ (1 - lambda)^j and
-  // inflates P by ~ rho^2j, so E[P_k] ~ sum_{j <= k} g^j with g = rho^2 (1 - lambda): it grows like
-  // g^k below the critical rate (g > 1) and stays bounded above it (g < 1). A sample of N runs only
-  // contains bursts up to about ln N / ln(1 / (1 - lambda)) steps, so the growth is visible only over
-  // that horizon; we compare k = 5 and k = 8 with N = 40000 (bursts of 8 steps are seen about
-  // N (1 - lambda)^8 >= 10 times for the rates below). Below (g = 0.9 + 0.1 rho^2 >= 1.3) the expected
-  // ratio is about g^3 >= 2.2, we require > 1.6. Above (g = 1.1 - 0.1 rho^2 <= 0.7) the ratio is
-  // 1 + O(g^6) <= 1.15, we require < 1.3.
-  struct Case
-  {
-    MatrixXd A, C;
-  };
-  const std::vector<Case> cases = {{mat(1, 1, {2.0}), mat(1, 1, {1})},
-                                   {mat(2, 2, {2, 0, 0, 3}), mat(1, 2, {1, 1})}};
-  for (const Case& c : cases)
-  {
-    const Model m = simpleModel(c.A, c.C);
-    const double crit = analyzeStability(m, nullptr).model.exact_rate;
-    ASSERT_TRUE(std::isfinite(crit));
-    // Normalised by the no-loss trace to remove the start-up transient from P0.
-    const std::vector<double> full = meanTrace(m, 1.0, 1, 8);
-    const std::vector<double> above = meanTrace(m, std::min(0.999, 1.1 * crit), 40000, 8);
-    const std::vector<double> below = meanTrace(m, 0.9 * crit, 40000, 8);
-    const double ra = (above[7] / full[7]) / (above[4] / full[4]);
-    const double rb = (below[7] / full[7]) / (below[4] / full[4]);
-    EXPECT_LT(ra, 1.3) << c.A;
-    EXPECT_GT(rb, 1.6) << c.A;
-    std::printf("critical %.6f: growth ratio k=8/k=5 above %.3f below %.3f\n", crit, ra, rb);
-  }
-}
-
-// ---------------------------------------------------------------------------------------------
 // A link per sensor: verdicts for a rate vector, capacities, per-sensor margins and intervals
 
 // A = diag(2, 3), sensor 1 sees the mode 2 only, sensor 2 the mode 3 only: two 1-D blocks, each
@@ -767,4 +596,171 @@ TEST(StabilityLinks, MarginFallbacks)
     EXPECT_NE(stabilityVerdict(mj, {0, 1}, {LinkModel::iid(0.9), LinkModel::iid(mg.band.diverges_at)}).kind,
               Verdict::Kind::STABLE);
   }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Several sensors, each with its own Gilbert-Elliott link (Theorem 14 with independent per-sensor
+// chains: the operator of a lattice element is the Kronecker product of the sensors' operators, so
+// Phi is the product of per-sensor Perron roots).
+
+namespace
+{
+
+/// [P^2]_bad,bad of an on/off Gilbert-Elliott chain: (1 - r)^2 + r p.
+double twoStepBad(double p, double r)
+{
+  return (1.0 - r) * (1.0 - r) + r * p;
+}
+
+/// Spectral radius of diag(loss_good, loss_bad) K^2, K the chain's transition matrix: the two-step
+/// operator of a hidden Gilbert-Elliott link that must lose one phase of two.
+double hiddenTwoStep(double p, double r, double loss_bad, double loss_good)
+{
+  Eigen::Matrix2d K;
+  K << 1.0 - p, p, r, 1.0 - r;  // row-stochastic, state 0 = good
+  const Eigen::Matrix2d D = Eigen::Vector2d(loss_good, loss_bad).asDiagonal();
+  return (D * K * K).eigenvalues().cwiseAbs().maxCoeff();
+}
+
+}  // namespace
+
+// The rotation (order-2 block {+-1.2i}) seen by two sensors c = [1 0], each on its own on/off link:
+// each lattice element is seen by both sensors at one phase of two, so
+// Phi = (f_1 f_2)^{1/2} with f_j = (1 - r_j)^2 + r_j p_j, and E[P] is bounded iff
+// 1.2^4 f_1 f_2 < 1. With sensor 1 nearly always down (p_1 = 0.95, r_1 = 0.02: f_1 = 0.9794) and
+// p_2 = 0.5, sensor 2 needs r^2 - 1.5 r + 1 - 1/(1.2^4 f_1) < 0: an interval, not a half-line.
+TEST(StabilityLinks, MarkovLatticeTwoSensorsInterval)
+{
+  const MatrixXd A = mat(2, 2, {0, -1.2, 1.2, 0});
+  const Model m = multiModel(A, {mat(1, 2, {1, 0}), mat(1, 2, {1, 0})});
+  const double a4 = std::pow(1.2, 4);
+  const auto kind = [&](double p1, double r1, double p2, double r2) {
+    return stabilityVerdict(m, {0, 1}, {LinkModel::gilbertElliott(p1, r1), LinkModel::gilbertElliott(p2, r2)}).kind;
+  };
+  // Verdicts on a grid against the closed form, away from the boundary by 2 % of the product.
+  int checked = 0;
+  for (double p1 : {0.3, 0.6, 0.95})
+    for (double r1 : {0.02, 0.3, 0.7})
+      for (double p2 : {0.2, 0.5, 0.9})
+        for (double r2 : {0.05, 0.5, 0.9, 0.99})
+        {
+          const double g = a4 * twoStepBad(p1, r1) * twoStepBad(p2, r2);
+          if (std::abs(g - 1.0) < 0.02)
+            continue;
+          EXPECT_EQ(kind(p1, r1, p2, r2), g < 1.0 ? Verdict::Kind::STABLE : Verdict::Kind::UNSTABLE)
+              << p1 << " " << r1 << " " << p2 << " " << r2 << " product " << g;
+          ++checked;
+        }
+  EXPECT_GT(checked, 90);
+  // Sensor 2's recovery-rate margin with sensor 1 fixed: roots of r^2 - 1.5 r + 1 - B.
+  const double B = 1.0 / (a4 * twoStepBad(0.95, 0.02));
+  const double disc = std::sqrt(2.25 - 4.0 * (1.0 - B));
+  const double lo = (1.5 - disc) / 2.0, hi = (1.5 + disc) / 2.0;
+  ASSERT_LT(hi, 1.0);
+  std::vector<std::optional<ChannelSettings>> links = {gilbert(0.95, 0.02), gilbert(0.5, 0.7)};
+  const StabilityReport rep = analyzeStability(m, links);
+  EXPECT_EQ(rep.model.verdict.kind, Verdict::Kind::STABLE);
+  const SensorMargin& mg = rep.links[1].margin;
+  EXPECT_EQ(mg.quantity, "recovery rate");
+  EXPECT_FALSE(mg.half_line);
+  ASSERT_EQ(mg.stable.size(), 1u);
+  EXPECT_NEAR(mg.stable[0].lower, lo, 1e-6);
+  EXPECT_NEAR(mg.stable[0].upper, hi, 1e-6);
+  EXPECT_NEAR(mg.margin, std::min(0.7 - lo, hi - 0.7), 1e-6);
+  // Outside the interval the joint verdict turns.
+  links[1] = gilbert(0.5, hi + 0.01);
+  EXPECT_EQ(analyzeStability(m, links).model.verdict.kind, Verdict::Kind::UNSTABLE);
+  links[1] = gilbert(0.5, lo - 0.01);
+  EXPECT_EQ(analyzeStability(m, links).model.verdict.kind, Verdict::Kind::UNSTABLE);
+}
+
+// T3's block (A = diag(2, -2)) with c_1 = [1 1] and c_2 = [1 -1]: the element span[1, -1] is seen by
+// sensor 1 only at odd phases and by sensor 2 only at even phases (and span[1, 1] the other way
+// round), so Phi = (f_1 f_2)^{1/2} with f_j the two-step operator's Perron root of sensor j's link:
+// (1 - r)^2 + r p for an on/off link, rho(diag(loss_good, loss_bad) K^2) for a hidden one. E[P] is
+// bounded iff 4 Phi < 1, i.e. f_1 f_2 < 1/16.
+TEST(StabilityLinks, MarkovLatticeOppositePhases)
+{
+  const Model m = multiModel(mat(2, 2, {2, 0, 0, -2}), {mat(1, 2, {1, 1}), mat(1, 2, {1, -1})});
+  int checked = 0;
+  for (double p1 : {0.02, 0.1, 0.4})
+    for (double r1 : {0.3, 0.6, 0.95})
+      for (double p2 : {0.01, 0.05, 0.3})
+        for (double r2 : {0.2, 0.5, 0.9})
+        {
+          const double g = 16.0 * twoStepBad(p1, r1) * twoStepBad(p2, r2);
+          if (std::abs(g - 1.0) < 0.02)
+            continue;
+          const Verdict v = stabilityVerdict(m, {0, 1}, {LinkModel::gilbertElliott(p1, r1), LinkModel::gilbertElliott(p2, r2)});
+          EXPECT_EQ(v.kind, g < 1.0 ? Verdict::Kind::STABLE : Verdict::Kind::UNSTABLE)
+              << p1 << " " << r1 << " " << p2 << " " << r2 << " 16 f1 f2 = " << g << ": " << v.reason;
+          ++checked;
+        }
+  EXPECT_GT(checked, 60);
+  // A hidden chain on sensor 2 (lossy in both states) next to an on/off chain on sensor 1.
+  for (double r2 : {0.2, 0.5, 0.8})
+  {
+    const double f1 = twoStepBad(0.05, 0.6), f2 = hiddenTwoStep(0.1, r2, 0.9, 0.1);
+    const double g = 16.0 * f1 * f2;
+    const Verdict v =
+        stabilityVerdict(m, {0, 1}, {LinkModel::gilbertElliott(0.05, 0.6), LinkModel::gilbertElliott(0.1, r2, 0.9, 0.1)});
+    ASSERT_GT(std::abs(g - 1.0), 0.02) << r2;
+    EXPECT_EQ(v.kind, g < 1.0 ? Verdict::Kind::STABLE : Verdict::Kind::UNSTABLE) << r2 << " 16 f1 f2 = " << g;
+  }
+  // Mixed: sensor 1 i.i.d. (f_1 = 1 - lambda_1 at its phase), sensor 2 on/off Markov.
+  for (double l1 : {0.5, 0.9})
+    for (double r2 : {0.3, 0.8})
+    {
+      const double g = 16.0 * (1.0 - l1) * twoStepBad(0.2, r2);
+      ASSERT_GT(std::abs(g - 1.0), 0.02);
+      EXPECT_EQ(stabilityVerdict(m, {0, 1}, {LinkModel::iid(l1), LinkModel::gilbertElliott(0.2, r2)}).kind,
+                g < 1.0 ? Verdict::Kind::STABLE : Verdict::Kind::UNSTABLE)
+          << l1 << " " << r2 << " " << g;
+    }
+}
+
+// T5's modes (A = diag(2, 3), each sensor sees one mode) on on/off Gilbert-Elliott links: 1-D blocks
+// with Phi = P(loss -> loss) = 1 - r of the one sensor, so E[P] is bounded iff r_1 > 3/4 and
+// r_2 > 8/9, whatever p_1, p_2: each margin is a half-line in the recovery rate.
+TEST(StabilityLinks, MarkovSeparateModesRecovery)
+{
+  const Model m = multiModel(mat(2, 2, {2, 0, 0, 3}), {mat(1, 2, {1, 0}), mat(1, 2, {0, 1})});
+  for (double p : {0.01, 0.3, 0.9})
+  {
+    const auto kind = [&](double r1, double r2) {
+      return analyzeStability(m, {gilbert(p, r1), gilbert(p / 2, r2)}).model.verdict.kind;
+    };
+    EXPECT_EQ(kind(0.76, 0.9), Verdict::Kind::STABLE) << p;
+    EXPECT_EQ(kind(0.74, 0.9), Verdict::Kind::UNSTABLE) << p;
+    EXPECT_EQ(kind(0.9, 0.88), Verdict::Kind::UNSTABLE) << p;
+    const StabilityReport rep = analyzeStability(m, {gilbert(p, 0.8), gilbert(p / 2, 0.95)});
+    ASSERT_EQ(rep.links.size(), 2u);
+    EXPECT_EQ(rep.links[0].margin.quantity, "recovery rate");
+    EXPECT_TRUE(rep.links[0].margin.half_line);
+    EXPECT_NEAR(rep.links[0].margin.band.converges_at, 0.75, 1e-6) << p;
+    EXPECT_NEAR(rep.links[1].margin.band.converges_at, 8.0 / 9.0, 1e-6) << p;
+  }
+}
+
+// T7's Jordan block (A = [[1.2, 1], [0, 1.2]]) seen by two sensors c = [1 0] at unequal rates: O is
+// FCR once packets arrived at two different steps, so the bad event over T steps is "at most one
+// step with an arrival", with rate Phi = (1 - lambda_1)(1 - lambda_2) (Corollary 26 with the empty
+// word as the one bad matrix): E[P] is bounded iff 1.44 (1 - lambda_1)(1 - lambda_2) < 1.
+TEST(StabilityLinks, JordanBlockUnequalRates)
+{
+  const Model m = multiModel(mat(2, 2, {1.2, 1, 0, 1.2}), {mat(1, 2, {1, 0}), mat(1, 2, {1, 0})});
+  for (double l1 : {0.05, 0.1, 0.2})
+    for (double l2 : {0.05, 0.1, 0.15, 0.2, 0.3})
+    {
+      const double g = 1.44 * (1.0 - l1) * (1.0 - l2);
+      if (std::abs(g - 1.0) < 0.01)
+        continue;
+      const Verdict v = analyzeStability(m, iidLinks({l1, l2})).model.verdict;
+      EXPECT_EQ(v.kind, g < 1.0 ? Verdict::Kind::STABLE : Verdict::Kind::UNSTABLE)
+          << l1 << " " << l2 << " g = " << g << ": " << v.reason;
+    }
+  // Sensor 2's need with lambda_1 = 0.1: 1 - 1/(1.44 * 0.9) = 0.228395.
+  const StabilityReport rep = analyzeStability(m, iidLinks({0.1, 0.5}));
+  EXPECT_TRUE(rep.links[1].margin.half_line);
+  EXPECT_NEAR(rep.links[1].margin.band.converges_at, 1.0 - 1.0 / (1.44 * 0.9), 1e-6) << rep.links[1].margin.note;
 }
