@@ -764,3 +764,15 @@ TEST(StabilityLinks, JordanBlockUnequalRates)
   EXPECT_TRUE(rep.links[1].margin.half_line);
   EXPECT_NEAR(rep.links[1].margin.band.converges_at, 1.0 - 1.0 / (1.44 * 0.9), 1e-6) << rep.links[1].margin.note;
 }
+
+// A random walk (|alpha| = 1): every recovery rate r > 0 keeps E[P] bounded (Phi = 1 - r), so the
+// critical recovery rate is 0, reported as 0 and not as the last bisection bracket.
+TEST(StabilityLinks, RandomWalkRecoveryRateIsZero)
+{
+  const Model m = simpleModel(mat(1, 1, {1.0}), mat(1, 1, {1.0}));
+  const ChannelSettings ge = gilbert(0.3, 0.4);
+  const StabilityReport rep = analyzeStability(m, &ge);
+  EXPECT_EQ(rep.model.recovery_exact, 0.0);
+  EXPECT_EQ(rep.model.exact_rate, 0.0);
+  EXPECT_EQ(rep.model.verdict.kind, Verdict::Kind::STABLE);
+}

@@ -693,6 +693,10 @@ double exactCriticalRecoveryRate(const std::vector<BlockStructure>& blocks, doub
     const double mid = 0.5 * (lo + hi);
     (growth(mid) < 1.0 ? hi : lo) = mid;
   }
+  // Every rate tried was stable (|alpha| = 1 blocks: growth 1 only at r = 0): the infimum is 0, not
+  // the bracket's midpoint of a few 1e-14.
+  if (lo == 0.0)
+    return 0.0;
   return 0.5 * (lo + hi);
 }
 
