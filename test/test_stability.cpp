@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 #include <optional>
 
@@ -454,6 +455,16 @@ TEST(StabilityLinks, SeparateModesUnequalRates)
   EXPECT_EQ(big.model.verdict.kind, Verdict::Kind::UNSTABLE);
   EXPECT_NE(big.capacity_note.find("does NOT"), std::string::npos) << big.capacity_note;
   EXPECT_FALSE(big.uniform_links);
+  // The MARE at the rate vector: two decoupled scalar MAREs, each converging iff lambda_i > 1 - 1/a_i^2,
+  // the exact thresholds here.
+  const StabilityReport in = analyzeStability(m, iidLinks({0.8, 0.95}));
+  EXPECT_EQ(in.mare_at_rates.rfind("converges", 0), 0u) << in.mare_at_rates;
+  EXPECT_LT(in.mare_at_rates_certificate, 1.0);
+  EXPECT_GT(in.mare_at_rates_trace, 0.0);
+  const StabilityReport out = analyzeStability(m, iidLinks({0.74, 0.95}));
+  EXPECT_EQ(out.mare_at_rates.rfind("diverges", 0), 0u) << out.mare_at_rates;
+  EXPECT_NE(analyzeStability(m, {gilbert(0.1, 0.8), bernoulli(0.1)}).mare_at_rates.find("not applicable"),
+            std::string::npos);
   // Below c_lower = ln 3 every allocation diverges.
   const StabilityReport small = analyzeStability(m, iidLinks({0.5, 0.5}));
   EXPECT_LT(small.capacity.total, small.capacity.lower);
@@ -513,6 +524,11 @@ TEST(StabilityLinks, OneDimensionalBlocksExactRate)
   const StabilityReport rep = analyzeStability(m, iidLinks({0.5, 0.9}));
   EXPECT_EQ(rep.model.verdict.kind, Verdict::Kind::STABLE);
   EXPECT_NEAR(rep.links[1].margin.band.converges_at, 7.0 / 9.0, 1e-6);
+  // The MARE at this rate vector: for one sensor its threshold is 35/36 (T4), far above the exact
+  // 8/9, and here too it diverges although E[P] is bounded: reported beside the verdict, which stays
+  // the exact one.
+  EXPECT_EQ(rep.mare_at_rates.rfind("diverges", 0), 0u) << rep.mare_at_rates;
+  EXPECT_NE(rep.mare_at_rates.find("does not prove instability"), std::string::npos);
   // 9 (1 - lambda_1) 0.1 < 1 for every lambda_1: sensor 1 needs nothing.
   EXPECT_EQ(rep.links[0].margin.band.converges_at, 0.0);
   EXPECT_EQ(analyzeStability(m, iidLinks({0.5, 0.75})).model.verdict.kind, Verdict::Kind::UNSTABLE);

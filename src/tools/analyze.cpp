@@ -168,6 +168,9 @@ std::string json(const StabilityReport& rep, const SensorLinks& sl, const std::v
        << ", \"on_off\": " << (rep.link.onOff() ? "true" : "false") << ", \"capacity\": " << jnum(rep.capacity.total)
        << ", \"capacity_lower\": " << jnum(rep.capacity.lower) << ", \"capacity_upper\": " << jnum(rep.capacity.upper)
        << ", \"capacity_note\": " << jsonString(rep.capacity_note)
+       << ", \"mare_at_rates\": " << jsonString(rep.mare_at_rates)
+       << ", \"mare_at_rates_trace\": " << jnum(rep.mare_at_rates_trace)
+       << ", \"mare_at_rates_certificate\": " << jnum(rep.mare_at_rates_certificate)
        << ", \"uniform\": " << (rep.uniform_links ? "true" : "false") << "}";
   else
     os << "null";
@@ -321,6 +324,7 @@ int main(int argc, char** argv)
                     << txt(l.recovery_rate) << "\n";
       std::cout << "capacity c = " << txt(rep.capacity.total) << " (c_lower = ln rho(A) = " << txt(rep.capacity.lower)
                 << ", c_upper = h(A) = " << txt(rep.capacity.upper) << "): " << rep.capacity_note << "\n";
+      std::cout << "MARE bound at these rates: " << rep.mare_at_rates << "\n";
     }
     std::cout << "estimator " << rep.estimator << ": " << rep.estimator_note << "\n";
     if (rep.estimator == "rseio")

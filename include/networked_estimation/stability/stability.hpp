@@ -435,6 +435,12 @@ struct StabilityReport
   Capacity capacity;              ///< for each sensor's stationary arrival rate (lossless: 1, c_i = inf)
   /// What the capacity implies for this rate vector (Yang et al., Theorems 2 and 6).
   std::string capacity_note;
+  /// Yang et al.'s MARE upper bound at this rate vector (every sensor at its own i.i.d. rate):
+  /// "converges" (E[P] bounded, Theorem 4, with the fixed point's trace as a bound on the limit of
+  /// E[P_k|k-1]), "diverges" or "undecided" (which prove nothing), or "not applicable: ...".
+  std::string mare_at_rates = "not applicable: no channel given";
+  double mare_at_rates_trace = std::numeric_limits<double>::quiet_NaN();
+  double mare_at_rates_certificate = std::numeric_limits<double>::quiet_NaN();
   std::vector<SensorLinkReport> links;  ///< per sensor (empty without any channel)
   EntropySplit entropy_split;
   RateAnalysis model;             ///< all sensors

@@ -607,6 +607,36 @@ std::string capacityNote(const StabilityReport& rep, bool any_markov)
   return out;
 }
 
+/// Yang et al.'s MARE at the report's rate vector (i.i.d. links only).
+void mareAtRates(const Context& ctx, const std::vector<double>& rates, bool any_markov, StabilityReport& rep)
+{
+  if (any_markov)
+  {
+    rep.mare_at_rates = "not applicable: a Gilbert-Elliott link (the MARE bound assumes i.i.d. arrivals)";
+    return;
+  }
+  if (!ctx.excited)
+  {
+    rep.mare_at_rates = "not applicable: the noise does not excite every unstable mode";
+    return;
+  }
+  const Mare mare(ctx.model->A, ctx.Qn, ctx.H, rates);
+  const MareResult mr = solveMare(mare, ctx.options->mare, true);
+  rep.mare_at_rates_certificate = mr.certificate;
+  if (mr.status == MareResult::Status::CONVERGED)
+  {
+    rep.mare_at_rates_trace = mr.X.trace();
+    rep.mare_at_rates = "converges (certificate rho(T) = " + num(mr.certificate) +
+                        " < 1): E[P] is bounded, lim E[P_k|k-1] <= V with trace V = " + num(rep.mare_at_rates_trace) +
+                        " (Yang et al. Theorem 4)";
+  }
+  else if (mr.status == MareResult::Status::DIVERGED)
+    rep.mare_at_rates = "diverges after " + std::to_string(mr.iterations) +
+                        " iterations: the upper bound says nothing here (it does not prove instability)";
+  else
+    rep.mare_at_rates = "undecided after " + std::to_string(mr.iterations) + " iterations (no certificate)";
+}
+
 /// The model's quantities every verdict uses (links are filled in by the caller).
 Context modelContext(const Model& model, const AnalysisOptions& options)
 {
@@ -706,6 +736,7 @@ StabilityReport analyzeStability(const Model& model, const std::vector<std::opti
     }
     rep.capacity = transmissionCapacity(model.A, rates, rows);
     rep.capacity_note = capacityNote(rep, any_markov);
+    mareAtRates(ctx, rates, any_markov, rep);
   }
   rep.entropy_split = entropySplit(model.A, ctx.H);
 

@@ -1,0 +1,186 @@
+// Micro-benchmark of the stability analysis (Google Benchmark): what `analyze` and the live
+// `link stability` diagnostic cost.
+//
+//   analyze_links/n/S       analyzeStability with one link per sensor (even sensors i.i.d. with
+//                           arrival rates 0.6..0.95, odd sensors on/off Gilbert-Elliott chains),
+//                           per-sensor verdicts and margins included: the work of
+//                           `analyze --model M --channel s1=A.yaml --channel s2=B.yaml ...`
+//   analyze_common/n/S      the same with one i.i.d. channel for every sensor
+//   live_evaluate/n/S       LiveStability::evaluate on a full window (i.i.d. and Markov modes):
+//                           what the Estimator nodelet spends at most once a second
+//
+// Models: random, reproducible (fixed seed): A = V diag(eigenvalues) V^-1 with three unstable real
+// modes (1.05..1.4), the rest stable; sensor j sees a random row (two rows for every third
+// sensor); Q = I, R = I. Timing is informative only: the program always exits 0 when it ran.
+// Flags: every --benchmark_* flag; --quick = --benchmark_min_time=0.01.
+#include <benchmark/benchmark.h>
+
+#include <Eigen/Dense>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "networked_estimation/common/random.hpp"
+#include "networked_estimation/config/channel_settings.hpp"
+#include "networked_estimation/config/estimator_settings.hpp"
+#include "networked_estimation/config/model.hpp"
+#include "networked_estimation/stability/live_stability.hpp"
+#include "networked_estimation/stability/stability.hpp"
+
+namespace networked_estimation
+{
+namespace
+{
+
+Model randomUnstableModel(int n, int sensors, std::uint64_t seed)
+{
+  Rng rng(seed);
+  Eigen::MatrixXd V(n, n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      V(i, j) = rng.uniform(-1.0, 1.0);
+  V += 2.0 * Eigen::MatrixXd::Identity(n, n);  // well conditioned
+  Eigen::VectorXd eig(n);
+  for (int i = 0; i < n; ++i)
+    eig[i] = i < 3 ? 1.05 + 0.15 * i + 0.05 * rng.uniform() : rng.uniform(-0.9, 0.9);
+  Model m;
+  m.name = "random_n" + std::to_string(n);
+  m.period = 0.1;
+  m.A = V * eig.asDiagonal() * V.partialPivLu().inverse();
+  m.B = Eigen::MatrixXd::Identity(n, n);
+  m.Q = Eigen::MatrixXd::Identity(n, n);
+  int rows = 0;
+  std::vector<int> sizes;
+  for (int j = 0; j < sensors; ++j)
+  {
+    sizes.push_back(j % 3 == 2 ? 2 : 1);
+    rows += sizes.back();
+  }
+  m.C.resize(rows, n);
+  int r0 = 0;
+  for (int j = 0; j < sensors; ++j)
+  {
+    for (int r = 0; r < sizes[j]; ++r)
+      for (int c = 0; c < n; ++c)
+        m.C(r0 + r, c) = rng.uniform(-1.0, 1.0);
+    m.sensors.push_back({"s" + std::to_string(j + 1), r0, sizes[j]});
+    r0 += sizes[j];
+  }
+  m.R = Eigen::MatrixXd::Identity(rows, rows);
+  m.x0 = Eigen::VectorXd::Zero(n);
+  m.P0 = Eigen::MatrixXd::Identity(n, n);
+  m.Bu.resize(n, 0);
+  validateModel(m, m.name);
+  return m;
+}
+
+ChannelSettings iidChannel(double arrival)
+{
+  ChannelSettings c;
+  c.model = LossModelKind::BERNOULLI;
+  c.loss = 1.0 - arrival;
+  return c;
+}
+
+ChannelSettings onOffChannel(double p, double r)
+{
+  ChannelSettings c;
+  c.model = LossModelKind::GILBERT_ELLIOTT;
+  c.p = p;
+  c.r = r;
+  c.loss_bad = 1.0;
+  c.loss_good = 0.0;
+  return c;
+}
+
+void analyzeLinks(benchmark::State& state)
+{
+  const int n = static_cast<int>(state.range(0)), S = static_cast<int>(state.range(1));
+  const Model m = randomUnstableModel(n, S, 7);
+  std::vector<std::optional<ChannelSettings>> links;
+  for (int j = 0; j < S; ++j)
+    links.push_back(j % 2 == 0 ? iidChannel(0.6 + 0.35 * j / S) : onOffChannel(0.05 + 0.02 * j, 0.5 + 0.05 * j));
+  for (auto _ : state)
+  {
+    const StabilityReport rep = analyzeStability(m, links);
+    benchmark::DoNotOptimize(rep.model.verdict.kind);
+  }
+}
+
+void analyzeCommon(benchmark::State& state)
+{
+  const int n = static_cast<int>(state.range(0)), S = static_cast<int>(state.range(1));
+  const Model m = randomUnstableModel(n, S, 7);
+  const ChannelSettings ch = iidChannel(0.8);
+  for (auto _ : state)
+  {
+    const StabilityReport rep = analyzeStability(m, &ch);
+    benchmark::DoNotOptimize(rep.model.verdict.kind);
+  }
+}
+
+void liveEvaluate(benchmark::State& state)
+{
+  const int n = static_cast<int>(state.range(0)), S = static_cast<int>(state.range(1));
+  const bool markov = state.range(2) != 0;
+  const Model m = randomUnstableModel(n, S, 7);
+  EstimatorSettings settings;
+  settings.algorithm = Algorithm::KFIO;
+  LiveStabilityOptions o;
+  o.markov = markov;
+  LiveStability live(m, settings, o);
+  Rng rng(3);
+  const Eigen::MatrixXd P = Eigen::MatrixXd::Identity(n, n);
+  for (std::size_t k = 0; k < o.window; ++k)
+  {
+    std::vector<bool> arrived(S);
+    bool any = false;
+    for (int j = 0; j < S; ++j)
+    {
+      arrived[j] = rng.bernoulli(0.7 + 0.1 * j / S);
+      any = any || arrived[j];
+    }
+    live.add(arrived, any, P, false);
+  }
+  for (auto _ : state)
+  {
+    const LiveStabilityReport rep = live.evaluate();
+    benchmark::DoNotOptimize(rep.values.size());
+  }
+  state.SetLabel(markov ? "markov" : "iid");
+}
+
+}  // namespace
+}  // namespace networked_estimation
+
+int main(int argc, char** argv)
+{
+  using namespace networked_estimation;
+  std::vector<std::string> args = {argv[0]};
+  for (int i = 1; i < argc; ++i)
+    args.emplace_back(std::string(argv[i]) == "--quick" ? "--benchmark_min_time=0.01" : argv[i]);
+  std::vector<char*> cargs;
+  for (std::string& a : args)
+    cargs.push_back(&a[0]);
+  cargs.push_back(nullptr);
+  int cargc = static_cast<int>(args.size());
+  benchmark::RegisterBenchmark("analyze_links", analyzeLinks)
+      ->Args({4, 2})
+      ->Args({10, 8})
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+  benchmark::RegisterBenchmark("analyze_common", analyzeCommon)
+      ->Args({10, 8})
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+  benchmark::RegisterBenchmark("live_evaluate", liveEvaluate)
+      ->Args({6, 3, 0})
+      ->Args({6, 3, 1})
+      ->Unit(benchmark::kMicrosecond)
+      ->UseRealTime();
+  benchmark::Initialize(&cargc, cargs.data());
+  if (benchmark::ReportUnrecognizedArguments(cargc, cargs.data()))
+    return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  return 0;
+}
