@@ -1,12 +1,18 @@
 // Monte Carlo engine and experiments (montecarlo.hpp): determinism across thread counts, the
-// qualitative claims of Zhou's Fig. 1, the bounds (28) of Lin et al.'s Theorem 3, Yang et al.'s Example 1.
+// qualitative claims of Zhou's Fig. 1, the bounds (28) of Lin et al.'s Theorem 3, Yang et al.'s Example 1;
+// sharding (montecarlo_shards.hpp): shards merged equal the unsharded run bit for bit.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <limits>
+#include <sstream>
 #include <string>
 
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/experiments/montecarlo.hpp"
+#include "networked_estimation/experiments/montecarlo_shards.hpp"
 
 using namespace networked_estimation;
 
@@ -223,4 +229,309 @@ TEST(MonteCarlo, OutputFormats)
   EXPECT_NE(json.find("\"y_label\": \"a \\\"quoted\\\" \\\\ label\""), std::string::npos) << json;
   EXPECT_NE(json.find("\"line\\nbreak\""), std::string::npos);
   EXPECT_NE(json.find("\"time_average\": 2, \"final\": 3, \"window\": [1, 2]"), std::string::npos) << json;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Shards
+
+namespace
+{
+
+/// Equal bit for bit (NaN payloads and the sign of zero included).
+bool sameBits(const std::vector<double>& a, const std::vector<double>& b)
+{
+  return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
+}
+
+::testing::AssertionResult sameMoments(const Moments& a, const Moments& b)
+{
+  if (a.n != b.n)
+    return ::testing::AssertionFailure() << "n " << a.n << " vs " << b.n;
+  if (!sameBits(a.mean, b.mean))
+    return ::testing::AssertionFailure() << "means differ";
+  if (!sameBits(a.sd, b.sd))
+    return ::testing::AssertionFailure() << "sds differ";
+  return ::testing::AssertionSuccess();
+}
+
+/// Run values that exercise the round trip: non-terminating fractions, large and subnormal
+/// magnitudes, negative zero, and (with `nonfinite`) an infinity in run 77 (its mean becomes
+/// infinite, its M2 NaN).
+WorkerFactory awkwardValues(bool nonfinite)
+{
+  return [nonfinite]() -> RunFunction {
+    return [nonfinite](long r, double* out) {
+      const double x = static_cast<double>(r);
+      out[0] = std::sin(x) / 3.0;
+      out[1] = 1e300 * std::cos(0.7 * x);
+      out[2] = 4.9406564584124654e-324 * static_cast<double>(r % 5);
+      out[3] = -0.0;
+      out[4] = nonfinite && r == 77 ? std::numeric_limits<double>::infinity() : std::exp(0.01 * x) - 1.0;
+    };
+  };
+}
+
+/// A shard file around the blocks of one engine call (the experiment name only has to be valid).
+ShardFile engineShard(std::vector<CallBlocks> calls, long runs, int k, int n)
+{
+  ShardFile sf;
+  sf.config.experiment = "zhou_fig1";
+  sf.config.runs = runs;
+  sf.config.steps = 1;
+  sf.shard = k;
+  sf.shards = n;
+  sf.fingerprint = inputsFingerprint(sf.inputs);
+  sf.calls = std::move(calls);
+  return sf;
+}
+
+MonteCarloConfig smallConfig(const std::string& name, long runs, long steps)
+{
+  MonteCarloConfig cfg;
+  cfg.experiment = name;
+  cfg.runs = runs;
+  cfg.steps = steps;
+  cfg.threads = 2;
+  return cfg;
+}
+
+/// The JSON with the timing fields (threads, wall_seconds) removed.
+std::string withoutTiming(const std::string& json)
+{
+  std::string out, line;
+  std::istringstream in(json);
+  while (std::getline(in, line))
+    if (line.find("\"threads\":") == std::string::npos && line.find("\"wall_seconds\":") == std::string::npos)
+      out += line + "\n";
+  return out;
+}
+
+}  // namespace
+
+TEST(MonteCarloShards, ShardSpecSyntax)
+{
+  int k = 0, n = 0;
+  EXPECT_TRUE(parseShardSpec("1/1", k, n));
+  EXPECT_EQ(k, 1);
+  EXPECT_EQ(n, 1);
+  EXPECT_TRUE(parseShardSpec("3/7", k, n));
+  EXPECT_EQ(k, 3);
+  EXPECT_EQ(n, 7);
+  for (const char* bad : {"0/3", "4/3", "x", "1/0", "", "1/", "/3", "1/3/4", "-1/3", "+1/3", " 1/3", "1/3 ", "1.0/3",
+                          "1/99999999"})
+    EXPECT_FALSE(parseShardSpec(bad, k, n)) << "'" << bad << "'";
+}
+
+TEST(MonteCarloShards, MergedBlocksEqualUnshardedBitForBit)
+{
+  const std::size_t values = 5;
+  // 1 run, exactly one block, runs not a multiple of 64, and (with 7 shards) more shards than blocks
+  for (const long runs : {1L, 64L, 130L, 449L})
+    for (const bool nonfinite : {false, true})
+    {
+      if (nonfinite && runs < 78)
+        continue;
+      std::vector<double> plain_raw;
+      const Moments plain = runMonteCarlo(runs, values, 2, awkwardValues(nonfinite), nullptr, &plain_raw);
+      ASSERT_EQ(plain.n, runs);
+      ASSERT_EQ(std::isfinite(plain.mean[4]), !nonfinite);  // inf - inf: NaN from run 78 on
+      for (const int n : {1, 3, 7})
+        for (const bool raw : {false, true})
+        {
+          SCOPED_TRACE("runs " + std::to_string(runs) + ", N " + std::to_string(n) + (raw ? ", raw" : "") +
+                       (nonfinite ? ", inf" : ""));
+          CallBlocks merged;
+          merged.runs = runs;
+          merged.values = values;
+          merged.raw = raw;
+          long covered = 0;
+          for (int k = 1; k <= n; ++k)
+          {
+            BlockSession session = BlockSession::shard(k, n);
+            std::vector<double> shard_raw;
+            {
+              BlockSessionScope scope(session);
+              runMonteCarlo(runs, values, 3, awkwardValues(nonfinite), nullptr, raw ? &shard_raw : nullptr);
+            }
+            std::vector<CallBlocks> calls = session.takeCalls();
+            ASSERT_EQ(calls.size(), 1u);
+            long expected_blocks = 0;
+            for (long b = k - 1; b < blockCount(runs); b += n)
+              ++expected_blocks;
+            ASSERT_EQ(static_cast<long>(calls[0].blocks.size()), expected_blocks);  // 0 for some with N = 7
+            // through the file format and back: every double exactly
+            const ShardFile written = engineShard(calls, runs, k, n);
+            const ShardFile read = parseShard(shardJson(written), "mem/zhou_fig1.shard-" + std::to_string(k) + "-of-" +
+                                                                   std::to_string(n) + ".json");
+            ASSERT_EQ(read.calls.size(), 1u);
+            ASSERT_EQ(read.calls[0].blocks.size(), calls[0].blocks.size());
+            for (std::size_t j = 0; j < calls[0].blocks.size(); ++j)
+            {
+              const BlockMoments& a = calls[0].blocks[j];
+              const BlockMoments& b = read.calls[0].blocks[j];
+              EXPECT_EQ(a.index, b.index);
+              EXPECT_EQ(a.count, b.count);
+              EXPECT_TRUE(sameBits(a.mean, b.mean)) << "block " << a.index;
+              EXPECT_TRUE(sameBits(a.m2, b.m2)) << "block " << a.index;
+              EXPECT_TRUE(sameBits(a.raw, b.raw)) << "block " << a.index;
+              covered += b.count;
+              merged.blocks.push_back(b);
+            }
+          }
+          EXPECT_EQ(covered, runs);
+          std::sort(merged.blocks.begin(), merged.blocks.end(),
+                    [](const BlockMoments& a, const BlockMoments& b) { return a.index < b.index; });
+          std::vector<double> merged_raw;
+          EXPECT_TRUE(sameMoments(combineBlocks(merged, raw ? &merged_raw : nullptr), plain));
+          EXPECT_TRUE(!raw || sameBits(merged_raw, plain_raw));
+          // a replay returns the merged moments without running anything
+          BlockSession replay = BlockSession::replay({merged});
+          BlockSessionScope scope(replay);
+          WorkerFactory never = []() -> RunFunction {
+            ADD_FAILURE() << "a replay ran a worker";
+            return [](long, double*) {};
+          };
+          std::vector<double> replay_raw;
+          EXPECT_TRUE(sameMoments(runMonteCarlo(runs, values, 2, never, nullptr, raw ? &replay_raw : nullptr), plain));
+          EXPECT_TRUE(!raw || sameBits(replay_raw, plain_raw));
+          EXPECT_EQ(replay.replayed(), 1u);
+        }
+    }
+}
+
+TEST(MonteCarloShards, ReplayAndCombineRefuseWrongBlocks)
+{
+  BlockSession session = BlockSession::shard(1, 1);
+  {
+    BlockSessionScope scope(session);
+    runMonteCarlo(200, 5, 1, awkwardValues(false));
+  }
+  const CallBlocks all = session.takeCalls().at(0);
+  ASSERT_EQ(all.blocks.size(), 4u);
+  CallBlocks gap = all;
+  gap.blocks.erase(gap.blocks.begin() + 2);
+  EXPECT_THROW(combineBlocks(gap), InputError);
+  CallBlocks swapped = all;
+  std::swap(swapped.blocks[1], swapped.blocks[2]);
+  EXPECT_THROW(combineBlocks(swapped), InputError);
+  CallBlocks short_block = all;
+  short_block.blocks[3].count = 64;  // the last block of 200 runs has 8
+  EXPECT_THROW(combineBlocks(short_block), InputError);
+  EXPECT_EQ(combineBlocks(all).n, 200);
+  std::vector<double> raw;
+  EXPECT_THROW(combineBlocks(all, &raw), InputError);  // recorded without per-run values
+
+  // a replay asked for another call size, or for more calls than recorded
+  BlockSession replay = BlockSession::replay({all});
+  BlockSessionScope scope(replay);
+  EXPECT_THROW(runMonteCarlo(199, 5, 1, awkwardValues(false)), InputError);
+  BlockSession replay2 = BlockSession::replay({all});
+  BlockSessionScope scope2(replay2);
+  EXPECT_EQ(runMonteCarlo(200, 5, 1, awkwardValues(false)).n, 200);
+  EXPECT_THROW(runMonteCarlo(200, 5, 1, awkwardValues(false)), InputError);
+}
+
+TEST(MonteCarloShards, ExperimentMergeEqualsUnsharded)
+{
+  // zhou_fig2: four calls with per-run samples; zhou_fig1: two calls over one data set
+  for (const std::string name : {"zhou_fig2", "zhou_fig1"})
+  {
+    const MonteCarloConfig cfg = smallConfig(name, 150, 20);
+    const ExperimentResult plain = runExperiment(cfg);
+    for (const int n : {1, 3, 7})
+    {
+      SCOPED_TRACE(name + ", N " + std::to_string(n));
+      std::vector<ShardFile> shards;
+      for (int k = n; k >= 1; --k)  // any order
+      {
+        const ShardFile sf = runShard(cfg, k, n);
+        shards.push_back(parseShard(shardJson(sf), "mem/" + shardFileName(name, k, n)));
+      }
+      const ExperimentResult merged = mergeShards(shards);
+      EXPECT_EQ(experimentCsv(merged), experimentCsv(plain));
+      EXPECT_EQ(samplesCsv(merged), samplesCsv(plain));
+      EXPECT_EQ(withoutTiming(experimentJson(merged)), withoutTiming(experimentJson(plain)));
+      ASSERT_EQ(merged.cases.size(), plain.cases.size());
+      for (std::size_t c = 0; c < plain.cases.size(); ++c)
+        for (std::size_t s = 0; s < plain.cases[c].series.size(); ++s)
+        {
+          EXPECT_TRUE(sameBits(merged.cases[c].series[s].mean, plain.cases[c].series[s].mean));
+          EXPECT_TRUE(sameBits(merged.cases[c].series[s].sd, plain.cases[c].series[s].sd));
+        }
+    }
+  }
+  if (::testing::Test::HasFailure())
+    return;
+  // the samples are really there: shard 2 of 3 holds runs 64..127 of every case
+  const ShardFile sf = runShard(smallConfig("zhou_fig2", 150, 20), 2, 3);
+  ASSERT_EQ(sf.calls.size(), 4u);
+  ASSERT_EQ(sf.calls[0].blocks.size(), 1u);
+  EXPECT_EQ(sf.calls[0].blocks[0].index, 1);
+  EXPECT_EQ(sf.calls[0].blocks[0].raw.size(), 64u * 4u);
+}
+
+TEST(MonteCarloShards, MergeRefusesShardsThatDoNotBelongTogether)
+{
+  const MonteCarloConfig cfg = smallConfig("zhou_fig2", 150, 10);
+  std::vector<ShardFile> three;
+  for (int k = 1; k <= 3; ++k)
+  {
+    three.push_back(runShard(cfg, k, 3));
+    three.back().path = "d/" + shardFileName("zhou_fig2", k, 3);
+  }
+  auto refused = [](std::vector<ShardFile> shards, const std::vector<std::string>& words) {
+    try
+    {
+      mergeShards(std::move(shards));
+      ADD_FAILURE() << "no error";
+    }
+    catch (const InputError& e)
+    {
+      for (const std::string& w : words)
+        EXPECT_NE(std::string(e.what()).find(w), std::string::npos) << "'" << w << "' not in: " << e.what();
+    }
+  };
+  refused({three[0], three[2]}, {"missing shard 2 of 3"});
+  std::vector<ShardFile> dup = three;
+  dup.push_back(three[1]);
+  dup.back().path = "e/" + shardFileName("zhou_fig2", 2, 3);
+  refused(dup, {"duplicate shard 2 of 3", "d/zhou_fig2.shard-2-of-3.json", "e/zhou_fig2.shard-2-of-3.json"});
+  MonteCarloConfig other = cfg;
+  other.seed = 2;
+  std::vector<ShardFile> foreign = three;
+  foreign[1] = runShard(other, 2, 3);
+  foreign[1].path = "f/" + shardFileName("zhou_fig2", 2, 3);
+  refused(foreign, {"f/zhou_fig2.shard-2-of-3.json", "foreign shard", "seed is 2", "but 1"});
+  other = cfg;
+  other.runs = 149;
+  foreign[1] = runShard(other, 2, 3);
+  foreign[1].path = "f/x.json";
+  refused(foreign, {"f/x.json", "runs is 149"});
+  refused({}, {"no shard files"});
+
+  // malformed files name the file, the line and the problem
+  const std::string text = shardJson(three[0]);
+  auto malformed = [](const std::string& t, const std::string& word) {
+    try
+    {
+      parseShard(t, "bad.json");
+      ADD_FAILURE() << "no error for " << word;
+    }
+    catch (const InputError& e)
+    {
+      EXPECT_EQ(std::string(e.what()).rfind("bad.json: ", 0), 0u) << e.what();
+      EXPECT_NE(std::string(e.what()).find(word), std::string::npos) << e.what();
+    }
+  };
+  malformed(text.substr(0, text.size() / 2), "line ");
+  malformed("not json", "line 1, column 1: expected '{'");
+  std::string bad_runs = text;
+  bad_runs.replace(bad_runs.find("\"runs\": 150"), 11, "\"runs\": \"x\"");
+  malformed(bad_runs, "'runs': expected an integer");
+  std::string lost_block = text;
+  lost_block.replace(lost_block.find("\"index\": 0"), 10, "\"index\": 1");
+  malformed(lost_block, "expected block 0, found block 1");
+  std::string edited = text;
+  edited.replace(edited.find("\"fingerprint\": \""), 16, "\"fingerprint\": \"0");
+  malformed(edited, "'fingerprint'");
 }

@@ -792,3 +792,123 @@ TEST(StabilityLinks, RandomWalkRecoveryRateIsZero)
   EXPECT_EQ(rep.model.exact_rate, 0.0);
   EXPECT_EQ(rep.model.verdict.kind, Verdict::Kind::STABLE);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Sensor schedules (Marelli et al. section 7): the cyclostationary Theorem 14
+
+namespace
+{
+
+/// Marelli et al.'s section 7.3 example: A = diag([[a1, 1], [0, a1]], a2), H1 = [[2, 1, 0], [0, 1, 0]]
+/// (sees the Jordan block fully), H2 = [[0, 0, 1], [0, 0, 2]] (sees the mode a2 only); sensor 1
+/// transmits at odd k, sensor 2 at even k. The paper leaves the noises open: Q = I (B = I) and
+/// R = I for both sensors.
+Model scheduledExample(double a1, double a2, bool periodic, double q = 0.5)
+{
+  Model m = multiModel(mat(3, 3, {a1, 1, 0, 0, a1, 0, 0, 0, a2}),
+                       {mat(2, 3, {2, 1, 0, 0, 1, 0}), mat(2, 3, {0, 0, 1, 0, 0, 2})});
+  if (periodic)
+  {
+    m.schedule.kind = Schedule::Kind::PERIODIC;
+    m.schedule.pattern = {{true, false}, {false, true}};
+  }
+  else
+  {
+    m.schedule.kind = Schedule::Kind::RANDOM;
+    m.schedule.subsets = {{true, false}, {false, true}};
+    m.schedule.transition = mat(2, 2, {q, 1 - q, q, 1 - q});
+    m.schedule.initial = Eigen::Vector2d(q, 1 - q);
+  }
+  validateModel(m, "scheduled");
+  return m;
+}
+
+}  // namespace
+
+// i.i.d. loss eps on each sensor's link: the Jordan block is seen every second step, so
+// Phi_1 = eps^{1/2} and the verdict flips at a1^4 eps = 1 (the paper's result); the mode a2 < a1
+// (Phi_2 = eps^{1/2} too) never decides.
+TEST(StabilitySchedule, PeriodicExampleFlipsAtAlpha4Lambda)
+{
+  const double a1 = 1.2, a2 = 1.1;
+  const Model m = scheduledExample(a1, a2, true);
+  const double eps_star = 1.0 / std::pow(a1, 4);  // 0.482253
+  for (double f : {0.9, 0.97, 0.995, 1.005, 1.03, 1.1})
+  {
+    const double eps = f * eps_star;
+    const StabilityReport rep = analyzeStability(m, iidLinks({1 - eps, 1 - eps}));
+    EXPECT_EQ(rep.model.verdict.kind, f < 1 ? Verdict::Kind::STABLE : Verdict::Kind::UNSTABLE)
+        << eps << ": " << rep.model.verdict.reason;
+    EXPECT_NEAR(rep.model.verdict.numbers.at("max |alpha|^2 Phi"), a1 * a1 * std::sqrt(eps), 1e-9);
+    EXPECT_NE(rep.model.verdict.reason.find("sensor schedule, tau = 2"), std::string::npos) << rep.model.verdict.reason;
+  }
+  // The common arrival rate at which it turns stable: 1 - 1/a1^4.
+  const StabilityReport rep = analyzeStability(m, iidLinks({0.6, 0.6}));
+  EXPECT_NEAR(rep.model.exact_rate, 1.0 - eps_star, 1e-6);
+  EXPECT_NE(rep.model.exact_method.find("sensor schedule"), std::string::npos);
+  EXPECT_TRUE(std::isnan(rep.model.lower_bound));
+  EXPECT_NE(rep.mare_at_rates.find("not applicable: a sensor schedule"), std::string::npos);
+  // Sensor 1's need with sensor 2 at 0.6: its own arrival rate > 1 - 1/a1^4 (sensor 2 only sees
+  // the mode a2, which needs a2^4 (1 - lambda_2) < 1).
+  EXPECT_NEAR(rep.links[0].margin.band.converges_at, 1.0 - eps_star, 1e-6);
+  EXPECT_NEAR(rep.links[1].margin.band.converges_at, 1.0 - 1.0 / std::pow(a2, 4), 1e-6);
+  // Without the schedule the same links are far more than enough: every step carries both sensors.
+  Model plain = m;
+  plain.schedule = Schedule();
+  EXPECT_EQ(analyzeStability(plain, iidLinks({0.45, 0.45})).model.verdict.kind, Verdict::Kind::STABLE);
+  EXPECT_EQ(analyzeStability(m, iidLinks({0.45, 0.45})).model.verdict.kind, Verdict::Kind::UNSTABLE);
+}
+
+// Gilbert-Elliott links that run in time (advance every step): sensor 1 transmits every second step,
+// so the two-step matrix decides: Phi_1 = ([P^2]_bad,bad)^{1/2} = ((1 - r)^2 + r p)^{1/2}, and the
+// verdict flips at a1^4 [P^2]_bad,bad = 1.
+TEST(StabilitySchedule, PeriodicExampleMarkovTwoStep)
+{
+  const double a1 = 1.2;
+  const Model m = scheduledExample(a1, 1.1, true);
+  for (double p : {0.1, 0.4})
+    for (double r : {0.2, 0.35, 0.5, 0.7, 0.9})
+    {
+      const double g = std::pow(a1, 4) * twoStepBad(p, r);
+      if (std::abs(g - 1.0) < 0.01)
+        continue;
+      const StabilityReport rep = analyzeStability(m, {gilbert(p, r), gilbert(p, r)});
+      EXPECT_EQ(rep.model.verdict.kind, g < 1 ? Verdict::Kind::STABLE : Verdict::Kind::UNSTABLE)
+          << p << " " << r << " a1^4 [P^2]_bb = " << g << ": " << rep.model.verdict.reason;
+    }
+}
+
+// A random i.i.d. schedule: sensor 1 with probability q, else sensor 2; loss eps on each link. At
+// each step the Jordan block gets nothing with probability 1 - q (1 - eps), so
+// Phi_1 = 1 - q (1 - eps) and the block is bounded iff a1^2 (1 - q (1 - eps)) < 1; the mode a2
+// likewise with 1 - q.
+TEST(StabilitySchedule, RandomScheduleIid)
+{
+  const double a1 = 1.2, a2 = 1.1;
+  for (double q : {0.5, 0.8})
+    for (double eps : {0.05, 0.2, 0.4, 0.6})
+    {
+      const Model m = scheduledExample(a1, a2, false, q);
+      const double g = std::max(a1 * a1 * (1 - q * (1 - eps)), a2 * a2 * (1 - (1 - q) * (1 - eps)));
+      if (std::abs(g - 1.0) < 0.01)
+        continue;
+      const Verdict v = analyzeStability(m, iidLinks({1 - eps, 1 - eps})).model.verdict;
+      EXPECT_EQ(v.kind, g < 1 ? Verdict::Kind::STABLE : Verdict::Kind::UNSTABLE) << q << " " << eps << " g = " << g;
+      EXPECT_NEAR(v.numbers.at("max |alpha|^2 Phi"), g, 1e-9) << q << " " << eps;
+    }
+  // A Markov schedule with Gilbert-Elliott links runs on the joint chain (2 x 2 x 2 states); with a
+  // schedule that always picks sensor 1 (row [1, 0]) it is the unscheduled single-link case:
+  // Phi_1 = 1 - r.
+  Model m = scheduledExample(a1, a2, false, 1.0);
+  m.schedule.markov = true;
+  m.schedule.transition = mat(2, 2, {1, 0, 1, 0});
+  m.schedule.initial = Eigen::Vector2d(1, 0);
+  const Verdict v = analyzeStability(m, {gilbert(0.2, 0.5), gilbert(0.2, 0.5)}).model.verdict;
+  // Block 2 is never seen: unstable whatever block 1 does; block 1 alone: 1.44 * 0.5 < 1.
+  EXPECT_EQ(v.kind, Verdict::Kind::UNSTABLE);
+  const std::vector<BlockStructure> blocks = analyseBlocks(m.A, {m.C.topRows(2), m.C.bottomRows(2)});
+  ASSERT_EQ(blocks.size(), 2u);
+  const std::vector<LinkModel> links = {LinkModel::gilbertElliott(0.2, 0.5), LinkModel::gilbertElliott(0.2, 0.5)};
+  EXPECT_NEAR(blockPhiScheduled(blocks[0], links, m.schedule), 0.5, 1e-12);
+  EXPECT_NEAR(blockPhiScheduled(blocks[1], links, m.schedule), 1.0, 1e-12);
+}

@@ -15,6 +15,7 @@
 
 #include "networked_estimation/channel/loss_model.hpp"
 #include "networked_estimation/estimators/estimator.hpp"
+#include "networked_estimation/simulation/lossy_run.hpp"
 #include "stability_test_support.hpp"
 
 using namespace networked_estimation;
@@ -340,5 +341,91 @@ TEST(StabilityMonteCarlo, RotationIntervalEnds)
       EXPECT_LT(ratio, at_one) << pt.r;
     else
       EXPECT_GT(ratio, at_one) << pt.r;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// A sensor schedule (Marelli et al. section 7.3), through the simulator itself
+
+namespace
+{
+
+/// As meanTrace, but the arrivals come from LossyRun: the plant, the model's schedule and one
+/// independent link per sensor, exactly what simulate and montecarlo custom use.
+std::vector<double> meanTraceSimulated(const Model& m, const std::vector<ChannelSettings>& links, int runs, int steps,
+                                       std::uint64_t seed)
+{
+  EstimatorSettings s;
+  s.algorithm = Algorithm::KFIO;
+  auto est = makeEstimator(m, s);
+  LossyRunOptions o;
+  for (const ChannelSettings& c : links)
+    o.sensor_links.push_back(c);
+  o.noise_on_loss = false;
+  std::vector<double> mean(steps, 0.0);
+  for (int r = 0; r < runs; ++r)
+  {
+    LossyRun run(m, deriveSeed(seed, static_cast<std::uint64_t>(r)), o);
+    est->reset();
+    for (int k = 0; k < steps; ++k)
+    {
+      run.step();
+      est->step(run.received());
+      mean[k] += est->covariance().trace() / runs;
+    }
+  }
+  return mean;
+}
+
+/// sum_{j <= k2} j^d g^j / sum_{j <= k1} j^d g^j: the burst model with a polynomial prefactor j^d
+/// (a Jordan block of size d/2 + 1 inflates P by ~ j^d |alpha|^{2j} over a burst of j steps).
+double burstRatioPoly(double g, int d, int k1, int k2)
+{
+  double s1 = 0.0, s2 = 0.0;
+  for (int j = 1; j <= k2; ++j)
+  {
+    const double t = std::pow(j, d) * std::pow(g, j);
+    s2 += t;
+    if (j <= k1)
+      s1 += t;
+  }
+  return s2 / s1;
+}
+
+}  // namespace
+
+// The Jordan block (alpha_1 = 1.2) is seen by sensor 1 only, at every second step: with loss eps on
+// its link, a burst of j steps without information has probability ~ eps^{j/2} and inflates P by
+// ~ j^2 alpha_1^{2j}, so E[tr P_k] ~ a + b sum_{j <= k} j^2 g^j with g = alpha_1^2 eps^{1/2}. At the
+// boundary eps* = 1/alpha_1^4 that analyze computes, we put eps = 1.3 eps* (g = 1.140) and
+// 0.5 eps* (g = 0.707). The ratio E[tr P_20] / E[tr P_10] is then about burstRatioPoly(g, 2): 7.45
+// at g = 1, 19.4 below the boundary and 1.0 above. N = 20000 runs see the 20-step bursts below the
+// boundary (probability (1.3 eps*)^10 = 0.0095) about 190 times: the tail's sample mean is within
+// ~ 7 %, far inside the gap to 7.45; we require > 7.45 below and < 7.45 above.
+TEST(StabilityMonteCarlo, ScheduledExampleThroughTheSimulator)
+{
+  Model m = multiModel(mat(3, 3, {1.2, 1, 0, 0, 1.2, 0, 0, 0, 1.1}),
+                       {mat(2, 3, {2, 1, 0, 0, 1, 0}), mat(2, 3, {0, 0, 1, 0, 0, 2})});
+  m.schedule.kind = Schedule::Kind::PERIODIC;
+  m.schedule.pattern = {{true, false}, {false, true}};
+  validateModel(m, "scheduled");
+  const StabilityReport rep = analyzeStability(m, iidLinks({0.7, 0.7}));
+  const double eps_star = 1.0 - rep.model.exact_rate;
+  ASSERT_NEAR(eps_star, 1.0 / std::pow(1.2, 4), 1e-6);
+  const int k1 = 10, k2 = 20;
+  const double at_one = burstRatioPoly(1.0, 2, k1, k2);
+  for (double f : {1.3, 0.5})
+  {
+    const double eps = f * eps_star;
+    EXPECT_EQ(analyzeStability(m, iidLinks({1 - eps, 1 - eps})).model.verdict.kind,
+              f > 1 ? Verdict::Kind::UNSTABLE : Verdict::Kind::STABLE);
+    const std::vector<double> mean = meanTraceSimulated(m, iidChannels({1 - eps, 1 - eps}), 20000, k2, 31);
+    const double ratio = mean[k2 - 1] / mean[k1 - 1];
+    std::printf("scheduled example: eps = %.4f (f = %.1f): E[tr P_%d]/E[tr P_%d] = %.3f (burst model %.3f, g = 1: %.3f)\n",
+                eps, f, k2, k1, ratio, burstRatioPoly(1.2 * 1.2 * std::sqrt(eps), 2, k1, k2), at_one);
+    if (f > 1)
+      EXPECT_GT(ratio, at_one);
+    else
+      EXPECT_LT(ratio, at_one);
   }
 }

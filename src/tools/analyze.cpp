@@ -309,6 +309,14 @@ int main(int argc, char** argv)
     std::cout << "\nrho(A) = " << txt(rep.spectral_radius) << ", M(A) = " << txt(rep.mahler_measure)
               << ", diagonalizable: " << (rep.diagonalizable ? "yes" : "no") << "\n";
     std::cout << "strong observability: " << describe(rep.strong_observability) << "\n";
+    if (model.schedule.active())
+    {
+      std::vector<std::string> names;
+      for (const Sensor& sn : model.sensors)
+        names.push_back(sn.name);
+      std::cout << "schedule: " << model.schedule.describe(names)
+                << " (verdicts by the cyclostationary Theorem 14; links advance every step)\n";
+    }
     if (rep.has_channel)
     {
       std::cout << "links:\n";

@@ -1,5 +1,7 @@
 // montecarlo: runs one Monte Carlo experiment (paper figure or custom comparison) and writes
 // DIR/<experiment>.csv and DIR/<experiment>.json (montecarlo.hpp has the output contract).
+// With --shard K/N it computes one shard and writes DIR/<experiment>.shard-K-of-N.json instead;
+// `montecarlo merge DIR...` merges the shards into the unsharded outputs (montecarlo_shards.hpp).
 #include <cstdio>
 #include <iostream>
 #include <sstream>
@@ -7,6 +9,7 @@
 
 #include "cli.hpp"
 #include "networked_estimation/experiments/montecarlo.hpp"
+#include "networked_estimation/experiments/montecarlo_shards.hpp"
 
 using namespace networked_estimation;
 
@@ -63,10 +66,76 @@ private:
   int last_ = 0;
 };
 
+/// `montecarlo merge DIR... [--out DIR]`: the directories are positional, the options go to the
+/// usual parser.
+int mergeMain(int argc, char** argv)
+{
+  cli::CommandLine cl(
+      "montecarlo merge DIR...",
+      "Merges the shard files DIR/NAME.shard-K-of-N.json written by `montecarlo ... --shard K/N --out DIR` into\n"
+      "DIR/NAME.csv and DIR/NAME.json (and zhou_fig2_samples.csv), exactly as the unsharded run writes them\n"
+      "(the JSON's threads and wall_seconds aside: the shards' largest thread count and their summed wall time).\n"
+      "Every shard file in the directories (of --experiment NAME only, when given) is read; they must be of\n"
+      "one experiment with the same --runs, --steps, --seed, N and custom arguments, every K of 1..N exactly\n"
+      "once, and a custom experiment's input files (read again at their recorded paths, relative ones from\n"
+      "the current directory) unchanged.\n"
+      "Exit codes: 0 ok; 2 bad arguments, or a missing, duplicate, foreign or malformed shard (the message\n"
+      "names the file and the field); 3 never.",
+      {
+          {"experiment", "NAME", "merge only the shards of NAME (default: every shard file; they must be of one "
+                                 "experiment)", false, false},
+          {"out", "DIR", "output directory (created when missing; default: the first DIR)", false, false},
+      });
+  std::vector<std::string> dirs;
+  std::vector<char*> args = {argv[0]};
+  for (int i = 2; i < argc; ++i)
+  {
+    const std::string a = argv[i];
+    if (a.compare(0, 2, "--") == 0 || a == "-h")
+    {
+      args.push_back(argv[i]);
+      if ((a == "--out" || a == "--experiment") && i + 1 < argc)
+        args.push_back(argv[++i]);
+    }
+    else
+      dirs.push_back(a);
+  }
+  return cli::runTool(cl, static_cast<int>(args.size()), args.data(), [&]() -> int {
+    if (dirs.empty())
+      throw cli::UsageError("merge: expected one or more directories of shard files");
+    std::vector<ShardFile> shards;
+    if (cl.has("experiment"))
+    {
+      try
+      {
+        checkExperimentName(cl.get("experiment"));
+      }
+      catch (const ConfigError& e)
+      {
+        throw cli::UsageError(e.what());
+      }
+    }
+    for (const std::string& file : findShardFiles(dirs, cl.get("experiment")))
+      shards.push_back(readShard(file));
+    const std::size_t count = shards.size();
+    const std::string out = cl.get("out", dirs.front());
+    const ExperimentResult result = mergeShards(std::move(shards));
+    writeExperiment(result, out);
+    std::string shown = out;
+    while (shown.size() > 1 && shown.back() == '/')
+      shown.pop_back();
+    std::fprintf(stderr, "montecarlo merge: %s: %zu shards, %ld runs x %ld steps -> %s/%s.csv\n",
+                 result.experiment.c_str(), count, result.runs, result.steps, shown.c_str(), result.experiment.c_str());
+    return 0;
+  });
+}
+
 }  // namespace
 
 int main(int argc, char** argv)
 {
+  if (argc >= 2 && std::string(argv[1]) == "merge")
+    return mergeMain(argc, argv);
   std::string names;
   for (const std::string& n : experimentNames())
     names += (names.empty() ? "" : ", ") + n;
@@ -75,7 +144,12 @@ int main(int argc, char** argv)
       "Runs a Monte Carlo experiment and writes DIR/NAME.csv (case,series,x,mean,sd,n) and DIR/NAME.json\n"
       "(metadata, assumptions, per-series summaries); zhou_fig2 also writes DIR/zhou_fig2_samples.csv.\n"
       "Results do not depend on --threads. Experiments: " +
-          names + ".\nExit codes: 0 ok, 2 bad arguments or files, 3 an estimator diverged, or a run's plant state\n"
+          names +
+          ".\nOn a cluster: with --shard K/N it computes only shard K of N (of every Monte Carlo call of the\n"
+          "experiment, the blocks of 64 runs b with b % N = K-1) and writes DIR/NAME.shard-K-of-N.json instead;\n"
+          "`montecarlo merge DIR... [--out DIR]` then writes the same DIR/NAME.csv and .json as one unsharded\n"
+          "run (see montecarlo merge --help).\n"
+          "Exit codes: 0 ok, 2 bad arguments or files, 3 an estimator diverged, or a run's plant state\n"
           "crossed the rounding floor (the message names the run and the step: use fewer --steps).",
       {
           {"experiment", "NAME", "experiment to run", true, false},
@@ -92,6 +166,10 @@ int main(int argc, char** argv)
           {"actuator-channel", "FILE", "custom: controller-to-actuator channel settings (default: lossless)", false,
            false},
           {"settings", "S1,S2,...", "custom: estimator settings files, comma-separated", false, false},
+          {"shard", "K/N",
+           "compute shard K of N (1 <= K <= N) only and write DIR/NAME.shard-K-of-N.json (merge with montecarlo "
+           "merge)",
+           false, false},
       });
   return cli::runTool(cl, argc, argv, [&]() -> int {
     MonteCarloConfig cfg;
@@ -124,8 +202,24 @@ int main(int argc, char** argv)
       if (cfg.settings_paths.empty())
         throw cli::UsageError("option '--settings': expected comma-separated settings files");
     }
+    int shard = 0, shards = 0;
+    if (cl.has("shard") && !parseShardSpec(cl.get("shard"), shard, shards))
+      throw cli::UsageError("option '--shard': expected K/N with integers 1 <= K <= N <= 1000000, found '" +
+                            cl.get("shard") + "'");
     ProgressPrinter printer;
     ProgressCounter progress([&printer](long done, long total) { printer(done, total); });
+    if (shards > 0)
+    {
+      const ShardFile sf = runShard(cfg, shard, shards, &progress);
+      const std::string path = writeShard(sf, cl.get("out"));
+      long owned = 0;
+      for (const BlockMoments& b : sf.calls.empty() ? std::vector<BlockMoments>{} : sf.calls.front().blocks)
+        owned += b.count;
+      std::fprintf(stderr, "montecarlo: %s shard %d of %d: %ld of %ld runs x %ld steps on %d threads in %.2f s -> %s\n",
+                   cfg.experiment.c_str(), shard, shards, owned, sf.config.runs, sf.config.steps, sf.threads,
+                   sf.wall_seconds, path.c_str());
+      return 0;
+    }
     const ExperimentResult result = runExperiment(cfg, &progress);
     writeExperiment(result, cl.get("out"));
     std::fprintf(stderr, "montecarlo: %s: %ld runs x %ld steps on %d threads in %.2f s -> %s/%s.csv\n",

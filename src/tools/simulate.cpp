@@ -79,6 +79,7 @@ int main(int argc, char** argv)
 
     LossyRun run(model, seed, options);
     long arrived = 0, delivered = 0;
+    std::vector<bool> off(static_cast<std::size_t>(model.m()), false);  // rows of unscheduled sensors
     for (long k = 1; k <= steps; ++k)
     {
       // The core refuses a state beyond the rounding floor or not finite (simulator.hpp); the
@@ -96,7 +97,15 @@ int main(int argc, char** argv)
       const Sample& received = run.received();
       arrived += received.gamma ? 1 : 0;
       delivered += sample.nu ? 1 : 0;
-      writeReplayInputRow(input.stream(), sample.k, received.gamma, received.y, sample.u);
+      if (model.schedule.active())
+      {
+        const std::vector<bool>& on = run.scheduled();
+        for (std::size_t si = 0; si < model.sensors.size(); ++si)
+          for (int i = 0; i < model.sensors[si].size; ++i)
+            off[static_cast<std::size_t>(model.sensors[si].offset + i)] = !on[si];
+      }
+      writeReplayInputRow(input.stream(), sample.k, received.gamma, received.y, sample.u, false, -1,
+                          model.schedule.active() ? &off : nullptr);
       writeTruthRow(truth.stream(), sample.k, sample.x, sample.nu);
     }
     input.commit();
@@ -106,6 +115,14 @@ int main(int argc, char** argv)
                 model.name.c_str(), steps, static_cast<double>(arrived) / steps,
                 static_cast<double>(delivered) / steps, dir.string().c_str());
     std::printf("links:\n%s", links.describe().c_str());
+    if (model.schedule.active())
+    {
+      std::vector<std::string> names;
+      for (const Sensor& sn : model.sensors)
+        names.push_back(sn.name);
+      std::printf("schedule: %s (cells of a sensor that was not scheduled hold '-')\n",
+                  model.schedule.describe(names).c_str());
+    }
     return 0;
   });
 }

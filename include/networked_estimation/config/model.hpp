@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "networked_estimation/config/schedule.hpp"
+
 namespace YAML
 {
 class Node;
@@ -47,6 +49,7 @@ struct Model
   std::vector<Sensor> sensors;            ///< at least one; a single C/R file has one sensor "y"
   std::vector<Uncertainty> uncertainty;   ///< n_e entries (may be empty)
   Eigen::MatrixXd Bu;                     ///< n x p control input matrix (p = 0 without control)
+  Schedule schedule;                      ///< which sensors transmit at each step (none: all, always)
 
   int n() const { return static_cast<int>(A.rows()); }
   int nw() const { return static_cast<int>(B.cols()); }

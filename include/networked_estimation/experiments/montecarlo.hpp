@@ -8,6 +8,7 @@
 //   DIR/<experiment>.csv    case,series,x,mean,sd,n       (numbers with %.10g)
 //   DIR/<experiment>.json   metadata and per-series summaries (see writeExperimentJson)
 //   DIR/zhou_fig2_samples.csv  case,run,P11,P12,P21,P22   (zhou_fig2 only)
+// A sharded run writes DIR/<experiment>.shard-K-of-N.json instead (montecarlo_shards.hpp).
 #pragma once
 
 #include <atomic>
@@ -60,12 +61,98 @@ using WorkerFactory = std::function<RunFunction()>;
 
 /// Runs `runs` runs on up to `threads` threads (0 = hardware concurrency) and returns the moments
 /// of every value. When `raw` is given it receives every run's values (runs x values, row-major).
-/// The first exception of a run is rethrown after every thread has stopped.
+/// The first exception of a run is rethrown after every thread has stopped. Under a
+/// BlockSessionScope it computes one shard's blocks, or replays merged ones (BlockSession).
 Moments runMonteCarlo(long runs, std::size_t values, int threads, const WorkerFactory& make_worker,
                       ProgressCounter* progress = nullptr, std::vector<double>* raw = nullptr);
 
 /// The thread count actually used for a requested count (0 = hardware concurrency, at least 1).
 int resolveThreads(int requested);
+
+// ---------------------------------------------------------------------------------------------
+// Blocks: sharding a run across processes (montecarlo_shards.hpp writes and merges the files)
+
+/// The Welford state of one block of a runMonteCarlo call: what a shard computes and a merge
+/// combines. Block b holds the runs b kBlockRuns .. min(runs, (b + 1) kBlockRuns) - 1.
+struct BlockMoments
+{
+  long index = 0;
+  long count = 0;                ///< runs in the block
+  std::vector<double> mean, m2;  ///< per value: the mean and the sum of squared deviations
+  std::vector<double> raw;       ///< count x values, row-major, when the call collects per-run values
+};
+
+/// The blocks of one runMonteCarlo call that a shard holds (merged: all of them).
+struct CallBlocks
+{
+  long runs = 0;
+  std::size_t values = 0;
+  bool raw = false;                  ///< the call collects per-run values
+  std::vector<BlockMoments> blocks;  ///< by increasing index
+};
+
+/// Blocks of a call of `runs` runs.
+long blockCount(long runs);
+/// Runs in block b of a call of `runs` runs.
+long blockRuns(long runs, long b);
+
+/// The moments of a call from all its blocks, combined in block order exactly as runMonteCarlo
+/// combines them (so bit for bit the same), and its per-run values into `raw` when given. Throws
+/// InputError unless `call` holds every block 0 .. blockCount(runs) - 1 once, each of its size.
+Moments combineBlocks(const CallBlocks& call, std::vector<double>* raw = nullptr);
+
+/// Redirects the runMonteCarlo calls made on one thread while a BlockSessionScope holds it:
+///  - shard K of N: a call computes only its blocks b with b % N == K - 1 and appends them to
+///    calls(); it returns the moments of those blocks alone (and zero rows in `raw` for the runs it
+///    does not own), which only keep the experiment's post-processing going;
+///  - replay: call i computes nothing and returns combineBlocks(calls[i]), so an experiment re-run
+///    on merged blocks recomputes all its post-processing from exactly the unsharded moments.
+/// A thread-local hook rather than a parameter, so that no experiment has to pass it along.
+class BlockSession
+{
+public:
+  /// Shard `index` (1-based) of `count`.
+  static BlockSession shard(int index, int count);
+  static BlockSession replay(std::vector<CallBlocks> calls);
+
+  bool replaying() const { return replay_; }
+  int shardIndex() const { return index_; }
+  int shardCount() const { return count_; }
+  /// Whether this shard computes block b (always true in a replay).
+  bool owns(long b) const { return replay_ || b % count_ == index_ - 1; }
+  /// Shard: the calls recorded so far. Replay: the calls to return.
+  const std::vector<CallBlocks>& calls() const { return calls_; }
+  /// Replay: how many calls have been returned.
+  std::size_t replayed() const { return next_; }
+
+  /// Shard: appends a call's blocks.
+  void record(CallBlocks call) { calls_.push_back(std::move(call)); }
+  /// Shard: hands over the recorded calls (the session keeps none).
+  std::vector<CallBlocks> takeCalls() { return std::move(calls_); }
+  /// Replay: the next call's moments. Throws InputError when the experiment asks for more calls
+  /// than were recorded, or for a call of another size.
+  Moments replayNext(long runs, std::size_t values, std::vector<double>* raw);
+
+private:
+  BlockSession() = default;
+  bool replay_ = false;
+  int index_ = 1, count_ = 1;
+  std::vector<CallBlocks> calls_;
+  std::size_t next_ = 0;
+};
+
+/// Installs a session for the runMonteCarlo calls of the current thread until destroyed.
+class BlockSessionScope
+{
+public:
+  explicit BlockSessionScope(BlockSession& session);
+  ~BlockSessionScope();
+  BlockSessionScope(const BlockSessionScope&) = delete;
+  BlockSessionScope& operator=(const BlockSessionScope&) = delete;
+
+private:
+  BlockSession* previous_;
+};
 
 // ---------------------------------------------------------------------------------------------
 // Results
@@ -122,6 +209,9 @@ std::string samplesCsv(const ExperimentResult& result);
 /// Writes DIR/<experiment>.csv, .json (and _samples.csv) atomically, creating DIR if needed.
 /// Throws InputError when a file cannot be written.
 void writeExperiment(const ExperimentResult& result, const std::string& dir);
+/// Creates DIR and its parents when missing. Throws InputError when it cannot, or when a part of
+/// the path is not a directory.
+void makeOutputDirectory(const std::string& dir);
 
 // ---------------------------------------------------------------------------------------------
 // Experiments

@@ -36,6 +36,9 @@ struct ReplayRow
   Eigen::VectorXd u;
   /// nu_k (0 or 1); -1 when the file has no nu column.
   int nu = -1;
+  /// Per sensor, whether it was scheduled to transmit (a sensor whose cells are all '-' was not:
+  /// not a loss). Empty when every sensor was scheduled.
+  std::vector<bool> scheduled;
   /// Line of the file this row came from (1-based, the header is line 1).
   long line = 0;
 };
@@ -56,10 +59,12 @@ ReplayInput parseReplayInput(std::istream& in, const std::string& source, const 
 
 /// Header `k,gamma,y1..ym[,u1..up][,nu]`.
 void writeReplayInputHeader(std::ostream& os, int m, int p, bool with_nu);
-/// One row. NaN entries of y are written as empty cells; u is written when non-empty; nu when
-/// with_nu. Numbers use %.17g.
+/// One row. NaN entries of y are written as empty cells, entries marked in `off` (m flags: the
+/// rows of a sensor that was not scheduled) as '-'; u is written when non-empty; nu when with_nu.
+/// Numbers use %.17g.
 void writeReplayInputRow(std::ostream& os, long k, bool gamma, const Eigen::VectorXd& y,
-                         const Eigen::VectorXd& u, bool with_nu = false, int nu = -1);
+                         const Eigen::VectorXd& u, bool with_nu = false, int nu = -1,
+                         const std::vector<bool>* off = nullptr);
 
 // ---------------------------------------------------------------------------------------------
 // Replay output

@@ -4,7 +4,13 @@
 // feeds to the estimators, so that a custom run equals simulate + replay + score for the same seed.
 //
 // Seeds, from the run's seed S: the plant PlantSimulator(model, S); sensor s's link
-// deriveSeed(S ^ settings.seed, 100 + s); the actuator link deriveSeed(S ^ settings.seed, 200).
+// deriveSeed(S ^ settings.seed, 100 + s); the actuator link deriveSeed(S ^ settings.seed, 200);
+// a random sensor schedule deriveSeed(S, 300).
+//
+// With a sensor schedule (model.schedule), a sensor that is not scheduled at a step does not
+// transmit: its cells are NaN and scheduled() says so; it is not a loss. Every link still draws its
+// loss at every step (time-driven links, schedule.hpp), so the scheduled packets meet the same
+// losses as without a schedule.
 #pragma once
 
 #include <Eigen/Dense>
@@ -18,6 +24,7 @@
 #include "networked_estimation/config/channel_settings.hpp"
 #include "networked_estimation/config/model.hpp"
 #include "networked_estimation/estimators/estimator.hpp"
+#include "networked_estimation/simulation/schedule_sampler.hpp"
 #include "networked_estimation/simulation/simulator.hpp"
 
 namespace networked_estimation
@@ -47,6 +54,8 @@ public:
 
   /// The estimator's view of the last step (gamma, y with NaN cells, u; nu = -1).
   const Sample& received() const { return received_; }
+  /// Per sensor, whether it was scheduled to transmit at the last step (all true without a schedule).
+  const std::vector<bool>& scheduled() const { return schedule_.current(); }
   long k() const { return sim_.k(); }
 
 private:
@@ -54,6 +63,7 @@ private:
   bool noise_on_loss_;
   std::vector<std::unique_ptr<LossModel>> links_;  ///< null = lossless
   PlantSimulator sim_;
+  ScheduleSampler schedule_;
   Sample received_;
 };
 

@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "networked_estimation/config/model.hpp"
+#include "networked_estimation/config/schedule.hpp"
 #include "networked_estimation/config/channel_settings.hpp"
 #include "networked_estimation/config/estimator_settings.hpp"
 
@@ -178,10 +179,27 @@ std::vector<BlockStructure> analyseBlocks(const Eigen::MatrixXd& A, const std::v
 /// NaN for an UNAVAILABLE block.
 double blockPhi(const BlockStructure& block, const std::vector<LinkModel>& links);
 
+/// Phi_k under a sensor schedule (schedule.hpp; Marelli et al. section 7 and Proposition 24 with
+/// period tau): the links are time-driven (each link's chain advances every step) and a sensor
+/// gives information on a lattice element at shift s only when it is scheduled and arrives.
+///   periodic: Phi = max over phases t < tau and lattice elements K of
+///             prod_j rho(prod_{s < M} D_{j,s} P_j)^{1/M}, M = lcm(N_k, tau);
+///   random:   the hidden chain is (schedule state, every link's state); Phi = max over K of
+///             rho(prod_{s < N_k} D_s T)^{1/N_k} with T the joint transition matrix (at most
+///             `max_states` joint states: NaN beyond, with `why` set).
+/// A single-eigenvalue block is treated as one element seen by its relevant sensors at every
+/// shift. NaN for an UNAVAILABLE block. Without a schedule this is blockPhi.
+double blockPhiScheduled(const BlockStructure& block, const std::vector<LinkModel>& links, const Schedule& schedule,
+                         std::string* why = nullptr, std::size_t max_states = 512);
+
+/// The schedule of a subset of the sensors (masks restricted to `set`, in its order).
+Schedule restrictSchedule(const Schedule& schedule, const std::vector<int>& set);
+
 /// Theorem 14: STABLE when |alpha_k|^2 Phi_k < 1 for every block, UNSTABLE when > 1 for some,
-/// UNDECIDED at equality, NOT_APPLICABLE when a block with |alpha| >= 1 is UNAVAILABLE.
+/// UNDECIDED at equality, NOT_APPLICABLE when a block with |alpha| >= 1 is UNAVAILABLE. With an
+/// active `schedule` (over the same sensors as `links`), Phi_k is blockPhiScheduled's.
 Verdict marelliTest(const std::vector<BlockStructure>& blocks, const std::vector<LinkModel>& links,
-                    const StabilityTolerances& tol = {});
+                    const StabilityTolerances& tol = {}, const Schedule* schedule = nullptr);
 
 /// Critical common i.i.d. arrival rate (every sensor at rate lambda): inf{lambda : Theorem 14 stable}.
 /// Closed form 1 - |alpha|^{-2/e} per block with e = min over lattice elements of (sensor, shift)

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "config/schedule_config.hpp"
 #include "config/yaml_reader.hpp"
 #include "networked_estimation/common/error.hpp"
 
@@ -33,7 +34,7 @@ Model parseModelImpl(const YAML::Node& node, const std::string& source)
   in.requireTopMap(node);
   in.checkKeys(
       node, "",
-      {"name", "period", "A", "B", "Q", "C", "R", "sensors", "x0", "P0", "uncertainty", "control"});
+      {"name", "period", "A", "B", "Q", "C", "R", "sensors", "x0", "P0", "uncertainty", "control", "schedule"});
 
   Model model;
   if (node["name"])
@@ -233,6 +234,12 @@ Model parseModelImpl(const YAML::Node& node, const std::string& source)
     model.Bu = Eigen::MatrixXd::Zero(n, 0);
   }
 
+  // schedule
+  if (const YAML::Node s_node = node["schedule"])
+  {
+    model.schedule = parseSchedule(in, s_node, model.sensors);
+  }
+
   validateModel(model, source);
   return model;
 }
@@ -423,6 +430,13 @@ void validateModel(const Model& model, const std::string& source)
                            dims(model.Bu.rows(), model.Bu.cols()));
   }
   checkFinite("control.Bu", "Bu", model.Bu);
+
+  // schedule
+  const std::string schedule_problem = scheduleProblem(model.schedule, model.sensors.size());
+  if (!schedule_problem.empty())
+  {
+    throw ConfigError(message(source, 0, "", schedule_problem));
+  }
 }
 
 }  // namespace networked_estimation

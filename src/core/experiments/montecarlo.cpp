@@ -40,60 +40,169 @@ int resolveThreads(int requested)
 namespace
 {
 
-/// Welford accumulator of one block (count, mean, M2 per value).
-struct BlockAccumulator
+/// Welford step: adds the run's values `v` to the block.
+void addRun(BlockMoments& a, const double* v)
 {
-  long count = 0;
-  std::vector<double> mean, m2;
-
-  void init(std::size_t values)
+  ++a.count;
+  const double inv = 1.0 / static_cast<double>(a.count);
+  for (std::size_t i = 0; i < a.mean.size(); ++i)
   {
-    count = 0;
-    mean.assign(values, 0.0);
-    m2.assign(values, 0.0);
+    const double d = v[i] - a.mean[i];
+    a.mean[i] += d * inv;
+    a.m2[i] += d * (v[i] - a.mean[i]);
   }
+}
 
-  void add(const double* v)
+/// Chan et al.'s pairwise combination (a = a + o) of the count, mean and M2 (not the raw rows).
+void mergeInto(BlockMoments& a, const BlockMoments& o)
+{
+  if (o.count == 0)
+    return;
+  if (a.count == 0)
   {
-    ++count;
-    const double inv = 1.0 / static_cast<double>(count);
-    for (std::size_t i = 0; i < mean.size(); ++i)
-    {
-      const double d = v[i] - mean[i];
-      mean[i] += d * inv;
-      m2[i] += d * (v[i] - mean[i]);
-    }
+    a.count = o.count;
+    a.mean = o.mean;
+    a.m2 = o.m2;
+    return;
   }
+  const double na = static_cast<double>(a.count), nb = static_cast<double>(o.count);
+  const double n = na + nb;
+  for (std::size_t i = 0; i < a.mean.size(); ++i)
+  {
+    const double d = o.mean[i] - a.mean[i];
+    a.mean[i] += d * (nb / n);
+    a.m2[i] += o.m2[i] + d * d * (na * nb / n);
+  }
+  a.count += o.count;
+}
 
-  /// Chan et al.'s pairwise combination (this = this + other).
-  void merge(const BlockAccumulator& o)
-  {
-    if (o.count == 0)
-      return;
-    if (count == 0)
-    {
-      *this = o;
-      return;
-    }
-    const double na = static_cast<double>(count), nb = static_cast<double>(o.count);
-    const double n = na + nb;
-    for (std::size_t i = 0; i < mean.size(); ++i)
-    {
-      const double d = o.mean[i] - mean[i];
-      mean[i] += d * (nb / n);
-      m2[i] += o.m2[i] + d * d * (na * nb / n);
-    }
-    count += o.count;
-  }
-};
+/// The moments of the blocks, combined in the order given. The only reduction of the engine: a
+/// plain run, a shard and a merge all go through it, so a merge is bit for bit a plain run.
+Moments reduceBlocks(const std::vector<const BlockMoments*>& blocks, std::size_t values)
+{
+  BlockMoments total;
+  total.mean.assign(values, 0.0);
+  total.m2.assign(values, 0.0);
+  for (const BlockMoments* a : blocks)
+    mergeInto(total, *a);
+  Moments m;
+  m.n = total.count;
+  m.mean = total.mean;
+  m.sd.assign(values, 0.0);
+  if (total.count > 1)
+    for (std::size_t i = 0; i < values; ++i)
+      m.sd[i] = std::sqrt(std::max(0.0, total.m2[i] / static_cast<double>(total.count - 1)));
+  return m;
+}
+
+/// The session of this thread's runMonteCarlo calls (BlockSessionScope), null: a plain run.
+thread_local BlockSession* t_session = nullptr;
 
 }  // namespace
+
+long blockCount(long runs)
+{
+  return runs > 0 ? (runs + kBlockRuns - 1) / kBlockRuns : 0;
+}
+
+long blockRuns(long runs, long b)
+{
+  return std::max(0L, std::min(runs, (b + 1) * kBlockRuns) - b * kBlockRuns);
+}
+
+Moments combineBlocks(const CallBlocks& call, std::vector<double>* raw)
+{
+  const long blocks = blockCount(call.runs);
+  if (static_cast<long>(call.blocks.size()) != blocks)
+    throw InputError("a call of " + std::to_string(call.runs) + " runs has " + std::to_string(blocks) +
+                     " blocks, found " + std::to_string(call.blocks.size()));
+  std::vector<const BlockMoments*> order;
+  for (long b = 0; b < blocks; ++b)
+  {
+    const BlockMoments& a = call.blocks[static_cast<std::size_t>(b)];
+    const std::string where = "block " + std::to_string(a.index) + " of a call of " + std::to_string(call.runs) + " runs";
+    if (a.index != b)
+      throw InputError("blocks out of order: expected block " + std::to_string(b) + ", found " + where);
+    if (a.count != blockRuns(call.runs, b))
+      throw InputError(where + ": expected " + std::to_string(blockRuns(call.runs, b)) + " runs, found " +
+                       std::to_string(a.count));
+    if (a.mean.size() != call.values || a.m2.size() != call.values)
+      throw InputError(where + ": expected " + std::to_string(call.values) + " values");
+    if (raw && (!call.raw || a.raw.size() != static_cast<std::size_t>(a.count) * call.values))
+      throw InputError(where + ": expected " + std::to_string(a.count) + " x " + std::to_string(call.values) +
+                       " per-run values");
+    order.push_back(&a);
+  }
+  if (raw)
+  {
+    raw->clear();
+    raw->reserve(static_cast<std::size_t>(call.runs) * call.values);
+    for (const BlockMoments* a : order)
+      raw->insert(raw->end(), a->raw.begin(), a->raw.end());
+  }
+  return reduceBlocks(order, call.values);
+}
+
+BlockSession BlockSession::shard(int index, int count)
+{
+  BlockSession s;
+  s.index_ = index;
+  s.count_ = count;
+  return s;
+}
+
+BlockSession BlockSession::replay(std::vector<CallBlocks> calls)
+{
+  BlockSession s;
+  s.replay_ = true;
+  s.calls_ = std::move(calls);
+  return s;
+}
+
+Moments BlockSession::replayNext(long runs, std::size_t values, std::vector<double>* raw)
+{
+  if (next_ >= calls_.size())
+    throw InputError("the experiment makes more than the " + std::to_string(calls_.size()) +
+                     " Monte Carlo calls recorded in the shards (were they computed by another version of montecarlo?)");
+  const CallBlocks& c = calls_[next_];
+  if (c.runs != runs || c.values != values || c.raw != (raw != nullptr))
+    throw InputError("Monte Carlo call " + std::to_string(next_) + ": the experiment asks for " +
+                     std::to_string(runs) + " runs x " + std::to_string(values) + " values" +
+                     (raw ? " with per-run values" : "") + ", the shards hold " + std::to_string(c.runs) + " x " +
+                     std::to_string(c.values) + (c.raw ? " with per-run values" : "") +
+                     " (were they computed by another version of montecarlo?)");
+  ++next_;
+  return combineBlocks(c, raw);
+}
+
+BlockSessionScope::BlockSessionScope(BlockSession& session) : previous_(t_session)
+{
+  t_session = &session;
+}
+
+BlockSessionScope::~BlockSessionScope()
+{
+  t_session = previous_;
+}
 
 Moments runMonteCarlo(long runs, std::size_t values, int threads, const WorkerFactory& make_worker,
                       ProgressCounter* progress, std::vector<double>* raw)
 {
-  const long blocks = (runs + kBlockRuns - 1) / kBlockRuns;
-  std::vector<BlockAccumulator> acc(static_cast<std::size_t>(blocks));
+  BlockSession* const session = t_session;
+  if (session && session->replaying())
+    return session->replayNext(runs, values, raw);
+  // the blocks this process computes: all of them, or a shard's share
+  std::vector<long> todo;
+  long skipped = 0;
+  for (long b = 0; b < blockCount(runs); ++b)
+    if (!session || session->owns(b))
+      todo.push_back(b);
+    else
+      skipped += blockRuns(runs, b);
+  if (progress && skipped > 0)
+    progress->add(skipped);  // other shards' runs: the progress still ends at 100 %
+  const long blocks = static_cast<long>(todo.size());
+  std::vector<BlockMoments> acc(todo.size());
   if (raw)
     raw->assign(static_cast<std::size_t>(runs) * values, 0.0);
   std::atomic<long> next{0};
@@ -109,19 +218,23 @@ Moments runMonteCarlo(long runs, std::size_t values, int threads, const WorkerFa
       std::vector<double> out(values);
       while (!failed.load())
       {
-        const long b = next.fetch_add(1);
-        if (b >= blocks)
+        const long i = next.fetch_add(1);
+        if (i >= blocks)
           break;
+        const long b = todo[static_cast<std::size_t>(i)];
         try
         {
-          BlockAccumulator& a = acc[static_cast<std::size_t>(b)];
-          a.init(values);
+          BlockMoments& a = acc[static_cast<std::size_t>(i)];
+          a.index = b;
+          a.count = 0;
+          a.mean.assign(values, 0.0);
+          a.m2.assign(values, 0.0);
           const long r1 = std::min(runs, (b + 1) * kBlockRuns);
           for (long r = b * kBlockRuns; r < r1; ++r)
           {
             double* dst = raw ? raw->data() + static_cast<std::size_t>(r) * values : out.data();
             run(r, dst);
-            a.add(dst);
+            addRun(a, dst);
           }
           if (progress)
             progress->add(r1 - b * kBlockRuns);
@@ -162,17 +275,23 @@ Moments runMonteCarlo(long runs, std::size_t values, int threads, const WorkerFa
   if (error)
     std::rethrow_exception(error);
 
-  BlockAccumulator total;
-  total.init(values);
-  for (const BlockAccumulator& a : acc)
-    total.merge(a);
-  Moments m;
-  m.n = total.count;
-  m.mean = total.mean;
-  m.sd.assign(values, 0.0);
-  if (total.count > 1)
-    for (std::size_t i = 0; i < values; ++i)
-      m.sd[i] = std::sqrt(std::max(0.0, total.m2[i] / static_cast<double>(total.count - 1)));
+  std::vector<const BlockMoments*> order;
+  for (const BlockMoments& a : acc)
+    order.push_back(&a);
+  const Moments m = reduceBlocks(order, values);
+  if (session)
+  {
+    CallBlocks call;
+    call.runs = runs;
+    call.values = values;
+    call.raw = raw != nullptr;
+    if (raw)
+      for (BlockMoments& a : acc)
+        a.raw.assign(raw->begin() + static_cast<std::ptrdiff_t>(a.index * kBlockRuns * static_cast<long>(values)),
+                     raw->begin() + static_cast<std::ptrdiff_t>((a.index * kBlockRuns + a.count) * static_cast<long>(values)));
+    call.blocks = std::move(acc);
+    session->record(std::move(call));
+  }
   return m;
 }
 
@@ -304,9 +423,8 @@ std::string samplesCsv(const ExperimentResult& r)
   return os.str();
 }
 
-void writeExperiment(const ExperimentResult& result, const std::string& dir)
+void makeOutputDirectory(const std::string& dir)
 {
-  // create DIR (and its parents) when missing
   std::string partial;
   std::stringstream ss(dir);
   std::string part;
@@ -327,6 +445,11 @@ void writeExperiment(const ExperimentResult& result, const std::string& dir)
       throw InputError(dir + ": not a directory (" + partial + ")");
     partial += "/";
   }
+}
+
+void writeExperiment(const ExperimentResult& result, const std::string& dir)
+{
+  makeOutputDirectory(dir);
   const std::string base = (dir.empty() ? std::string(".") : dir) + "/" + result.experiment;
   AtomicFile csv(base + ".csv");
   csv.stream() << experimentCsv(result);

@@ -381,10 +381,47 @@ ReplayInput parseReplayInput(std::istream& in, const std::string& source, const 
     row.gamma = parseFlag(source, line, "gamma", cells[1]);
 
     row.y.resize(m);
+    // A sensor whose cells are all '-' was not scheduled to transmit (not a loss).
+    std::vector<bool> off(static_cast<std::size_t>(m), false);
+    for (std::size_t si = 0; si < model.sensors.size(); ++si)
+    {
+      const Sensor& s = model.sensors[si];
+      int dashes = 0, first_dash = -1, first_other = -1;
+      for (int i = s.offset; i < s.offset + s.size; ++i)
+      {
+        if (cells[2 + i] == "-")
+        {
+          ++dashes;
+          if (first_dash < 0)
+            first_dash = i;
+        }
+        else if (first_other < 0)
+          first_other = i;
+      }
+      if (dashes > 0 && dashes < s.size)
+        fail(source, line, names[2 + first_dash],
+             "sensor '" + s.name + "' is partly '-' (" + names[2 + first_other] + " is not)",
+             "all of " + names[2 + s.offset] + ".." + names[2 + s.offset + s.size - 1] +
+                 " '-' (sensor not scheduled) or none",
+             cells[2 + first_dash]);
+      if (dashes == s.size)
+      {
+        if (row.scheduled.empty())
+          row.scheduled.assign(model.sensors.size(), true);
+        row.scheduled[si] = false;
+        for (int i = s.offset; i < s.offset + s.size; ++i)
+        {
+          off[static_cast<std::size_t>(i)] = true;
+          row.y[i] = kNaN;
+        }
+      }
+    }
     if (row.gamma)
     {
       for (const Sensor& s : model.sensors)
       {
+        if (off[static_cast<std::size_t>(s.offset)])
+          continue;
         int empty = 0;
         int first_empty = -1, first_number = -1;
         for (int i = s.offset; i < s.offset + s.size; ++i)
@@ -428,6 +465,8 @@ ReplayInput parseReplayInput(std::istream& in, const std::string& source, const 
     {
       for (int i = 0; i < m; ++i)
       {
+        if (off[static_cast<std::size_t>(i)])
+          continue;
         const std::string& cell = cells[2 + i];
         double v = kNaN;
         switch (classify(cell, v))
@@ -477,13 +516,15 @@ void writeReplayInputHeader(std::ostream& os, int m, int p, bool with_nu)
 }
 
 void writeReplayInputRow(std::ostream& os, long k, bool gamma, const Eigen::VectorXd& y, const Eigen::VectorXd& u,
-                         bool with_nu, int nu)
+                         bool with_nu, int nu, const std::vector<bool>* off)
 {
   os << k << ',' << (gamma ? '1' : '0');
   for (Eigen::Index i = 0; i < y.size(); ++i)
   {
     os << ',';
-    if (!std::isnan(y[i]))
+    if (off && (*off)[static_cast<std::size_t>(i)])
+      os << '-';
+    else if (!std::isnan(y[i]))
       writeNumber(os, y[i]);
   }
   for (Eigen::Index j = 0; j < u.size(); ++j)

@@ -25,7 +25,8 @@ std::unique_ptr<LossModel> actuatorLink(const Model& model, std::uint64_t seed, 
 LossyRun::LossyRun(const Model& model, std::uint64_t seed, const LossyRunOptions& options)
   : model_(model),
     noise_on_loss_(options.noise_on_loss),
-    sim_(model, seed, options.control, actuatorLink(model, seed, options))
+    sim_(model, seed, options.control, actuatorLink(model, seed, options)),
+    schedule_(model.schedule, model.sensors.size(), deriveSeed(seed, 300))
 {
   const std::size_t S = model.sensors.size();
   if (!options.sensor_links.empty() && options.sensor_links.size() != S)
@@ -48,11 +49,14 @@ const SimulatedSample& LossyRun::step()
   const double nan = std::numeric_limits<double>::quiet_NaN();
   Eigen::VectorXd& y = received_.y;
   y = sample.y;
+  const std::vector<bool>& on = schedule_.next();
   bool gamma = false;
   for (std::size_t s = 0; s < links_.size(); ++s)
   {
     const Sensor& sensor = model_.sensors[s];
-    if (links_[s] && links_[s]->nextLost())
+    // Drawn whether or not the sensor transmits: the link's loss process runs in time.
+    const bool lost = links_[s] && links_[s]->nextLost();
+    if (lost || !on[s])
       y.segment(sensor.offset, sensor.size).setConstant(nan);
     else
       gamma = true;
@@ -63,6 +67,10 @@ const SimulatedSample& LossyRun::step()
       y = sample.v;
     else
       y.setConstant(nan);
+    // A sensor that did not transmit delivers nothing, not even noise.
+    for (std::size_t s = 0; s < links_.size(); ++s)
+      if (!on[s])
+        y.segment(model_.sensors[s].offset, model_.sensors[s].size).setConstant(nan);
   }
   received_.gamma = gamma;
   received_.u = sample.u;

@@ -67,6 +67,7 @@ struct SetData
   bool stable_A = false;
   bool detectable = true;
   std::vector<BlockStructure> blocks;
+  Schedule schedule;  ///< the model's schedule restricted to the set (kind NONE: none)
 };
 
 SetData makeSet(const Context& ctx, const std::vector<int>& set)
@@ -89,6 +90,8 @@ SetData makeSet(const Context& ctx, const std::vector<int>& set)
   d.stable_A = ctx.rho < 1.0;
   d.detectable = modesObservable(ctx.model->A, d.Hs, 1.0, 1e-9);
   d.blocks = analyseBlocks(ctx.model->A, d.H, ctx.options->tol);
+  if (ctx.model->schedule.active())
+    d.schedule = restrictSchedule(ctx.model->schedule, set);
   return d;
 }
 
@@ -117,9 +120,11 @@ Verdict setVerdict(const Context& ctx, const SetData& d, const std::vector<LinkM
     v.reason = "a mode with |lambda| >= 1 is not observable from the sensors: unbounded at every rate";
     return v;
   }
-  const Verdict exact = marelliTest(d.blocks, links, opt.tol);
-  if (exact.kind != Verdict::Kind::NOT_APPLICABLE)
+  const Verdict exact = marelliTest(d.blocks, links, opt.tol, &d.schedule);
+  if (exact.kind != Verdict::Kind::NOT_APPLICABLE || d.schedule.active())
   {
+    // With a schedule only Theorem 14 (cyclostationary) applies: the bounds below assume every
+    // sensor transmits at every step.
     v.kind = exact.kind;
     v.reason = exact.reason;
     for (const auto& kv : exact.numbers)
@@ -319,6 +324,34 @@ std::string intervals(const std::vector<RateInterval>& stable)
   return out.empty() ? "none" : out;
 }
 
+/// With a sensor schedule only Theorem 14 (cyclostationary form) applies: the common arrival rate
+/// at which the scheduled set turns stable (bisection on the verdict, which is monotone in a common
+/// i.i.d. rate); the bounds that assume every sensor transmits at every step are not computed.
+void scheduledRates(const Context& ctx, const SetData& d, RateAnalysis& ra)
+{
+  const double kNaNv = std::numeric_limits<double>::quiet_NaN();
+  const std::string na = "not applicable: a sensor schedule (the bound assumes every sensor transmits at every step)";
+  ra.lower_bound = kNaNv;
+  ra.recovery_lower_bound = kNaNv;
+  ra.closed_form_upper = kNaNv;
+  ra.mare = CriticalBand();
+  const std::size_t N = d.set.size();
+  SensorMargin common;
+  halfLine([&](double lambda) { return setVerdict(ctx, d, std::vector<LinkModel>(N, LinkModel::iid(lambda))).kind; },
+           ctx.options->exact_tolerance, common);
+  ra.exact_rate = common.band.undecided_band || std::isnan(common.band.converges_at) ? kNaNv : common.band.converges_at;
+  if (std::isnan(common.band.converges_at) && common.band.diverges_at == 1.0)
+    ra.exact_rate = std::numeric_limits<double>::infinity();
+  std::vector<std::string> names;
+  for (int i : d.set)
+    names.push_back(ctx.model->sensors[static_cast<std::size_t>(i)].name);
+  ra.exact_method = "Theorem 14 of Marelli et al. with the sensor schedule (" + d.schedule.describe(names) +
+                    "): bisection on the verdict at a common i.i.d. rate; " + na;
+  ra.recovery_note = "not computed with a sensor schedule (see the per-sensor margins)";
+  ra.aoe_theorem5.kind = Verdict::Kind::NOT_APPLICABLE;
+  ra.aoe_theorem5.reason = "a sensor schedule; Lin et al.'s Theorem 5 covers one packet sent at every step";
+}
+
 RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const std::string& name)
 {
   const Model& model = *ctx.model;
@@ -339,120 +372,127 @@ RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const s
     uniform = uniform && sameLink(l, links.front());
   const LinkModel link = links.front();
 
-  ra.lower_bound = sinopoliLowerBound(ctx.rho, N);
-  ra.recovery_lower_bound = ra.lower_bound;  // rho^2 (1 - r)^N >= 1: all sensors lost (same formula)
   ra.blocks = d.blocks;
-  ra.exact_rate = exactCriticalArrivalRate(ra.blocks);
-  if (stable_A)
-    ra.exact_method = "A is stable: bounded at every rate";
-  else if (std::isnan(ra.exact_rate))
+  if (d.schedule.active())
   {
-    for (const BlockStructure& b : ra.blocks)
-      if (b.method == BlockStructure::Method::UNAVAILABLE)
-        ra.exact_method = "unavailable: " + b.reason;
-  }
-  else if (std::isinf(ra.exact_rate))
-    ra.exact_method = "an eigenvalue with |lambda| >= 1 is seen by no sensor of the set: unbounded at every rate";
-  else
-  {
-    ra.exact_method = "Theorem 14 of Marelli et al.:";
-    for (const BlockStructure& b : ra.blocks)
-      ra.exact_method += " " + b.reason + ";";
-    ra.exact_method.pop_back();
-  }
-  const EntropySplit split = entropySplit(model.A, H);
-  ra.closed_form_upper = stable_A ? 0.0 : split.common_rate;
-
-  if (stable_A)
-  {
-    ra.mare.converges_at = 0.0;
-  }
-  else if (detectable && ctx.excited)
-  {
-    ra.mare = mareCriticalRate(model.A, ctx.Qn, H, ra.lower_bound, 1.0, opt.bisection_tolerance, opt.mare);
-  }
-
-  // Markov threshold on a common recovery rate. It depends on the failure rate p only through
-  // lattice blocks of order > 1; p is then the set's common Gilbert-Elliott p, never assumed.
-  bool common_ge = ctx.has_channel;
-  for (const LinkModel& l : links)
-    common_ge = common_ge && l.kind == LinkModel::Kind::GILBERT_ELLIOTT && l.p == link.p;
-  const bool p_dependent = !stable_A && latticeOrderAboveOne(d, -1);
-  if (stable_A)
-  {
-    ra.recovery_exact = 0.0;
-    ra.recovery_note = "A is stable";
-  }
-  else if (!p_dependent)
-  {
-    ra.recovery_exact = exactCriticalRecoveryRate(ra.blocks, 0.5);
-    ra.recovery_note = "independent of the failure rate p (no lattice block of order > 1)";
-  }
-  else if (!common_ge)
-  {
-    ra.recovery_note = ctx.has_channel && link.kind == LinkModel::Kind::GILBERT_ELLIOTT
-                           ? "not applicable: the sensors' Gilbert-Elliott links have different failure rates p "
-                             "(see the per-sensor margins)"
-                           : "not applicable: no Gilbert-Elliott link (failure rate p unknown)";
-  }
-  else if (!exactAvailable(d))
-  {
-    ra.recovery_note = "Theorem 14 not computable for this set";
+    scheduledRates(ctx, d, ra);
   }
   else
   {
-    const double p = link.p;
-    const KindAt kind = [&](double r) {
-      return marelliTest(d.blocks, std::vector<LinkModel>(N, LinkModel::gilbertElliott(p, r)), opt.tol).kind;
-    };
-    ra.recovery_stable = scanStable(kind, opt.scan_points, opt.exact_tolerance);
-    if (ra.recovery_stable.empty())
+    ra.lower_bound = sinopoliLowerBound(ctx.rho, N);
+    ra.recovery_lower_bound = ra.lower_bound;  // rho^2 (1 - r)^N >= 1: all sensors lost (same formula)
+    ra.exact_rate = exactCriticalArrivalRate(ra.blocks);
+    if (stable_A)
+      ra.exact_method = "A is stable: bounded at every rate";
+    else if (std::isnan(ra.exact_rate))
     {
-      ra.recovery_exact = std::numeric_limits<double>::infinity();
-      ra.recovery_note = "p = " + num(p) + "; no stable recovery rate found (scan of " +
-                         std::to_string(opt.scan_points) + " steps on [0, 1])";
+      for (const BlockStructure& b : ra.blocks)
+        if (b.method == BlockStructure::Method::UNAVAILABLE)
+          ra.exact_method = "unavailable: " + b.reason;
     }
-    else if (ra.recovery_stable.size() == 1 && ra.recovery_stable[0].upper == 1.0)
+    else if (std::isinf(ra.exact_rate))
+      ra.exact_method = "an eigenvalue with |lambda| >= 1 is seen by no sensor of the set: unbounded at every rate";
+    else
     {
-      ra.recovery_exact = ra.recovery_stable[0].lower;
-      ra.recovery_note = "p = " + num(p);
-      ra.recovery_stable.clear();
+      ra.exact_method = "Theorem 14 of Marelli et al.:";
+      for (const BlockStructure& b : ra.blocks)
+        ra.exact_method += " " + b.reason + ";";
+      ra.exact_method.pop_back();
+    }
+    const EntropySplit split = entropySplit(model.A, H);
+    ra.closed_form_upper = stable_A ? 0.0 : split.common_rate;
+
+    if (stable_A)
+    {
+      ra.mare.converges_at = 0.0;
+    }
+    else if (detectable && ctx.excited)
+    {
+      ra.mare = mareCriticalRate(model.A, ctx.Qn, H, ra.lower_bound, 1.0, opt.bisection_tolerance, opt.mare);
+    }
+
+    // Markov threshold on a common recovery rate. It depends on the failure rate p only through
+    // lattice blocks of order > 1; p is then the set's common Gilbert-Elliott p, never assumed.
+    bool common_ge = ctx.has_channel;
+    for (const LinkModel& l : links)
+      common_ge = common_ge && l.kind == LinkModel::Kind::GILBERT_ELLIOTT && l.p == link.p;
+    const bool p_dependent = !stable_A && latticeOrderAboveOne(d, -1);
+    if (stable_A)
+    {
+      ra.recovery_exact = 0.0;
+      ra.recovery_note = "A is stable";
+    }
+    else if (!p_dependent)
+    {
+      ra.recovery_exact = exactCriticalRecoveryRate(ra.blocks, 0.5);
+      ra.recovery_note = "independent of the failure rate p (no lattice block of order > 1)";
+    }
+    else if (!common_ge)
+    {
+      ra.recovery_note = ctx.has_channel && link.kind == LinkModel::Kind::GILBERT_ELLIOTT
+                             ? "not applicable: the sensors' Gilbert-Elliott links have different failure rates p "
+                               "(see the per-sensor margins)"
+                             : "not applicable: no Gilbert-Elliott link (failure rate p unknown)";
+    }
+    else if (!exactAvailable(d))
+    {
+      ra.recovery_note = "Theorem 14 not computable for this set";
     }
     else
     {
-      ra.recovery_note = "p = " + num(p) + "; the stable set is not a half-line";
+      const double p = link.p;
+      const KindAt kind = [&](double r) {
+        return marelliTest(d.blocks, std::vector<LinkModel>(N, LinkModel::gilbertElliott(p, r)), opt.tol).kind;
+      };
+      ra.recovery_stable = scanStable(kind, opt.scan_points, opt.exact_tolerance);
+      if (ra.recovery_stable.empty())
+      {
+        ra.recovery_exact = std::numeric_limits<double>::infinity();
+        ra.recovery_note = "p = " + num(p) + "; no stable recovery rate found (scan of " +
+                           std::to_string(opt.scan_points) + " steps on [0, 1])";
+      }
+      else if (ra.recovery_stable.size() == 1 && ra.recovery_stable[0].upper == 1.0)
+      {
+        ra.recovery_exact = ra.recovery_stable[0].lower;
+        ra.recovery_note = "p = " + num(p);
+        ra.recovery_stable.clear();
+      }
+      else
+      {
+        ra.recovery_note = "p = " + num(p) + "; the stable set is not a half-line";
+      }
     }
-  }
 
-  // Lin et al.'s Theorem 5: one packet carrying the whole measurement of the set.
-  if (!ctx.has_channel)
-  {
-    ra.aoe_theorem5.kind = Verdict::Kind::NOT_APPLICABLE;
-    ra.aoe_theorem5.reason = "no channel given";
-    ra.aoe_theorem5.numbers["p_t"] = aoeRecoveryThreshold(ctx.rho);
-  }
-  else if (N != 1)
-  {
-    ra.aoe_theorem5.kind = Verdict::Kind::NOT_APPLICABLE;
-    ra.aoe_theorem5.reason =
-        std::to_string(N) + " sensors on independent links; Lin et al.'s Theorem 5 covers one packet";
-    ra.aoe_theorem5.numbers["p_t"] = aoeRecoveryThreshold(ctx.rho);
-  }
-  else if (link.kind == LinkModel::Kind::GILBERT_ELLIOTT && !link.onOff())
-  {
-    ra.aoe_theorem5.kind = Verdict::Kind::NOT_APPLICABLE;
-    ra.aoe_theorem5.reason = "the arrivals of a Gilbert-Elliott chain with loss_good > 0 or loss_bad < 1 are not "
-                             "the two-state Markov chain of Lin et al.";
-    ra.aoe_theorem5.numbers["p_t"] = aoeRecoveryThreshold(ctx.rho);
-  }
-  else
-  {
-    // An i.i.d. link is the Markov chain with recovery = arrival and failure = 1 - arrival.
-    const double rec = link.kind == LinkModel::Kind::IID ? link.arrival : link.r;
-    const double fail = link.kind == LinkModel::Kind::IID ? 1.0 - link.arrival : link.p;
-    const Sensor& s = model.sensors[set[0]];
-    ra.aoe_theorem5 = aoeTheorem5(model.A, model.C.middleRows(s.offset, s.size), ctx.Qn,
-                                  model.R.block(s.offset, s.offset, s.size, s.size), rec, fail, opt.tol);
+    // Lin et al.'s Theorem 5: one packet carrying the whole measurement of the set.
+    if (!ctx.has_channel)
+    {
+      ra.aoe_theorem5.kind = Verdict::Kind::NOT_APPLICABLE;
+      ra.aoe_theorem5.reason = "no channel given";
+      ra.aoe_theorem5.numbers["p_t"] = aoeRecoveryThreshold(ctx.rho);
+    }
+    else if (N != 1)
+    {
+      ra.aoe_theorem5.kind = Verdict::Kind::NOT_APPLICABLE;
+      ra.aoe_theorem5.reason =
+          std::to_string(N) + " sensors on independent links; Lin et al.'s Theorem 5 covers one packet";
+      ra.aoe_theorem5.numbers["p_t"] = aoeRecoveryThreshold(ctx.rho);
+    }
+    else if (link.kind == LinkModel::Kind::GILBERT_ELLIOTT && !link.onOff())
+    {
+      ra.aoe_theorem5.kind = Verdict::Kind::NOT_APPLICABLE;
+      ra.aoe_theorem5.reason = "the arrivals of a Gilbert-Elliott chain with loss_good > 0 or loss_bad < 1 are not "
+                               "the two-state Markov chain of Lin et al.";
+      ra.aoe_theorem5.numbers["p_t"] = aoeRecoveryThreshold(ctx.rho);
+    }
+    else
+    {
+      // An i.i.d. link is the Markov chain with recovery = arrival and failure = 1 - arrival.
+      const double rec = link.kind == LinkModel::Kind::IID ? link.arrival : link.r;
+      const double fail = link.kind == LinkModel::Kind::IID ? 1.0 - link.arrival : link.p;
+      const Sensor& s = model.sensors[set[0]];
+      ra.aoe_theorem5 = aoeTheorem5(model.A, model.C.middleRows(s.offset, s.size), ctx.Qn,
+                                    model.R.block(s.offset, s.offset, s.size, s.size), rec, fail, opt.tol);
+    }
   }
 
   // Thresholds and margin of a common link (per-sensor links: SensorLinkReport::margin).
@@ -615,6 +655,11 @@ void mareAtRates(const Context& ctx, const std::vector<double>& rates, bool any_
     rep.mare_at_rates = "not applicable: a Gilbert-Elliott link (the MARE bound assumes i.i.d. arrivals)";
     return;
   }
+  if (ctx.model->schedule.active())
+  {
+    rep.mare_at_rates = "not applicable: a sensor schedule (the MARE bound assumes every sensor transmits at every step)";
+    return;
+  }
   if (!ctx.excited)
   {
     rep.mare_at_rates = "not applicable: the noise does not excite every unstable mode";
@@ -736,6 +781,8 @@ StabilityReport analyzeStability(const Model& model, const std::vector<std::opti
     }
     rep.capacity = transmissionCapacity(model.A, rates, rows);
     rep.capacity_note = capacityNote(rep, any_markov);
+    if (model.schedule.active())
+      rep.capacity_note += "; it ignores the sensor schedule";
     mareAtRates(ctx, rates, any_markov, rep);
   }
   rep.entropy_split = entropySplit(model.A, ctx.H);
