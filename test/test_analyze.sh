@@ -139,6 +139,18 @@ check "missing model" 2 "$BIN" --model "$TMP/none.yaml"
 check "unknown flag" 2 "$BIN" --model "$SRC/config/models/aoe_example.yaml" --bogus
 check "help" 0 "$BIN" --help
 
+# Link design: the README's commands, the answer on the cap, and its errors (exit 2, named).
+check "design total_rate" 0 "$BIN" --model "$SRC/config/models/unstable_two_links.yaml" --design total_rate
+grep -q "camera: arrival rate 0.6 " "$TMP/out" || { echo "FAIL: design: camera 0.6 (2.25 (1 - l) = 0.9)"; cat "$TMP/out"; fail=1; }
+check "design capacity" 0 "$BIN" --model "$SRC/config/models/tracking_2d.yaml" --design capacity --growth-cap 0.5
+check "design scheduled model" 0 "$BIN" --model "$SRC/config/models/scheduled_example.yaml" --design total_rate
+grep -q "not applicable: a sensor schedule" "$TMP/out" || { echo "FAIL: design with a schedule"; fail=1; }
+check "design bad cost" 2 "$BIN" --model "$SRC/config/models/tracking_2d.yaml" --design cheapest
+grep -q "expected total_rate or capacity, found 'cheapest'" "$TMP/err" || { echo "FAIL: design cost message"; fail=1; }
+check "design bad cap" 2 "$BIN" --model "$SRC/config/models/tracking_2d.yaml" --design capacity --growth-cap 1.5
+grep -q "growth-cap: expected a number in (0, 1), found '1.5'" "$TMP/err" || { echo "FAIL: growth cap message"; fail=1; }
+check "growth cap without design" 2 "$BIN" --model "$SRC/config/models/tracking_2d.yaml" --growth-cap 0.5
+
 # Gan and Liu from a recorded arrival pattern (--trace): a rotation seen by c = [1 0] (R = 1) with
 # the periodic pattern arrive, arrive, lost, lost, ... recorded as `rostopic echo -p` of ~events.
 # With h = 4 every block sees both coordinates: excitation (1/2)/5 = 0.1 per block, lambda = 0.9,

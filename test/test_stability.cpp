@@ -11,6 +11,7 @@
 #include <optional>
 
 #include "networked_estimation/estimators/estimator.hpp"
+#include "networked_estimation/stability/link_design.hpp"
 #include "networked_estimation/stability/stability.hpp"
 #include "stability_test_support.hpp"
 
@@ -911,4 +912,48 @@ TEST(StabilitySchedule, RandomScheduleIid)
   const std::vector<LinkModel> links = {LinkModel::gilbertElliott(0.2, 0.5), LinkModel::gilbertElliott(0.2, 0.5)};
   EXPECT_NEAR(blockPhiScheduled(blocks[0], links, m.schedule), 0.5, 1e-12);
   EXPECT_NEAR(blockPhiScheduled(blocks[1], links, m.schedule), 1.0, 1e-12);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Link design (link_design.hpp): least-cost i.i.d. rates against the closed forms
+
+TEST(StabilityDesign, ClosedForms)
+{
+  const double g = 0.9;
+  // T5's modes, one sensor each: lambda_1 = 1 - g/4, lambda_2 = 1 - g/9 for either cost.
+  const Model t5 = multiModel(mat(2, 2, {2, 0, 0, 3}), {mat(1, 2, {1, 0}), mat(1, 2, {0, 1})});
+  for (DesignCost c : {DesignCost::TOTAL_RATE, DesignCost::CAPACITY})
+  {
+    const LinkDesign d = designLinks(t5, c, g);
+    ASSERT_TRUE(d.applicable) << d.note;
+    EXPECT_NEAR(d.rates[0], 1 - g / 4, 1e-9);
+    EXPECT_NEAR(d.rates[1], 1 - g / 9, 1e-9);
+    EXPECT_NEAR(d.alone[1], 1 - g / 9, 1e-9);
+    EXPECT_EQ(d.check.kind, Verdict::Kind::STABLE);
+    EXPECT_NEAR(d.check.numbers.at("max |alpha|^2 Phi"), g, 1e-9);  // on the cap: the least cost
+  }
+  // T4's modes seen by both sensors: only (1 - l1)(1 - l2) <= g/9 matters; the least total rate
+  // puts it all on one sensor (concave cost: a vertex), 1 - g/9; the capacity is the same.
+  const Model t4 = multiModel(mat(2, 2, {2, 0, 0, 3}), {mat(1, 2, {1, 1}), mat(1, 2, {1, 1})});
+  const LinkDesign d4 = designLinks(t4, DesignCost::TOTAL_RATE, g);
+  ASSERT_TRUE(d4.applicable) << d4.note;
+  EXPECT_NEAR(d4.rates[0] + d4.rates[1], 1 - g / 9, 1e-9);
+  EXPECT_NEAR(std::min(d4.rates[0], d4.rates[1]), 0.0, 1e-12);
+  EXPECT_NEAR(designLinks(t4, DesignCost::CAPACITY, g).cost_value, std::log(9 / g), 1e-9);
+  EXPECT_EQ(d4.alone[0], 0.0);  // the other sensor alone, lossless, suffices
+  // T3 (lattice of order 2): Phi = (1 - lambda)^{1/2}: lambda = 1 - (g/4)^2 -> 15/16 as g -> 1.
+  const Model t3 = simpleModel(mat(2, 2, {2, 0, 0, -2}), mat(1, 2, {1, 1}));
+  EXPECT_NEAR(designLinks(t3, DesignCost::TOTAL_RATE, g).rates[0], 1 - g * g / 16, 1e-9);
+  const double near = designLinks(t3, DesignCost::TOTAL_RATE, 0.9999).rates[0];
+  EXPECT_GT(near, 15.0 / 16.0);
+  EXPECT_LT(near, 15.0 / 16.0 + 1e-4);
+  // Not applicable: a schedule, an invisible unstable mode, a bad cap.
+  EXPECT_NE(designLinks(simpleModel(mat(2, 2, {2, 0, 0, 3}), mat(1, 2, {1, 0})), DesignCost::TOTAL_RATE).note.find(
+                "seen by no sensor"),
+            std::string::npos);
+  EXPECT_FALSE(designLinks(t5, DesignCost::TOTAL_RATE, 1.0).applicable);
+  Model sched = t5;
+  sched.schedule.kind = Schedule::Kind::PERIODIC;
+  sched.schedule.pattern = {{true, false}, {false, true}};
+  EXPECT_NE(designLinks(sched, DesignCost::TOTAL_RATE).note.find("schedule"), std::string::npos);
 }

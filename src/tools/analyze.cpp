@@ -1,5 +1,6 @@
 // analyze: stability analysis of a model with a lossy link per sensor (stability.hpp, sensor_links.hpp).
 #include <cmath>
+#include <cstdlib>
 #include <iostream>
 #include <sstream>
 
@@ -11,6 +12,7 @@
 #include "networked_estimation/config/sensor_links.hpp"
 #include "networked_estimation/io/arrival_trace.hpp"
 #include "networked_estimation/stability/excitation.hpp"
+#include "networked_estimation/stability/link_design.hpp"
 #include "networked_estimation/stability/stability.hpp"
 
 using namespace networked_estimation;
@@ -258,6 +260,34 @@ void printLinks(std::ostream& os, const StabilityReport& rep)
   }
 }
 
+int printDesign(const Model& model, const cli::CommandLine& cl)
+{
+  const std::string c = cl.get("design");
+  if (c != "total_rate" && c != "capacity")
+    throw cli::UsageError("--design: expected total_rate or capacity, found '" + c + "'");
+  const std::string gtext = cl.has("growth-cap") ? cl.get("growth-cap") : "0.9";
+  char* end = nullptr;
+  const double g = std::strtod(gtext.c_str(), &end);
+  if (end == gtext.c_str() || *end != '\0' || !(g > 0.0 && g < 1.0))
+    throw cli::UsageError("--growth-cap: expected a number in (0, 1), found '" + gtext + "'");
+  const LinkDesign d = designLinks(model, c == "capacity" ? DesignCost::CAPACITY : DesignCost::TOTAL_RATE, g);
+  std::cout << "link design for model " << model.name << " (i.i.d. links; cost: "
+            << (c == "capacity" ? "sum of -ln(1 - rate)" : "sum of the arrival rates") << ")\n";
+  if (!d.applicable)
+  {
+    std::cout << "  " << d.note << "\n";
+    return 0;
+  }
+  std::cout << "  " << d.note << "\n";
+  std::cout << "  least-cost rates (cost " << txt(d.cost_value) << "), verdict " << describe(d.check) << ":\n";
+  for (std::size_t j = 0; j < model.sensors.size(); ++j)
+    std::cout << "    " << model.sensors[j].name << ": arrival rate " << txt(d.rates[j])
+              << " (alone, the others lossless: " << txt(d.alone[j]) << ")\n";
+  std::cout << "  For a Gilbert-Elliott link give it with --channel NAME=FILE (without --design): the per-sensor\n"
+               "  margins then give the least recovery rate at its failure rate p, the other links fixed.\n";
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv)
@@ -281,6 +311,13 @@ int main(int argc, char** argv)
                            false, true},
                           {"block", "H", "block length h of the excitation evidence (default n)", false, false},
                           {"json", "", "print JSON", false, false},
+                          {"design", "COST",
+                           "link design instead of analysis: the i.i.d. arrival rates that keep E[P] bounded at least "
+                           "cost, COST = total_rate (sum of the rates) or capacity (sum of -ln(1 - rate)), with "
+                           "|alpha|^2 Phi <= --growth-cap, and each sensor's least rate with the others lossless",
+                           false, false},
+                          {"growth-cap", "G", "--design: the margin, |alpha_k|^2 Phi_k <= G (default 0.9, in (0, 1))",
+                           false, false},
                       });
   return cli::runTool(cl, argc, argv, [&]() -> int {
     const Model model = loadModel(cl.get("model"));
@@ -291,6 +328,10 @@ int main(int argc, char** argv)
       est = loadEstimatorSettings(cl.get("estimator"));
     const int h = static_cast<int>(cl.getLong("block", model.n(), 1, 10000));
     const std::vector<TraceEvidence> traces = traceEvidence(model, cl.getAll("trace"), h);
+    if (cl.has("design"))
+      return printDesign(model, cl);
+    if (cl.has("growth-cap"))
+      throw cli::UsageError("--growth-cap is only for --design");
     const StabilityReport rep = analyzeStability(model, links.link, has_est ? &est : nullptr);
     if (cl.has("json"))
     {
