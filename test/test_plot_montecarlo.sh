@@ -26,23 +26,8 @@ fi
 WORK=$(mktemp -d "${TMPDIR:-/tmp}/test_plot_montecarlo.XXXXXX")
 trap 'rm -rf "$WORK"' EXIT
 
-passed=0
-failed=0
-pass() { passed=$((passed + 1)); echo "ok   $1"; }
-fail() { failed=$((failed + 1)); echo "FAIL $1"; }
-check() {
-  local name=$1
-  shift
-  if "$@"; then pass "$name"; else fail "$name"; fi
-}
-# run_rc VAR COMMAND...: stdout to $WORK/out.txt, stderr to $WORK/err.txt, exit code into VAR.
-run_rc() {
-  local __var=$1
-  shift
-  local __rc=0
-  "$@" >"$WORK/out.txt" 2>"$WORK/err.txt" || __rc=$?
-  printf -v "$__var" '%s' "$__rc"
-}
+# shared helpers: check, run_rc, differ, no_files, passed / failed
+source "$(dirname "${BASH_SOURCE[0]}")/check_lib.sh"
 # is_png FILE: exists, non-empty, starts with the PNG signature.
 is_png() {
   [ -s "$1" ] && [ "$(head -c 8 "$1" | od -An -tx1 | tr -d ' \n')" = 89504e470d0a1a0a ]

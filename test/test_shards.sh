@@ -22,28 +22,8 @@ fi
 WORK=$(mktemp -d "${TMPDIR:-/tmp}/test_shards.XXXXXX")
 trap 'rm -rf "$WORK"' EXIT
 
-passed=0
-failed=0
-pass() { passed=$((passed + 1)); echo "ok   $1"; }
-fail() { failed=$((failed + 1)); echo "FAIL $1"; }
-# check NAME COMMAND...: passes when the command succeeds.
-check() {
-  local name=$1
-  shift
-  if "$@"; then pass "$name"; else fail "$name"; fi
-}
-# run_rc VAR COMMAND...: runs a command (stdout to $WORK/out.txt, stderr to $WORK/err.txt) and
-# stores its exit code in VAR without tripping set -e.
-run_rc() {
-  local __var=$1
-  shift
-  local __rc=0
-  "$@" >"$WORK/out.txt" 2>"$WORK/err.txt" || __rc=$?
-  printf -v "$__var" '%s' "$__rc"
-}
-differ() { ! cmp -s "$1" "$2"; }
-# no_files DIR: DIR is absent or holds no file (no output, no temporary file).
-no_files() { [ ! -e "$1" ] || [ -z "$(find "$1" -type f)" ]; }
+# shared helpers: check, run_rc, differ, no_files, passed / failed
+source "$(dirname "${BASH_SOURCE[0]}")/check_lib.sh"
 # The JSON without the lines that may differ between a merge and an unsharded run.
 untimed() { grep -vE '^  "(threads|wall_seconds)": ' "$1"; }
 # same_json A B: identical but for threads and wall_seconds, and those are the only lines dropped.

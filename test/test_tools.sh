@@ -26,31 +26,11 @@ BERNOULLI=$ROOT/config/channels/bernoulli_0.2.yaml
 BURSTY=$ROOT/config/channels/gilbert_elliott_bursty.yaml
 EST=$ROOT/config/estimators
 
-passed=0
-failed=0
-pass() { passed=$((passed + 1)); echo "ok   $1"; }
-fail() { failed=$((failed + 1)); echo "FAIL $1"; }
-# check NAME COMMAND...: passes when the command succeeds.
-check() {
-  local name=$1
-  shift
-  if "$@"; then pass "$name"; else fail "$name"; fi
-}
-# run_rc VAR COMMAND...: runs a command (stdout to $WORK/out.txt, stderr to $WORK/err.txt) and
-# stores its exit code in VAR without tripping set -e.
-run_rc() {
-  local __var=$1
-  shift
-  local __rc=0
-  "$@" >"$WORK/out.txt" 2>"$WORK/err.txt" || __rc=$?
-  printf -v "$__var" '%s' "$__rc"
-}
+# shared helpers: check, run_rc, differ, no_files, passed / failed
+source "$(dirname "${BASH_SOURCE[0]}")/check_lib.sh"
 lines() { wc -l <"$1" | tr -d ' '; }
 # rc_and_grep RC EXPECTED PATTERN FILE: the exit code is EXPECTED and FILE matches PATTERN.
 rc_and_grep() { [ "$1" = "$2" ] && grep -Eq "$3" "$4"; }
-differ() { ! cmp -s "$1" "$2"; }
-# no_files DIR: DIR is absent or holds no file (no output, no temporary file).
-no_files() { [ ! -e "$1" ] || [ -z "$(find "$1" -type f)" ]; }
 
 # --- simulate + replay + score on the zhou example -------------------------------------------
 Z=$WORK/zhou
