@@ -143,6 +143,72 @@ Model scalarTwoSensors(double a)
 // the Wilson half-width is 1.96 sqrt(0.21 / 5000) = 0.013, so 0.3 + 0.013 < 1/3: ERROR. At 0.5 per
 // sensor (1.5^2 * 0.25 = 0.56 < 1, interval +-0.014): OK. The point verdict equals analyze's at the
 // same rates.
+// With skipped steps (a sensor schedule), a transition is counted only between samples of
+// consecutive steps: the same brute-force recount over random sequences with random gaps.
+TEST(LinkMonitor, GapsBreakTransitionsAndEvictCorrectly)
+{
+  Rng rng(11);
+  const std::size_t w = 23;
+  LinkMonitor mon(w);
+  std::vector<bool> all, follows;
+  for (int k = 0; k < 800; ++k)
+  {
+    const bool a = rng.bernoulli(0.55), f = rng.bernoulli(0.7);
+    all.push_back(a);
+    follows.push_back(f);
+    mon.add(a, f);
+    const std::size_t n = std::min<std::size_t>(all.size(), w);
+    std::size_t arr = 0, lost = 0, rec = 0, from_arrived = 0, failed = 0;
+    for (std::size_t i = all.size() - n; i < all.size(); ++i)
+    {
+      arr += all[i] ? 1 : 0;
+      if (i == all.size() - n || !follows[i])
+        continue;
+      if (!all[i - 1])
+      {
+        ++lost;
+        rec += all[i] ? 1 : 0;
+      }
+      else
+      {
+        ++from_arrived;
+        failed += all[i] ? 0 : 1;
+      }
+    }
+    ASSERT_EQ(mon.arrivals(), arr) << k;
+    ASSERT_EQ(mon.lossTransitions(), lost) << k;
+    ASSERT_EQ(mon.recoveries(), rec) << k;
+    ASSERT_EQ(mon.arrivalTransitions(), from_arrived) << k;
+    ASSERT_EQ(mon.failures(), failed) << k;
+  }
+}
+
+// A sensor that is not due (not scheduled) enters no window: on a lossless link with a periodic
+// schedule it shows an arrival rate of exactly 1 over its due samples, never a loss.
+TEST(JointLinkMonitor, NotDueIsNotALoss)
+{
+  const Model m = scalarTwoSensors(1.5);
+  JointLinkMonitor mon(m, 1000, false, 10);
+  for (int k = 1; k <= 300; ++k)
+  {
+    const bool first = k % 2 == 1;  // sensor 0 at odd steps, sensor 1 at even ones
+    mon.add({first, !first}, {first, !first});
+  }
+  EXPECT_EQ(mon.sensor(0).samples(), 150u);
+  EXPECT_EQ(mon.sensor(1).samples(), 150u);
+  EXPECT_EQ(mon.sensor(0).arrivals(), 150u);
+  EXPECT_EQ(mon.sensor(1).arrivals(), 150u);
+  // Every due sample follows a skipped step: no transition is claimed across the gaps.
+  EXPECT_EQ(mon.sensor(0).arrivalTransitions(), 0u);
+  // Without the due flags the same stream reads as 50 % loss on each link.
+  JointLinkMonitor naive(m, 1000, false, 10);
+  for (int k = 1; k <= 300; ++k)
+    naive.add({k % 2 == 1, k % 2 == 0});
+  EXPECT_EQ(naive.sensor(0).arrivals(), 150u);
+  EXPECT_EQ(naive.sensor(0).samples(), 300u);
+  EXPECT_THROW(mon.add({true, true}, {true}), std::invalid_argument);
+}
+
 TEST(JointLinkMonitor, PerSensorRatesDecideAndUnionDoesNot)
 {
   const Model m = scalarTwoSensors(1.5);

@@ -336,6 +336,93 @@ TEST(OnlineEstimator, MultiSensorPerSensorArrivals)
   EXPECT_EQ(on.estimator().state(), offline(model, settingsFor(ne::Algorithm::KFIO), s, arrived).back());
 }
 
+// A periodic schedule (sensor 0 at odd steps, sensor 1 at even steps) on lossless links: a step
+// is complete as soon as its scheduled sensor is in hand, the sensor that was not scheduled is
+// never due and never counted as lost, and the filter equals the offline one on the transmitted
+// samples. A measurement of an unscheduled sensor is fused but counted.
+TEST(OnlineEstimator, PeriodicScheduleNotScheduledIsNotDueNorLost)
+{
+  ne::Rng rng(8);
+  ne::Model model = ne::test::randomModel(rng, 3, 3, {1, 2}, 0, 0);
+  model.schedule.kind = ne::Schedule::Kind::PERIODIC;
+  model.schedule.pattern = {{true, false}, {false, true}};
+  const int T = 60;
+  const Stream s = simulate(model, T, 3);
+  std::vector<std::vector<bool>> sent(T, std::vector<bool>(2));
+  ne::OnlineEstimator on(model, settingsFor(ne::Algorithm::KFIO), {});
+  on.start(1);
+  for (long k = 1; k <= T; ++k)
+  {
+    const std::size_t scheduled = k % 2 == 1 ? 0 : 1;
+    EXPECT_FALSE(on.nextComplete());
+    sent[k - 1][scheduled] = true;
+    ASSERT_EQ(offerY(on, model, s, k, scheduled), Offer::ACCEPTED);
+    EXPECT_TRUE(on.nextComplete()) << k;
+    on.process();
+    EXPECT_EQ(on.lastDue()[scheduled], true);
+    EXPECT_EQ(on.lastDue()[1 - scheduled], false);
+    EXPECT_EQ(on.lastArrived()[scheduled], true);
+  }
+  EXPECT_EQ(on.counters().due, static_cast<std::uint64_t>(T));
+  EXPECT_EQ(on.counters().due_arrived, static_cast<std::uint64_t>(T));
+  EXPECT_EQ(on.counters().unscheduled, 0u);
+  EXPECT_EQ(on.estimator().state(), offline(model, settingsFor(ne::Algorithm::KFIO), s, sent).back());
+  // A scheduled sample that is lost is a loss; an unscheduled one that arrives is counted.
+  on.process();  // k = T + 1 (odd: sensor 0 due), nothing arrived
+  EXPECT_EQ(on.counters().due, static_cast<std::uint64_t>(T + 1));
+  EXPECT_EQ(on.counters().due_arrived, static_cast<std::uint64_t>(T));
+  ASSERT_EQ(on.offerMeasurement(T + 2, 0, s.y[0].data(), 1).offer, Offer::ACCEPTED);  // even: not scheduled
+  EXPECT_EQ(on.counters().unscheduled, 1u);
+  ne::OfferResult r = on.offerSchedule(T + 2, {true, false});
+  EXPECT_EQ(r.offer, Offer::REJECTED);
+  EXPECT_NE(r.reason.find("periodic one is known from the step"), std::string::npos) << r.reason;
+}
+
+// A random schedule: the draw is offered per step. Until it is in hand the step is not complete;
+// with it, only the drawn sensors are due. A step processed without its draw counts a sensor as
+// due only when its y_k arrived (counted as schedule_missing). Bad draws are rejected by name.
+TEST(OnlineEstimator, RandomScheduleDrawIsOfferedAndChecked)
+{
+  ne::Rng rng(9);
+  ne::Model model = ne::test::randomModel(rng, 3, 3, {1, 2}, 0, 0);
+  model.schedule.kind = ne::Schedule::Kind::RANDOM;
+  model.schedule.subsets = {{true, false}, {false, true}, {true, true}};
+  model.schedule.transition = Eigen::MatrixXd::Constant(3, 3, 1.0 / 3.0);
+  model.schedule.initial = Eigen::VectorXd::Constant(3, 1.0 / 3.0);
+  const Stream s = simulate(model, 10, 3);
+  ne::OnlineEstimator on(model, settingsFor(ne::Algorithm::KFIO), {});
+  on.start(1);
+  ASSERT_EQ(offerY(on, model, s, 1, 1), Offer::ACCEPTED);
+  EXPECT_FALSE(on.nextComplete());  // the draw is not in hand
+  ASSERT_EQ(on.offerSchedule(1, {false, true}).offer, Offer::ACCEPTED);
+  EXPECT_TRUE(on.nextComplete());
+  EXPECT_EQ(on.offerSchedule(1, {false, true}).offer, Offer::DUPLICATE);
+  on.process();
+  EXPECT_EQ(on.lastDue(), (std::vector<bool>{false, true}));
+  ASSERT_EQ(on.offerSchedule(2, {true, true}).offer, Offer::ACCEPTED);
+  ASSERT_EQ(offerY(on, model, s, 2, 0), Offer::ACCEPTED);
+  EXPECT_FALSE(on.nextComplete());  // sensor 1 is due too
+  on.process();                     // its deadline: sensor 1 lost
+  EXPECT_EQ(on.counters().due, 3u);
+  EXPECT_EQ(on.counters().due_arrived, 2u);
+  ASSERT_EQ(offerY(on, model, s, 3, 0), Offer::ACCEPTED);
+  on.process();  // no draw for step 3
+  EXPECT_EQ(on.counters().schedule_missing, 1u);
+  EXPECT_EQ(on.lastDue(), (std::vector<bool>{true, false}));
+  auto reason = [&](ne::OfferResult r) {
+    EXPECT_EQ(r.offer, Offer::REJECTED);
+    return r.reason;
+  };
+  EXPECT_NE(reason(on.offerSchedule(4, {false, false})).find("[] is not one of the schedule's subsets"),
+            std::string::npos);
+  EXPECT_NE(reason(on.offerSchedule(4, {true})).find("expected 2 flags"), std::string::npos);
+  EXPECT_NE(reason(on.offerSchedule(0, {true, true})).find("expected >= 1"), std::string::npos);
+  EXPECT_EQ(on.offerSchedule(2, {true, true}).offer, Offer::LATE_DROPPED);
+  ne::OnlineEstimator plain(ne::test::zhouModel(), settingsFor(ne::Algorithm::KFIO), {});
+  plain.start(1);
+  EXPECT_NE(reason(plain.offerSchedule(1, {true})).find("has no random schedule (none)"), std::string::npos);
+}
+
 TEST(OnlineEstimator, BadInputIsRejectedWithAReasonAndCounted)
 {
   ne::Rng rng(4);

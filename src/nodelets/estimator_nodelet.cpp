@@ -8,7 +8,9 @@
 // Inputs: `measurement` (one sensor) or `measurement/<sensor>` (one topic per sensor) of type
 // ~input_type (networked_estimation/Measurement, sensor_msgs/Range or geometry_msgs/PointStamped:
 // the step of a foreign message is the nearest k to its stamp), and `command` (ControlInput, the
-// commands before the actuator link) for models with control.
+// commands before the actuator link) for models with control, and `schedule` (ScheduleStep) for a
+// model with a random sensor schedule (a periodic one is known from k): a sensor that is not
+// scheduled at k is not waited for and not counted as lost.
 // Outputs: `estimate` (Estimate), `covariance_trace` (std_msgs/Float64), `pose`
 // (PoseWithCovarianceStamped of ~position_indices), tf ~frame_id -> ~child_frame_id, diagnostics.
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -29,6 +31,7 @@
 #include "networked_estimation/ControlInput.h"
 #include "networked_estimation/Estimate.h"
 #include "networked_estimation/Measurement.h"
+#include "networked_estimation/ScheduleStep.h"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/online/estimator_node_config.hpp"
 #include "networked_estimation/stability/live_stability.hpp"
@@ -86,6 +89,8 @@ private:
     }
     if (model.hasControl())
       cmd_sub_ = nh.subscribe("command", queue_size_, &EstimatorNodelet::onCommand, this, hints());
+    if (model.schedule.kind == Schedule::Kind::RANDOM)
+      schedule_sub_ = nh.subscribe("schedule", queue_size_, &EstimatorNodelet::onSchedule, this, hints());
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
     diagnostics_->setHardwareID(toString(settings_.algorithm));
     diagnostics_->add("estimator", this, &EstimatorNodelet::diagnose);
@@ -173,20 +178,8 @@ private:
   void offer(std::size_t sensor, long k, double stamp, const double* y, std::size_t size, bool has_step)
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (!clock_.anchored())
-    {
-      if (has_step && k < 1)
-      {
-        rejectLocked("step: expected >= 1, found " + std::to_string(k));
-        return;
-      }
-      const long first = has_step ? k : 1;
-      clock_.anchor(first, stamp);
-      // A stream seen from its start is filtered from step 1 (the steps before the first message
-      // are losses); joining a running stream starts at the first step seen.
-      online_->start(first - 1 <= static_cast<long>(online_->options().history_length) ? 1 : first);
-      wake_.notify_one();
-    }
+    if (!clock_.anchored() && !anchorLocked(has_step ? k : 1, stamp))
+      return;
     if (!has_step)
       k = clock_.stepAt(stamp);
     // Steps whose deadline has passed are taken first (the deadline thread may not have woken
@@ -197,6 +190,23 @@ private:
       NODELET_WARN_THROTTLE(1.0, "Estimator %s: measurement rejected: %s (%lu rejected so far)",
                             toString(settings_.algorithm).c_str(), r.reason.c_str(), rejectedLocked());
     drainComplete();
+  }
+
+  /// Starts the timeline on the first message of the stream, step k stamped `stamp` (mutex held).
+  /// False (rejected) for k < 1.
+  bool anchorLocked(long k, double stamp)
+  {
+    if (k < 1)
+    {
+      rejectLocked("step: expected >= 1, found " + std::to_string(k));
+      return false;
+    }
+    clock_.anchor(k, stamp);
+    // A stream seen from its start is filtered from step 1 (the steps before the first message
+    // are losses); joining a running stream starts at the first step seen.
+    online_->start(k - 1 <= static_cast<long>(online_->options().history_length) ? 1 : k);
+    wake_.notify_one();
+    return true;
   }
 
   void onCommand(const ControlInput::ConstPtr& c)
@@ -213,6 +223,26 @@ private:
     const OfferResult r = online_->offerCommand(static_cast<long>(c->step), c->u.data(), c->u.size());
     if (r.offer == Offer::REJECTED)
       NODELET_WARN_THROTTLE(1.0, "Estimator %s: command rejected: %s (%lu rejected so far)",
+                            toString(settings_.algorithm).c_str(), r.reason.c_str(), rejectedLocked());
+    drainComplete();
+  }
+
+  void onSchedule(const ScheduleStep::ConstPtr& sc)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (sc->step > static_cast<std::uint64_t>(std::numeric_limits<long>::max() / 2))
+    {
+      rejectLocked("schedule step " + std::to_string(sc->step) + " out of range");
+      return;
+    }
+    // The draw of a step leaves before its measurements: it may start the timeline.
+    if (!clock_.anchored() && !anchorLocked(static_cast<long>(sc->step), sc->header.stamp.toSec()))
+      return;
+    catchUp(ros::Time::now().toSec());
+    const std::vector<bool> transmitting(sc->transmitting.begin(), sc->transmitting.end());
+    const OfferResult r = online_->offerSchedule(static_cast<long>(sc->step), transmitting);
+    if (r.offer == Offer::REJECTED)
+      NODELET_WARN_THROTTLE(1.0, "Estimator %s: schedule rejected: %s (%lu rejected so far)",
                             toString(settings_.algorithm).c_str(), r.reason.c_str(), rejectedLocked());
     drainComplete();
   }
@@ -276,7 +306,7 @@ private:
         e->covariance[static_cast<std::size_t>(i) * n + j] = P(i, j);  // row-major (REP-103)
     e->covariance_trace = P.trace();
     const std::uint64_t resets = online_->counters().divergence_resets;
-    live_->add(online_->lastArrived(), online_->lastGamma(), P, resets != resets_seen_);
+    live_->add(online_->lastArrived(), online_->lastDue(), online_->lastGamma(), P, resets != resets_seen_);
     resets_seen_ = resets;
     const double q = est.commandArrivalProbability();
     e->command_arrival_probability = std::isfinite(q) ? q : -1.0;
@@ -414,6 +444,16 @@ private:
     stat.add("duplicates", c.duplicates);
     stat.add("rejected", c.rejected + rejected_topic_);
     stat.add("missing commands", c.missing_commands);
+    if (online_->model().schedule.active())
+    {
+      // With a schedule, "arrival rate" above is gamma's (some sensor arrived); these count
+      // only what the schedule let the sensors send.
+      stat.add("due samples", c.due);
+      stat.add("due arrival rate", c.due > 0 ? static_cast<double>(c.due_arrived) / static_cast<double>(c.due) : 0.0);
+      stat.add("unscheduled measurements", c.unscheduled);
+      if (online_->model().schedule.kind == Schedule::Kind::RANDOM)
+        stat.add("steps without schedule", c.schedule_missing);
+    }
     stat.add("divergence resets", c.divergence_resets);
     stat.add("time resets", time_resets_);
     stat.add("covariance trace", last_trace_);
@@ -452,7 +492,7 @@ private:
   uint32_t queue_size_ = 1000;
 
   std::vector<ros::Subscriber> subs_;
-  ros::Subscriber cmd_sub_;
+  ros::Subscriber cmd_sub_, schedule_sub_;
   ros::Publisher estimate_pub_, trace_pub_, pose_pub_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
   ros::WallTimer tf_timer_;

@@ -1,5 +1,7 @@
 // PlantSimulator nodelet: runs the core PlantSimulator of a model file at the model's period and
-// publishes y_k per sensor (Measurement), the ground truth (PlantState and a tf2 frame). A command
+// publishes y_k per sensor (Measurement), the ground truth (PlantState and a tf2 frame). With a
+// sensor schedule in the model, only the sensors scheduled at step k publish y_k, and the draw is
+// published on `schedule` (ScheduleStep) before them (random schedules: seed as in simulate). A command
 // is applied at step k only when ControlInput k has arrived on `command` (the output of the
 // actuator link) by then; otherwise the input is zero (as in Lin et al.'s model).
 //
@@ -21,8 +23,10 @@
 #include "networked_estimation/ControlInput.h"
 #include "networked_estimation/Measurement.h"
 #include "networked_estimation/PlantState.h"
+#include "networked_estimation/ScheduleStep.h"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/config/model.hpp"
+#include "networked_estimation/simulation/schedule_sampler.hpp"
 #include "networked_estimation/simulation/simulator.hpp"
 #include "load_failure.hpp"
 #include "param_yaml.hpp"
@@ -65,6 +69,10 @@ private:
       refuseLoad(getName(), std::string("PlantSimulator not started: ") + e.what());
     }
     sim_ = std::make_unique<PlantSimulator>(model_, seed_);
+    // The same stream as LossyRun's (simulate), so one seed gives one schedule everywhere.
+    schedule_ = std::make_unique<ScheduleSampler>(model_.schedule, model_.sensors.size(), deriveSeed(seed_, 300));
+    if (model_.schedule.active())
+      schedule_pub_ = nh.advertise<ScheduleStep>("schedule", 1000);
     for (const Sensor& s : model_.sensors)
       meas_pubs_.push_back(nh.advertise<Measurement>(sensorTopic(s.name), 1000));
     state_pub_ = nh.advertise<PlantState>("plant_state", 1000);
@@ -217,8 +225,19 @@ private:
     const SimulatedSample& s = *sp;
     if (s.nu && model_.hasControl())
       ++applied_;
+    const std::vector<bool>& transmitting = schedule_->next();
+    if (model_.schedule.active())
+    {
+      ScheduleStep::Ptr sc = boost::make_shared<ScheduleStep>();
+      sc->header.stamp = stamp;
+      sc->step = static_cast<std::uint64_t>(s.k);
+      sc->transmitting.assign(transmitting.begin(), transmitting.end());
+      schedule_pub_.publish(sc);
+    }
     for (std::size_t i = 0; i < model_.sensors.size(); ++i)
     {
+      if (!transmitting[i])
+        continue;  // not scheduled at k: nothing is sent (not a loss)
       const Sensor& sn = model_.sensors[i];
       Measurement::Ptr m = boost::make_shared<Measurement>();
       m->header.stamp = stamp;
@@ -267,6 +286,8 @@ private:
   bool start_scheduled_ = false;
   ros::Subscriber start_sub_;
   std::unique_ptr<PlantSimulator> sim_;
+  std::unique_ptr<ScheduleSampler> schedule_;
+  ros::Publisher schedule_pub_;
   std::vector<ros::Publisher> meas_pubs_;
   ros::Publisher state_pub_, clock_pub_;
   ros::Subscriber cmd_sub_;

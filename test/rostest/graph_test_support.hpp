@@ -144,6 +144,12 @@ struct DiagnosticsProbe
     auto it = values.find(key);
     return it == values.end() ? std::string() : it->second;
   }
+  /// Every key-value of the latest status, read at once (get() calls may straddle two statuses).
+  std::map<std::string, std::string> snapshot()
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    return values;
+  }
   bool levelIs(int want)
   {
     std::lock_guard<std::mutex> lock(mutex);

@@ -8,6 +8,7 @@
 #include <rosgraph_msgs/Clock.h>
 #include <rosgraph_msgs/Log.h>
 #include <sensor_msgs/Range.h>
+#include <std_msgs/Empty.h>
 
 #include <atomic>
 #include <cmath>
@@ -26,6 +27,7 @@
 #include "networked_estimation/Estimate.h"
 #include "networked_estimation/Measurement.h"
 #include "networked_estimation/PlantState.h"
+#include "networked_estimation/ScheduleStep.h"
 #include "networked_estimation/SetParameters.h"
 #include "networked_estimation/estimators/estimator.hpp"
 #include "networked_estimation/config/model.hpp"
@@ -456,6 +458,95 @@ TEST(EstimatorGraph, StabilityVerdictPerSensor)
   rate = 0.6;
   ASSERT_TRUE(waitFor([&] { return link.levelIs(diagnostic_msgs::DiagnosticStatus::OK); }, 60.0))
       << "last: " << link.lastMessage();
+}
+
+// Sensor schedules (estimator_schedule.test): each PlantSimulator publishes exactly the sensors its
+// schedule lets transmit (periodic: a at odd steps, b at even ones; random: the subset it also
+// publishes on `schedule`), and the Estimator behind lossless links sees every due sample arrive:
+// gamma = 1 at every step, a due arrival rate of exactly 1, and per-sensor live arrival rates of
+// 1 over the due samples only (a sensor that was not scheduled is never counted as lost).
+TEST(EstimatorGraph, ScheduledSensorsAreNotDueNorLost)
+{
+  ros::NodeHandle nh;
+  struct Seen
+  {
+    std::mutex mutex;
+    std::map<long, std::vector<bool>> sent, drawn;  // per step: which sensors published / were drawn
+    std::map<long, bool> gamma;
+  };
+  std::map<std::string, Seen> seen;
+  std::vector<ros::Subscriber> subs;
+  const long T = 300;
+  for (const std::string ns : {"periodic", "random"})
+  {
+    Seen& z = seen[ns];
+    for (int s = 0; s < 2; ++s)
+      subs.push_back(nh.subscribe<Measurement>(ns + "/measurement/" + (s == 0 ? "a" : "b"), 1000,
+                                               [&z, s](const Measurement::ConstPtr& m) {
+                                                 std::lock_guard<std::mutex> lock(z.mutex);
+                                                 auto& v = z.sent[static_cast<long>(m->step)];
+                                                 v.resize(2);
+                                                 v[s] = true;
+                                               }));
+    subs.push_back(nh.subscribe<ne::ScheduleStep>(ns + "/schedule", 1000, [&z](const ne::ScheduleStep::ConstPtr& m) {
+      std::lock_guard<std::mutex> lock(z.mutex);
+      z.drawn[static_cast<long>(m->step)] = std::vector<bool>(m->transmitting.begin(), m->transmitting.end());
+    }));
+    subs.push_back(nh.subscribe<Estimate>(ns + "/estimate", 1000, [&z](const Estimate::ConstPtr& e) {
+      std::lock_guard<std::mutex> lock(z.mutex);
+      z.gamma[static_cast<long>(e->step)] = e->gamma;
+    }));
+  }
+  ASSERT_TRUE(waitFor([&] {
+    for (const ros::Subscriber& sub : subs)
+      if (sub.getNumPublishers() == 0)
+        return false;
+    return true;
+  }, 30.0));
+  DiagnosticsProbe periodic(nh, "periodic/estimator: estimator"), random(nh, "random/estimator: estimator");
+  DiagnosticsProbe periodic_link(nh, "periodic/estimator: link stability");
+  ros::Publisher start = nh.advertise<std_msgs::Empty>("/start_plants", 1, true);
+  start.publish(std_msgs::Empty());
+  // The plants run on; the estimators' statuses are read once both have taken T steps.
+  ASSERT_TRUE(waitFor([&] { return periodic.get("steps") >= T && random.get("steps") >= T; }, 60.0))
+      << periodic.get("steps") << " " << random.get("steps");
+  for (const std::string ns : {"periodic", "random"})
+  {
+    const std::map<std::string, std::string> d = (ns == "periodic" ? periodic : random).snapshot();
+    const long S = std::stol(d.at("steps"));
+    Seen& z = seen[ns];
+    ASSERT_TRUE(waitFor([&] {
+      std::lock_guard<std::mutex> lock(z.mutex);
+      return z.drawn.size() >= static_cast<std::size_t>(S) && z.gamma.size() >= static_cast<std::size_t>(S);
+    }, 10.0)) << ns;
+    std::lock_guard<std::mutex> lock(z.mutex);
+    std::size_t due = 0, both = 0;
+    for (long k = 1; k <= S; ++k)
+    {
+      ASSERT_EQ(z.gamma.count(k), 1u) << ns << " step " << k;
+      EXPECT_TRUE(z.gamma[k]) << ns << " step " << k;
+      const std::vector<bool> expect = ns == "periodic" ? std::vector<bool>{k % 2 == 1, k % 2 == 0} : z.drawn[k];
+      EXPECT_EQ(z.drawn[k], expect) << ns << " step " << k;
+      EXPECT_EQ(z.sent[k], expect) << ns << " step " << k;
+      due += (expect[0] ? 1 : 0) + (expect[1] ? 1 : 0);
+      both += k <= T && expect[0] && expect[1] ? 1 : 0;
+    }
+    EXPECT_EQ(std::stod(d.at("due samples")), static_cast<double>(due)) << ns;
+    EXPECT_EQ(std::stod(d.at("due arrival rate")), 1.0) << ns;
+    EXPECT_EQ(std::stod(d.at("unscheduled measurements")), 0.0) << ns;
+    if (ns == "random")
+    {
+      EXPECT_EQ(std::stod(d.at("steps without schedule")), 0.0);
+      // The subsets are drawn i.i.d. with probabilities 0.4 / 0.4 / 0.2: both sensors at about 60
+      // of the first 300 steps (binomial sd sqrt(300 * 0.2 * 0.8) = 6.9; +-28 is 4 sd).
+      EXPECT_NEAR(static_cast<double>(both), 60.0, 28.0);
+    }
+  }
+  // The live windows hold the due samples only, all arrived (without the schedule each link
+  // would read 0.5).
+  ASSERT_TRUE(waitFor([&] { return periodic_link.text("a arrival rate").rfind("1 [", 0) == 0; }, 10.0))
+      << periodic_link.text("a arrival rate");
+  EXPECT_EQ(periodic_link.text("b arrival rate").rfind("1 [", 0), 0u) << periodic_link.text("b arrival rate");
 }
 
 // Foreign input types: PointStamped (two 2-row position sensors) and Range (one scalar sensor)

@@ -7,6 +7,11 @@
 // processed is either dropped and counted (LatePolicy::DROP) or fused by rewinding a bounded
 // history and re-filtering (LatePolicy::REWIND).
 //
+// With a sensor schedule (model key `schedule`), a sensor is *due* at step k only when it is
+// scheduled to transmit there: a periodic schedule is known from k; a random schedule's draw is
+// offered per step (offerSchedule, e.g. by whoever draws it). A sensor that is not due is not
+// waited for and is not a loss (lastDue()); gamma still means "some y_k arrived".
+//
 // StepClock maps steps to times: stamp_k = t0 + k * period, deadline_k = stamp_k + latency_budget.
 #pragma once
 
@@ -77,6 +82,14 @@ struct OnlineCounters
   std::uint64_t rewinds = 0;          ///< re-filterings done (one per late-fused message)
   std::uint64_t missing_commands = 0; ///< steps processed without the command u_k (zero input used)
   std::uint64_t divergence_resets = 0;///< the covariance overflowed: the filter was reset to x0, P0
+  /// Random schedule: steps processed without their schedule draw in hand (then a sensor counts
+  /// as due only when its y_k arrived).
+  std::uint64_t schedule_missing = 0;
+  /// Measurements of a sensor that was not scheduled at their step (accepted and fused).
+  std::uint64_t unscheduled = 0;
+  /// Sensor samples due at the processed steps (sum over steps of the sensors due there), and
+  /// those of them in hand at the step: their ratio is the arrival rate of what was sent.
+  std::uint64_t due = 0, due_arrived = 0;
 };
 
 class OnlineEstimator
@@ -97,8 +110,14 @@ public:
   /// Offers the command u_k (p values). Only meaningful for models with control.
   OfferResult offerCommand(long k, const double* u, std::size_t size);
 
-  /// Whether everything step nextStep() can use is in hand (every sensor's y_k, and u_k for a
-  /// model with control): processing it before its deadline gives the same result.
+  /// Offers the draw of a random schedule for step k: transmitting[s] for every sensor (model
+  /// order); it must be one of the schedule's subsets. Rejected (counted) without a random
+  /// schedule, on a wrong size, for a subset the schedule does not have, or out of the window.
+  OfferResult offerSchedule(long k, const std::vector<bool>& transmitting);
+
+  /// Whether everything step nextStep() can use is in hand (the y_k of every sensor due at k, the
+  /// schedule draw of a random schedule, and u_k for a model with control): processing it before
+  /// its deadline gives the same result.
   bool nextComplete() const;
 
   /// Takes the filter step nextStep() with what is in hand, then advances nextStep().
@@ -113,6 +132,9 @@ public:
   int lastSensorsReceived() const { return last_sensors_; }
   /// Per sensor (model order), whether its y_k was in hand at the last processed step.
   const std::vector<bool>& lastArrived() const { return last_arrived_; }
+  /// Per sensor, whether it was due (scheduled) at the last processed step; all true without a
+  /// schedule.
+  const std::vector<bool>& lastDue() const { return last_due_; }
   const OnlineCounters& counters() const { return counters_; }
   /// The last error a filter step raised (empty: none).
   const std::string& lastError() const { return last_error_; }
@@ -131,6 +153,8 @@ private:
     std::vector<char> have;  ///< per sensor
     Eigen::VectorXd u;       ///< empty until the command arrives
     bool have_u = false;
+    std::vector<char> scheduled;  ///< random schedule: the draw for this step, per sensor
+    bool have_schedule = false;
   };
 
   Slot& slot(long k);
@@ -141,6 +165,9 @@ private:
   void stepChecked(Estimator& est, const Sample& sample);
   void rewind();
   OfferResult checkStep(long k) const;
+  /// Whether sensor `sensor` is due at step k (slot `s` holds k, or is null when nothing is in
+  /// hand for k).
+  bool due(const Slot* s, long k, std::size_t sensor) const;
   /// Counts a rejected offer and returns it with its reason.
   OfferResult reject(const std::string& why);
 
@@ -156,6 +183,7 @@ private:
   bool last_gamma_ = false;
   int last_sensors_ = 0;
   std::vector<bool> last_arrived_;
+  std::vector<bool> last_due_;
   Sample sample_;
   OnlineCounters counters_;
   std::string last_error_;

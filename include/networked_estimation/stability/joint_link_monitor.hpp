@@ -47,6 +47,10 @@ public:
   /// Records one step: arrived[s] for every sensor s of the model (size = sensors). Throws
   /// std::invalid_argument on a wrong size.
   void add(const std::vector<bool>& arrived);
+  /// Records one step of a scheduled model: only the sensors with due[s] (scheduled to transmit)
+  /// enter their windows, so a sensor that was not due is never counted as lost; a due sample
+  /// after skipped steps starts no transition (LinkMonitor::add).
+  void add(const std::vector<bool>& arrived, const std::vector<bool>& due);
   void clear();
   std::size_t sensors() const { return monitors_.size(); }
   const LinkMonitor& sensor(std::size_t s) const { return monitors_[s]; }
@@ -60,6 +64,8 @@ private:
   bool markov_;
   std::size_t min_samples_;
   std::vector<LinkMonitor> monitors_;
+  std::vector<char> skipped_;  ///< per sensor: steps were skipped since its last due sample
+  std::vector<bool> all_due_;
   std::vector<int> all_;
 };
 

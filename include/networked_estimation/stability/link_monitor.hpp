@@ -32,20 +32,23 @@ public:
   /// window >= 2 (throws std::invalid_argument otherwise).
   explicit LinkMonitor(std::size_t window);
 
-  /// Records whether sample k arrived. O(1).
-  void add(bool arrived);
+  /// Records whether the next observed sample arrived. O(1). `follows_previous`: the previous
+  /// recorded sample was the step just before this one, so (previous, this) is a transition of
+  /// the link; false when steps were skipped (a sensor schedule: the sensor was not due), so the
+  /// transition counts below only ever see consecutive steps.
+  void add(bool arrived, bool follows_previous = true);
   /// Forgets everything.
   void clear();
 
   /// Samples in the window (<= window).
   std::size_t samples() const { return count_; }
   std::size_t arrivals() const { return arrivals_; }
-  /// Transitions (k-1, k) with both samples in the window and sample k-1 lost.
+  /// Transitions (k-1, k) of consecutive steps with both samples in the window and sample k-1 lost.
   std::size_t lossTransitions() const { return lost_prev_; }
   std::size_t recoveries() const { return recovered_; }
   /// Transitions (k-1, k) with both samples in the window and sample k-1 arrived, and those of
   /// them where sample k was lost.
-  std::size_t arrivalTransitions() const { return count_ > 0 ? count_ - 1 - lost_prev_ : 0; }
+  std::size_t arrivalTransitions() const { return transitions_ - lost_prev_; }
   std::size_t failures() const { return failed_; }
   /// Samples seen since construction / clear().
   std::uint64_t total() const { return total_; }
@@ -60,9 +63,9 @@ public:
   RateEstimate failureRate() const;
 
 private:
-  std::vector<std::uint8_t> ring_;
+  std::vector<std::uint8_t> ring_;  ///< bit 0: arrived; bit 1: follows the previous entry's step
   std::size_t head_ = 0;  ///< index of the oldest sample
-  std::size_t count_ = 0, arrivals_ = 0, lost_prev_ = 0, recovered_ = 0, failed_ = 0;
+  std::size_t count_ = 0, arrivals_ = 0, transitions_ = 0, lost_prev_ = 0, recovered_ = 0, failed_ = 0;
   std::uint64_t total_ = 0;
 };
 

@@ -45,6 +45,10 @@ public:
   /// After a filter step: which sensors arrived, gamma, the filtered covariance P_{k|k}, and
   /// whether the filter restarted from its prior at this step (a covariance overflow).
   void add(const std::vector<bool>& arrived, bool gamma, const Eigen::MatrixXd& P, bool restarted);
+  /// The same for a model with a sensor schedule: due[s] = sensor s was scheduled at this step.
+  /// A sensor that was not due enters no window (it is not a loss).
+  void add(const std::vector<bool>& arrived, const std::vector<bool>& due, bool gamma, const Eigen::MatrixXd& P,
+           bool restarted);
   /// Time went back: start over.
   void clear();
   /// The status and its key-values (three joint stability tests and the Gan-Liu evidence).
@@ -52,6 +56,7 @@ public:
 
 private:
   Eigen::MatrixXd predictedFromPrior() const;
+  void addTheorem1(bool gamma, const Eigen::MatrixXd& P, bool restarted);
 
   const Model* model_;
   LiveStabilityOptions options_;

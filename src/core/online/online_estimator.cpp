@@ -50,8 +50,11 @@ OnlineEstimator::OnlineEstimator(const Model& model, const EstimatorSettings& se
   {
     s.y = Eigen::VectorXd::Constant(model_.m(), std::numeric_limits<double>::quiet_NaN());
     s.have.assign(model_.sensors.size(), 0);
+    s.scheduled.assign(model_.sensors.size(), 0);
   }
   sample_.y.resize(model_.m());
+  last_arrived_.assign(model_.sensors.size(), false);
+  last_due_.assign(model_.sensors.size(), true);
 }
 
 void OnlineEstimator::start(long first_step)
@@ -91,8 +94,26 @@ OnlineEstimator::Slot* OnlineEstimator::slotFor(long k)
     s.y.setConstant(std::numeric_limits<double>::quiet_NaN());
     std::fill(s.have.begin(), s.have.end(), 0);
     s.have_u = false;
+    s.have_schedule = false;
   }
   return &s;
+}
+
+bool OnlineEstimator::due(const Slot* s, long k, std::size_t sensor) const
+{
+  const Schedule& sch = model_.schedule;
+  switch (sch.kind)
+  {
+    case Schedule::Kind::NONE:
+      return true;
+    case Schedule::Kind::PERIODIC:
+      return sch.pattern[static_cast<std::size_t>((k - 1) % static_cast<long>(sch.pattern.size()))][sensor];
+    case Schedule::Kind::RANDOM:
+      if (s && s->have_schedule)
+        return s->scheduled[sensor] != 0;
+      return s && s->have[sensor];  // the draw is not in hand: what arrived was evidently scheduled
+  }
+  return true;
 }
 
 OfferResult OnlineEstimator::checkStep(long k) const
@@ -186,6 +207,8 @@ OfferResult OnlineEstimator::offerMeasurement(long k, std::size_t sensor, const 
   s->have[sensor] = 1;
   s->y.segment(sn.offset, sn.size) = Eigen::Map<const Eigen::VectorXd>(y, sn.size);
   ++counters_.accepted;
+  if (model_.schedule.active() && !due(s, k, sensor))
+    ++counters_.unscheduled;
   r.offer = Offer::ACCEPTED;
   return r;
 }
@@ -226,6 +249,52 @@ OfferResult OnlineEstimator::offerCommand(long k, const double* u, std::size_t s
     rewind();
     r.offer = Offer::LATE_FUSED;
   }
+  return r;
+}
+
+OfferResult OnlineEstimator::offerSchedule(long k, const std::vector<bool>& transmitting)
+{
+  const Schedule& sch = model_.schedule;
+  if (sch.kind != Schedule::Kind::RANDOM)
+    return reject("schedule: model '" + model_.name + "' has no random schedule (" +
+                  (sch.kind == Schedule::Kind::PERIODIC ? "its periodic one is known from the step" : "none") + ")");
+  if (transmitting.size() != model_.sensors.size())
+    return reject("schedule: expected " + std::to_string(model_.sensors.size()) + " flags (one per sensor), found " +
+                  std::to_string(transmitting.size()));
+  bool known = false;
+  for (const std::vector<bool>& subset : sch.subsets)
+    known = known || subset == transmitting;
+  if (!known)
+  {
+    std::string names;
+    for (std::size_t i = 0; i < transmitting.size(); ++i)
+      if (transmitting[i])
+        names += (names.empty() ? "" : ", ") + model_.sensors[i].name;
+    return reject("schedule: [" + names + "] is not one of the schedule's subsets");
+  }
+  OfferResult r = checkStep(k);
+  if (r.offer == Offer::REJECTED)
+    return reject(r.reason);
+  if (k < next_)
+  {
+    // The step is processed: its draw no longer changes anything the filter did.
+    ++counters_.late_dropped;
+    r.offer = Offer::LATE_DROPPED;
+    return r;
+  }
+  Slot* s = slotFor(k);
+  if (s->have_schedule)
+  {
+    ++counters_.duplicates;
+    r.offer = Offer::DUPLICATE;
+    return r;
+  }
+  for (std::size_t i = 0; i < transmitting.size(); ++i)
+    s->scheduled[i] = transmitting[i] ? 1 : 0;
+  s->have_schedule = true;
+  for (std::size_t i = 0; i < transmitting.size(); ++i)
+    if (s->have[i] && !transmitting[i])
+      ++counters_.unscheduled;
   return r;
 }
 
@@ -284,8 +353,10 @@ bool OnlineEstimator::nextComplete() const
   const Slot& s = ring_[static_cast<std::size_t>(next_) % ring_.size()];
   if (s.k != next_ || (model_.hasControl() && !s.have_u))
     return false;
-  for (char h : s.have)
-    if (!h)
+  if (model_.schedule.kind == Schedule::Kind::RANDOM && !s.have_schedule)
+    return false;
+  for (std::size_t i = 0; i < s.have.size(); ++i)
+    if (!s.have[i] && due(&s, next_, i))
       return false;
   return true;
 }
@@ -298,13 +369,17 @@ void OnlineEstimator::process()
   Slot& s = slot(k);
   fillSample(k, sample_);
   last_sensors_ = 0;
-  last_arrived_.assign(model_.sensors.size(), false);
-  if (s.k == k)
-    for (std::size_t i = 0; i < s.have.size(); ++i)
-    {
-      last_arrived_[i] = s.have[i] != 0;
-      last_sensors_ += s.have[i] ? 1 : 0;
-    }
+  const Slot* held = s.k == k ? &s : nullptr;
+  for (std::size_t i = 0; i < last_arrived_.size(); ++i)
+  {
+    last_arrived_[i] = held && held->have[i];
+    last_sensors_ += last_arrived_[i] ? 1 : 0;
+    last_due_[i] = due(held, k, i);
+    counters_.due += last_due_[i] ? 1 : 0;
+    counters_.due_arrived += last_due_[i] && last_arrived_[i] ? 1 : 0;
+  }
+  if (model_.schedule.kind == Schedule::Kind::RANDOM && !(held && held->have_schedule))
+    ++counters_.schedule_missing;
   if (!(s.k == k && s.have_u))
   {
     if (model_.hasControl())

@@ -44,21 +44,40 @@ JointLinkMonitor::JointLinkMonitor(const Model& model, std::size_t window, bool 
     monitors_.emplace_back(window);
     all_.push_back(static_cast<int>(s));
   }
+  skipped_.assign(monitors_.size(), 0);
+  all_due_.assign(monitors_.size(), true);
 }
 
 void JointLinkMonitor::add(const std::vector<bool>& arrived)
 {
+  add(arrived, all_due_);
+}
+
+void JointLinkMonitor::add(const std::vector<bool>& arrived, const std::vector<bool>& due)
+{
+  if (due.size() != monitors_.size())
+    throw std::invalid_argument("JointLinkMonitor: " + std::to_string(due.size()) + " due flags for " +
+                                std::to_string(monitors_.size()) + " sensors");
   if (arrived.size() != monitors_.size())
     throw std::invalid_argument("JointLinkMonitor: " + std::to_string(arrived.size()) + " arrival flags for " +
                                 std::to_string(monitors_.size()) + " sensors");
   for (std::size_t s = 0; s < monitors_.size(); ++s)
-    monitors_[s].add(arrived[s]);
+  {
+    if (!due[s])
+    {
+      skipped_[s] = 1;
+      continue;
+    }
+    monitors_[s].add(arrived[s], !skipped_[s]);
+    skipped_[s] = 0;
+  }
 }
 
 void JointLinkMonitor::clear()
 {
   for (LinkMonitor& m : monitors_)
     m.clear();
+  std::fill(skipped_.begin(), skipped_.end(), 0);
 }
 
 JointLinkStatus JointLinkMonitor::evaluate() const

@@ -45,34 +45,43 @@ LinkMonitor::LinkMonitor(std::size_t window)
 
 void LinkMonitor::clear()
 {
-  head_ = count_ = arrivals_ = lost_prev_ = recovered_ = failed_ = 0;
+  head_ = count_ = arrivals_ = transitions_ = lost_prev_ = recovered_ = failed_ = 0;
   total_ = 0;
 }
 
-void LinkMonitor::add(bool arrived)
+void LinkMonitor::add(bool arrived, bool follows_previous)
 {
+  constexpr std::uint8_t ARRIVED = 1, FOLLOWS = 2;
   const std::size_t w = ring_.size();
   if (count_ == w)
   {
-    // Evict the oldest sample and the transition (oldest, second oldest).
-    const bool old = ring_[head_] != 0;
-    const bool next = ring_[(head_ + 1) % w] != 0;
+    // Evict the oldest sample and the transition (oldest, second oldest) when they were
+    // consecutive steps.
+    const bool old = (ring_[head_] & ARRIVED) != 0;
+    const std::uint8_t second = ring_[(head_ + 1) % w];
     arrivals_ -= old ? 1 : 0;
-    if (!old)
+    if (second & FOLLOWS)
     {
-      --lost_prev_;
-      recovered_ -= next ? 1 : 0;
-    }
-    else
-    {
-      failed_ -= next ? 0 : 1;
+      --transitions_;
+      const bool next = (second & ARRIVED) != 0;
+      if (!old)
+      {
+        --lost_prev_;
+        recovered_ -= next ? 1 : 0;
+      }
+      else
+      {
+        failed_ -= next ? 0 : 1;
+      }
     }
     head_ = (head_ + 1) % w;
     --count_;
   }
-  if (count_ > 0)
+  const bool transition = count_ > 0 && follows_previous;
+  if (transition)
   {
-    const bool last = ring_[(head_ + count_ - 1) % w] != 0;
+    ++transitions_;
+    const bool last = (ring_[(head_ + count_ - 1) % w] & ARRIVED) != 0;
     if (!last)
     {
       ++lost_prev_;
@@ -83,7 +92,7 @@ void LinkMonitor::add(bool arrived)
       failed_ += arrived ? 0 : 1;
     }
   }
-  ring_[(head_ + count_) % w] = arrived ? 1 : 0;
+  ring_[(head_ + count_) % w] = static_cast<std::uint8_t>((arrived ? ARRIVED : 0) | (transition ? FOLLOWS : 0));
   ++count_;
   arrivals_ += arrived ? 1 : 0;
   ++total_;
@@ -93,7 +102,7 @@ std::vector<bool> LinkMonitor::window() const
 {
   std::vector<bool> out(count_);
   for (std::size_t i = 0; i < count_; ++i)
-    out[i] = ring_[(head_ + i) % ring_.size()] != 0;
+    out[i] = (ring_[(head_ + i) % ring_.size()] & 1) != 0;
   return out;
 }
 

@@ -100,6 +100,18 @@ Eigen::MatrixXd LiveStability::predictedFromPrior() const
 void LiveStability::add(const std::vector<bool>& arrived, bool gamma, const Eigen::MatrixXd& P, bool restarted)
 {
   joint_.add(arrived);
+  addTheorem1(gamma, P, restarted);
+}
+
+void LiveStability::add(const std::vector<bool>& arrived, const std::vector<bool>& due, bool gamma,
+                        const Eigen::MatrixXd& P, bool restarted)
+{
+  joint_.add(arrived, due);
+  addTheorem1(gamma, P, restarted);
+}
+
+void LiveStability::addTheorem1(bool gamma, const Eigen::MatrixXd& P, bool restarted)
+{
   if (!theorem1_)
     return;
   if (restarted)
