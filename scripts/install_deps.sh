@@ -5,7 +5,8 @@ PACKAGES=(
   build-essential cmake
   ros-core-dev libnodeletlib-dev libnodeletlib-tools python3-rostest rosbash python3-rosbag
   libtf2-ros-dev libtf2-eigen-dev libdiagnostic-updater-dev libtopic-tools-dev
-  libgeometry-msgs-dev libsensor-msgs-dev libros-rosgraph-msgs-dev
+  libgeometry-msgs-dev libsensor-msgs-dev libnav-msgs-dev libros-rosgraph-msgs-dev libtf2-dev
+  libgeographiclib-dev
   libyaml-cpp-dev libeigen3-dev libgtest-dev googletest libbenchmark-dev
   python3-matplotlib python3-numpy catkin-lint
 )

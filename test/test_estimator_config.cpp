@@ -184,3 +184,73 @@ TEST_F(EstimatorConfig, RefusalsNameTheKey)
   // Every message names where the parameters came from.
   EXPECT_TRUE(has(error("{queue_size: 0}"), "/est parameters: "));
 }
+
+// The `sensors` block: per sensor a topic, a standard message type, the fields forming its rows and
+// a nominal rate; sensors without a block keep measurement/<name>.
+TEST_F(EstimatorConfig, SensorsBlock)
+{
+  const ne::EstimatorNodeConfig c = parse(
+      "{sensors: {a: {topic: /odom, type: nav_msgs/Odometry, fields: [pose.pose.position.x, "
+      "pose.pose.orientation.yaw], rate: 10}}}",
+      planar_);
+  ASSERT_EQ(c.inputs.size(), 2u);
+  EXPECT_EQ(c.inputs[0].topic, "/odom");
+  EXPECT_EQ(c.inputs[0].type, ne::InputType::ODOMETRY);
+  ASSERT_EQ(c.inputs[0].fields.size(), 2u);
+  EXPECT_EQ(c.inputs[0].fields[0].quantity, ne::Quantity::POSITION);
+  EXPECT_EQ(c.inputs[0].fields[0].axis, 0);
+  EXPECT_EQ(c.inputs[0].fields[1].quantity, ne::Quantity::ORIENTATION_RPY);
+  EXPECT_EQ(c.inputs[0].fields[1].axis, 2);
+  EXPECT_DOUBLE_EQ(c.inputs[0].rate, 10.0);
+  EXPECT_EQ(c.inputs[1].topic, "measurement/b");
+  EXPECT_EQ(c.inputs[1].type, ne::InputType::MEASUREMENT);
+  EXPECT_DOUBLE_EQ(c.inputs[1].rate, 20.0);  // the model's (period 0.05)
+  EXPECT_EQ(c.online.rate_ratio, (std::vector<double>{2.0, 1.0}));
+  // Every type parses, and its fields are the rostopic echo paths (a few spot checks).
+  for (ne::InputType t : ne::inputTypes())
+    EXPECT_EQ(ne::inputTypeFromString(ne::toString(t), "k"), t);
+  EXPECT_EQ(ne::inputFieldFromString(ne::InputType::IMU, "angular_velocity.z", "k").quantity,
+            ne::Quantity::ANGULAR_VELOCITY);
+  EXPECT_EQ(ne::inputFieldFromString(ne::InputType::NAVSATFIX, "north", "k").axis, 1);
+  EXPECT_EQ(ne::inputFieldFromString(ne::InputType::TWIST, "twist.linear.y", "k").axis, 1);
+  EXPECT_EQ(ne::inputFieldFromString(ne::InputType::FLOAT64, "data", "k").quantity, ne::Quantity::SCALAR);
+  // input_type still maps every sensor without a block.
+  const ne::EstimatorNodeConfig r = parse("{input_type: range}");
+  EXPECT_EQ(r.inputs[0].type, ne::InputType::RANGE);
+  EXPECT_EQ(r.inputs[0].topic, "measurement");
+}
+
+TEST_F(EstimatorConfig, SensorsBlockRefusalsNameTheKey)
+{
+  auto has = [](const std::string& text, const std::string& part) {
+    EXPECT_NE(text.find(part), std::string::npos) << text << "\n  expected: " << part;
+  };
+  has(error("{sensors: {c: {}}}", planar_), "sensors.c: 'c' is not a sensor of the model (sensors: a, b)");
+  has(error("{sensors: {b: {type: sensor_msgs/Gps, fields: [x]}}}", planar_),
+      "sensors.b.type: unknown type 'sensor_msgs/Gps' (types: networked_estimation/Measurement, nav_msgs/Odometry");
+  has(error("{sensors: {b: {type: sensor_msgs/NavSatFix, fields: [eest]}}}", planar_),
+      "sensors.b.fields[0]: 'eest' is not a field of sensor_msgs/NavSatFix (fields: east, north, up)");
+  has(error("{sensors: {b: {type: sensor_msgs/Imu, fields: [angular_velocity.z, angular_velocity.x]}}}", planar_),
+      "sensors.b.fields: sensor 'b' has 1 rows, found 2 fields");
+  has(error("{sensors: {b: {type: sensor_msgs/Imu}}}", planar_), "sensors.b.fields: expected a list of sensor_msgs/Imu");
+  has(error("{sensors: {b: {fields: [data]}}}", planar_),
+      "sensors.b.fields: networked_estimation/Measurement has no field selection");
+  has(error("{sensors: {b: {rate: 0}}}", planar_), "sensors.b.rate: expected > 0 and at most the model's rate 20");
+  has(error("{sensors: {b: {rate: 25}}}", planar_), "found 25");
+  has(error("{sensors: {b: {topic: ''}}}", planar_), "sensors.b.topic: expected a topic name");
+  has(error("{sensors: {b: {colour: red}}}", planar_), "sensors.b: unknown parameter(s): colour");
+  has(error("{sensors: {b: {covariance: message}}}", planar_), "sensors.b.covariance: not supported yet");
+  has(error("{sensors: {b: [1, 2]}}", planar_), "sensors.b: expected a map");
+  has(error("{sensors: [a, b]}", planar_), "sensors: expected a map from sensor names");
+}
+
+TEST_F(EstimatorConfig, Datum)
+{
+  EXPECT_TRUE(parse("").datum.empty());
+  EXPECT_EQ(parse("{datum: [48.1, 11.5, 520]}").datum, (std::vector<double>{48.1, 11.5, 520.0}));
+  EXPECT_NE(error("{datum: [48.1, 11.5]}").find("/est parameters: datum: expected [latitude, longitude, altitude]"),
+            std::string::npos);
+  EXPECT_NE(error("{datum: [48.1, east, 3]}").find("datum: expected [latitude"), std::string::npos);
+  EXPECT_NE(error("{datum: [95, 11.5, 3]}").find("/est parameters: datum: expected [latitude in [-90, 90]"),
+            std::string::npos);
+}

@@ -423,6 +423,48 @@ TEST(OnlineEstimator, RandomScheduleDrawIsOfferedAndChecked)
   EXPECT_NE(reason(plain.offerSchedule(1, {true})).find("has no random schedule (none)"), std::string::npos);
 }
 
+// Mixed rates: sensor 1 at a quarter of the model's rate is due only every 4 steps, on the phase
+// of its latest sample; a step waits only for the sensors due at it, and a missed slow sample
+// is a loss of a due sample (not 3 of 4 steps lost). Before its first sample it is not due.
+TEST(OnlineEstimator, SlowerSensorIsDueOnlyAtItsOwnSteps)
+{
+  ne::Rng rng(12);
+  const ne::Model model = ne::test::randomModel(rng, 3, 3, {1, 2}, 0, 0);
+  ne::OnlineOptions o;
+  o.rate_ratio = {1.0, 4.0};
+  const int T = 40;
+  const Stream s = simulate(model, T, 2);
+  std::vector<std::vector<bool>> sent(T, std::vector<bool>(2));
+  ne::OnlineEstimator on(model, settingsFor(ne::Algorithm::KFIO), o);
+  on.start(1);
+  for (long k = 1; k <= T; ++k)
+  {
+    sent[k - 1][0] = true;
+    ASSERT_EQ(offerY(on, model, s, k, 0), Offer::ACCEPTED);
+    const bool slow_step = k >= 3 && (k - 3) % 4 == 0;  // the slow sensor's phase: 3, 7, 11, ...
+    const bool slow_sent = slow_step && k != 19;         // its sample of step 19 is lost
+    // Complete without the slow sensor unless it is due (at k = 3 its phase is not known yet).
+    EXPECT_EQ(on.nextComplete(), !slow_step || k == 3) << k;
+    if (slow_sent)
+    {
+      sent[k - 1][1] = true;
+      ASSERT_EQ(offerY(on, model, s, k, 1), Offer::ACCEPTED);
+    }
+    EXPECT_TRUE(k == 19 || on.nextComplete()) << k;
+    on.process();
+    EXPECT_EQ(on.lastDue()[1], k >= 3 && slow_step) << k;
+  }
+  // Due: 40 fast samples and the slow ones at 3, 7, ..., 39 (10), of which 19 was lost.
+  EXPECT_EQ(on.counters().due, 50u);
+  EXPECT_EQ(on.counters().due_arrived, 49u);
+  EXPECT_EQ(on.estimator().state(), offline(model, settingsFor(ne::Algorithm::KFIO), s, sent).back());
+  ne::OnlineOptions bad;
+  bad.rate_ratio = {1.0};
+  EXPECT_THROW(ne::OnlineEstimator(model, settingsFor(ne::Algorithm::KFIO), bad), ne::ConfigError);
+  bad.rate_ratio = {1.0, 0.5};
+  EXPECT_THROW(ne::validateOnlineOptions(bad, "o"), ne::ConfigError);
+}
+
 TEST(OnlineEstimator, BadInputIsRejectedWithAReasonAndCounted)
 {
   ne::Rng rng(4);

@@ -9,6 +9,7 @@
 #include "networked_estimation/config/model.hpp"
 #include "networked_estimation/online/online_estimator.hpp"
 #include "networked_estimation/config/estimator_settings.hpp"
+#include "networked_estimation/online/sensor_inputs.hpp"
 
 namespace YAML
 {
@@ -26,7 +27,13 @@ struct EstimatorNodeConfig
   OnlineOptions online;            ///< late_policy, history_length, max_future_steps, max_past_steps
   double period = 0.0;             ///< default: the model's
   double latency_budget = 0.0;     ///< default: half a period
-  std::string input_type = "measurement";  ///< measurement | range | point
+  std::string input_type = "measurement";  ///< measurement | range | point (sensors without a block)
+  /// Per sensor of the model (model order): its topic, message type, fields and rate, from the
+  /// `sensors` block (a sensor without one keeps the input_type topic measurement[/<name>]).
+  std::vector<SensorInput> inputs;
+  /// NavSatFix inputs: the ENU origin [latitude, longitude, altitude] (degrees, m); empty = the
+  /// first valid fix.
+  std::vector<double> datum;
   std::string frame_id = "map";
   std::string child_frame_id;      ///< default: "<algorithm>_estimate"
   std::vector<int> position_indices;  ///< default: [0, 1] (or [0] for n = 1)
@@ -41,7 +48,8 @@ struct EstimatorNodeConfig
 /// Parses the parameters (README "The ROS graph": model, algorithm, mu, control_link,
 /// max_components, period, latency_budget, late_policy, history_length, max_future_steps,
 /// max_past_steps, input_type, frame_id, child_frame_id, position_indices, publish_tf, trace_bound,
-/// queue_size, link_model, stability_window, stability_min_samples; diagnostic_period is left to
+/// queue_size, link_model, stability_window, stability_min_samples, sensors.<name>.{topic, type,
+/// fields, rate}, datum; diagnostic_period is left to
 /// diagnostic_updater). Throws ConfigError naming `source` and the key, also for an unknown key,
 /// a model file that cannot be read, and ack_kf (the graph does not carry nu_k).
 EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std::string& source);

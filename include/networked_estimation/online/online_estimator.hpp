@@ -48,10 +48,14 @@ struct OnlineOptions
   /// A step this far (or further) behind the next step is rejected as bad input (far past), not
   /// counted as late. At least history_length.
   long max_past_steps = 1000;
+  /// Per sensor (model order; empty = all 1): the model's rate over the sensor's nominal rate,
+  /// >= 1. A sensor with a ratio r > 1 is due only every r steps (rounded), on its own phase: the
+  /// step of its latest sample. Before its first sample it is not due.
+  std::vector<double> rate_ratio;
 };
 
 /// Validates options (history_length >= 1 for rewind, max_future_steps >= 1, max_past_steps >=
-/// history_length). Throws ConfigError naming `source` and the key.
+/// history_length, every rate_ratio finite and >= 1). Throws ConfigError naming `source` and the key.
 void validateOnlineOptions(const OnlineOptions& o, const std::string& source);
 
 /// What happened to one offered message.
@@ -184,6 +188,8 @@ private:
   int last_sensors_ = 0;
   std::vector<bool> last_arrived_;
   std::vector<bool> last_due_;
+  std::vector<double> ratio_;  ///< per sensor: options_.rate_ratio, or 1
+  std::vector<long> anchor_;   ///< per sensor: step of its latest sample (-1: none yet)
   Sample sample_;
   OnlineCounters counters_;
   std::string last_error_;

@@ -8,9 +8,79 @@
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/estimators/estimator.hpp"
 #include "networked_estimation/config/param_reader.hpp"
+#include "networked_estimation/geodesy/local_enu.hpp"
 
 namespace networked_estimation
 {
+namespace
+{
+
+/// The `sensors` block: one map per sensor of the model, keyed by the sensor's name.
+void parseSensorInputs(const YAML::Node& block, const std::string& source, EstimatorNodeConfig& c)
+{
+  const Model& model = c.model;
+  const double model_rate = 1.0 / c.period;
+  if (!block.IsMap())
+    throw ConfigError(source + ": sensors: expected a map from sensor names to input settings");
+  for (const auto& entry : block)
+  {
+    const std::string name = entry.first.as<std::string>();
+    const std::string key = "sensors." + name;
+    std::size_t index = model.sensors.size();
+    std::string names;
+    for (std::size_t i = 0; i < model.sensors.size(); ++i)
+    {
+      if (model.sensors[i].name == name)
+        index = i;
+      names += (names.empty() ? "" : ", ") + model.sensors[i].name;
+    }
+    if (index == model.sensors.size())
+      throw ConfigError(source + ": " + key + ": '" + name + "' is not a sensor of the model (sensors: " + names + ")");
+    const Sensor& sensor = model.sensors[index];
+    SensorInput& in = c.inputs[index];
+    if (!entry.second.IsMap())
+      throw ConfigError(source + ": " + key + ": expected a map (keys: topic, type, fields, rate)");
+    ParamReader p(entry.second, source + ": " + key);
+    for (const char* later : {"covariance", "rejection_threshold"})
+      if (p.has(later))
+        throw ConfigError(source + ": " + key + "." + later + ": not supported yet (R comes from the model file and " +
+                          "every measurement is fused)");
+    in.topic = p.text("topic", in.topic);
+    if (in.topic.empty())
+      throw ConfigError(source + ": " + key + ".topic: expected a topic name, found an empty string");
+    in.type = inputTypeFromString(p.text("type", toString(InputType::MEASUREMENT)), source + ": " + key + ".type");
+    const YAML::Node fields = p.take("fields");  // a null node when absent
+    in.fields.clear();
+    if (in.type == InputType::MEASUREMENT)
+    {
+      if (!fields.IsNull())
+        throw ConfigError(source + ": " + key + ".fields: networked_estimation/Measurement has no field selection "
+                          "(its y is taken whole)");
+    }
+    else
+    {
+      if (!fields.IsSequence() || fields.size() == 0)
+        throw ConfigError(source + ": " + key + ".fields: expected a list of " + toString(in.type) +
+                          " fields, one per row of sensor '" + name + "'");
+      for (std::size_t i = 0; i < fields.size(); ++i)
+        if (!fields[i].IsScalar())
+          throw ConfigError(source + ": " + key + ".fields[" + std::to_string(i) + "]: expected a field name");
+        else
+          in.fields.push_back(inputFieldFromString(in.type, fields[i].as<std::string>(),
+                                                 source + ": " + key + ".fields[" + std::to_string(i) + "]"));
+      if (static_cast<int>(in.fields.size()) != sensor.size)
+        throw ConfigError(source + ": " + key + ".fields: sensor '" + name + "' has " + std::to_string(sensor.size) +
+                          " rows, found " + std::to_string(in.fields.size()) + " fields");
+    }
+    in.rate = p.number("rate", model_rate, 0.0, 1e9);
+    if (!(in.rate > 0.0) || in.rate > model_rate * (1.0 + 1e-9))
+      throw ConfigError(source + ": " + key + ".rate: expected > 0 and at most the model's rate " +
+                        std::to_string(model_rate) + " Hz, found " + std::to_string(in.rate));
+    p.rejectUnknown();
+  }
+}
+
+}  // namespace
 
 EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std::string& source)
 {
@@ -67,6 +137,44 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
     if (c.input_type == "point" && s.size > 3)
       throw ConfigError(source + ": input_type: point gives at most 3 values; sensor '" + s.name + "' has " +
                         std::to_string(s.size));
+  }
+  // Every sensor's input: the input_type topic by default, then the `sensors` block.
+  const double model_rate = 1.0 / c.period;
+  for (const Sensor& s : model.sensors)
+  {
+    SensorInput in;
+    in.topic = model.sensors.size() == 1 ? "measurement" : "measurement/" + s.name;
+    in.rate = model_rate;
+    if (c.input_type == "range")
+    {
+      in.type = InputType::RANGE;
+      in.fields = inputFields(InputType::RANGE);
+    }
+    else if (c.input_type == "point")
+    {
+      in.type = InputType::POINT;
+      in.fields.assign(inputFields(InputType::POINT).begin(), inputFields(InputType::POINT).begin() + s.size);
+    }
+    c.inputs.push_back(in);
+  }
+  if (p.has("sensors"))
+    parseSensorInputs(p.take("sensors"), source, c);
+  for (const SensorInput& in : c.inputs)
+    c.online.rate_ratio.push_back(model_rate / in.rate);
+  validateOnlineOptions(c.online, source);
+  if (p.has("datum"))
+  {
+    const YAML::Node d = p.take("datum");
+    bool ok = d.IsSequence() && d.size() == 3;
+    for (std::size_t i = 0; ok && i < 3; ++i)
+    {
+      double v = 0.0;
+      ok = d[i].IsScalar() && YAML::convert<double>::decode(d[i], v);
+      c.datum.push_back(v);
+    }
+    if (!ok)
+      throw ConfigError(source + ": datum: expected [latitude, longitude, altitude] (degrees, degrees, m)");
+    LocalEnu check(c.datum[0], c.datum[1], c.datum[2], source + ": datum");
   }
   c.frame_id = p.text("frame_id", "map");
   c.child_frame_id = p.text("child_frame_id", toString(c.settings.algorithm) + "_estimate");

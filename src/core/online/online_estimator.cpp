@@ -32,6 +32,10 @@ void validateOnlineOptions(const OnlineOptions& o, const std::string& source)
   if (o.max_future_steps < 1 || o.max_future_steps > 1000000)
     throw ConfigError(source + ": max_future_steps: expected in [1, 1000000], found " +
                       std::to_string(o.max_future_steps));
+  for (std::size_t i = 0; i < o.rate_ratio.size(); ++i)
+    if (!(o.rate_ratio[i] >= 1.0 && o.rate_ratio[i] <= 1e9))
+      throw ConfigError(source + ": rate_ratio[" + std::to_string(i) + "]: expected in [1, 1e9] (a sensor rate at or " +
+                        "below the model's), found " + std::to_string(o.rate_ratio[i]));
   if (o.max_past_steps < static_cast<long>(o.history_length) || o.max_past_steps > 1000000)
     throw ConfigError(source + ": max_past_steps: expected in [history_length = " + std::to_string(o.history_length) +
                       ", 1000000], found " + std::to_string(o.max_past_steps));
@@ -55,6 +59,11 @@ OnlineEstimator::OnlineEstimator(const Model& model, const EstimatorSettings& se
   sample_.y.resize(model_.m());
   last_arrived_.assign(model_.sensors.size(), false);
   last_due_.assign(model_.sensors.size(), true);
+  if (!options_.rate_ratio.empty() && options_.rate_ratio.size() != model_.sensors.size())
+    throw ConfigError("online estimator options: rate_ratio: expected " + std::to_string(model_.sensors.size()) +
+                      " values (one per sensor), found " + std::to_string(options_.rate_ratio.size()));
+  ratio_ = options_.rate_ratio.empty() ? std::vector<double>(model_.sensors.size(), 1.0) : options_.rate_ratio;
+  anchor_.assign(model_.sensors.size(), -1);
 }
 
 void OnlineEstimator::start(long first_step)
@@ -76,6 +85,7 @@ void OnlineEstimator::reset()
   next_ = 1;
   checkpoint_k_ = 0;
   started_ = false;
+  std::fill(anchor_.begin(), anchor_.end(), -1);
   last_gamma_ = false;
   last_sensors_ = 0;
 }
@@ -101,6 +111,17 @@ OnlineEstimator::Slot* OnlineEstimator::slotFor(long k)
 
 bool OnlineEstimator::due(const Slot* s, long k, std::size_t sensor) const
 {
+  if (ratio_[sensor] > 1.0)
+  {
+    // Due at anchor + round(j r) for integers j (either side of the latest sample's step).
+    const long a = anchor_[sensor];
+    if (a < 0)
+      return false;
+    const double r = ratio_[sensor];
+    const long j = std::lround(static_cast<double>(k - a) / r);
+    if (a + std::lround(static_cast<double>(j) * r) != k)
+      return false;
+  }
   const Schedule& sch = model_.schedule;
   switch (sch.kind)
   {
@@ -207,6 +228,8 @@ OfferResult OnlineEstimator::offerMeasurement(long k, std::size_t sensor, const 
   s->have[sensor] = 1;
   s->y.segment(sn.offset, sn.size) = Eigen::Map<const Eigen::VectorXd>(y, sn.size);
   ++counters_.accepted;
+  if (k > anchor_[sensor])
+    anchor_[sensor] = k;  // a slower sensor's phase follows its latest sample
   if (model_.schedule.active() && !due(s, k, sensor))
     ++counters_.unscheduled;
   r.offer = Offer::ACCEPTED;

@@ -1,0 +1,72 @@
+// The Estimator's per-sensor inputs (docs/ros_interface.md, "Per-sensor inputs"), ROS-free: which
+// standard message type feeds a sensor of the model, and which of its fields, in order, form that
+// sensor's y. The names are the field paths `rostopic echo` prints (`pose.pose.position.x`), plus
+// derived ones: `<quaternion path>.roll|pitch|yaw` and, for NavSatFix, `east`, `north`, `up`
+// (local ENU metres about a datum). The nodelet maps each field's quantity and axis onto the
+// message; this file only names and validates them.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace networked_estimation
+{
+
+enum class InputType
+{
+  MEASUREMENT,            ///< networked_estimation/Measurement (y whole, step given)
+  ODOMETRY,               ///< nav_msgs/Odometry
+  POSE_WITH_COVARIANCE,   ///< geometry_msgs/PoseWithCovarianceStamped
+  POSE,                   ///< geometry_msgs/PoseStamped
+  POINT,                  ///< geometry_msgs/PointStamped
+  TWIST_WITH_COVARIANCE,  ///< geometry_msgs/TwistWithCovarianceStamped
+  TWIST,                  ///< geometry_msgs/TwistStamped
+  IMU,                    ///< sensor_msgs/Imu
+  NAVSATFIX,              ///< sensor_msgs/NavSatFix
+  RANGE,                  ///< sensor_msgs/Range
+  FLOAT64                 ///< std_msgs/Float64 (no header: stamped by its arrival)
+};
+
+/// "nav_msgs/Odometry" etc.
+std::string toString(InputType t);
+/// Every type, in the order of the enum.
+const std::vector<InputType>& inputTypes();
+
+/// What a field reads from its message.
+enum class Quantity
+{
+  POSITION,             ///< axis 0..2 = x, y, z
+  ORIENTATION,          ///< axis 0..3 = quaternion x, y, z, w
+  ORIENTATION_RPY,      ///< axis 0..2 = roll, pitch, yaw (derived, radians)
+  LINEAR_VELOCITY,      ///< axis 0..2
+  ANGULAR_VELOCITY,     ///< axis 0..2
+  LINEAR_ACCELERATION,  ///< axis 0..2
+  ENU,                  ///< axis 0..2 = east, north, up (NavSatFix, derived)
+  SCALAR                ///< Range.range, Float64.data
+};
+
+struct InputField
+{
+  std::string name;
+  Quantity quantity = Quantity::SCALAR;
+  int axis = 0;
+};
+
+/// The fields a type offers (empty for MEASUREMENT, whose y is taken whole).
+const std::vector<InputField>& inputFields(InputType t);
+
+struct SensorInput
+{
+  std::string topic;
+  InputType type = InputType::MEASUREMENT;
+  std::vector<InputField> fields;  ///< the sensor's rows, in order (empty for MEASUREMENT)
+  double rate = 0.0;               ///< nominal Hz (the model's rate by default)
+};
+
+/// Parses a type name (e.g. "sensor_msgs/NavSatFix"); throws ConfigError naming `key` and listing
+/// the types.
+InputType inputTypeFromString(const std::string& name, const std::string& key);
+/// The field of `type` called `name`; throws ConfigError naming `key` and listing the fields.
+InputField inputFieldFromString(InputType type, const std::string& name, const std::string& key);
+
+}  // namespace networked_estimation

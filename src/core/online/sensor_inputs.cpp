@@ -1,0 +1,167 @@
+// The Estimator's per-sensor input types and fields (sensor_inputs.hpp).
+#include "networked_estimation/online/sensor_inputs.hpp"
+
+#include "networked_estimation/common/error.hpp"
+
+namespace networked_estimation
+{
+namespace
+{
+
+void addVector(std::vector<InputField>& out, const std::string& prefix, Quantity q)
+{
+  const char* axes[3] = {"x", "y", "z"};
+  for (int i = 0; i < 3; ++i)
+    out.push_back({prefix + axes[i], q, i});
+}
+
+void addOrientation(std::vector<InputField>& out, const std::string& prefix)
+{
+  const char* quat[4] = {"x", "y", "z", "w"};
+  for (int i = 0; i < 4; ++i)
+    out.push_back({prefix + quat[i], Quantity::ORIENTATION, i});
+  const char* rpy[3] = {"roll", "pitch", "yaw"};
+  for (int i = 0; i < 3; ++i)
+    out.push_back({prefix + rpy[i], Quantity::ORIENTATION_RPY, i});
+}
+
+std::vector<InputField> pose(const std::string& prefix)
+{
+  std::vector<InputField> f;
+  addVector(f, prefix + "position.", Quantity::POSITION);
+  addOrientation(f, prefix + "orientation.");
+  return f;
+}
+
+std::vector<InputField> twist(const std::string& prefix)
+{
+  std::vector<InputField> f;
+  addVector(f, prefix + "linear.", Quantity::LINEAR_VELOCITY);
+  addVector(f, prefix + "angular.", Quantity::ANGULAR_VELOCITY);
+  return f;
+}
+
+std::vector<InputField> fieldsOf(InputType t)
+{
+  std::vector<InputField> f;
+  switch (t)
+  {
+    case InputType::MEASUREMENT:
+      break;
+    case InputType::ODOMETRY:
+      f = pose("pose.pose.");
+      for (const InputField& x : twist("twist.twist."))
+        f.push_back(x);
+      break;
+    case InputType::POSE_WITH_COVARIANCE:
+      f = pose("pose.pose.");
+      break;
+    case InputType::POSE:
+      f = pose("pose.");
+      break;
+    case InputType::POINT:
+      addVector(f, "point.", Quantity::POSITION);
+      break;
+    case InputType::TWIST_WITH_COVARIANCE:
+      f = twist("twist.twist.");
+      break;
+    case InputType::TWIST:
+      f = twist("twist.");
+      break;
+    case InputType::IMU:
+      addOrientation(f, "orientation.");
+      addVector(f, "angular_velocity.", Quantity::ANGULAR_VELOCITY);
+      addVector(f, "linear_acceleration.", Quantity::LINEAR_ACCELERATION);
+      break;
+    case InputType::NAVSATFIX:
+      f = {{"east", Quantity::ENU, 0}, {"north", Quantity::ENU, 1}, {"up", Quantity::ENU, 2}};
+      break;
+    case InputType::RANGE:
+      f = {{"range", Quantity::SCALAR, 0}};
+      break;
+    case InputType::FLOAT64:
+      f = {{"data", Quantity::SCALAR, 0}};
+      break;
+  }
+  return f;
+}
+
+}  // namespace
+
+std::string toString(InputType t)
+{
+  switch (t)
+  {
+    case InputType::MEASUREMENT:
+      return "networked_estimation/Measurement";
+    case InputType::ODOMETRY:
+      return "nav_msgs/Odometry";
+    case InputType::POSE_WITH_COVARIANCE:
+      return "geometry_msgs/PoseWithCovarianceStamped";
+    case InputType::POSE:
+      return "geometry_msgs/PoseStamped";
+    case InputType::POINT:
+      return "geometry_msgs/PointStamped";
+    case InputType::TWIST_WITH_COVARIANCE:
+      return "geometry_msgs/TwistWithCovarianceStamped";
+    case InputType::TWIST:
+      return "geometry_msgs/TwistStamped";
+    case InputType::IMU:
+      return "sensor_msgs/Imu";
+    case InputType::NAVSATFIX:
+      return "sensor_msgs/NavSatFix";
+    case InputType::RANGE:
+      return "sensor_msgs/Range";
+    case InputType::FLOAT64:
+      return "std_msgs/Float64";
+  }
+  return "?";
+}
+
+const std::vector<InputType>& inputTypes()
+{
+  static const std::vector<InputType> all = {
+      InputType::MEASUREMENT, InputType::ODOMETRY,  InputType::POSE_WITH_COVARIANCE, InputType::POSE,
+      InputType::POINT,       InputType::TWIST_WITH_COVARIANCE, InputType::TWIST,   InputType::IMU,
+      InputType::NAVSATFIX,   InputType::RANGE,     InputType::FLOAT64};
+  return all;
+}
+
+const std::vector<InputField>& inputFields(InputType t)
+{
+  static const std::vector<std::vector<InputField>> table = [] {
+    std::vector<std::vector<InputField>> out;
+    for (InputType x : inputTypes())
+      out.push_back(fieldsOf(x));
+    return out;
+  }();
+  return table[static_cast<std::size_t>(t)];
+}
+
+InputType inputTypeFromString(const std::string& name, const std::string& key)
+{
+  std::string names;
+  for (InputType t : inputTypes())
+  {
+    if (toString(t) == name)
+      return t;
+    names += (names.empty() ? "" : ", ") + toString(t);
+  }
+  throw ConfigError(key + ": unknown type '" + name + "' (types: " + names + ")");
+}
+
+InputField inputFieldFromString(InputType type, const std::string& name, const std::string& key)
+{
+  std::string names;
+  for (const InputField& f : inputFields(type))
+  {
+    if (f.name == name)
+      return f;
+    names += (names.empty() ? "" : ", ") + f.name;
+  }
+  if (type == InputType::MEASUREMENT)
+    throw ConfigError(key + ": networked_estimation/Measurement has no field selection (its y is taken whole)");
+  throw ConfigError(key + ": '" + name + "' is not a field of " + toString(type) + " (fields: " + names + ")");
+}
+
+}  // namespace networked_estimation
