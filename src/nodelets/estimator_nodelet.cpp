@@ -5,24 +5,25 @@
 // as everything it can use has arrived (same result, lowest latency), otherwise at its deadline by
 // a thread that sleeps in ROS time. This file only translates messages and parameters.
 //
-// Inputs: `measurement` (one sensor) or `measurement/<sensor>` (one topic per sensor) of type
-// ~input_type (networked_estimation/Measurement, sensor_msgs/Range or geometry_msgs/PointStamped:
-// the step of a foreign message is the nearest k to its stamp), and `command` (ControlInput, the
+// Inputs: per sensor of the model, the topic, standard type and fields of its ~sensors block
+// (sensor_subscriptions.hpp; default `measurement` for one sensor or `measurement/<sensor>` of
+// ~input_type: networked_estimation/Measurement, sensor_msgs/Range or geometry_msgs/PointStamped).
+// The step of a message without a step number is the nearest k to its stamp; a sensor slower than
+// the model is due only at its own steps. `command` (ControlInput, the
 // commands before the actuator link) for models with control, and `schedule` (ScheduleStep) for a
 // model with a random sensor schedule (a periodic one is known from k): a sensor that is not
 // scheduled at k is not waited for and not counted as lost.
 // Outputs: `estimate` (Estimate), `covariance_trace` (std_msgs/Float64), `pose`
 // (PoseWithCovarianceStamped of ~position_indices), tf ~frame_id -> ~child_frame_id, diagnostics.
 #include <diagnostic_updater/diagnostic_updater.h>
-#include <geometry_msgs/PointStamped.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
 #include <ros/ros.h>
-#include <sensor_msgs/Range.h>
 #include <std_msgs/Float64.h>
 #include <tf2_ros/transform_broadcaster.h>
 
+#include <algorithm>
 #include <atomic>
 #include <condition_variable>
 #include <mutex>
@@ -39,6 +40,7 @@
 #include "networked_estimation/stability/stability.hpp"
 #include "load_failure.hpp"
 #include "param_yaml.hpp"
+#include "sensor_subscriptions.hpp"
 #include "worker.hpp"
 
 namespace networked_estimation
@@ -66,26 +68,31 @@ private:
     trace_pub_ = nh.advertise<std_msgs::Float64>("covariance_trace", 1000);
     pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 100);
     const Model& model = online_->model();
+    if (!datum_.empty() || std::any_of(inputs_.begin(), inputs_.end(), [](const SensorInput& in) {
+          return in.type == InputType::NAVSATFIX;
+        }))
+      datum_pub_ = pnh.advertise<sensor_msgs::NavSatFix>("datum", 1, true);
     for (std::size_t i = 0; i < model.sensors.size(); ++i)
     {
-      const std::string topic = model.sensors.size() == 1 ? "measurement" : "measurement/" + model.sensors[i].name;
-      const ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
-      if (input_type_ == "range")
-        subs_.push_back(nh.subscribe<sensor_msgs::Range>(
-            topic, queue_size_, [this, i](const sensor_msgs::Range::ConstPtr& m) {
-              const double y = m->range;
-              onForeign(i, m->header.stamp, &y, 1);
-            }, ros::VoidConstPtr(), hints));
-      else if (input_type_ == "point")
-        subs_.push_back(nh.subscribe<geometry_msgs::PointStamped>(
-            topic, queue_size_, [this, i](const geometry_msgs::PointStamped::ConstPtr& m) {
-              const double y[3] = {m->point.x, m->point.y, m->point.z};
-              onForeign(i, m->header.stamp, y, std::min<std::size_t>(3, online_->model().sensors[i].size));
-            }, ros::VoidConstPtr(), hints));
-      else
+      const SensorInput& in = inputs_[i];
+      if (in.type == InputType::MEASUREMENT)
+      {
         subs_.push_back(nh.subscribe<Measurement>(
-            topic, queue_size_, [this, i](const Measurement::ConstPtr& m) { onMeasurement(i, m); }, ros::VoidConstPtr(),
-            hints));
+            in.topic, queue_size_, [this, i](const Measurement::ConstPtr& m) { onMeasurement(i, m); },
+            ros::VoidConstPtr(), hints()));
+        continue;
+      }
+      SensorSink sink;
+      sink.ok = [this, i](const ros::Time& stamp, const double* y, std::size_t n) { onForeign(i, stamp, y, n); };
+      const std::string who = "sensor '" + model.sensors[i].name + "' (" + toString(in.type) + " on " + in.topic + ")";
+      sink.bad = [this, who](const std::string& why) { reject(who + ": " + why); };
+      sink.datum = [this](const LocalEnu& d) { publishDatum(d); };
+      subs_.push_back(subscribeSensor(nh, in, queue_size_, sink, datum_));
+    }
+    if (!datum_.empty())
+    {
+      const LocalEnu d(datum_[0], datum_[1], datum_[2]);
+      publishDatum(d);
     }
     if (model.hasControl())
       cmd_sub_ = nh.subscribe("command", queue_size_, &EstimatorNodelet::onCommand, this, hints());
@@ -111,11 +118,29 @@ private:
 
   static ros::TransportHints hints() { return ros::TransportHints().tcpNoDelay(); }
 
+  /// The ENU origin of the NavSatFix inputs, latched on ~datum and logged (pin it with ~datum).
+  void publishDatum(const LocalEnu& d)
+  {
+    sensor_msgs::NavSatFix m;
+    m.header.stamp = ros::Time::now();
+    m.header.frame_id = frame_id_;
+    m.status.status = sensor_msgs::NavSatStatus::STATUS_FIX;
+    m.latitude = d.latitude();
+    m.longitude = d.longitude();
+    m.altitude = d.altitude();
+    m.position_covariance_type = sensor_msgs::NavSatFix::COVARIANCE_TYPE_UNKNOWN;
+    datum_pub_.publish(m);
+    NODELET_INFO("Estimator: NavSatFix datum (ENU origin) %.9f, %.9f, %.3f%s", d.latitude(), d.longitude(),
+                 d.altitude(), datum_.empty() ? " (the first valid fix; set ~datum to pin it)" : "");
+  }
+
   void configure(ros::NodeHandle& pnh)
   {
     const EstimatorNodeConfig c = parseEstimatorNodeConfig(privateParameters(pnh), pnh.getNamespace() + " parameters");
     settings_ = c.settings;
     input_type_ = c.input_type;
+    inputs_ = c.inputs;
+    datum_ = c.datum;
     frame_id_ = c.frame_id;
     child_frame_id_ = c.child_frame_id;
     positions_ = c.position_indices;
@@ -444,12 +469,12 @@ private:
     stat.add("duplicates", c.duplicates);
     stat.add("rejected", c.rejected + rejected_topic_);
     stat.add("missing commands", c.missing_commands);
+    // "arrival rate" above is gamma's (some sensor arrived); these count only the samples that
+    // were due: scheduled, and at a slower sensor's own steps.
+    stat.add("due samples", c.due);
+    stat.add("due arrival rate", c.due > 0 ? static_cast<double>(c.due_arrived) / static_cast<double>(c.due) : 0.0);
     if (online_->model().schedule.active())
     {
-      // With a schedule, "arrival rate" above is gamma's (some sensor arrived); these count
-      // only what the schedule let the sensors send.
-      stat.add("due samples", c.due);
-      stat.add("due arrival rate", c.due > 0 ? static_cast<double>(c.due_arrived) / static_cast<double>(c.due) : 0.0);
       stat.add("unscheduled measurements", c.unscheduled);
       if (online_->model().schedule.kind == Schedule::Kind::RANDOM)
         stat.add("steps without schedule", c.schedule_missing);
@@ -486,6 +511,9 @@ private:
 
   StepClock clock_{1.0, 0.0};
   std::string input_type_, frame_id_, child_frame_id_;
+  std::vector<SensorInput> inputs_;
+  std::vector<double> datum_;
+  ros::Publisher datum_pub_;
   std::vector<int> positions_;
   bool publish_tf_ = true;
   double trace_bound_ = std::numeric_limits<double>::infinity();

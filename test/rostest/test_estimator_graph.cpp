@@ -7,7 +7,12 @@
 #include <geometry_msgs/PointStamped.h>
 #include <rosgraph_msgs/Clock.h>
 #include <rosgraph_msgs/Log.h>
+#include <nav_msgs/Odometry.h>
+#include <sensor_msgs/Imu.h>
+#include <sensor_msgs/NavSatFix.h>
 #include <sensor_msgs/Range.h>
+#include <tf2/LinearMath/Matrix3x3.h>
+#include <tf2/LinearMath/Quaternion.h>
 #include <std_msgs/Empty.h>
 
 #include <atomic>
@@ -18,6 +23,7 @@
 #include <limits>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <thread>
 #include <vector>
@@ -31,6 +37,7 @@
 #include "networked_estimation/SetParameters.h"
 #include "networked_estimation/estimators/estimator.hpp"
 #include "networked_estimation/config/model.hpp"
+#include "networked_estimation/geodesy/local_enu.hpp"
 #include "networked_estimation/common/random.hpp"
 #include "networked_estimation/config/estimator_settings.hpp"
 
@@ -547,6 +554,123 @@ TEST(EstimatorGraph, ScheduledSensorsAreNotDueNorLost)
   ASSERT_TRUE(waitFor([&] { return periodic_link.text("a arrival rate").rfind("1 [", 0) == 0; }, 10.0))
       << periodic_link.text("a arrival rate");
   EXPECT_EQ(periodic_link.text("b arrival rate").rfind("1 [", 0), 0u) << periodic_link.text("b arrival rate");
+}
+
+// Standard types at mixed rates (estimator_standard_inputs.test): Odometry every step, Imu every
+// 5th and NavSatFix every 25th, stamped on the grid. Every step is estimated as soon as the
+// sensors due at it are in hand; the estimates equal the filter stepped offline on the selected
+// fields (the fix converted about the pinned datum) to 1e-12; every due sample arrived (a 2 Hz
+// GNSS that delivers every fix shows an arrival rate of 1, not 0.04), and the datum is latched.
+TEST(EstimatorGraph, StandardTypesAtMixedRates)
+{
+  ros::NodeHandle nh;
+  const Params p = params();
+  const ne::Model model = ne::loadModel(p.model);
+  ros::Publisher odom = nh.advertise<nav_msgs::Odometry>("/odom", 1000);
+  ros::Publisher imu = nh.advertise<sensor_msgs::Imu>("/imu", 1000);
+  ros::Publisher fix = nh.advertise<sensor_msgs::NavSatFix>("/fix", 1000);
+  Collector<Estimate> est(nh, "robot/estimate");
+  Collector<sensor_msgs::NavSatFix> datum(nh, "robot/estimator/datum");
+  ASSERT_TRUE(waitFor([&] {
+    return odom.getNumSubscribers() > 0 && imu.getNumSubscribers() > 0 && fix.getNumSubscribers() > 0 &&
+           est.sub.getNumPublishers() > 0 && datum.sub.getNumPublishers() > 0;
+  }, 20.0));
+  DiagnosticsProbe diag(nh, "robot/estimator: estimator"), link(nh, "robot/estimator: link stability");
+  const ne::LocalEnu enu(48.137, 11.575, 520.0);
+  const int N = 150;
+  std::vector<Eigen::VectorXd> y(N + 1, Eigen::VectorXd::Constant(5, std::nan("")));
+  auto truth = [](long k) {
+    return Eigen::Vector3d(3.0 * std::sin(0.05 * k), 2.0 * std::cos(0.03 * k), 0.01 * k - 0.5);
+  };
+  // Values published by the feeder thread, written for step k before k is published.
+  std::mutex mutex;
+  const ros::Time t0 = ros::Time::now() + ros::Duration(0.1);
+  std::optional<nav_msgs::Odometry> previous;
+  PeriodicFeeder feeder(0.02, [&](long k) {  // runs on past N, so every due sample keeps arriving
+    const ros::Time stamp = t0 + ros::Duration(0.02 * (k - 1));
+    const Eigen::Vector3d x = truth(k);
+    Eigen::VectorXd row = Eigen::VectorXd::Constant(5, std::nan(""));
+    nav_msgs::Odometry o;
+    o.header.stamp = stamp;
+    o.header.frame_id = "odom";
+    o.pose.pose.position.x = x(0) + 0.01 * std::sin(7.0 * k);
+    o.pose.pose.position.y = x(1) - 0.01 * std::cos(5.0 * k);
+    o.pose.pose.orientation.w = 1.0;
+    row(0) = o.pose.pose.position.x;
+    row(1) = o.pose.pose.position.y;
+    sensor_msgs::Imu i;
+    i.header.stamp = stamp;
+    tf2::Quaternion q;
+    q.setRPY(0.0, 0.0, x(2));
+    i.orientation.x = q.x();
+    i.orientation.y = q.y();
+    i.orientation.z = q.z();
+    i.orientation.w = q.w();
+    sensor_msgs::NavSatFix f;
+    f.header.stamp = stamp;
+    f.status.status = sensor_msgs::NavSatStatus::STATUS_FIX;
+    const Eigen::Vector3d lla = enu.reverse(Eigen::Vector3d(x(0) + 0.5, x(1) - 0.5, 0.0));
+    f.latitude = lla(0);
+    f.longitude = lla(1);
+    f.altitude = lla(2);
+    const bool with_imu = (k - 1) % 5 == 0, with_fix = (k - 1) % 25 == 0;
+    if (with_imu)
+    {
+      double roll, pitch, yaw;
+      tf2::Matrix3x3(q).getRPY(roll, pitch, yaw);
+      row(2) = yaw;
+    }
+    if (with_fix)
+    {
+      const Eigen::Vector3d e = enu.forward(f.latitude, f.longitude, f.altitude);  // what the estimator computes
+      row(3) = e(0);
+      row(4) = e(1);
+    }
+    if (k <= N)
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      y[k] = row;
+    }
+    // Odometry (due at every step) leaves one tick after the slow sensors of its step, so that a
+    // step is never complete before them: a slow sensor's phase is unknown until its first sample.
+    if (with_imu)
+      imu.publish(i);
+    if (with_fix)
+      fix.publish(f);
+    if (previous)
+      odom.publish(*previous);
+    previous = o;
+  });
+  ASSERT_TRUE(waitFor([&] { return diag.get("steps") >= N; }, 30.0)) << diag.get("steps");
+  const std::map<long, Estimate> got = byStep(est);
+  ne::EstimatorSettings st;
+  st.algorithm = ne::Algorithm::KFIO;
+  auto ref = ne::makeEstimator(model, st);
+  ne::Sample smp;
+  std::lock_guard<std::mutex> lock(mutex);
+  for (long k = 1; k <= N; ++k)
+  {
+    smp.y = y[k];
+    smp.gamma = true;
+    ref->step(smp);
+    ASSERT_EQ(got.count(k), 1u) << "step " << k;
+    const Estimate& e = got.at(k);
+    EXPECT_TRUE(e.gamma);
+    for (int j = 0; j < 3; ++j)
+      ASSERT_NEAR(e.state[j], ref->state()(j), 1e-12) << "step " << k << " state " << j;
+  }
+  // Every due sample arrived: the slow sensors' windows hold their own samples only.
+  const std::map<std::string, std::string> d = diag.snapshot();
+  EXPECT_EQ(std::stod(d.at("due arrival rate")), 1.0);
+  EXPECT_EQ(std::stod(d.at("rejected")), 0.0);
+  EXPECT_TRUE(waitFor([&] { return link.text("gps arrival rate").rfind("1 [", 0) == 0; }, 10.0))
+      << link.text("gps arrival rate");
+  EXPECT_EQ(link.text("imu arrival rate").rfind("1 [", 0), 0u) << link.text("imu arrival rate");
+  EXPECT_EQ(link.text("odom arrival rate").rfind("1 [", 0), 0u) << link.text("odom arrival rate");
+  ASSERT_TRUE(waitFor([&] { return datum.size() >= 1; }, 5.0));
+  std::lock_guard<std::mutex> dl(datum.mutex);
+  EXPECT_DOUBLE_EQ(datum.msgs.back().latitude, 48.137);
+  EXPECT_DOUBLE_EQ(datum.msgs.back().longitude, 11.575);
 }
 
 // Foreign input types: PointStamped (two 2-row position sensors) and Range (one scalar sensor)

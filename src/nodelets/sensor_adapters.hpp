@@ -1,0 +1,206 @@
+// Reads the selected fields of standard ROS messages into a sensor's y (the names and their
+// quantities are the core's, online/sensor_inputs.hpp). Header-only and master-free, so that a
+// GoogleTest checks every type's fields against the message values.
+#pragma once
+
+#include <geometry_msgs/PointStamped.h>
+#include <geometry_msgs/PoseStamped.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <geometry_msgs/TwistStamped.h>
+#include <geometry_msgs/TwistWithCovarianceStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <sensor_msgs/Imu.h>
+#include <sensor_msgs/NavSatFix.h>
+#include <sensor_msgs/Range.h>
+#include <std_msgs/Float64.h>
+#include <tf2/LinearMath/Matrix3x3.h>
+#include <tf2/LinearMath/Quaternion.h>
+
+#include <Eigen/Core>
+
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "networked_estimation/geodesy/local_enu.hpp"
+#include "networked_estimation/online/sensor_inputs.hpp"
+
+namespace networked_estimation
+{
+
+/// What one message offers, per quantity (null / NaN where it has none).
+struct MessageView
+{
+  const geometry_msgs::Point* position = nullptr;
+  const geometry_msgs::Quaternion* orientation = nullptr;
+  const geometry_msgs::Vector3* linear = nullptr;
+  const geometry_msgs::Vector3* angular = nullptr;
+  const geometry_msgs::Vector3* acceleration = nullptr;
+  const Eigen::Vector3d* enu = nullptr;
+  double scalar = std::numeric_limits<double>::quiet_NaN();
+};
+
+inline MessageView view(const geometry_msgs::Pose& p)
+{
+  MessageView v;
+  v.position = &p.position;
+  v.orientation = &p.orientation;
+  return v;
+}
+inline MessageView view(const geometry_msgs::Twist& t)
+{
+  MessageView v;
+  v.linear = &t.linear;
+  v.angular = &t.angular;
+  return v;
+}
+inline MessageView view(const nav_msgs::Odometry& m)
+{
+  MessageView v = view(m.pose.pose);
+  v.linear = &m.twist.twist.linear;
+  v.angular = &m.twist.twist.angular;
+  return v;
+}
+inline MessageView view(const geometry_msgs::PoseWithCovarianceStamped& m) { return view(m.pose.pose); }
+inline MessageView view(const geometry_msgs::PoseStamped& m) { return view(m.pose); }
+inline MessageView view(const geometry_msgs::TwistWithCovarianceStamped& m) { return view(m.twist.twist); }
+inline MessageView view(const geometry_msgs::TwistStamped& m) { return view(m.twist); }
+inline MessageView view(const geometry_msgs::PointStamped& m)
+{
+  MessageView v;
+  v.position = &m.point;
+  return v;
+}
+inline MessageView view(const sensor_msgs::Imu& m)
+{
+  MessageView v;
+  v.orientation = &m.orientation;
+  v.angular = &m.angular_velocity;
+  v.acceleration = &m.linear_acceleration;
+  return v;
+}
+inline MessageView view(const sensor_msgs::Range& m)
+{
+  MessageView v;
+  v.scalar = m.range;
+  return v;
+}
+inline MessageView view(const std_msgs::Float64& m)
+{
+  MessageView v;
+  v.scalar = m.data;
+  return v;
+}
+
+inline double axisOf(const geometry_msgs::Vector3& v, int axis) { return axis == 0 ? v.x : axis == 1 ? v.y : v.z; }
+inline double axisOf(const geometry_msgs::Point& v, int axis) { return axis == 0 ? v.x : axis == 1 ? v.y : v.z; }
+
+/// Fills y (fields.size() values) from a message's view. False, with `why` naming the field, when
+/// a value is not finite or an orientation is not a rotation (a zero or non-finite quaternion;
+/// another length is normalised, as tf2 does).
+inline bool readFields(const MessageView& v, const std::vector<InputField>& fields, double* y, std::string& why)
+{
+  for (std::size_t i = 0; i < fields.size(); ++i)
+  {
+    const InputField& f = fields[i];
+    double value = std::numeric_limits<double>::quiet_NaN();
+    switch (f.quantity)
+    {
+      case Quantity::POSITION:
+        value = axisOf(*v.position, f.axis);
+        break;
+      case Quantity::ORIENTATION:
+      {
+        const geometry_msgs::Quaternion& q = *v.orientation;
+        value = f.axis == 0 ? q.x : f.axis == 1 ? q.y : f.axis == 2 ? q.z : q.w;
+        break;
+      }
+      case Quantity::ORIENTATION_RPY:
+      {
+        const geometry_msgs::Quaternion& q = *v.orientation;
+        const double norm = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+        if (!(norm > 1e-9) || !std::isfinite(norm))
+        {
+          why = f.name + ": the orientation is not a rotation (quaternion length " + std::to_string(norm) + ")";
+          return false;
+        }
+        double rpy[3];
+        tf2::Matrix3x3(tf2::Quaternion(q.x / norm, q.y / norm, q.z / norm, q.w / norm)).getRPY(rpy[0], rpy[1], rpy[2]);
+        value = rpy[f.axis];
+        break;
+      }
+      case Quantity::LINEAR_VELOCITY:
+        value = axisOf(*v.linear, f.axis);
+        break;
+      case Quantity::ANGULAR_VELOCITY:
+        value = axisOf(*v.angular, f.axis);
+        break;
+      case Quantity::LINEAR_ACCELERATION:
+        value = axisOf(*v.acceleration, f.axis);
+        break;
+      case Quantity::ENU:
+        value = (*v.enu)(f.axis);
+        break;
+      case Quantity::SCALAR:
+        value = v.scalar;
+        break;
+    }
+    if (!std::isfinite(value))
+    {
+      why = f.name + " is not finite (" + std::to_string(value) + ")";
+      return false;
+    }
+    y[i] = value;
+  }
+  return true;
+}
+
+/// NavSatFix to local ENU about a datum: the configured one, else the first valid fix.
+class NavSatFixEnu
+{
+public:
+  /// `datum`: [lat, lon, alt], or empty to take the first valid fix.
+  explicit NavSatFixEnu(const std::vector<double>& datum)
+  {
+    if (datum.size() == 3)
+      enu_ = std::make_unique<LocalEnu>(datum[0], datum[1], datum[2]);
+  }
+  /// ENU of a fix. False with `why` for status NO_FIX or a latitude or longitude that is not
+  /// finite or out of range. A non-finite altitude (a 2-D fix) gives east and north at the datum's
+  /// altitude and a NaN up, which readFields rejects only when `up` is selected. `new_datum` is
+  /// set when this fix became the datum.
+  bool convert(const sensor_msgs::NavSatFix& m, Eigen::Vector3d& out, std::string& why, bool& new_datum)
+  {
+    new_datum = false;
+    if (m.status.status < sensor_msgs::NavSatStatus::STATUS_FIX)
+    {
+      why = "status NO_FIX (" + std::to_string(static_cast<int>(m.status.status)) + ")";
+      return false;
+    }
+    if (!std::isfinite(m.latitude) || !std::isfinite(m.longitude) || std::fabs(m.latitude) > 90.0 ||
+        std::fabs(m.longitude) > 180.0)
+    {
+      why = "latitude/longitude not finite or out of range (" + std::to_string(m.latitude) + ", " +
+            std::to_string(m.longitude) + ")";
+      return false;
+    }
+    const bool has_alt = std::isfinite(m.altitude);
+    if (!enu_)
+    {
+      enu_ = std::make_unique<LocalEnu>(m.latitude, m.longitude, has_alt ? m.altitude : 0.0);
+      new_datum = true;
+    }
+    out = enu_->forward(m.latitude, m.longitude, has_alt ? m.altitude : enu_->altitude());
+    if (!has_alt)
+      out.z() = std::numeric_limits<double>::quiet_NaN();
+    return true;
+  }
+  const LocalEnu* datum() const { return enu_.get(); }
+
+private:
+  std::unique_ptr<LocalEnu> enu_;
+};
+
+}  // namespace networked_estimation

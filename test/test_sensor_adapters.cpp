@@ -1,0 +1,234 @@
+// The Estimator's standard-message adapters (src/nodelets/sensor_adapters.hpp): every type's fields
+// read the message values they name, the derived roll/pitch/yaw and ENU values are right, and bad
+// values are refused naming the field. No ROS master: messages are plain structs.
+#include <gtest/gtest.h>
+
+#include <GeographicLib/LocalCartesian.hpp>
+
+#include <cmath>
+#include <map>
+
+#include "networked_estimation/common/random.hpp"
+#include "sensor_adapters.hpp"
+
+namespace ne = networked_estimation;
+
+namespace
+{
+
+/// Reads every field of `type` from `m`; each must equal `expected(name)` exactly.
+template <class M, class F>
+void expectAllFields(ne::InputType type, const M& m, F expected)
+{
+  const std::vector<ne::InputField>& fields = ne::inputFields(type);
+  ASSERT_FALSE(fields.empty());
+  std::vector<double> y(fields.size());
+  std::string why;
+  ASSERT_TRUE(ne::readFields(ne::view(m), fields, y.data(), why)) << why;
+  for (std::size_t i = 0; i < fields.size(); ++i)
+    EXPECT_EQ(y[i], expected(fields[i].name)) << ne::toString(type) << " " << fields[i].name;
+}
+
+/// Fills x, y, z with distinct values from `base`.
+template <class V>
+void fill(V& v, double base)
+{
+  v.x = base + 0.1;
+  v.y = base + 0.2;
+  v.z = base + 0.3;
+}
+
+/// A unit quaternion of roll, pitch, yaw (tf2's fixed-axis convention).
+geometry_msgs::Quaternion quat(double r, double p, double y)
+{
+  tf2::Quaternion q;
+  q.setRPY(r, p, y);
+  geometry_msgs::Quaternion out;
+  out.x = q.x();
+  out.y = q.y();
+  out.z = q.z();
+  out.w = q.w();
+  return out;
+}
+
+}  // namespace
+
+TEST(SensorAdapters, EveryFieldOfEveryTypeReadsItsValue)
+{
+  const double r = 0.3, p = -0.2, yaw = 2.5;
+  nav_msgs::Odometry odom;
+  fill(odom.pose.pose.position, 1.0);
+  odom.pose.pose.orientation = quat(r, p, yaw);
+  fill(odom.twist.twist.linear, 2.0);
+  fill(odom.twist.twist.angular, 3.0);
+  // The expected values by path, written out independently of the field table.
+  auto poseValue = [&](const geometry_msgs::Pose& pose, const std::string& prefix, const std::string& name) {
+    const std::string rest = name.substr(prefix.size());
+    const std::map<std::string, double> values = {
+        {"position.x", pose.position.x},       {"position.y", pose.position.y},
+        {"position.z", pose.position.z},       {"orientation.x", pose.orientation.x},
+        {"orientation.y", pose.orientation.y}, {"orientation.z", pose.orientation.z},
+        {"orientation.w", pose.orientation.w}, {"orientation.roll", r},
+        {"orientation.pitch", p},              {"orientation.yaw", yaw}};
+    return values.count(rest) ? values.at(rest) : std::nan("");
+  };
+  auto twistValue = [](const geometry_msgs::Twist& t, const std::string& prefix, const std::string& name) {
+    const std::string rest = name.substr(prefix.size());
+    const std::map<std::string, double> values = {{"linear.x", t.linear.x},   {"linear.y", t.linear.y},
+                                                  {"linear.z", t.linear.z},   {"angular.x", t.angular.x},
+                                                  {"angular.y", t.angular.y}, {"angular.z", t.angular.z}};
+    return values.count(rest) ? values.at(rest) : std::nan("");
+  };
+  // roll/pitch/yaw come back through a quaternion: equal to 1e-12, not bit for bit.
+  auto near = [&](ne::InputType type, const auto& m, auto expected) {
+    const std::vector<ne::InputField>& fields = ne::inputFields(type);
+    std::vector<double> y(fields.size());
+    std::string why;
+    ASSERT_TRUE(ne::readFields(ne::view(m), fields, y.data(), why)) << why;
+    for (std::size_t i = 0; i < fields.size(); ++i)
+      EXPECT_NEAR(y[i], expected(fields[i].name), 1e-12) << ne::toString(type) << " " << fields[i].name;
+  };
+  near(ne::InputType::ODOMETRY, odom, [&](const std::string& n) {
+    return n.rfind("pose.pose.", 0) == 0 ? poseValue(odom.pose.pose, "pose.pose.", n)
+                                         : twistValue(odom.twist.twist, "twist.twist.", n);
+  });
+  geometry_msgs::PoseWithCovarianceStamped pc;
+  pc.pose.pose = odom.pose.pose;
+  near(ne::InputType::POSE_WITH_COVARIANCE, pc, [&](const std::string& n) { return poseValue(pc.pose.pose, "pose.pose.", n); });
+  geometry_msgs::PoseStamped ps;
+  ps.pose = odom.pose.pose;
+  near(ne::InputType::POSE, ps, [&](const std::string& n) { return poseValue(ps.pose, "pose.", n); });
+  geometry_msgs::TwistWithCovarianceStamped tc;
+  tc.twist.twist = odom.twist.twist;
+  expectAllFields(ne::InputType::TWIST_WITH_COVARIANCE, tc,
+                  [&](const std::string& n) { return twistValue(tc.twist.twist, "twist.twist.", n); });
+  geometry_msgs::TwistStamped ts;
+  ts.twist = odom.twist.twist;
+  expectAllFields(ne::InputType::TWIST, ts, [&](const std::string& n) { return twistValue(ts.twist, "twist.", n); });
+  geometry_msgs::PointStamped pt;
+  fill(pt.point, 4.0);
+  expectAllFields(ne::InputType::POINT, pt, [&](const std::string& n) {
+    return n == "point.x" ? pt.point.x : n == "point.y" ? pt.point.y : n == "point.z" ? pt.point.z : std::nan("");
+  });
+  sensor_msgs::Imu imu;
+  imu.orientation = quat(r, p, yaw);
+  fill(imu.angular_velocity, 5.0);
+  fill(imu.linear_acceleration, 6.0);
+  near(ne::InputType::IMU, imu, [&](const std::string& n) {
+    const std::map<std::string, double> v = {
+        {"orientation.x", imu.orientation.x},         {"orientation.y", imu.orientation.y},
+        {"orientation.z", imu.orientation.z},         {"orientation.w", imu.orientation.w},
+        {"orientation.roll", r},                      {"orientation.pitch", p},
+        {"orientation.yaw", yaw},                     {"angular_velocity.x", imu.angular_velocity.x},
+        {"angular_velocity.y", imu.angular_velocity.y}, {"angular_velocity.z", imu.angular_velocity.z},
+        {"linear_acceleration.x", imu.linear_acceleration.x}, {"linear_acceleration.y", imu.linear_acceleration.y},
+        {"linear_acceleration.z", imu.linear_acceleration.z}};
+    return v.count(n) ? v.at(n) : std::nan("");
+  });
+  sensor_msgs::Range range;
+  range.range = 7.25f;
+  expectAllFields(ne::InputType::RANGE, range, [&](const std::string&) { return 7.25; });
+  std_msgs::Float64 f;
+  f.data = -8.5;
+  expectAllFields(ne::InputType::FLOAT64, f, [&](const std::string&) { return -8.5; });
+}
+
+TEST(SensorAdapters, YawOfRandomRotationsAndANonUnitQuaternion)
+{
+  ne::Rng rng(3);
+  const std::vector<ne::InputField> yaw = {ne::inputFieldFromString(ne::InputType::POSE, "pose.orientation.yaw", "k")};
+  for (int i = 0; i < 200; ++i)
+  {
+    const double y0 = rng.uniform(-M_PI + 1e-6, M_PI - 1e-6), p0 = rng.uniform(-1.5, 1.5), r0 = rng.uniform(-3.0, 3.0);
+    geometry_msgs::PoseStamped m;
+    m.pose.orientation = quat(r0, p0, y0);
+    const double scale = rng.uniform(0.5, 2.0);  // tf2 normalises; so do we
+    m.pose.orientation.x *= scale;
+    m.pose.orientation.y *= scale;
+    m.pose.orientation.z *= scale;
+    m.pose.orientation.w *= scale;
+    double out = 0.0;
+    std::string why;
+    ASSERT_TRUE(ne::readFields(ne::view(m), yaw, &out, why)) << why;
+    EXPECT_NEAR(out, y0, 1e-9);
+  }
+}
+
+TEST(SensorAdapters, BadValuesAreRefusedNamingTheField)
+{
+  geometry_msgs::PoseStamped m;  // the zero quaternion is no rotation
+  std::string why;
+  double y[2];
+  const std::vector<ne::InputField> f = {ne::inputFieldFromString(ne::InputType::POSE, "pose.position.x", "k"),
+                                         ne::inputFieldFromString(ne::InputType::POSE, "pose.orientation.yaw", "k")};
+  EXPECT_FALSE(ne::readFields(ne::view(m), f, y, why));
+  EXPECT_NE(why.find("pose.orientation.yaw: the orientation is not a rotation"), std::string::npos) << why;
+  m.pose.orientation.w = 1.0;
+  m.pose.position.x = std::nan("");
+  EXPECT_FALSE(ne::readFields(ne::view(m), f, y, why));
+  EXPECT_NE(why.find("pose.position.x is not finite"), std::string::npos) << why;
+  sensor_msgs::Range r;
+  r.range = std::numeric_limits<float>::infinity();  // no return
+  EXPECT_FALSE(ne::readFields(ne::view(r), ne::inputFields(ne::InputType::RANGE), y, why));
+  EXPECT_NE(why.find("range is not finite (inf)"), std::string::npos) << why;
+}
+
+// NavSatFix -> ENU against GeographicLib's own LocalCartesian (forward, and reverse back to the
+// fix), the first valid fix as the datum, and the refusals.
+TEST(SensorAdapters, NavSatFixToEnu)
+{
+  ne::NavSatFixEnu pinned({48.137, 11.575, 520.0});
+  ASSERT_NE(pinned.datum(), nullptr);
+  GeographicLib::LocalCartesian ref(48.137, 11.575, 520.0);
+  const double points[3][3] = {{48.1375, 11.5762, 523.5}, {48.13, 11.57, 500.0}, {48.2, 11.4, 600.0}};
+  for (const auto& pt : points)
+  {
+    sensor_msgs::NavSatFix fix;
+    fix.status.status = sensor_msgs::NavSatStatus::STATUS_FIX;
+    fix.latitude = pt[0];
+    fix.longitude = pt[1];
+    fix.altitude = pt[2];
+    Eigen::Vector3d enu;
+    std::string why;
+    bool new_datum = true;
+    ASSERT_TRUE(pinned.convert(fix, enu, why, new_datum)) << why;
+    EXPECT_FALSE(new_datum);
+    double e, n, u, lat, lon, alt;
+    ref.Forward(pt[0], pt[1], pt[2], e, n, u);
+    EXPECT_NEAR(enu.x(), e, 1e-9);
+    EXPECT_NEAR(enu.y(), n, 1e-9);
+    EXPECT_NEAR(enu.z(), u, 1e-9);
+    ref.Reverse(enu.x(), enu.y(), enu.z(), lat, lon, alt);
+    EXPECT_NEAR(lat, pt[0], 1e-11);
+    EXPECT_NEAR(lon, pt[1], 1e-11);
+    EXPECT_NEAR(alt, pt[2], 1e-6);
+  }
+  ne::NavSatFixEnu first({});
+  EXPECT_EQ(first.datum(), nullptr);
+  sensor_msgs::NavSatFix fix;
+  fix.status.status = sensor_msgs::NavSatStatus::STATUS_NO_FIX;
+  fix.latitude = 10.0;
+  Eigen::Vector3d enu;
+  std::string why;
+  bool new_datum = false;
+  EXPECT_FALSE(first.convert(fix, enu, why, new_datum));
+  EXPECT_NE(why.find("status NO_FIX (-1)"), std::string::npos) << why;
+  EXPECT_EQ(first.datum(), nullptr);  // a rejected fix does not become the datum
+  fix.status.status = sensor_msgs::NavSatStatus::STATUS_FIX;
+  fix.longitude = std::nan("");
+  EXPECT_FALSE(first.convert(fix, enu, why, new_datum));
+  EXPECT_NE(why.find("latitude/longitude not finite or out of range"), std::string::npos) << why;
+  fix.longitude = 20.0;
+  fix.altitude = std::nan("");  // a 2-D fix: east and north only
+  ASSERT_TRUE(first.convert(fix, enu, why, new_datum)) << why;
+  EXPECT_TRUE(new_datum);
+  EXPECT_EQ(enu.x(), 0.0);
+  EXPECT_EQ(enu.y(), 0.0);
+  EXPECT_TRUE(std::isnan(enu.z()));
+  ne::MessageView v;
+  v.enu = &enu;
+  double y[3];
+  EXPECT_TRUE(ne::readFields(v, {ne::inputFields(ne::InputType::NAVSATFIX)[0], ne::inputFields(ne::InputType::NAVSATFIX)[1]}, y, why));
+  EXPECT_FALSE(ne::readFields(v, ne::inputFields(ne::InputType::NAVSATFIX), y, why));
+  EXPECT_NE(why.find("up is not finite"), std::string::npos) << why;
+}
