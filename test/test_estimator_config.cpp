@@ -254,3 +254,28 @@ TEST_F(EstimatorConfig, Datum)
   EXPECT_NE(error("{datum: [95, 11.5, 3]}").find("/est parameters: datum: expected [latitude in [-90, 90]"),
             std::string::npos);
 }
+
+TEST_F(EstimatorConfig, OdometryOutputSettings)
+{
+  const ne::EstimatorNodeConfig d = parse("", planar_);
+  EXPECT_EQ(d.world_frame, "map");
+  EXPECT_EQ(d.base_link_frame, "base_link");
+  EXPECT_EQ(d.state_map.x, 0);  // position_indices [0, 1]
+  EXPECT_EQ(d.state_map.y, 1);
+  EXPECT_EQ(d.state_map.yaw, -1);
+  const ne::EstimatorNodeConfig c =
+      parse("{frame_id: odom, base_link_frame: base_footprint, state_mapping: {yaw: 1, vx: 0}}", planar_);
+  EXPECT_EQ(c.world_frame, "odom");
+  EXPECT_EQ(c.base_link_frame, "base_footprint");
+  EXPECT_EQ(c.state_map.x, -1);
+  EXPECT_EQ(c.state_map.yaw, 1);
+  EXPECT_EQ(c.state_map.vx, 0);
+  EXPECT_EQ(parse("{world_frame: map, frame_id: odom}", planar_).world_frame, "map");
+  auto has = [](const std::string& text, const std::string& part) {
+    EXPECT_NE(text.find(part), std::string::npos) << text << "\n  expected: " << part;
+  };
+  has(error("{state_mapping: {x: 0, y: 0}}", planar_), "state_mapping.y: state index 0 is mapped twice");
+  has(error("{state_mapping: {x: 2}}", planar_), "state_mapping");
+  has(error("{state_mapping: {roll: 0}}", planar_), "unknown parameter(s): roll");
+  has(error("{state_mapping: [0, 1]}", planar_), "state_mapping: expected a map");
+}

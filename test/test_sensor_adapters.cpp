@@ -9,6 +9,7 @@
 #include <map>
 
 #include "networked_estimation/common/random.hpp"
+#include "odometry_output.hpp"
 #include "sensor_adapters.hpp"
 
 namespace ne = networked_estimation;
@@ -231,4 +232,49 @@ TEST(SensorAdapters, NavSatFixToEnu)
   EXPECT_TRUE(ne::readFields(v, {ne::inputFields(ne::InputType::NAVSATFIX)[0], ne::inputFields(ne::InputType::NAVSATFIX)[1]}, y, why));
   EXPECT_FALSE(ne::readFields(v, ne::inputFields(ne::InputType::NAVSATFIX), y, why));
   EXPECT_NE(why.find("up is not finite"), std::string::npos) << why;
+}
+
+// odometry/filtered: the mapped state entries and their block of P (row-major, pose order x y z
+// roll pitch yaw, twist vx vy vz wx wy wz), a large variance and no correlation where unmapped.
+TEST(OdometryOutput, MappedEntriesAndCovarianceBlocks)
+{
+  ne::Rng rng(5);
+  const int n = 6;
+  Eigen::VectorXd x(n);
+  Eigen::MatrixXd L(n, n);
+  for (int i = 0; i < n; ++i)
+  {
+    x(i) = rng.uniform(-2.0, 2.0);
+    for (int j = 0; j < n; ++j)
+      L(i, j) = rng.uniform(-1.0, 1.0);
+  }
+  const Eigen::MatrixXd P = L * L.transpose();
+  ne::StateMap map;
+  map.x = 3;
+  map.y = 0;
+  map.yaw = 5;
+  map.vx = 1;
+  map.yaw_rate = 2;  // state 4 is not published
+  const nav_msgs::Odometry o = ne::toOdometry(x, P, map, ros::Time(12.5), "map", "base_link");
+  EXPECT_EQ(o.header.frame_id, "map");
+  EXPECT_EQ(o.child_frame_id, "base_link");
+  EXPECT_EQ(o.header.stamp, ros::Time(12.5));
+  EXPECT_EQ(o.pose.pose.position.x, x(3));
+  EXPECT_EQ(o.pose.pose.position.y, x(0));
+  EXPECT_EQ(o.pose.pose.position.z, 0.0);
+  const double yaw = 2.0 * std::atan2(o.pose.pose.orientation.z, o.pose.pose.orientation.w);
+  EXPECT_NEAR(std::remainder(yaw - x(5), 2.0 * M_PI), 0.0, 1e-12);
+  EXPECT_EQ(o.twist.twist.linear.x, x(1));
+  EXPECT_EQ(o.twist.twist.angular.z, x(2));
+  const int pose[6] = {3, 0, -1, -1, -1, 5}, twist[6] = {1, -1, -1, -1, -1, 2};
+  for (int a = 0; a < 6; ++a)
+    for (int b = 0; b < 6; ++b)
+    {
+      const double pc = o.pose.covariance[static_cast<std::size_t>(6 * a + b)];
+      const double tc = o.twist.covariance[static_cast<std::size_t>(6 * a + b)];
+      EXPECT_EQ(pc, pose[a] >= 0 && pose[b] >= 0 ? P(pose[a], pose[b]) : (a == b ? ne::kUnmappedVariance : 0.0))
+          << a << " " << b;
+      EXPECT_EQ(tc, twist[a] >= 0 && twist[b] >= 0 ? P(twist[a], twist[b]) : (a == b ? ne::kUnmappedVariance : 0.0))
+          << a << " " << b;
+    }
 }

@@ -14,7 +14,8 @@
 // model with a random sensor schedule (a periodic one is known from k): a sensor that is not
 // scheduled at k is not waited for and not counted as lost.
 // Outputs: `estimate` (Estimate), `covariance_trace` (std_msgs/Float64), `pose`
-// (PoseWithCovarianceStamped of ~position_indices), tf ~frame_id -> ~child_frame_id, diagnostics.
+// (PoseWithCovarianceStamped of ~position_indices), `odometry/filtered` (nav_msgs/Odometry of
+// ~state_mapping, ~world_frame -> ~base_link_frame), tf ~frame_id -> ~child_frame_id, diagnostics.
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <nodelet/nodelet.h>
@@ -40,6 +41,7 @@
 #include "networked_estimation/stability/stability.hpp"
 #include "load_failure.hpp"
 #include "param_yaml.hpp"
+#include "odometry_output.hpp"
 #include "sensor_subscriptions.hpp"
 #include "worker.hpp"
 
@@ -67,6 +69,7 @@ private:
     estimate_pub_ = nh.advertise<Estimate>("estimate", 1000);
     trace_pub_ = nh.advertise<std_msgs::Float64>("covariance_trace", 1000);
     pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 100);
+    odom_pub_ = nh.advertise<nav_msgs::Odometry>("odometry/filtered", 100);
     const Model& model = online_->model();
     if (!datum_.empty() || std::any_of(inputs_.begin(), inputs_.end(), [](const SensorInput& in) {
           return in.type == InputType::NAVSATFIX;
@@ -140,6 +143,9 @@ private:
     settings_ = c.settings;
     input_type_ = c.input_type;
     inputs_ = c.inputs;
+    state_map_ = c.state_map;
+    world_frame_ = c.world_frame;
+    base_link_frame_ = c.base_link_frame;
     datum_ = c.datum;
     frame_id_ = c.frame_id;
     child_frame_id_ = c.child_frame_id;
@@ -330,6 +336,7 @@ private:
       for (int j = 0; j < n; ++j)
         e->covariance[static_cast<std::size_t>(i) * n + j] = P(i, j);  // row-major (REP-103)
     e->covariance_trace = P.trace();
+    e->covariance_is_pseudo = settings_.algorithm == Algorithm::RSEIO;
     const std::uint64_t resets = online_->counters().divergence_resets;
     live_->add(online_->lastArrived(), online_->lastDue(), online_->lastGamma(), P, resets != resets_seen_);
     resets_seen_ = resets;
@@ -350,6 +357,8 @@ private:
         t->data = e->covariance_trace;
         trace_pub_.publish(t);
       }
+      if (odom_pub_.getNumSubscribers() > 0)
+        publishOdometry(*e);
       const bool want_pose = pose_pub_.getNumSubscribers() > 0;
       if (publish_tf_)
         last_estimate_ = e;  // tf leaves from tfTimer() in the nodelet's own queue, not this thread
@@ -378,6 +387,15 @@ private:
 
   /// The latest estimate as the tf frame_id -> child_frame_id, 20 times a second (tf is for
   /// viewing; sending it from the deadline thread stalled the manager's callback queues).
+  void publishOdometry(const Estimate& e)
+  {
+    const int n = static_cast<int>(e.state.size());
+    const Eigen::Map<const Eigen::VectorXd> x(e.state.data(), n);
+    const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> P(
+        e.covariance.data(), n, n);
+    odom_pub_.publish(toOdometry(x, P, state_map_, e.header.stamp, world_frame_, base_link_frame_));
+  }
+
   void tfTimer()
   {
     Estimate::ConstPtr e;
@@ -512,6 +530,8 @@ private:
   StepClock clock_{1.0, 0.0};
   std::string input_type_, frame_id_, child_frame_id_;
   std::vector<SensorInput> inputs_;
+  StateMap state_map_;
+  std::string world_frame_, base_link_frame_;
   std::vector<double> datum_;
   ros::Publisher datum_pub_;
   std::vector<int> positions_;
@@ -521,7 +541,7 @@ private:
 
   std::vector<ros::Subscriber> subs_;
   ros::Subscriber cmd_sub_, schedule_sub_;
-  ros::Publisher estimate_pub_, trace_pub_, pose_pub_;
+  ros::Publisher estimate_pub_, trace_pub_, pose_pub_, odom_pub_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
   ros::WallTimer tf_timer_;
   Estimate::ConstPtr last_estimate_;

@@ -571,9 +571,10 @@ TEST(EstimatorGraph, StandardTypesAtMixedRates)
   ros::Publisher fix = nh.advertise<sensor_msgs::NavSatFix>("/fix", 1000);
   Collector<Estimate> est(nh, "robot/estimate");
   Collector<sensor_msgs::NavSatFix> datum(nh, "robot/estimator/datum");
+  Collector<nav_msgs::Odometry> filtered(nh, "robot/odometry/filtered");
   ASSERT_TRUE(waitFor([&] {
     return odom.getNumSubscribers() > 0 && imu.getNumSubscribers() > 0 && fix.getNumSubscribers() > 0 &&
-           est.sub.getNumPublishers() > 0 && datum.sub.getNumPublishers() > 0;
+           est.sub.getNumPublishers() > 0 && datum.sub.getNumPublishers() > 0 && filtered.sub.getNumPublishers() > 0;
   }, 20.0));
   DiagnosticsProbe diag(nh, "robot/estimator: estimator"), link(nh, "robot/estimator: link stability");
   const ne::LocalEnu enu(48.137, 11.575, 520.0);
@@ -658,6 +659,26 @@ TEST(EstimatorGraph, StandardTypesAtMixedRates)
     EXPECT_TRUE(e.gamma);
     for (int j = 0; j < 3; ++j)
       ASSERT_NEAR(e.state[j], ref->state()(j), 1e-12) << "step " << k << " state " << j;
+  }
+  // odometry/filtered: the same estimates, state_mapping {x: 0, y: 1, yaw: 2}, REP-105 frames.
+  {
+    std::lock_guard<std::mutex> fl(filtered.mutex);
+    ASSERT_GE(filtered.msgs.size(), static_cast<std::size_t>(N));
+    for (const nav_msgs::Odometry& o : filtered.msgs)
+    {
+      const long k = std::lround((o.header.stamp - got.begin()->second.header.stamp).toSec() / 0.02) + 1;
+      if (k > N)
+        continue;
+      const Estimate& e = got.at(k);
+      EXPECT_EQ(o.header.frame_id, "map");
+      EXPECT_EQ(o.child_frame_id, "base_link");
+      EXPECT_EQ(o.pose.pose.position.x, e.state[0]) << k;
+      EXPECT_EQ(o.pose.pose.position.y, e.state[1]) << k;
+      EXPECT_NEAR(2.0 * std::atan2(o.pose.pose.orientation.z, o.pose.pose.orientation.w), e.state[2], 1e-12) << k;
+      EXPECT_EQ(o.pose.covariance[0], e.covariance[0]) << k;         // var x
+      EXPECT_EQ(o.pose.covariance[5], e.covariance[2]) << k;         // cov(x, yaw)
+      EXPECT_EQ(o.pose.covariance[14], 1e6) << k;                    // z: not estimated
+    }
   }
   // Every due sample arrived: the slow sensors' windows hold their own samples only.
   const std::map<std::string, std::string> d = diag.snapshot();

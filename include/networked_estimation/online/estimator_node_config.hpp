@@ -19,6 +19,13 @@ class Node;
 namespace networked_estimation
 {
 
+/// Which state entries the Odometry output takes as x, y, z, yaw, vx, vy, vz and yaw rate (-1:
+/// not in the state).
+struct StateMap
+{
+  int x = -1, y = -1, z = -1, yaw = -1, vx = -1, vy = -1, vz = -1, yaw_rate = -1;
+};
+
 struct EstimatorNodeConfig
 {
   std::string model_file;
@@ -38,6 +45,10 @@ struct EstimatorNodeConfig
   std::string child_frame_id;      ///< default: "<algorithm>_estimate"
   std::vector<int> position_indices;  ///< default: [0, 1] (or [0] for n = 1)
   bool publish_tf = true;
+  /// `odometry/filtered`: header.frame_id and child_frame_id (REP-105 names; world_frame defaults
+  /// to frame_id), and the state mapping (default: x, y, z from position_indices).
+  std::string world_frame, base_link_frame = "base_link";
+  StateMap state_map;
   double trace_bound = 0.0;        ///< default: +inf (no bound)
   std::size_t queue_size = 1000;
   bool markov_link = false;        ///< link_model: markov (recovery rate) instead of iid (arrival rate)
@@ -49,7 +60,7 @@ struct EstimatorNodeConfig
 /// max_components, period, latency_budget, late_policy, history_length, max_future_steps,
 /// max_past_steps, input_type, frame_id, child_frame_id, position_indices, publish_tf, trace_bound,
 /// queue_size, link_model, stability_window, stability_min_samples, sensors.<name>.{topic, type,
-/// fields, rate}, datum; diagnostic_period is left to
+/// fields, rate}, datum, world_frame, base_link_frame, state_mapping.{x, y, z, yaw, vx, vy, vz, yaw_rate}; diagnostic_period is left to
 /// diagnostic_updater). Throws ConfigError naming `source` and the key, also for an unknown key,
 /// a model file that cannot be read, and ack_kf (the graph does not carry nu_k).
 EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std::string& source);

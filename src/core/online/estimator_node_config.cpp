@@ -181,6 +181,35 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   c.position_indices =
       p.indices("position_indices", model.n() >= 2 ? std::vector<int>{0, 1} : std::vector<int>{0}, model.n());
   c.publish_tf = p.flag("publish_tf", true);
+  c.world_frame = p.text("world_frame", c.frame_id);
+  c.base_link_frame = p.text("base_link_frame", "base_link");
+  int* slots[3] = {&c.state_map.x, &c.state_map.y, &c.state_map.z};
+  for (std::size_t i = 0; i < c.position_indices.size(); ++i)
+    *slots[i] = c.position_indices[i];
+  if (p.has("state_mapping"))
+  {
+    const YAML::Node m = p.take("state_mapping");
+    if (!m.IsMap())
+      throw ConfigError(source + ": state_mapping: expected a map from x, y, z, yaw, vx, vy, vz, yaw_rate to state "
+                        "indices");
+    c.state_map = StateMap();
+    ParamReader q(m, source + ": state_mapping");
+    int* entries[8] = {&c.state_map.x,  &c.state_map.y,  &c.state_map.z,  &c.state_map.yaw,
+                       &c.state_map.vx, &c.state_map.vy, &c.state_map.vz, &c.state_map.yaw_rate};
+    const char* names[8] = {"x", "y", "z", "yaw", "vx", "vy", "vz", "yaw_rate"};
+    std::vector<int> used;
+    for (int i = 0; i < 8; ++i)
+    {
+      if (!q.has(names[i]))
+        continue;
+      *entries[i] = static_cast<int>(q.integer(names[i], -1, 0, model.n() - 1));
+      if (std::find(used.begin(), used.end(), *entries[i]) != used.end())
+        throw ConfigError(source + ": state_mapping." + names[i] + ": state index " + std::to_string(*entries[i]) +
+                          " is mapped twice");
+      used.push_back(*entries[i]);
+    }
+    q.rejectUnknown();
+  }
   const double inf = std::numeric_limits<double>::infinity();
   c.trace_bound = p.number("trace_bound", inf, 0.0, inf);
   c.queue_size = static_cast<std::size_t>(p.integer("queue_size", 1000, 1, 1000000));
