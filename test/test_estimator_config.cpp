@@ -208,7 +208,7 @@ TEST_F(EstimatorConfig, SensorsBlock)
   EXPECT_EQ(c.online.rate_ratio, (std::vector<double>{2.0, 1.0}));
   // Every type parses, and its fields are the rostopic echo paths (a few spot checks).
   for (ne::InputType t : ne::inputTypes())
-    EXPECT_EQ(ne::inputTypeFromString(ne::toString(t), "k"), t);
+    EXPECT_EQ(ne::inputTypeFromString(ne::toString(t), "k", ne::inputTypes()), t);
   EXPECT_EQ(ne::inputFieldFromString(ne::InputType::IMU, "angular_velocity.z", "k").quantity,
             ne::Quantity::ANGULAR_VELOCITY);
   EXPECT_EQ(ne::inputFieldFromString(ne::InputType::NAVSATFIX, "north", "k").axis, 1);
@@ -231,7 +231,7 @@ TEST_F(EstimatorConfig, SensorsBlockRefusalsNameTheKey)
   has(error("{sensors: {b: {type: sensor_msgs/NavSatFix, fields: [eest]}}}", planar_),
       "sensors.b.fields[0]: 'eest' is not a field of sensor_msgs/NavSatFix (fields: east, north, up)");
   has(error("{sensors: {b: {type: sensor_msgs/Imu, fields: [angular_velocity.z, angular_velocity.x]}}}", planar_),
-      "sensors.b.fields: sensor 'b' has 1 rows, found 2 fields");
+      "sensors.b.fields: expected 1 fields (one per row of sensor 'b'), found 2");
   has(error("{sensors: {b: {type: sensor_msgs/Imu}}}", planar_), "sensors.b.fields: expected a list of sensor_msgs/Imu");
   has(error("{sensors: {b: {fields: [data]}}}", planar_),
       "sensors.b.fields: networked_estimation/Measurement has no field selection");
@@ -278,4 +278,34 @@ TEST_F(EstimatorConfig, OdometryOutputSettings)
   has(error("{state_mapping: {x: 2}}", planar_), "state_mapping");
   has(error("{state_mapping: {roll: 0}}", planar_), "unknown parameter(s): roll");
   has(error("{state_mapping: [0, 1]}", planar_), "state_mapping: expected a map");
+}
+
+TEST_F(EstimatorConfig, CommandInput)
+{
+  EXPECT_EQ(parse("", control_).command.type, ne::InputType::CONTROL_INPUT);
+  EXPECT_EQ(parse("", control_).command.topic, "command");
+  const ne::EstimatorNodeConfig c =
+      parse("{command: {topic: /cmd_vel, type: geometry_msgs/Twist, fields: [linear.x]}}", control_);
+  EXPECT_EQ(c.command.topic, "/cmd_vel");
+  EXPECT_EQ(c.command.type, ne::InputType::TWIST_UNSTAMPED);
+  ASSERT_EQ(c.command.fields.size(), 1u);
+  EXPECT_EQ(c.command.fields[0].quantity, ne::Quantity::LINEAR_VELOCITY);
+  const ne::EstimatorNodeConfig a =
+      parse("{command: {type: std_msgs/Float64MultiArray, fields: ['data[3]']}}", control_);
+  EXPECT_EQ(a.command.fields[0].quantity, ne::Quantity::ELEMENT);
+  EXPECT_EQ(a.command.fields[0].axis, 3);
+  auto has = [](const std::string& text, const std::string& part) {
+    EXPECT_NE(text.find(part), std::string::npos) << text << "\n  expected: " << part;
+  };
+  has(error("{command: {type: geometry_msgs/Twist, fields: [linear.x]}}"), "command: model 's' has no control input");
+  has(error("{command: {type: sensor_msgs/Imu, fields: [angular_velocity.z]}}", control_),
+      "command.type: unknown type 'sensor_msgs/Imu' (types: networked_estimation/ControlInput, geometry_msgs/Twist, "
+      "geometry_msgs/TwistStamped, std_msgs/Float64MultiArray)");
+  has(error("{command: {type: geometry_msgs/Twist, fields: [linear.x, angular.z]}}", control_),
+      "command.fields: expected 1 fields (one per entry of u), found 2");
+  has(error("{command: {type: std_msgs/Float64MultiArray, fields: ['data[64]']}}", control_),
+      "command.fields[0]: 'data[64]' is not a field of std_msgs/Float64MultiArray (fields: data[i], 0 <= i < 64)");
+  has(error("{command: {type: networked_estimation/ControlInput, fields: [u]}}", control_),
+      "command.fields: networked_estimation/ControlInput has no field selection");
+  has(error("{sensors: {b: {type: networked_estimation/ControlInput}}}", planar_), "sensors.b.type: unknown type");
 }

@@ -278,3 +278,28 @@ TEST(OdometryOutput, MappedEntriesAndCovarianceBlocks)
           << a << " " << b;
     }
 }
+
+TEST(SensorAdapters, CommandTypes)
+{
+  geometry_msgs::Twist t;
+  t.linear.x = 0.7;
+  t.angular.z = -0.2;
+  const std::vector<ne::InputField> f = {
+      ne::inputFieldFromString(ne::InputType::TWIST_UNSTAMPED, "linear.x", "k"),
+      ne::inputFieldFromString(ne::InputType::TWIST_UNSTAMPED, "angular.z", "k")};
+  double u[2];
+  std::string why;
+  ASSERT_TRUE(ne::readFields(ne::view(t), f, u, why)) << why;
+  EXPECT_EQ(u[0], 0.7);
+  EXPECT_EQ(u[1], -0.2);
+  std_msgs::Float64MultiArray a;
+  a.data = {1.5, 2.5};
+  const std::vector<ne::InputField> g = {ne::inputFieldFromString(ne::InputType::FLOAT64_ARRAY, "data[1]", "k"),
+                                         ne::inputFieldFromString(ne::InputType::FLOAT64_ARRAY, "data[0]", "k")};
+  ASSERT_TRUE(ne::readFields(ne::view(a), g, u, why)) << why;
+  EXPECT_EQ(u[0], 2.5);
+  EXPECT_EQ(u[1], 1.5);
+  a.data = {1.5};
+  EXPECT_FALSE(ne::readFields(ne::view(a), g, u, why));
+  EXPECT_NE(why.find("data[1] is out of range: the message has 1 values"), std::string::npos) << why;
+}

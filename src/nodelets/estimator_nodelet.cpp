@@ -27,6 +27,7 @@
 #include <algorithm>
 #include <atomic>
 #include <condition_variable>
+#include <map>
 #include <mutex>
 #include <thread>
 
@@ -97,8 +98,16 @@ private:
       const LocalEnu d(datum_[0], datum_[1], datum_[2]);
       publishDatum(d);
     }
-    if (model.hasControl())
-      cmd_sub_ = nh.subscribe("command", queue_size_, &EstimatorNodelet::onCommand, this, hints());
+    if (model.hasControl() && command_.type == InputType::CONTROL_INPUT)
+      cmd_sub_ = nh.subscribe(command_.topic, queue_size_, &EstimatorNodelet::onCommand, this, hints());
+    else if (model.hasControl())
+    {
+      SensorSink sink;
+      sink.ok = [this](const ros::Time& stamp, const double* u, std::size_t n) { onHeldCommand(stamp, u, n); };
+      const std::string who = "command (" + toString(command_.type) + " on " + command_.topic + ")";
+      sink.bad = [this, who](const std::string& why) { reject(who + ": " + why); };
+      cmd_sub_ = subscribeSensor(nh, command_, queue_size_, sink, {});
+    }
     if (model.schedule.kind == Schedule::Kind::RANDOM)
       schedule_sub_ = nh.subscribe("schedule", queue_size_, &EstimatorNodelet::onSchedule, this, hints());
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
@@ -143,6 +152,7 @@ private:
     settings_ = c.settings;
     input_type_ = c.input_type;
     inputs_ = c.inputs;
+    command_ = c.command;
     state_map_ = c.state_map;
     world_frame_ = c.world_frame;
     base_link_frame_ = c.base_link_frame;
@@ -278,6 +288,39 @@ private:
     drainComplete();
   }
 
+  /// A command of a standard type (a Twist on /cmd_vel...): its step is the nearest one to its
+  /// stamp (its arrival for unstamped types), and it holds until the next one, as a robot base
+  /// holds /cmd_vel: a step without a command of its own uses the latest earlier one.
+  void onHeldCommand(const ros::Time& stamp, const double* u, std::size_t n)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (held_.size() >= 1000)
+      held_.erase(held_.begin());
+    held_[stamp.toSec()].assign(u, u + n);  // kept before the timeline starts, too
+    if (!online_->started())
+      return;
+    catchUp(ros::Time::now().toSec());
+    const OfferResult r = online_->offerCommand(clock_.stepAt(stamp.toSec()), u, n);
+    if (r.offer == Offer::REJECTED)
+      NODELET_WARN_THROTTLE(1.0, "Estimator %s: command rejected: %s (%lu rejected so far)",
+                            toString(settings_.algorithm).c_str(), r.reason.c_str(), rejectedLocked());
+    drainComplete();
+  }
+
+  /// A held command type: offers the latest command of a step <= k for step k when k has none of
+  /// its own (mutex held), and forgets the older ones.
+  void offerHeldCommand(long k)
+  {
+    auto latest = held_.end();
+    for (auto it = held_.begin(); it != held_.end() && clock_.stepAt(it->first) <= k; ++it)
+      latest = it;
+    if (latest == held_.end())
+      return;
+    held_.erase(held_.begin(), latest);
+    if (!online_->hasCommand(k))
+      online_->offerCommand(k, latest->second.data(), latest->second.size());
+  }
+
   void reject(const std::string& why)
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -319,6 +362,8 @@ private:
   Estimate::Ptr stepLocked()
   {
     const long k = online_->nextStep();
+    if (online_->model().hasControl() && command_.type != InputType::CONTROL_INPUT)
+      offerHeldCommand(k);  // zero-order hold
     online_->process();
     const Estimator& est = online_->estimator();
     Estimate::Ptr e = boost::make_shared<Estimate>();
@@ -530,6 +575,8 @@ private:
   StepClock clock_{1.0, 0.0};
   std::string input_type_, frame_id_, child_frame_id_;
   std::vector<SensorInput> inputs_;
+  SensorInput command_;
+  std::map<double, std::vector<double>> held_;  ///< a held command type: commands by stamp (s)
   StateMap state_map_;
   std::string world_frame_, base_link_frame_;
   std::vector<double> datum_;

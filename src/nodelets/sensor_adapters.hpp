@@ -13,6 +13,7 @@
 #include <sensor_msgs/NavSatFix.h>
 #include <sensor_msgs/Range.h>
 #include <std_msgs/Float64.h>
+#include <std_msgs/Float64MultiArray.h>
 #include <tf2/LinearMath/Matrix3x3.h>
 #include <tf2/LinearMath/Quaternion.h>
 
@@ -39,6 +40,7 @@ struct MessageView
   const geometry_msgs::Vector3* angular = nullptr;
   const geometry_msgs::Vector3* acceleration = nullptr;
   const Eigen::Vector3d* enu = nullptr;
+  const std::vector<double>* array = nullptr;
   double scalar = std::numeric_limits<double>::quiet_NaN();
 };
 
@@ -85,6 +87,12 @@ inline MessageView view(const sensor_msgs::Range& m)
 {
   MessageView v;
   v.scalar = m.range;
+  return v;
+}
+inline MessageView view(const std_msgs::Float64MultiArray& m)
+{
+  MessageView v;
+  v.array = &m.data;
   return v;
 }
 inline MessageView view(const std_msgs::Float64& m)
@@ -145,6 +153,14 @@ inline bool readFields(const MessageView& v, const std::vector<InputField>& fiel
         break;
       case Quantity::SCALAR:
         value = v.scalar;
+        break;
+      case Quantity::ELEMENT:
+        if (static_cast<std::size_t>(f.axis) >= v.array->size())
+        {
+          why = f.name + " is out of range: the message has " + std::to_string(v.array->size()) + " values";
+          return false;
+        }
+        value = (*v.array)[static_cast<std::size_t>(f.axis)];
         break;
     }
     if (!std::isfinite(value))

@@ -27,8 +27,11 @@ ros::Time stampOf(const M& m)
 {
   return m.header.stamp;
 }
-/// std_msgs/Float64 has no header: it is stamped by its arrival.
+/// std_msgs/Float64, Float64MultiArray and geometry_msgs/Twist have no header: they are stamped by
+/// their arrival.
 inline ros::Time stampOf(const std_msgs::Float64&) { return ros::Time::now(); }
+inline ros::Time stampOf(const std_msgs::Float64MultiArray&) { return ros::Time::now(); }
+inline ros::Time stampOf(const geometry_msgs::Twist&) { return ros::Time::now(); }
 
 template <class M>
 ros::Subscriber subscribeFields(ros::NodeHandle& nh, const SensorInput& in, uint32_t queue, const SensorSink& sink)
@@ -76,8 +79,8 @@ inline ros::Subscriber subscribeNavSatFix(ros::NodeHandle& nh, const SensorInput
       ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
 }
 
-/// A subscription of any type but networked_estimation/Measurement (which carries its step and
-/// is read by the nodelet itself).
+/// A subscription of any type but networked_estimation/Measurement and ControlInput (which carry
+/// their step and are read by the nodelet itself).
 inline ros::Subscriber subscribeSensor(ros::NodeHandle& nh, const SensorInput& in, uint32_t queue,
                                        const SensorSink& sink, const std::vector<double>& datum)
 {
@@ -103,7 +106,12 @@ inline ros::Subscriber subscribeSensor(ros::NodeHandle& nh, const SensorInput& i
       return subscribeFields<sensor_msgs::Range>(nh, in, queue, sink);
     case InputType::FLOAT64:
       return subscribeFields<std_msgs::Float64>(nh, in, queue, sink);
+    case InputType::TWIST_UNSTAMPED:
+      return subscribeFields<geometry_msgs::Twist>(nh, in, queue, sink);
+    case InputType::FLOAT64_ARRAY:
+      return subscribeFields<std_msgs::Float64MultiArray>(nh, in, queue, sink);
     case InputType::MEASUREMENT:
+    case InputType::CONTROL_INPUT:
       break;
   }
   return ros::Subscriber();

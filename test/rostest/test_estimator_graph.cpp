@@ -8,6 +8,7 @@
 #include <rosgraph_msgs/Clock.h>
 #include <rosgraph_msgs/Log.h>
 #include <nav_msgs/Odometry.h>
+#include <geometry_msgs/Twist.h>
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/NavSatFix.h>
 #include <sensor_msgs/Range.h>
@@ -692,6 +693,57 @@ TEST(EstimatorGraph, StandardTypesAtMixedRates)
   std::lock_guard<std::mutex> dl(datum.mutex);
   EXPECT_DOUBLE_EQ(datum.msgs.back().latitude, 48.137);
   EXPECT_DOUBLE_EQ(datum.msgs.back().longitude, 11.575);
+}
+
+// Commands from /cmd_vel (estimator_cmd_vel.test): a geometry_msgs/Twist every 5th step, its
+// linear.x as u; an unstamped command goes to the step nearest its arrival (published in the same
+// tick as that step's measurement) and holds until the next one. The estimates equal kfio stepped
+// offline with the held commands to 1e-12, and no step is without a command.
+TEST(EstimatorGraph, TwistCommandsAreHeld)
+{
+  ros::NodeHandle nh;
+  const Params p = params();
+  const ne::Model model = ne::loadModel(p.model);
+  ros::Publisher meas = nh.advertise<Measurement>("base/measurement", 1000);
+  ros::Publisher cmd = nh.advertise<geometry_msgs::Twist>("/cmd_vel", 1000);
+  Collector<Estimate> est(nh, "base/estimate");
+  ASSERT_TRUE(waitFor([&] {
+    return meas.getNumSubscribers() > 0 && cmd.getNumSubscribers() > 0 && est.sub.getNumPublishers() > 0;
+  }, 20.0));
+  DiagnosticsProbe diag(nh, "base/estimator: estimator");
+  const int N = 60;
+  auto speed = [](long k) { return 0.5 + 0.4 * std::sin(0.3 * static_cast<double>(k)); };
+  auto value = [](long k) { return 0.02 * static_cast<double>(k) + 0.01 * std::cos(1.7 * static_cast<double>(k)); };
+  const ros::Time t0 = ros::Time::now();
+  PeriodicFeeder feeder(0.05, [&](long k) {
+    if ((k - 1) % 5 == 0)
+    {
+      geometry_msgs::Twist t;
+      t.linear.x = speed(k);
+      cmd.publish(t);
+    }
+    Measurement m;
+    m.header.stamp = t0 + ros::Duration(0.05 * static_cast<double>(k - 1));
+    m.step = static_cast<std::uint64_t>(k);
+    m.y = {value(k)};
+    meas.publish(m);
+  });
+  ASSERT_TRUE(waitFor([&] { return est.size() >= static_cast<std::size_t>(N); }, 30.0));
+  const std::map<long, Estimate> got = byStep(est);
+  ne::EstimatorSettings st;
+  st.algorithm = ne::Algorithm::KFIO;
+  auto ref = ne::makeEstimator(model, st);
+  ne::Sample smp;
+  for (long k = 1; k <= N; ++k)
+  {
+    smp.gamma = true;
+    smp.y = Eigen::VectorXd::Constant(1, value(k));
+    smp.u = Eigen::VectorXd::Constant(1, speed(k - (k - 1) % 5));  // the latest command, held
+    ref->step(smp);
+    ASSERT_EQ(got.count(k), 1u) << "step " << k;
+    ASSERT_NEAR(got.at(k).state[0], ref->state()(0), 1e-12) << "step " << k;
+  }
+  EXPECT_EQ(diag.get("missing commands"), 0.0);
 }
 
 // Foreign input types: PointStamped (two 2-row position sensors) and Range (one scalar sensor)

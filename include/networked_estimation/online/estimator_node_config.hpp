@@ -38,6 +38,9 @@ struct EstimatorNodeConfig
   /// Per sensor of the model (model order): its topic, message type, fields and rate, from the
   /// `sensors` block (a sensor without one keeps the input_type topic measurement[/<name>]).
   std::vector<SensorInput> inputs;
+  /// The command input (models with control): ControlInput on `command` by default, or a
+  /// Twist / TwistStamped / Float64MultiArray topic with the fields that form u.
+  SensorInput command;
   /// NavSatFix inputs: the ENU origin [latitude, longitude, altitude] (degrees, m); empty = the
   /// first valid fix.
   std::vector<double> datum;
@@ -60,7 +63,7 @@ struct EstimatorNodeConfig
 /// max_components, period, latency_budget, late_policy, history_length, max_future_steps,
 /// max_past_steps, input_type, frame_id, child_frame_id, position_indices, publish_tf, trace_bound,
 /// queue_size, link_model, stability_window, stability_min_samples, sensors.<name>.{topic, type,
-/// fields, rate}, datum, world_frame, base_link_frame, state_mapping.{x, y, z, yaw, vx, vy, vz, yaw_rate}; diagnostic_period is left to
+/// fields, rate}, datum, command.{topic, type, fields}, world_frame, base_link_frame, state_mapping.{x, y, z, yaw, vx, vy, vz, yaw_rate}; diagnostic_period is left to
 /// diagnostic_updater). Throws ConfigError naming `source` and the key, also for an unknown key,
 /// a model file that cannot be read, and ack_kf (the graph does not carry nu_k).
 EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std::string& source);

@@ -114,6 +114,9 @@ public:
   /// Offers the command u_k (p values). Only meaningful for models with control.
   OfferResult offerCommand(long k, const double* u, std::size_t size);
 
+  /// Whether u_k is in hand (k not processed yet).
+  bool hasCommand(long k) const;
+
   /// Offers the draw of a random schedule for step k: transmitting[s] for every sensor (model
   /// order); it must be one of the schedule's subsets. Rejected (counted) without a random
   /// schedule, on a wrong size, for a subset the schedule does not have, or out of the window.

@@ -24,7 +24,10 @@ enum class InputType
   IMU,                    ///< sensor_msgs/Imu
   NAVSATFIX,              ///< sensor_msgs/NavSatFix
   RANGE,                  ///< sensor_msgs/Range
-  FLOAT64                 ///< std_msgs/Float64 (no header: stamped by its arrival)
+  FLOAT64,                ///< std_msgs/Float64 (no header: stamped by its arrival)
+  TWIST_UNSTAMPED,        ///< geometry_msgs/Twist (/cmd_vel; no header: stamped by its arrival)
+  FLOAT64_ARRAY,          ///< std_msgs/Float64MultiArray (no header: stamped by its arrival)
+  CONTROL_INPUT           ///< networked_estimation/ControlInput (commands only: u whole, step given)
 };
 
 /// "nav_msgs/Odometry" etc.
@@ -42,7 +45,8 @@ enum class Quantity
   ANGULAR_VELOCITY,     ///< axis 0..2
   LINEAR_ACCELERATION,  ///< axis 0..2
   ENU,                  ///< axis 0..2 = east, north, up (NavSatFix, derived)
-  SCALAR                ///< Range.range, Float64.data
+  SCALAR,               ///< Range.range, Float64.data
+  ELEMENT               ///< Float64MultiArray.data[axis]
 };
 
 struct InputField
@@ -52,7 +56,10 @@ struct InputField
   int axis = 0;
 };
 
-/// The fields a type offers (empty for MEASUREMENT, whose y is taken whole).
+/// Float64MultiArray fields are data[0] .. data[kMaxArrayFields - 1].
+constexpr int kMaxArrayFields = 64;
+
+/// The fields a type offers (empty for MEASUREMENT and CONTROL_INPUT, taken whole).
 const std::vector<InputField>& inputFields(InputType t);
 
 struct SensorInput
@@ -63,9 +70,12 @@ struct SensorInput
   double rate = 0.0;               ///< nominal Hz (the model's rate by default)
 };
 
-/// Parses a type name (e.g. "sensor_msgs/NavSatFix"); throws ConfigError naming `key` and listing
-/// the types.
-InputType inputTypeFromString(const std::string& name, const std::string& key);
+/// Parses a type name (e.g. "sensor_msgs/NavSatFix") among `allowed`; throws ConfigError naming
+/// `key` and listing them.
+InputType inputTypeFromString(const std::string& name, const std::string& key, const std::vector<InputType>& allowed);
+/// The types a sensor can read (all but CONTROL_INPUT), and those a command can.
+const std::vector<InputType>& sensorInputTypes();
+const std::vector<InputType>& commandInputTypes();
 /// The field of `type` called `name`; throws ConfigError naming `key` and listing the fields.
 InputField inputFieldFromString(InputType type, const std::string& name, const std::string& key);
 

@@ -15,6 +15,37 @@ namespace networked_estimation
 namespace
 {
 
+/// topic, type (among `allowed`, default the first) and fields (`rows` of them, unless the type
+/// is taken whole) of one input block `key` (`what` names its rows in errors).
+void parseInput(ParamReader& p, const std::string& key, const std::vector<InputType>& allowed, int rows,
+                const std::string& what, SensorInput& in)
+{
+  in.topic = p.text("topic", in.topic);
+  if (in.topic.empty())
+    throw ConfigError(key + ".topic: expected a topic name, found an empty string");
+  in.type = inputTypeFromString(p.text("type", toString(allowed.front())), key + ".type", allowed);
+  const YAML::Node fields = p.take("fields");  // a null node when absent
+  in.fields.clear();
+  if (inputFields(in.type).empty())
+  {
+    if (!fields.IsNull())
+      throw ConfigError(key + ".fields: " + toString(in.type) + " has no field selection (it is taken whole)");
+    return;
+  }
+  if (!fields.IsSequence() || fields.size() == 0)
+    throw ConfigError(key + ".fields: expected a list of " + toString(in.type) + " fields, one per " + what);
+  for (std::size_t i = 0; i < fields.size(); ++i)
+  {
+    const std::string at = key + ".fields[" + std::to_string(i) + "]";
+    if (!fields[i].IsScalar())
+      throw ConfigError(at + ": expected a field name");
+    in.fields.push_back(inputFieldFromString(in.type, fields[i].as<std::string>(), at));
+  }
+  if (static_cast<int>(in.fields.size()) != rows)
+    throw ConfigError(key + ".fields: expected " + std::to_string(rows) + " fields (one per " + what + "), found " +
+                      std::to_string(in.fields.size()));
+}
+
 /// The `sensors` block: one map per sensor of the model, keyed by the sensor's name.
 void parseSensorInputs(const YAML::Node& block, const std::string& source, EstimatorNodeConfig& c)
 {
@@ -25,7 +56,7 @@ void parseSensorInputs(const YAML::Node& block, const std::string& source, Estim
   for (const auto& entry : block)
   {
     const std::string name = entry.first.as<std::string>();
-    const std::string key = "sensors." + name;
+    const std::string key = source + ": sensors." + name;
     std::size_t index = model.sensors.size();
     std::string names;
     for (std::size_t i = 0; i < model.sensors.size(); ++i)
@@ -35,47 +66,20 @@ void parseSensorInputs(const YAML::Node& block, const std::string& source, Estim
       names += (names.empty() ? "" : ", ") + model.sensors[i].name;
     }
     if (index == model.sensors.size())
-      throw ConfigError(source + ": " + key + ": '" + name + "' is not a sensor of the model (sensors: " + names + ")");
-    const Sensor& sensor = model.sensors[index];
+      throw ConfigError(key + ": '" + name + "' is not a sensor of the model (sensors: " + names + ")");
     SensorInput& in = c.inputs[index];
     if (!entry.second.IsMap())
-      throw ConfigError(source + ": " + key + ": expected a map (keys: topic, type, fields, rate)");
-    ParamReader p(entry.second, source + ": " + key);
+      throw ConfigError(key + ": expected a map (keys: topic, type, fields, rate)");
+    ParamReader p(entry.second, key);
     for (const char* later : {"covariance", "rejection_threshold"})
       if (p.has(later))
-        throw ConfigError(source + ": " + key + "." + later + ": not supported yet (R comes from the model file and " +
+        throw ConfigError(key + "." + later + ": not supported yet (R comes from the model file and " +
                           "every measurement is fused)");
-    in.topic = p.text("topic", in.topic);
-    if (in.topic.empty())
-      throw ConfigError(source + ": " + key + ".topic: expected a topic name, found an empty string");
-    in.type = inputTypeFromString(p.text("type", toString(InputType::MEASUREMENT)), source + ": " + key + ".type");
-    const YAML::Node fields = p.take("fields");  // a null node when absent
-    in.fields.clear();
-    if (in.type == InputType::MEASUREMENT)
-    {
-      if (!fields.IsNull())
-        throw ConfigError(source + ": " + key + ".fields: networked_estimation/Measurement has no field selection "
-                          "(its y is taken whole)");
-    }
-    else
-    {
-      if (!fields.IsSequence() || fields.size() == 0)
-        throw ConfigError(source + ": " + key + ".fields: expected a list of " + toString(in.type) +
-                          " fields, one per row of sensor '" + name + "'");
-      for (std::size_t i = 0; i < fields.size(); ++i)
-        if (!fields[i].IsScalar())
-          throw ConfigError(source + ": " + key + ".fields[" + std::to_string(i) + "]: expected a field name");
-        else
-          in.fields.push_back(inputFieldFromString(in.type, fields[i].as<std::string>(),
-                                                 source + ": " + key + ".fields[" + std::to_string(i) + "]"));
-      if (static_cast<int>(in.fields.size()) != sensor.size)
-        throw ConfigError(source + ": " + key + ".fields: sensor '" + name + "' has " + std::to_string(sensor.size) +
-                          " rows, found " + std::to_string(in.fields.size()) + " fields");
-    }
+    parseInput(p, key, sensorInputTypes(), model.sensors[index].size, "row of sensor '" + name + "'", in);
     in.rate = p.number("rate", model_rate, 0.0, 1e9);
     if (!(in.rate > 0.0) || in.rate > model_rate * (1.0 + 1e-9))
-      throw ConfigError(source + ": " + key + ".rate: expected > 0 and at most the model's rate " +
-                        std::to_string(model_rate) + " Hz, found " + std::to_string(in.rate));
+      throw ConfigError(key + ".rate: expected > 0 and at most the model's rate " + std::to_string(model_rate) +
+                        " Hz, found " + std::to_string(in.rate));
     p.rejectUnknown();
   }
 }
@@ -159,6 +163,19 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   }
   if (p.has("sensors"))
     parseSensorInputs(p.take("sensors"), source, c);
+  c.command.topic = "command";
+  c.command.type = InputType::CONTROL_INPUT;
+  if (p.has("command"))
+  {
+    const YAML::Node block = p.take("command");
+    if (!model.hasControl())
+      throw ConfigError(source + ": command: model '" + model.name + "' has no control input");
+    if (!block.IsMap())
+      throw ConfigError(source + ": command: expected a map (keys: topic, type, fields)");
+    ParamReader q(block, source + ": command");
+    parseInput(q, source + ": command", commandInputTypes(), model.p(), "entry of u", c.command);
+    q.rejectUnknown();
+  }
   for (const SensorInput& in : c.inputs)
     c.online.rate_ratio.push_back(model_rate / in.rate);
   validateOnlineOptions(c.online, source);

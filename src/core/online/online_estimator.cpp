@@ -275,6 +275,12 @@ OfferResult OnlineEstimator::offerCommand(long k, const double* u, std::size_t s
   return r;
 }
 
+bool OnlineEstimator::hasCommand(long k) const
+{
+  const Slot& s = ring_[static_cast<std::size_t>(k) % ring_.size()];
+  return k >= next_ && s.k == k && s.have_u;
+}
+
 OfferResult OnlineEstimator::offerSchedule(long k, const std::vector<bool>& transmitting)
 {
   const Schedule& sch = model_.schedule;

@@ -82,6 +82,15 @@ std::vector<InputField> fieldsOf(InputType t)
     case InputType::FLOAT64:
       f = {{"data", Quantity::SCALAR, 0}};
       break;
+    case InputType::TWIST_UNSTAMPED:
+      f = twist("");
+      break;
+    case InputType::FLOAT64_ARRAY:
+      for (int i = 0; i < kMaxArrayFields; ++i)
+        f.push_back({"data[" + std::to_string(i) + "]", Quantity::ELEMENT, i});
+      break;
+    case InputType::CONTROL_INPUT:
+      break;
   }
   return f;
 }
@@ -114,6 +123,12 @@ std::string toString(InputType t)
       return "sensor_msgs/Range";
     case InputType::FLOAT64:
       return "std_msgs/Float64";
+    case InputType::TWIST_UNSTAMPED:
+      return "geometry_msgs/Twist";
+    case InputType::FLOAT64_ARRAY:
+      return "std_msgs/Float64MultiArray";
+    case InputType::CONTROL_INPUT:
+      return "networked_estimation/ControlInput";
   }
   return "?";
 }
@@ -123,8 +138,22 @@ const std::vector<InputType>& inputTypes()
   static const std::vector<InputType> all = {
       InputType::MEASUREMENT, InputType::ODOMETRY,  InputType::POSE_WITH_COVARIANCE, InputType::POSE,
       InputType::POINT,       InputType::TWIST_WITH_COVARIANCE, InputType::TWIST,   InputType::IMU,
-      InputType::NAVSATFIX,   InputType::RANGE,     InputType::FLOAT64};
+      InputType::NAVSATFIX,   InputType::RANGE,     InputType::FLOAT64,
+      InputType::TWIST_UNSTAMPED, InputType::FLOAT64_ARRAY, InputType::CONTROL_INPUT};
   return all;
+}
+
+const std::vector<InputType>& sensorInputTypes()
+{
+  static const std::vector<InputType> sensors(inputTypes().begin(), inputTypes().end() - 1);
+  return sensors;
+}
+
+const std::vector<InputType>& commandInputTypes()
+{
+  static const std::vector<InputType> commands = {InputType::CONTROL_INPUT, InputType::TWIST_UNSTAMPED,
+                                                  InputType::TWIST, InputType::FLOAT64_ARRAY};
+  return commands;
 }
 
 const std::vector<InputField>& inputFields(InputType t)
@@ -138,10 +167,10 @@ const std::vector<InputField>& inputFields(InputType t)
   return table[static_cast<std::size_t>(t)];
 }
 
-InputType inputTypeFromString(const std::string& name, const std::string& key)
+InputType inputTypeFromString(const std::string& name, const std::string& key, const std::vector<InputType>& allowed)
 {
   std::string names;
-  for (InputType t : inputTypes())
+  for (InputType t : allowed)
   {
     if (toString(t) == name)
       return t;
@@ -159,8 +188,11 @@ InputField inputFieldFromString(InputType type, const std::string& name, const s
       return f;
     names += (names.empty() ? "" : ", ") + f.name;
   }
-  if (type == InputType::MEASUREMENT)
-    throw ConfigError(key + ": networked_estimation/Measurement has no field selection (its y is taken whole)");
+  if (type == InputType::MEASUREMENT || type == InputType::CONTROL_INPUT)
+    throw ConfigError(key + ": " + toString(type) + " has no field selection (it is taken whole)");
+  if (type == InputType::FLOAT64_ARRAY)
+    throw ConfigError(key + ": '" + name + "' is not a field of std_msgs/Float64MultiArray (fields: data[i], 0 <= i < " +
+                      std::to_string(kMaxArrayFields) + ")");
   throw ConfigError(key + ": '" + name + "' is not a field of " + toString(type) + " (fields: " + names + ")");
 }
 
