@@ -6,7 +6,7 @@ PACKAGES=(
   ros-core-dev libnodeletlib-dev libnodeletlib-tools python3-rostest rosbash python3-rosbag
   libtf2-ros-dev libtf2-eigen-dev libdiagnostic-updater-dev libtopic-tools-dev
   libgeometry-msgs-dev libsensor-msgs-dev libnav-msgs-dev libros-rosgraph-msgs-dev libtf2-dev
-  libgeographiclib-dev
+  libgeographiclib-dev libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   libyaml-cpp-dev libeigen3-dev libgtest-dev googletest libbenchmark-dev
   python3-matplotlib python3-numpy catkin-lint
 )

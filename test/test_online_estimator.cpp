@@ -465,6 +465,37 @@ TEST(OnlineEstimator, SlowerSensorIsDueOnlyAtItsOwnSteps)
   EXPECT_THROW(ne::validateOnlineOptions(bad, "o"), ne::ConfigError);
 }
 
+// The late policy changed at runtime (dynamic_reconfigure): to rewind, the history starts at the
+// change (a step taken before it stays as it was); back to drop, late data is dropped again.
+TEST(OnlineEstimator, LatePolicyChangesAtRuntime)
+{
+  ne::Rng rng(2);
+  const ne::Model model = ne::test::randomModel(rng, 2, 2, {1}, 0, 0);
+  const int T = 20;
+  const Stream s = simulate(model, T, 4);
+  std::vector<std::vector<bool>> used(T, std::vector<bool>(1, true));
+  ne::OnlineEstimator on(model, settingsFor(ne::Algorithm::KFIO), {});
+  on.start(1);
+  for (long k = 1; k <= T; ++k)
+  {
+    if (k == 10)
+      on.setLatePolicy(ne::LatePolicy::REWIND);
+    if (k == 16)
+      on.setLatePolicy(ne::LatePolicy::DROP);
+    if (k != 9 && k != 12 && k != 17)
+      ASSERT_EQ(offerY(on, model, s, k), Offer::ACCEPTED);
+    on.process();
+    if (k == 10)
+      EXPECT_EQ(offerY(on, model, s, 9), Offer::LATE_DROPPED);  // taken before the change
+    if (k == 13)
+      EXPECT_EQ(offerY(on, model, s, 12), Offer::LATE_FUSED);
+    if (k == 18)
+      EXPECT_EQ(offerY(on, model, s, 17), Offer::LATE_DROPPED);  // drop again
+  }
+  used[8][0] = used[16][0] = false;
+  EXPECT_EQ(on.estimator().state(), offline(model, settingsFor(ne::Algorithm::KFIO), s, used).back());
+}
+
 TEST(OnlineEstimator, BadInputIsRejectedWithAReasonAndCounted)
 {
   ne::Rng rng(4);

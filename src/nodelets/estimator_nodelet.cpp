@@ -17,6 +17,7 @@
 // (PoseWithCovarianceStamped of ~position_indices), `odometry/filtered` (nav_msgs/Odometry of
 // ~state_mapping, ~world_frame -> ~base_link_frame), tf ~frame_id -> ~child_frame_id, diagnostics.
 #include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/server.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
@@ -32,6 +33,7 @@
 #include <thread>
 
 #include "networked_estimation/ControlInput.h"
+#include "networked_estimation/EstimatorConfig.h"
 #include "networked_estimation/Estimate.h"
 #include "networked_estimation/Measurement.h"
 #include "networked_estimation/ScheduleStep.h"
@@ -121,6 +123,7 @@ private:
       tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
       tf_timer_ = nh.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { tfTimer(); });
     }
+    startReconfigure(pnh);
     thread_ = std::thread(&EstimatorNodelet::deadlineLoop, this);
     NODELET_INFO("Estimator %s on '%s' (n = %d, %zu sensor(s), %s input): period %g s, latency_budget %g s, "
                  "late_policy %s", toString(settings_.algorithm).c_str(), model.name.c_str(), model.n(),
@@ -129,6 +132,33 @@ private:
   }
 
   static ros::TransportHints hints() { return ros::TransportHints().tcpNoDelay(); }
+
+  /// dynamic_reconfigure: latency_budget, late_policy, trace_bound (1e300 = no bound). Starts
+  /// from the values in use (the server's first call, with what it read, is not applied).
+  void startReconfigure(ros::NodeHandle& pnh)
+  {
+    // In ~reconfigure: the server writes its values back as parameters, which must not become
+    // parameters of the nodelet's next load.
+    reconfigure_ = std::make_unique<dynamic_reconfigure::Server<EstimatorConfig>>(
+        reconfigure_mutex_, ros::NodeHandle(pnh, "reconfigure"));
+    EstimatorConfig now;
+    now.latency_budget = clock_.budget();
+    now.late_policy = toString(online_->options().late_policy);
+    now.trace_bound = std::min(trace_bound_, 1e300);
+    reconfigure_->setCallback([this](EstimatorConfig& c, uint32_t) {
+      if (!reconfigure_ready_)
+        return;
+      std::lock_guard<std::mutex> lock(mutex_);
+      clock_.setBudget(c.latency_budget);
+      online_->setLatePolicy(latePolicyFromString(c.late_policy, "reconfigure"));
+      trace_bound_ = c.trace_bound >= 1e300 ? std::numeric_limits<double>::infinity() : c.trace_bound;
+      NODELET_INFO("Estimator reconfigured: latency_budget %g s, late_policy %s, trace_bound %g", c.latency_budget,
+                   c.late_policy.c_str(), trace_bound_);
+      wake_.notify_one();
+    });
+    reconfigure_ready_ = true;
+    reconfigure_->updateConfig(now);
+  }
 
   /// The ENU origin of the NavSatFix inputs, latched on ~datum and logged (pin it with ~datum).
   void publishDatum(const LocalEnu& d)
@@ -595,6 +625,10 @@ private:
   ros::Time last_tf_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTimer diag_timer_;
+
+  boost::recursive_mutex reconfigure_mutex_;
+  std::unique_ptr<dynamic_reconfigure::Server<EstimatorConfig>> reconfigure_;
+  bool reconfigure_ready_ = false;
 
   std::mutex mutex_;
   std::condition_variable wake_;

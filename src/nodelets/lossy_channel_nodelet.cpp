@@ -7,6 +7,7 @@
 // the subscriber callback; later ones from a delivery thread that sleeps until the next due time
 // (in ROS time, so delays hold under /use_sim_time).
 #include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/server.h>
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
 #include <ros/ros.h>
@@ -25,6 +26,7 @@
 #include "networked_estimation/stability/link_monitor.hpp"
 #include "networked_estimation/ChannelEvent.h"
 #include "networked_estimation/ControlInput.h"
+#include "networked_estimation/LossyChannelConfig.h"
 #include "networked_estimation/Estimate.h"
 #include "networked_estimation/Measurement.h"
 #include "networked_estimation/PlantState.h"
@@ -121,7 +123,7 @@ private:
     const std::string source = pnh.getNamespace() + " parameters";
     try
     {
-      settings_ = parseChannelSettings(privateParameters(pnh, {"diagnostic_period", "queue_size", "type"}), source);
+      settings_ = parseChannelSettings(privateParameters(pnh, {"diagnostic_period", "queue_size", "type", "reconfigure"}), source);
       pnh.param("type", type_, std::string());
       if (!type_.empty() && std::string(kKnownTypes).find(type_.substr(type_.find('/') + 1)) == std::string::npos)
         throw ConfigError(source + ": type: expected one of " + std::string(kKnownTypes) +
@@ -147,6 +149,7 @@ private:
     t0_ = ros::Time::now();
     events_pub_ = pnh.advertise<ChannelEvent>("events", 1000);
     set_srv_ = pnh.advertiseService("set_parameters", &LossyChannelNodelet::setParameters, this);
+    startReconfigure(pnh);
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
     diagnostics_->setHardwareID("lossy_channel");
     diagnostics_->add("channel", this, &LossyChannelNodelet::diagnose);
@@ -256,6 +259,77 @@ private:
     }
   }
 
+  /// The settings as the dynamic_reconfigure config (the other model's keys at their defaults).
+  static LossyChannelConfig toConfig(const ChannelSettings& s)
+  {
+    LossyChannelConfig c = LossyChannelConfig::__getDefault__();
+    const YAML::Node y = toYaml(s);
+    c.model = y["model"].as<std::string>();
+    for (auto& kv : {std::make_pair("loss", &c.loss), std::make_pair("p", &c.p), std::make_pair("r", &c.r),
+                     std::make_pair("loss_bad", &c.loss_bad), std::make_pair("loss_good", &c.loss_good)})
+      if (y[kv.first])
+        *kv.second = y[kv.first].as<double>();
+    c.delay = s.delay;
+    c.jitter = s.jitter;
+    c.distribution = y["distribution"] ? y["distribution"].as<std::string>() : c.distribution;
+    c.reorder = s.reorder;
+    c.duplicate = s.duplicate;
+    c.queue_limit = static_cast<int>(s.queue_limit);
+    return c;
+  }
+
+  /// The config's keys that apply to its model, as a YAML map for mergeChannelSettings.
+  static YAML::Node toChanges(const LossyChannelConfig& c)
+  {
+    YAML::Node y(YAML::NodeType::Map);
+    y["model"] = c.model;
+    if (c.model == "bernoulli")
+      y["loss"] = c.loss;
+    else
+    {
+      y["p"] = c.p;
+      y["r"] = c.r;
+      y["loss_bad"] = c.loss_bad;
+      y["loss_good"] = c.loss_good;
+    }
+    y["delay"] = c.delay;
+    y["jitter"] = c.jitter;
+    y["distribution"] = c.distribution;
+    y["reorder"] = c.reorder;
+    y["duplicate"] = c.duplicate;
+    y["queue_limit"] = c.queue_limit;
+    return y;
+  }
+
+  /// dynamic_reconfigure in ~reconfigure (its values are written back as parameters there, not
+  /// as the nodelet's own). Starts from the settings in use; a change is validated as a whole as
+  /// ~set_parameters does, and a refused one is undone in the config too.
+  void startReconfigure(ros::NodeHandle& pnh)
+  {
+    reconfigure_ = std::make_unique<dynamic_reconfigure::Server<LossyChannelConfig>>(
+        reconfigure_mutex_, ros::NodeHandle(pnh, "reconfigure"));
+    reconfigure_->setCallback([this](LossyChannelConfig& c, uint32_t) {
+      if (!reconfigure_ready_)
+        return;
+      std::lock_guard<std::mutex> lock(mutex_);
+      try
+      {
+        const ChannelSettings next = mergeChannelSettings(
+            settings_, toChanges(c), getPrivateNodeHandle().getNamespace() + "/reconfigure");
+        channel_->reconfigure(next);
+        settings_ = next;
+        NODELET_INFO("LossyChannel reconfigured: %s", describe().c_str());
+      }
+      catch (const ConfigError& e)
+      {
+        NODELET_WARN("LossyChannel: rejected reconfigure: %s", e.what());
+        c = toConfig(settings_);  // the server publishes what is in use
+      }
+    });
+    reconfigure_ready_ = true;
+    reconfigure_->updateConfig(toConfig(settings_));
+  }
+
   bool setParameters(SetParameters::Request& req, SetParameters::Response& res)
   {
     try
@@ -265,6 +339,8 @@ private:
           mergeChannelSettings(settings_, YAML::Load(req.yaml), getPrivateNodeHandle().getNamespace() + "/set_parameters");
       channel_->reconfigure(next);
       settings_ = next;
+      if (reconfigure_)
+        reconfigure_->updateConfig(toConfig(settings_));
       res.success = true;
       res.message = describe();
       NODELET_INFO("LossyChannel reconfigured: %s", res.message.c_str());
@@ -323,6 +399,9 @@ private:
   ros::ServiceServer set_srv_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTimer diag_timer_;
+  boost::recursive_mutex reconfigure_mutex_;
+  std::unique_ptr<dynamic_reconfigure::Server<LossyChannelConfig>> reconfigure_;
+  bool reconfigure_ready_ = false;
   std::mutex mutex_;
   std::condition_variable wake_;
   std::thread thread_;

@@ -8,6 +8,7 @@
 #include <rosgraph_msgs/Clock.h>
 #include <rosgraph_msgs/Log.h>
 #include <nav_msgs/Odometry.h>
+#include <dynamic_reconfigure/Reconfigure.h>
 #include <geometry_msgs/Twist.h>
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/NavSatFix.h>
@@ -744,6 +745,26 @@ TEST(EstimatorGraph, TwistCommandsAreHeld)
     ASSERT_NEAR(got.at(k).state[0], ref->state()(0), 1e-12) << "step " << k;
   }
   EXPECT_EQ(diag.get("missing commands"), 0.0);
+
+  // dynamic_reconfigure (base/estimator/reconfigure): a trace bound below trace(P) turns the
+  // estimator status to WARN; the late policy and latency budget are taken.
+  ros::ServiceClient dyn = nh.serviceClient<dynamic_reconfigure::Reconfigure>("base/estimator/reconfigure/set_parameters");
+  ASSERT_TRUE(dyn.waitForExistence(ros::Duration(10.0)));
+  dynamic_reconfigure::Reconfigure rc;
+  dynamic_reconfigure::DoubleParameter bound, budget;
+  bound.name = "trace_bound";
+  bound.value = 1e-9;
+  budget.name = "latency_budget";
+  budget.value = 0.1;
+  dynamic_reconfigure::StrParameter policy;
+  policy.name = "late_policy";
+  policy.value = "rewind";
+  rc.request.config.doubles = {bound, budget};
+  rc.request.config.strs = {policy};
+  ASSERT_TRUE(dyn.call(rc));
+  ASSERT_TRUE(waitFor([&] { return diag.lastMessage().find("above trace_bound 1e-09") != std::string::npos; }, 10.0))
+      << diag.lastMessage();
+  EXPECT_EQ(diag.get("trace bound"), 1e-9);
 }
 
 // Foreign input types: PointStamped (two 2-row position sensors) and Range (one scalar sensor)

@@ -2,6 +2,8 @@
 // one or two channels and runs one scenario of this binary (selected with --gtest_filter).
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
+#include <dynamic_reconfigure/Config.h>
+#include <dynamic_reconfigure/Reconfigure.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
 #include <sensor_msgs/Imu.h>
@@ -250,6 +252,49 @@ TEST(LossyChannelGraph, SetParametersAppliesFromNextMessage)
   EXPECT_EQ(delivered_before, 200);  // configured loss 0 at start
   for (int i = 200; i < 400; ++i)
     EXPECT_EQ(events.msgs[i].outcome, ChannelEvent::DROPPED_MODEL) << i;
+
+  // dynamic_reconfigure (in channel/reconfigure) shows the change made by set_parameters, applies
+  // its own from the next message on, and undoes a change the settings refuse.
+  auto value = [](const dynamic_reconfigure::Config& c, const std::string& name) {
+    for (const auto& d : c.doubles)
+      if (d.name == name)
+        return d.value;
+    return std::nan("");
+  };
+  auto text = [](const dynamic_reconfigure::Config& c, const std::string& name) {
+    for (const auto& d : c.strs)
+      if (d.name == name)
+        return d.value;
+    return std::string();
+  };
+  Collector<dynamic_reconfigure::Config> updates(nh, "channel/reconfigure/parameter_updates");
+  ASSERT_TRUE(waitFor([&] { return updates.size() >= 1u; }, 10.0));  // latched
+  {
+    std::lock_guard<std::mutex> lock(updates.mutex);
+    EXPECT_EQ(value(updates.msgs.back(), "loss"), 1.0);
+    EXPECT_EQ(text(updates.msgs.back(), "model"), "bernoulli");
+  }
+  ros::ServiceClient dyn = nh.serviceClient<dynamic_reconfigure::Reconfigure>("channel/reconfigure/set_parameters");
+  ASSERT_TRUE(dyn.waitForExistence(ros::Duration(10.0)));
+  dynamic_reconfigure::Reconfigure rc;
+  dynamic_reconfigure::DoubleParameter loss;
+  loss.name = "loss";
+  loss.value = 0.0;
+  rc.request.config.doubles.push_back(loss);
+  ASSERT_TRUE(dyn.call(rc));
+  EXPECT_EQ(value(rc.response.config, "loss"), 0.0);
+  send(100);
+  ASSERT_TRUE(waitFor([&] { return events.size() == 500u; }, 10.0));
+  for (int i = 400; i < 500; ++i)
+    EXPECT_EQ(events.msgs[i].outcome, ChannelEvent::DELIVERED) << i;
+  dynamic_reconfigure::Reconfigure bad;
+  dynamic_reconfigure::StrParameter dist;
+  dist.name = "distribution";
+  dist.value = "cauchy";  // not one of the enum's: the settings refuse it
+  bad.request.config.strs.push_back(dist);
+  ASSERT_TRUE(dyn.call(bad));
+  EXPECT_EQ(text(bad.response.config, "distribution"), "uniform");
+  EXPECT_EQ(value(bad.response.config, "loss"), 0.0);
 }
 
 // Delays are in ROS time: under /use_sim_time a message waits for the simulated clock, however

@@ -148,6 +148,11 @@ public:
   const Model& model() const { return model_; }
   const OnlineOptions& options() const { return options_; }
 
+  /// Changes the late policy at runtime. To REWIND: the history starts now (data for steps
+  /// already taken before the change is dropped, later ones are fused). To DROP: the history is
+  /// forgotten.
+  void setLatePolicy(LatePolicy policy);
+
   /// Everything back to the state after construction (filter at x0, P0, nothing in hand, not
   /// started). Counters are kept (they count since construction).
   void reset();
@@ -217,6 +222,8 @@ public:
   long stepAt(double t) const;
   double period() const { return period_; }
   double budget() const { return budget_; }
+  /// A new latency budget (runtime change): deadlines of the steps not taken yet move with it.
+  void setBudget(double latency_budget) { budget_ = latency_budget; }
 
 private:
   double period_, budget_;

@@ -235,6 +235,7 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   c.stability_window = static_cast<std::size_t>(window);
   c.stability_min_samples = static_cast<std::size_t>(p.integer("stability_min_samples", 100, 1, window));
   p.take("diagnostic_period");  // read by diagnostic_updater
+  p.take("reconfigure");        // dynamic_reconfigure's own namespace
   p.rejectUnknown();
   return c;
 }

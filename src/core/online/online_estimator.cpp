@@ -435,6 +435,20 @@ void OnlineEstimator::process()
   }
 }
 
+void OnlineEstimator::setLatePolicy(LatePolicy policy)
+{
+  if (policy == options_.late_policy)
+    return;
+  options_.late_policy = policy;
+  if (policy == LatePolicy::REWIND)
+  {
+    checkpoint_ = live_->clone();
+    checkpoint_k_ = next_ - 1;
+  }
+  else
+    checkpoint_.reset();
+}
+
 void OnlineEstimator::rewind()
 {
   ++counters_.rewinds;
