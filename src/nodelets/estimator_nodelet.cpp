@@ -534,8 +534,35 @@ private:
 
   // --- diagnostics -------------------------------------------------------------------------------
 
+  /// The inputs whose topic is advertised with another type than configured (ROS then connects
+  /// nothing: without this check the sensor would just look silent), e.g.
+  /// "sensor 'gps': /fix is geometry_msgs/PointStamped, expected sensor_msgs/NavSatFix".
+  std::vector<std::string> wrongTypes() const
+  {
+    ros::master::V_TopicInfo topics;
+    std::vector<std::string> out;
+    if (!ros::master::getTopics(topics))
+      return out;
+    const ros::NodeHandle& nh = const_cast<EstimatorNodelet*>(this)->getNodeHandle();
+    auto check = [&](const std::string& who, const std::string& topic, const std::string& expected) {
+      const std::string name = nh.resolveName(topic);
+      for (const ros::master::TopicInfo& t : topics)
+        if (t.name == name && t.datatype != expected)
+          out.push_back(who + ": " + name + " is " + t.datatype + ", expected " + expected);
+    };
+    const Model& model = online_->model();
+    for (std::size_t i = 0; i < inputs_.size(); ++i)
+      check("sensor '" + model.sensors[i].name + "'", inputs_[i].topic, toString(inputs_[i].type));
+    if (model.hasControl())
+      check("command", command_.topic, toString(command_.type));
+    return out;
+  }
+
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat)
   {
+    const std::vector<std::string> wrong = wrongTypes();  // asks the master: outside the lock
+    for (const std::string& w : wrong)
+      NODELET_WARN_THROTTLE(10.0, "Estimator: wrong message type on an input topic: %s", w.c_str());
     std::lock_guard<std::mutex> lock(mutex_);
     const OnlineCounters& c = online_->counters();
     const ros::WallTime now = ros::WallTime::now();
@@ -552,6 +579,9 @@ private:
     else
       stat.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "step %ld, arrival rate %.3f", online_->nextStep() - 1,
                     arrival);
+    if (!wrong.empty())
+      stat.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN, "wrong message type: %s", wrong.front().c_str());
+    stat.add("wrong type inputs", wrong.size());
     stat.add("algorithm", toString(settings_.algorithm));
     stat.add("steps", c.processed);
     stat.add("step rate (Hz)", rate);

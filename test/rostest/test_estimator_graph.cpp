@@ -767,6 +767,20 @@ TEST(EstimatorGraph, TwistCommandsAreHeld)
   EXPECT_EQ(diag.get("trace bound"), 1e-9);
 }
 
+// A sensor topic advertised with another type than the sensor's (ROS would connect nothing and the
+// sensor would just look silent): the estimator status says so, naming sensor, topic and types.
+TEST(EstimatorGraph, WrongTypeOnASensorTopic)
+{
+  ros::NodeHandle nh;
+  ros::Publisher wrong = nh.advertise<sensor_msgs::Imu>("/wheel_odom", 10);
+  DiagnosticsProbe diag(nh, "wrong_type/estimator: estimator");
+  ASSERT_TRUE(waitFor([&] { return diag.get("wrong type inputs") == 1.0; }, 20.0)) << diag.lastMessage();
+  EXPECT_NE(diag.lastMessage().find("wrong message type: sensor 'y': /wheel_odom is sensor_msgs/Imu, expected "
+                                    "nav_msgs/Odometry"),
+            std::string::npos)
+      << diag.lastMessage();
+}
+
 // Foreign input types: PointStamped (two 2-row position sensors) and Range (one scalar sensor)
 // carry no step number; the estimator matches them to the nearest step by stamp. The estimates equal
 // the offline filter on the same values. Bad parameters make an estimator's load fail, with a FATAL
