@@ -47,6 +47,10 @@ class LossyRun
 public:
   LossyRun(const Model& model, std::uint64_t seed, const LossyRunOptions& options);
 
+  /// Starts over at k = 0 exactly as LossyRun(model, seed, options) with the constructor's options
+  /// would, reseeding every stream instead of allocating them anew (Monte Carlo runs).
+  void restart(std::uint64_t seed);
+
   /// Advances to step k = k() + 1. Returns the true sample; received() is what reached the
   /// estimator: a lost sensor's cells are NaN, gamma = 1 when at least one sensor arrived.
   /// Throws DivergenceError when the plant state stops being representable (see PlantSimulator).
@@ -62,6 +66,8 @@ private:
   const Model& model_;
   bool noise_on_loss_;
   std::vector<std::unique_ptr<LossModel>> links_;  ///< null = lossless
+  std::vector<std::uint64_t> link_seeds_;          ///< per sensor: its settings' seed
+  std::uint64_t actuator_seed_ = 0;                ///< the actuator link settings' seed
   PlantSimulator sim_;
   ScheduleSampler schedule_;
   Sample received_;

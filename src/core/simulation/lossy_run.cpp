@@ -38,9 +38,21 @@ LossyRun::LossyRun(const Model& model, std::uint64_t seed, const LossyRunOptions
     links_.push_back(lossy ? makeLossModel(*options.sensor_links[s],
                                            deriveSeed(seed ^ options.sensor_links[s]->seed, 100 + s))
                            : nullptr);
+    link_seeds_.push_back(lossy ? options.sensor_links[s]->seed : 0);
   }
+  if (options.actuator_link)
+    actuator_seed_ = options.actuator_link->seed;
   received_.y.resize(model.m());
   received_.nu = -1;
+}
+
+void LossyRun::restart(std::uint64_t seed)
+{
+  sim_.restart(seed, deriveSeed(seed ^ actuator_seed_, 200));
+  for (std::size_t s = 0; s < links_.size(); ++s)
+    if (links_[s])
+      links_[s]->reseed(deriveSeed(seed ^ link_seeds_[s], 100 + s));
+  schedule_.restart(deriveSeed(seed, 300));
 }
 
 const SimulatedSample& LossyRun::step()
