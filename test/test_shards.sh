@@ -62,7 +62,7 @@ shards() {
 # zhou_fig1: two Monte Carlo calls over one data set, 300 runs = 5 blocks (the last of 44 runs), so
 # 2 of 7 shards are empty. zhou_fig2: four calls with per-run samples, 130 runs = 3 blocks.
 # custom: a model and per-sensor links given as relative paths (the merge runs where the shards did).
-# sweep: a 3 x 4 stability map (one Monte Carlo call per grid point, 150 runs = 3 blocks each) with
+# sweep: a 3 x 4 stability map (one Monte Carlo call of 150 runs = 3 blocks, the values of all 12 points) with
 # a gilbert_elliott link's recovery rate on one axis.
 mkdir -p "$WORK/in"
 cp "$ROOT/config/models/tracking_2d.yaml" "$ROOT/config/channels/wifi_bursty.yaml" \

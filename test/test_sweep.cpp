@@ -293,6 +293,25 @@ TEST(Sweep, RunsThatCannotBeCountedAreRecordedNotAveraged)
   EXPECT_EQ(csv.find("nan"), std::string::npos);
   EXPECT_EQ(csv.find("inf"), std::string::npos);
 
+  // An estimator that diverges before the plant reaches the floor: x+ = 10 x + w with Q = R = 1e295
+  // (the floor is 1e-3 sqrt(1e295) / 2^-52, about 1e160, x_10 about 3e157), and kfio without
+  // arrivals: P_k = 100 P_k-1 + Q overflows near k = 7. Every run diverges at arrival rate 0, some
+  // at 0.5 (7 consecutive losses), none at 1.
+  MonteCarloConfig huge = sweepConfig(f, {"y.arrival_rate=0:1:3"}, 100, 10);
+  huge.model_path = f.write("huge.yaml", "name: huge_noise\nA: [[10.0]]\nQ: [[1e295]]\n"
+                                         "sensors:\n  - {name: y, C: [[1.0]], R: [[1e295]]}\nx0: [0]\nP0: [[1]]\n");
+  const ExperimentResult d = runExperiment(huge);
+  ASSERT_EQ(d.sweep->cells.size(), 3u);
+  EXPECT_EQ(d.sweep->cells[0].diverged, 100);
+  EXPECT_EQ(d.sweep->cells[0].floored, 0);
+  EXPECT_TRUE(std::isnan(d.sweep->cells[0].trP_mean));
+  EXPECT_GT(d.sweep->cells[1].diverged, 0);
+  EXPECT_LT(d.sweep->cells[1].diverged, 100);
+  EXPECT_TRUE(std::isnan(d.sweep->cells[1].err_mean));
+  EXPECT_EQ(d.sweep->cells[2].diverged, 0);
+  EXPECT_TRUE(std::isfinite(d.sweep->cells[2].trP_mean));
+  EXPECT_NE(experimentCsv(d).find("\n0,0,0,0,,kfio,100,100,0,,,,,,,,,"), std::string::npos) << experimentCsv(d);
+
   // 69 steps: some runs cross the floor (about a quarter) and some do not: counted, still no mean
   const ExperimentResult partial = runExperiment(sweepConfig(f, {"gnss.arrival_rate=0:0:1"}, 200, 69));
   const SweepCell& c = partial.sweep->cells.at(0);

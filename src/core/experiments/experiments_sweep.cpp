@@ -292,8 +292,8 @@ namespace mc
 namespace
 {
 
-// Per run and estimator: tr P_T, |x_T - xhat_T|^2, their means over the last half, diverged (0/1);
-// then one value per run: floored (0/1).
+// Per run, grid point and estimator (point-major): tr P_T, |x_T - xhat_T|^2, their means over the
+// last half, diverged (0/1); then one value per run: floored (0/1).
 constexpr std::size_t kStats = 5;
 
 }  // namespace
@@ -316,109 +316,139 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
   sweep->analysis = analyseSweep(model, su.links.link, axes);
 
   if (rc.progress)
-    rc.progress->setTotal(sweep->points * rc.runs);
+    rc.progress->setTotal(rc.runs);
   const long T = rc.steps, half = T / 2;
-  const std::size_t nf = su.settings.size(), values = kStats * nf + 1;
+  const std::size_t nf = su.settings.size(), np = static_cast<std::size_t>(sweep->points);
+  const std::size_t values = kStats * nf * np + 1;
   const std::uint64_t seed = rc.seed;
-  LossyRunOptions options = su.options;
   const std::vector<EstimatorSettings>& settings = su.settings;
+  std::vector<std::vector<std::optional<ChannelSettings>>> point_links;
+  for (const std::vector<double>& v : sweep->point_values)
+    point_links.push_back(sweepPointLinks(su.links.link, axes, v));
+  // Plant without sensor links: the links only decide what reaches the estimators, so one
+  // simulated plant (and schedule, and actuator link) serves every grid point of a run.
+  LossyRunOptions plant_options = su.options;
+  plant_options.sensor_links.clear();
+  const bool noise_on_loss = su.options.noise_on_loss;
   // Run r at every point is `simulate --seed S+r` with that point's links (common random numbers
-  // across the grid), replayed by every estimator as in the custom experiment.
-  WorkerFactory factory = [&model, &settings, &options, T, half, nf, values, seed]() -> RunFunction {
+  // across the grid), replayed by every estimator as in the custom experiment. One Monte Carlo call
+  // of all the points: per run, the plant once, then each point's links and estimators.
+  WorkerFactory factory = [&model, &settings, &plant_options, &point_links, T, half, nf, np, values, noise_on_loss,
+                           seed]() -> RunFunction {
     struct Worker
     {
       std::vector<std::unique_ptr<Estimator>> est;
+      std::vector<SensorLinkSet> links;  // per grid point
+      std::optional<LossyRun> plant;     // restarted for every run: no allocation per run
+      std::vector<SimulatedSample> traj;
+      std::vector<std::vector<bool>> on;
       std::vector<char> alive;
       std::vector<double> trP_sum, err_sum;
       Sample sample;
-      std::optional<LossyRun> run;  // restarted for every run: no allocation per run
     };
     auto w = std::make_shared<Worker>();
-    w->run.emplace(model, 0, options);
     for (const EstimatorSettings& s : settings)
       w->est.push_back(makeEstimator(model, s));
+    for (const auto& l : point_links)
+      w->links.emplace_back(model, l, 0, noise_on_loss);
+    w->plant.emplace(model, 0, plant_options);
+    w->traj.resize(static_cast<std::size_t>(T));
+    w->on.resize(static_cast<std::size_t>(T));
     w->alive.assign(nf, 1);
     w->trP_sum.assign(nf, 0.0);
     w->err_sum.assign(nf, 0.0);
-    return [w, T, half, nf, values, seed](long r, double* out) {
+    w->sample = w->plant->received();
+    return [w, T, half, nf, np, values, seed](long r, double* out) {
       std::fill(out, out + values, 0.0);
-      LossyRun& run = *w->run;
-      run.restart(seed + static_cast<std::uint64_t>(r));
-      for (std::size_t j = 0; j < nf; ++j)
-      {
-        w->est[j]->reset();
-        w->alive[j] = 1;
-        w->trP_sum[j] = w->err_sum[j] = 0.0;
-      }
-      const SimulatedSample* s = nullptr;
-      for (long k = 1; k <= T; ++k)
+      const std::uint64_t rs = seed + static_cast<std::uint64_t>(r);
+      LossyRun& plant = *w->plant;
+      plant.restart(rs);
+      for (long k = 0; k < T; ++k)
       {
         try
         {
-          s = &run.step();
+          w->traj[static_cast<std::size_t>(k)] = plant.step();  // same sizes: no allocation
         }
         catch (const DivergenceError&)
         {
           out[values - 1] = 1.0;  // the plant crossed the rounding floor: no statistic of this run
           return;
         }
+        w->on[static_cast<std::size_t>(k)] = plant.scheduled();
+      }
+      for (std::size_t p = 0; p < np; ++p)
+      {
+        SensorLinkSet& links = w->links[p];
+        links.reseed(rs);
         for (std::size_t j = 0; j < nf; ++j)
         {
-          if (!w->alive[j])
-            continue;
-          Estimator& e = *w->est[j];
-          w->sample = run.received();
-          w->sample.nu = e.algorithm() == Algorithm::ACK_KF ? (s->nu ? 1 : 0) : -1;
-          try
+          w->est[j]->reset();
+          w->alive[j] = 1;
+          w->trP_sum[j] = w->err_sum[j] = 0.0;
+        }
+        for (long k = 1; k <= T; ++k)
+        {
+          const SimulatedSample& s = w->traj[static_cast<std::size_t>(k - 1)];
+          links.receive(s, w->on[static_cast<std::size_t>(k - 1)], w->sample);
+          const bool gamma = w->sample.gamma;
+          for (std::size_t j = 0; j < nf; ++j)
           {
-            e.step(w->sample);
-          }
-          catch (const DivergenceError&)
-          {
-            w->alive[j] = 0;
-            continue;
-          }
-          if (k > half)
-          {
-            w->trP_sum[j] += e.covariance().trace();
-            w->err_sum[j] += (s->x - e.state()).squaredNorm();
+            if (!w->alive[j])
+              continue;
+            Estimator& e = *w->est[j];
+            w->sample.gamma = gamma;
+            w->sample.nu = e.algorithm() == Algorithm::ACK_KF ? (s.nu ? 1 : 0) : -1;
+            try
+            {
+              e.step(w->sample);
+            }
+            catch (const DivergenceError&)
+            {
+              w->alive[j] = 0;
+              continue;
+            }
+            if (k > half)
+            {
+              w->trP_sum[j] += e.covariance().trace();
+              w->err_sum[j] += (s.x - e.state()).squaredNorm();
+            }
           }
         }
-      }
-      for (std::size_t j = 0; j < nf; ++j)
-      {
-        double* o = out + kStats * j;
-        if (w->alive[j])
+        const SimulatedSample& last = w->traj[static_cast<std::size_t>(T - 1)];
+        for (std::size_t j = 0; j < nf; ++j)
         {
-          const Estimator& e = *w->est[j];
-          o[0] = e.covariance().trace();
-          o[1] = (s->x - e.state()).squaredNorm();
-          o[2] = w->trP_sum[j] / static_cast<double>(T - half);
-          o[3] = w->err_sum[j] / static_cast<double>(T - half);
-        }
-        if (!w->alive[j] || !(std::isfinite(o[0]) && std::isfinite(o[1]) && std::isfinite(o[2]) && std::isfinite(o[3])))
-        {
-          std::fill(o, o + kStats, 0.0);
-          o[4] = 1.0;  // diverged
+          double* o = out + kStats * (p * nf + j);
+          if (w->alive[j])
+          {
+            const Estimator& e = *w->est[j];
+            o[0] = e.covariance().trace();
+            o[1] = (last.x - e.state()).squaredNorm();
+            o[2] = w->trP_sum[j] / static_cast<double>(T - half);
+            o[3] = w->err_sum[j] / static_cast<double>(T - half);
+          }
+          if (!w->alive[j] ||
+              !(std::isfinite(o[0]) && std::isfinite(o[1]) && std::isfinite(o[2]) && std::isfinite(o[3])))
+          {
+            std::fill(o, o + kStats, 0.0);
+            o[4] = 1.0;  // diverged
+          }
         }
       }
     };
   };
 
-  for (long p = 0; p < sweep->points; ++p)
-  {
-    options.sensor_links = sweepPointLinks(su.links.link, axes, sweep->point_values[static_cast<std::size_t>(p)]);
-    const Moments m = runMonteCarlo(rc.runs, values, rc.threads, factory, rc.progress);
-    const long floored = std::lround(m.mean[values - 1] * static_cast<double>(m.n));
+  const Moments m = runMonteCarlo(rc.runs, values, rc.threads, factory, rc.progress);
+  const long floored = std::lround(m.mean[values - 1] * static_cast<double>(m.n));
+  for (std::size_t p = 0; p < np; ++p)
     for (std::size_t j = 0; j < nf; ++j)
     {
+      const std::size_t o = kStats * (p * nf + j);
       SweepCell c;
       c.n = m.n;
       c.floored = floored;
-      c.diverged = std::lround(m.mean[kStats * j + 4] * static_cast<double>(m.n));
+      c.diverged = std::lround(m.mean[o + 4] * static_cast<double>(m.n));
       if (c.n > 0 && c.diverged == 0 && c.floored == 0)
       {
-        const std::size_t o = kStats * j;
         c.trP_mean = m.mean[o];
         c.trP_sd = m.sd[o];
         c.err_mean = m.mean[o + 1];
@@ -430,7 +460,6 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
       }
       sweep->cells.push_back(c);
     }
-  }
 
   ExperimentResult res;
   res.x_label = axes[0].name();
