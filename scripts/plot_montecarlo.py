@@ -16,7 +16,8 @@ ones, is drawn into OUTDIR (default DIR); the PNGs written are listed on stdout,
               grid point and estimator, see docs/formats.md section 8): per estimator, two axes:
               a heat map of log10 of the mean tr P_T (colours over at most 5 decades above the
               smallest, larger values in the top colour) with the critical curve of the analysis
-              over it (solid, stable above it) and its undecided band (hatched) where there is one;
+              over it (solid, stable above it; along the top edge where no value of the second
+              axis is stable) and its undecided band (hatched) where there is one;
               one axis: mean tr P_T against the axis value (log y) with a vertical line at the
               critical value. Grid points without a mean (runs that diverged or crossed the
               rounding floor) are grey.
@@ -614,9 +615,15 @@ def plot_sweep(name, meta, indir, outdir, dpi):
                 hi = max(min(float(finite.max()), lo + MAP_DECADES), lo + 1e-9)
                 mesh = ax.pcolormesh(cell_edges(v1), cell_edges(v2), np.ma.masked_invalid(grid),
                                      cmap="viridis", shading="flat", vmin=lo, vmax=hi)
-                fig.colorbar(mesh, ax=ax, label=r"$\log_{10}$ mean tr $P_T$",
-                             extend="max" if finite.max() > hi else "neither")
+                bar = fig.colorbar(mesh, ax=ax, label=r"$\log_{10}$ mean tr $P_T$",
+                                   extend="max" if finite.max() > hi else "neither")
+                formatter = bar.ax.yaxis.get_major_formatter()
+                if hasattr(formatter, "set_useOffset"):  # a flat map: plain numbers
+                    formatter.set_useOffset(False)
             at = curve_values(curve, "at")
+            # not stable even at the largest value (converges_at null, diverges_at given): the
+            # curve runs along the top edge of the map
+            conv = np.where(np.isnan(conv) & np.isfinite(div), cell_edges(v2)[-1], conv)
             if at.size == v1.size and np.isfinite(conv).any():
                 ax.plot(at, conv, "-", color="white", lw=2.4)
                 ax.plot(at, conv, "-", color="tab:red", lw=1.4,
