@@ -161,6 +161,9 @@ TEST(Sweep, AxisErrorsNameTheArgument)
   resolveError({"gnss.arrival_rate=0:1:3", "gnss.arrival_rate=0:0.5:3"}, "sensor 'gnss' is already swept");
   resolveError({"gnss.arrival_rate=0:1:3", "camera.arrival_rate=0:1:3", "gnss.arrival_rate=0:1:2"},
                "expected one or two --axis options, found 3");
+  resolveError({"gnss.arrival_rate=0:1:101", "camera.arrival_rate=0:1:100"},
+               "--axis 'gnss.arrival_rate=0:1:101' x --axis 'camera.arrival_rate=0:1:100': 101 x 100 = 10100 grid "
+               "points, at most 10000");
 }
 
 TEST(Sweep, BoundaryEqualsTheClosedFormOfUnstableTwoLinks)

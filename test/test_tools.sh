@@ -295,6 +295,8 @@ sweep_refused "one sensor twice" "sensor 'gnss' is already swept" --axis gnss.ar
 sweep_refused "three axes" "option '--axis': at most two axes, found 3" --axis gnss.arrival_rate=0:1:3 \
   --axis camera.arrival_rate=0:1:3 --axis gnss.arrival_rate=0:1:2
 sweep_refused "no axis" "experiment sweep needs --axis"
+sweep_refused "more than 10000 grid points" "101 x 100 = 10100 grid points, at most 10000" \
+  --axis gnss.arrival_rate=0:1:101 --axis camera.arrival_rate=0:1:100
 run_rc rc "$BIN/montecarlo" --experiment custom --model "$UNSTABLE2" --settings "$EST/kfio.yaml" --runs 10 --steps 5 \
   --axis gnss.arrival_rate=0:1:3 --out "$M2/bad"
 check "--axis is only for sweep: exit 2" rc_and_grep "$rc" 2 "option '--axis' is only for --experiment sweep" "$WORK/err.txt"

@@ -48,7 +48,7 @@ SweepAxis parseSweepAxis(const std::string& arg);
 
 /// Resolves the axes against the model and the sensors' links (one per sensor, none = lossless):
 /// the sensor must exist, recovery_rate needs that sensor's link to be gilbert_elliott, at most two
-/// axes, no sensor parameter twice. Throws ConfigError naming the argument.
+/// axes, no sensor swept twice, at most 10000 grid points. Throws ConfigError naming the argument.
 void resolveSweepAxes(std::vector<SweepAxis>& axes, const Model& model,
                       const std::vector<std::optional<ChannelSettings>>& links);
 

@@ -22,6 +22,9 @@ namespace
 {
 
 constexpr long kMaxAxisPoints = 10000;
+/// Grid points of a sweep at most: every point keeps 5 accumulators per estimator in every block of
+/// 64 runs (and in a shard file), and gets its own verdict.
+constexpr long kMaxGridPoints = 10000;
 
 [[noreturn]] void axisError(const std::string& arg, const std::string& what)
 {
@@ -151,6 +154,10 @@ void resolveSweepAxes(std::vector<SweepAxis>& axes, const Model& model,
       if (axes[j].sensor_index == a.sensor_index)
         axisError(a.arg, "sensor '" + a.sensor + "' is already swept by --axis '" + axes[j].arg + "'");
   }
+  if (axes.size() == 2 && axes[0].count * axes[1].count > kMaxGridPoints)
+    throw ConfigError("--axis '" + axes[0].arg + "' x --axis '" + axes[1].arg + "': " + std::to_string(axes[0].count) +
+                      " x " + std::to_string(axes[1].count) + " = " + std::to_string(axes[0].count * axes[1].count) +
+                      " grid points, at most " + std::to_string(kMaxGridPoints) + " (split the grid into several sweeps)");
 }
 
 std::vector<std::optional<ChannelSettings>> sweepPointLinks(const std::vector<std::optional<ChannelSettings>>& links,
