@@ -77,9 +77,9 @@ int mergeMain(int argc, char** argv)
       "DIR/NAME.csv and DIR/NAME.json (and zhou_fig2_samples.csv), exactly as the unsharded run writes them\n"
       "(the JSON's threads and wall_seconds aside: the shards' largest thread count and their summed wall time).\n"
       "Every shard file in the directories (of --experiment NAME only, when given) is read; they must be of\n"
-      "one experiment with the same --runs, --steps, --seed, N and custom arguments, every K of 1..N exactly\n"
-      "once, and a custom experiment's input files (read again at their recorded paths, relative ones from\n"
-      "the current directory) unchanged.\n"
+      "one experiment with the same --runs, --steps, --seed, N and custom or sweep arguments (--axis too),\n"
+      "every K of 1..N exactly once, and a custom or sweep experiment's input files (read again at their\n"
+      "recorded paths, relative ones from the current directory) unchanged.\n"
       "Exit codes: 0 ok; 2 bad arguments, or a missing, duplicate, foreign or malformed shard (the message\n"
       "names the file and the field); 3 never.",
       {
