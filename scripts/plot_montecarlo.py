@@ -12,6 +12,15 @@ ones, is drawn into OUTDIR (default DIR); the PNGs written are listed on stdout,
   zhou_fig2   NAME.png: empirical PDF (Gaussian KDE) of P11, P12, P22 at the last step, one panel
               per element, the initial P0 values overlaid; plus NAME_series.png only when a series
               of NAME.csv has more than one x (the tool writes one x, the last step: no extra file)
+  sweep       NAME.png (a stability map; the JSON has a "sweep" member and NAME.csv one row per
+              grid point and estimator, see docs/formats.md section 8): per estimator, two axes:
+              a heat map of log10 of the mean tr P_T (colours over at most 5 decades above the
+              smallest, larger values in the top colour) with the critical curve of the analysis
+              over it (solid, stable above it; along the top edge where no value of the second
+              axis is stable) and its undecided band (hatched) where there is one;
+              one axis: mean tr P_T against the axis value (log y) with a vertical line at the
+              critical value. Grid points without a mean (runs that diverged or crossed the
+              rounding floor) are grey.
   any other   NAME.png: one panel per case (lin_fig2..5, yang_fig2, custom, ...)
 
 Mean lines, with a light band of +-2 standard errors (sd / sqrt(n)) where n > 1 and sd > 0. A
@@ -42,7 +51,10 @@ import warnings
 SYSTEM_PYTHON = "/usr/bin/python3"
 CSV_HEADER = ["case", "series", "x", "mean", "sd", "n"]
 SAMPLES_HEADER = ["case", "run", "P11", "P12", "P21", "P22"]
+SWEEP_HEADER = ["point", "i1", "i2", "x1", "x2", "estimator", "n", "diverged", "floored",
+                "trP_mean", "trP_sd"]
 ZOOM_ZHOU_FIG1 = (80.0, 500.0)
+MAP_DECADES = 5.0  # the colour range of a stability map, in decades of tr P
 
 
 class InputError(Exception):
@@ -91,28 +103,36 @@ def parse_float(text, path, line, column):
         raise InputError(path, "line %d: %s is not a number: %r" % (line, column, text))
 
 
-def read_results_csv(path):
-    """Returns {case: {series: (x, mean, sd, n) arrays sorted by x}} and the order seen."""
+def csv_rows(path, header, missing="missing", prefix=False):
+    """The (line number, fields) of the non-empty data rows of a CSV whose header starts with
+    `header` (prefix: the file may have more columns, and the message says so)."""
+    expected = ",".join(header) + (",..." if prefix else "")
     if not os.path.isfile(path):
-        raise InputError(path, "missing")
+        raise InputError(path, missing)
     try:
         with open(path, newline="") as handle:
             rows = list(csv.reader(handle))
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise InputError(path, "cannot read: %s" % exc)
     if not rows:
-        raise InputError(path, "empty file, expected header %s" % ",".join(CSV_HEADER))
-    header = [h.strip() for h in rows[0]]
-    if header[:len(CSV_HEADER)] != CSV_HEADER:
-        raise InputError(path, "unexpected header %r, expected %s"
-                         % (",".join(rows[0]), ",".join(CSV_HEADER)))
-    data = {}
+        raise InputError(path, "empty file, expected header %s" % expected)
+    if [h.strip() for h in rows[0]][:len(header)] != header:
+        raise InputError(path, "unexpected header %r, expected %s" % (",".join(rows[0]), expected))
+    out = []
     for line, row in enumerate(rows[1:], start=2):
         if not row or all(not c.strip() for c in row):
             continue
-        if len(row) < len(CSV_HEADER):
-            raise InputError(path, "line %d: %d fields, expected %d"
-                             % (line, len(row), len(CSV_HEADER)))
+        if len(row) < len(header):
+            raise InputError(path, "line %d: %d fields, expected %s%d"
+                             % (line, len(row), "at least " if prefix else "", len(header)))
+        out.append((line, row))
+    return out
+
+
+def read_results_csv(path):
+    """Returns {case: {series: (x, mean, sd, n) arrays sorted by x}} and the order seen."""
+    data = {}
+    for line, row in csv_rows(path, CSV_HEADER):
         case, series = row[0].strip(), row[1].strip()
         x = parse_float(row[2], path, line, "x")
         mean = parse_float(row[3], path, line, "mean")
@@ -153,26 +173,8 @@ def read_json(path):
 
 def read_samples_csv(path):
     """Returns {case: {element: samples}} for zhou_fig2_samples.csv, cases in file order."""
-    if not os.path.isfile(path):
-        raise InputError(path, "missing (the zhou_fig2 PDF is drawn from it)")
-    try:
-        with open(path, newline="") as handle:
-            rows = list(csv.reader(handle))
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
-        raise InputError(path, "cannot read: %s" % exc)
-    if not rows:
-        raise InputError(path, "empty file, expected header %s" % ",".join(SAMPLES_HEADER))
-    header = [h.strip() for h in rows[0]]
-    if header[:len(SAMPLES_HEADER)] != SAMPLES_HEADER:
-        raise InputError(path, "unexpected header %r, expected %s"
-                         % (",".join(rows[0]), ",".join(SAMPLES_HEADER)))
     data = {}
-    for line, row in enumerate(rows[1:], start=2):
-        if not row or all(not c.strip() for c in row):
-            continue
-        if len(row) < len(SAMPLES_HEADER):
-            raise InputError(path, "line %d: %d fields, expected %d"
-                             % (line, len(row), len(SAMPLES_HEADER)))
+    for line, row in csv_rows(path, SAMPLES_HEADER, "missing (the zhou_fig2 PDF is drawn from it)"):
         per_case = data.setdefault(row[0].strip(), {k: [] for k in SAMPLES_HEADER[2:]})
         for column, text in zip(SAMPLES_HEADER[2:], row[2:6]):
             per_case[column].append(parse_float(text, path, line, column))
@@ -534,6 +536,142 @@ def plot_zhou_fig2(name, meta, samples, outdir, dpi):
     return [path]
 
 
+def read_sweep_csv(path):
+    """Returns {estimator: [(i1, i2, x1, x2, n, trP_mean, trP_sd)]} of a sweep's CSV, in file
+    order; an empty cell (no mean at that point, or no second axis) is NaN."""
+    data = {}
+    for line, row in csv_rows(path, SWEEP_HEADER, prefix=True):
+
+        def number(column, empty_ok=False):
+            text = row[SWEEP_HEADER.index(column)].strip()
+            if empty_ok and text == "":
+                return float("nan")
+            return parse_float(text, path, line, column)
+
+        data.setdefault(row[5].strip(), []).append(
+            (int(number("i1")), int(number("i2")), number("x1"), number("x2", True),
+             number("n"), number("trP_mean", True), number("trP_sd", True)))
+    if not data:
+        raise InputError(path, "no data rows")
+    return data
+
+
+def sweep_meta(meta, path):
+    sweep = meta.get("sweep")
+    if not isinstance(sweep, dict) or not isinstance(sweep.get("axes"), list) or \
+            not 1 <= len(sweep["axes"]) <= 2 or \
+            not all(isinstance(a, dict) and isinstance(a.get("values"), list)
+                    for a in sweep["axes"]):
+        raise InputError(path, "\"sweep\" must hold \"axes\": one or two objects with \"values\"")
+    critical = sweep.get("critical", {})
+    curve = critical.get("curve", []) if isinstance(critical, dict) else []
+    if not isinstance(curve, list) or not all(isinstance(c, dict) for c in curve):
+        raise InputError(path, "\"sweep\".\"critical\".\"curve\" must be a list of objects")
+    return sweep, curve
+
+
+def curve_values(curve, key):
+    return np.array([c.get(key) if isinstance(c.get(key), (int, float)) else np.nan
+                     for c in curve], dtype=float)
+
+
+def cell_edges(values):
+    v = np.asarray(values, dtype=float)
+    if v.size == 1:
+        return np.array([v[0] - 0.5, v[0] + 0.5]) if v[0] == 0 else np.array([v[0] * 0.95, v[0] * 1.05])
+    mid = 0.5 * (v[1:] + v[:-1])
+    return np.concatenate([[v[0] - (mid[0] - v[0])], mid, [v[-1] + (v[-1] - mid[-1])]])
+
+
+def plot_sweep(name, meta, indir, outdir, dpi):
+    json_path = os.path.join(indir, name + ".json")
+    sweep, curve = sweep_meta(meta, json_path)
+    data = read_sweep_csv(os.path.join(indir, name + ".csv"))
+    axes_meta = sweep["axes"]
+    estimators = [e for e in sweep.get("estimators", []) if e in data] + \
+        [e for e in data if e not in sweep.get("estimators", [])]
+    fig, panels = panel_grid(len(estimators))
+    div = curve_values(curve, "diverges_at")
+    conv = curve_values(curve, "converges_at")
+    band = np.array([bool(c.get("undecided_band")) for c in curve], dtype=bool)
+    names = [str(a.get("name", "axis %d" % (i + 1))) for i, a in enumerate(axes_meta)]
+    extra = "tr P at k = %s; grey: no mean (diverged or floored runs)" \
+        % meta.get("steps", "T")
+    for ax, est in zip(panels, estimators):
+        rows = data[est]
+        if len(axes_meta) == 2:
+            v1 = np.array(axes_meta[0]["values"], dtype=float)
+            v2 = np.array(axes_meta[1]["values"], dtype=float)
+            grid = np.full((v2.size, v1.size), np.nan)
+            for i1, i2, _, _, _, mean, _ in rows:
+                if 0 <= i1 < v1.size and 0 <= i2 < v2.size and mean > 0:
+                    grid[i2, i1] = math.log10(mean)
+            ax.set_facecolor("0.75")
+            finite = grid[np.isfinite(grid)]
+            if finite.size:
+                # at most MAP_DECADES decades of colour: the deep unstable corner (tr P growing
+                # like a power of T) would otherwise flatten the region near the boundary
+                lo = float(finite.min())
+                hi = max(min(float(finite.max()), lo + MAP_DECADES), lo + 1e-9)
+                mesh = ax.pcolormesh(cell_edges(v1), cell_edges(v2), np.ma.masked_invalid(grid),
+                                     cmap="viridis", shading="flat", vmin=lo, vmax=hi)
+                bar = fig.colorbar(mesh, ax=ax, label=r"$\log_{10}$ mean tr $P_T$",
+                                   extend="max" if finite.max() > hi else "neither")
+                formatter = bar.ax.yaxis.get_major_formatter()
+                if hasattr(formatter, "set_useOffset"):  # a flat map: plain numbers
+                    formatter.set_useOffset(False)
+            at = curve_values(curve, "at")
+            # not stable even at the largest value (converges_at null, diverges_at given): the
+            # curve runs along the top edge of the map
+            conv = np.where(np.isnan(conv) & np.isfinite(div), cell_edges(v2)[-1], conv)
+            if at.size == v1.size and np.isfinite(conv).any():
+                ax.plot(at, conv, "-", color="white", lw=2.4)
+                ax.plot(at, conv, "-", color="tab:red", lw=1.4,
+                        label="critical %s (analysis)" % names[1])
+                if band.any():
+                    ax.fill_between(at, np.where(band, div, np.nan), np.where(band, conv, np.nan),
+                                    facecolor="none", edgecolor="tab:red", hatch="///", lw=0,
+                                    label="undecided band")
+                legend(ax, loc="upper right")
+            ax.set_xlim(cell_edges(v1)[0], cell_edges(v1)[-1])
+            ax.set_ylim(cell_edges(v2)[0], cell_edges(v2)[-1])
+            ax.set_xlabel(names[0])
+            ax.set_ylabel(names[1])
+        else:
+            pts = sorted(rows, key=lambda r: r[2])
+            x = np.array([r[2] for r in pts], dtype=float)
+            mean = np.array([r[5] for r in pts], dtype=float)
+            sd = np.array([r[6] for r in pts], dtype=float)
+            n = np.array([r[4] for r in pts], dtype=float)
+            ax.set_yscale("log", nonpositive="mask")
+            ax.plot(x, mean, "-o", color="tab:blue", ms=4, mfc="none", label="mean tr $P_T$")
+            se = np.where(n > 1, sd / np.sqrt(np.where(n > 1, n, 1.0)), np.nan)
+            ok = np.isfinite(se) & np.isfinite(mean)
+            if ok.any():
+                ax.fill_between(x[ok], np.maximum(mean - 2 * se, mean * 1e-3)[ok],
+                                (mean + 2 * se)[ok], color="tab:blue", alpha=0.18, lw=0)
+            missing = x[~np.isfinite(mean)]
+            if missing.size:
+                for xm in missing:
+                    ax.axvspan(xm - 0.5 * (x[1] - x[0] if x.size > 1 else 0.02),
+                               xm + 0.5 * (x[1] - x[0] if x.size > 1 else 0.02),
+                               color="0.75", lw=0)
+            if conv.size and np.isfinite(conv[0]):
+                ax.axvline(conv[0], color="tab:red", lw=1.4, label="critical value (analysis)")
+                if band.size and band[0] and np.isfinite(div[0]):
+                    ax.axvspan(div[0], conv[0], facecolor="none", edgecolor="tab:red",
+                               hatch="///", lw=0, label="undecided band")
+            ax.set_xlabel(names[0])
+            ax.set_ylabel("mean tr $P_T$")
+            ax.grid(True, which="major", color="0.9", lw=0.6)
+            legend(ax)
+        ax.set_title(est, fontsize=10)
+    fig.suptitle("%s: stability map" % name, fontsize=11)
+    path = os.path.join(outdir, "%s.png" % name)
+    finish(fig, meta, path, dpi, extra)
+    return [path]
+
+
 # ---------------------------------------------------------------------------------------------
 # Main
 # ---------------------------------------------------------------------------------------------
@@ -541,6 +679,8 @@ def plot_zhou_fig2(name, meta, samples, outdir, dpi):
 def plot_experiment(name, indir, outdir, dpi):
     meta = read_json(os.path.join(indir, name + ".json"))
     meta.setdefault("experiment", name)
+    if "sweep" in meta:
+        return plot_sweep(name, meta, indir, outdir, dpi)
     data = read_results_csv(os.path.join(indir, name + ".csv"))
     if name == "zhou_fig2":
         samples = read_samples_csv(os.path.join(indir, name + "_samples.csv"))

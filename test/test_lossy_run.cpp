@@ -134,3 +134,35 @@ TEST(LossyRun, ActuatorLinkAndItsErrors)
     EXPECT_NE(std::string(e.what()).find("1 given for the 2 sensors"), std::string::npos) << e.what();
   }
 }
+
+// restart(seed) (no allocation, for Monte Carlo runs) is exactly a LossyRun constructed with that seed:
+// the plant, every sensor link (Gilbert-Elliott and Bernoulli) and the actuator link.
+TEST(LossyRun, RestartEqualsAFreshRun)
+{
+  const ne::Model m = twoSensors(true);
+  ne::LossyRunOptions o;
+  ne::ChannelSettings ge;
+  ge.model = ne::LossModelKind::GILBERT_ELLIOTT;
+  ge.p = 0.3;
+  ge.r = 0.5;
+  o.sensor_links = {ge, bernoulli(0.4)};
+  o.actuator_link = bernoulli(0.3);
+  ne::LossyRun reused(m, 99, o);
+  for (int k = 0; k < 7; ++k)
+    reused.step();
+  for (std::uint64_t seed : {3u, 4u})
+  {
+    reused.restart(seed);
+    ne::LossyRun fresh(m, seed, o);
+    for (int k = 0; k < 30; ++k)
+    {
+      const ne::SimulatedSample& a = reused.step();
+      const ne::SimulatedSample& b = fresh.step();
+      ASSERT_EQ(a.x, b.x);
+      ASSERT_EQ(a.y, b.y);
+      ASSERT_EQ(a.nu, b.nu);
+      ASSERT_EQ(reused.received().gamma, fresh.received().gamma);
+      ASSERT_TRUE(reused.received().y.array().isNaN().matrix() == fresh.received().y.array().isNaN().matrix());
+    }
+  }
+}

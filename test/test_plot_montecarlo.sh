@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Checks scripts/plot_montecarlo.py on small synthetic montecarlo outputs (zhou_fig1, zhou_fig2,
-# lin_fig4) and on bad inputs.
+# lin_fig4, a two-axis and a one-axis sweep) and on bad inputs.
 #   usage: test_plot_montecarlo.sh REPO_ROOT
 # Needs Debian's python3 with python3-matplotlib (run with /usr/bin/python3: a pyenv python lacks
 # Debian's modules). Prints "N passed, M failed" and exits non-zero when any check failed.
@@ -83,9 +83,44 @@ for s, f in (("lower_bound", 1.0), ("OE", 1.3), ("AOE", 1.4), ("upper_bound", 2.
 open(d + "lin_fig4.csv", "w").write(header + "\n".join(rows) + "\n")
 meta("lin_fig4", [dict(name="main", title="bounds", series=[])], log_y=False, steps=30,
      y_label="tr E[P_k]")
+# sweep: a 6 x 5 stability map of two estimators, one cell without a mean (floored runs), the
+# critical curve with an undecided band on part of it; sweep_line: one axis, a critical value
+sweep_header = ("point,i1,i2,x1,x2,estimator,n,diverged,floored,trP_mean,trP_sd,err_mean,err_sd,"
+                "trP_avg_mean,trP_avg_sd,err_avg_mean,err_avg_sd,verdict\n")
+def axis(name, lo, hi, n):
+    return dict(name=name, sensor=name.split(".")[0], param=name.split(".")[1], arg="", lo=lo,
+                hi=hi, count=n, values=[lo + (hi - lo) * i / (n - 1) for i in range(n)])
+a1, a2 = axis("gnss.arrival_rate", 0.1, 0.9, 6), axis("camera.arrival_rate", 0.1, 0.9, 5)
+rows, verdicts = [], []
+for i, l1 in enumerate(a1["values"]):
+    for j, l2 in enumerate(a2["values"]):
+        g = 2.25 * (1 - l1) * (1 - l2)
+        verdicts.append("stable" if g < 1 else "unstable")
+        for est in ("kfio", "kf"):
+            m = 1.0 / max(1 - g, 0.01)
+            stats = ",".join(["%.6g" % m] * 8) if (i, j) != (0, 0) else ",,,,,,,"
+            rows.append("%d,%d,%d,%g,%g,%s,100,0,%d,%s,%s" % (i * 5 + j, i, j, l1, l2, est,
+                        100 if (i, j) == (0, 0) else 0, stats, verdicts[-1]))
+curve = [dict(at=l1, diverges_at=max(0, 1 - 1 / (2.25 * (1 - l1))) - (0.05 if k < 2 else 1e-7),
+              converges_at=max(0, 1 - 1 / (2.25 * (1 - l1))), undecided_band=k < 2, half_line=True,
+              note="") for k, l1 in enumerate(a1["values"])]
+open(d + "sweep.csv", "w").write(sweep_header + "\n".join(rows) + "\n")
+meta("sweep", [], x_label=a1["name"], y_label=a2["name"], log_y=False,
+     sweep=dict(axes=[a1, a2], estimators=["kfio", "kf"], points=30, incomplete_cells=2,
+                verdicts=verdicts, critical=dict(axis=a2["name"], along=a1["name"], curve=curve)))
+rows = []
+for i, l in enumerate(a2["values"]):
+    m = 1.0 / max(1 - 2.25 * (1 - l) * 0.5, 0.01)
+    rows.append("%d,%d,0,%g,,kfio,100,0,0,%s,unstable" % (i, i, l, ",".join(["%.6g" % m] * 8)))
+open(d + "sweep_line.csv", "w").write(sweep_header + "\n".join(rows) + "\n")
+meta("sweep_line", [], x_label=a2["name"], y_label="tr P_T",
+     sweep=dict(axes=[a2], estimators=["kfio"], points=5, incomplete_cells=0, verdicts=[],
+                critical=dict(axis=a2["name"], along=None,
+                              curve=[dict(at=None, diverges_at=0.111111, converges_at=0.111112,
+                                          undecided_band=False, half_line=True, note="")])))
 EOF
 
-EXPECTED="lin_fig4.png zhou_fig1_delta1_mu0.8.png zhou_fig1_delta1_mu0.95.png zhou_fig1_delta10_mu0.8.png zhou_fig2.png"
+EXPECTED="lin_fig4.png sweep.png sweep_line.png zhou_fig1_delta1_mu0.8.png zhou_fig1_delta1_mu0.95.png zhou_fig1_delta10_mu0.8.png zhou_fig2.png"
 
 # --- every experiment into OUT ---------------------------------------------------------------
 OUT=$WORK/out
@@ -98,8 +133,11 @@ for f in $EXPECTED; do
   check "$f is under 100 kB" smaller_than "$OUT/$f" 100000
   check "$f is listed on stdout" grep -qxF "$OUT/$f" "$WORK/out.txt"
 done
-check "stdout lists exactly 5 files" [ "$(wc -l <"$WORK/out.txt" | tr -d ' ')" = 5 ]
-check "only the listed files are written" [ "$(ls "$OUT" | wc -l | tr -d ' ')" = 5 ]
+check "stdout lists exactly 7 files" [ "$(wc -l <"$WORK/out.txt" | tr -d ' ')" = 7 ]
+check "only the listed files are written" [ "$(ls "$OUT" | wc -l | tr -d ' ')" = 7 ]
+check "the two-estimator map is wider than the one-estimator line plot" \
+  "$PY" -c 'import sys, struct; w = lambda f: struct.unpack(">I", open(f, "rb").read()[16:20])[0]; sys.exit(not w(sys.argv[1]) > w(sys.argv[2]))' \
+  "$OUT/sweep.png" "$OUT/sweep_line.png"
 check "no zhou_fig2_series.png for an empty table" [ ! -e "$OUT/zhou_fig2_series.png" ]
 
 # --- --experiment, default OUTDIR = DIR, --dpi -----------------------------------------------
@@ -135,6 +173,20 @@ run_rc rc "$PY" "$SCRIPT" "$BADJ"
 check "unparsable JSON gives exit 2" [ "$rc" = 2 ]
 check "unparsable JSON names the file" grep -q "^error: $BADJ/lin_fig4.json: " "$WORK/err.txt"
 check "unparsable JSON: no traceback" no_traceback
+
+BADS=$WORK/badsweep
+mkdir -p "$BADS"
+cp "$IN"/sweep.csv "$BADS"
+printf '{"experiment": "sweep", "sweep": {"axes": []}}' >"$BADS/sweep.json"
+run_rc rc "$PY" "$SCRIPT" "$BADS"
+check "a sweep without axes gives exit 2" [ "$rc" = 2 ]
+check "a sweep without axes names the file and the key" \
+  grep -q "^error: $BADS/sweep.json: \"sweep\" must hold \"axes\"" "$WORK/err.txt"
+check "a sweep without axes: no traceback" no_traceback
+cp "$IN"/sweep.json "$BADS"
+sed -i '1s/.*/point,i1,i2,x1,x2,estimator,n,trP_mean/' "$BADS/sweep.csv"
+run_rc rc "$PY" "$SCRIPT" "$BADS"
+check "a sweep CSV with another header gives exit 2 naming it" grep -q "^error: $BADS/sweep.csv: unexpected header" "$WORK/err.txt"
 
 NOS=$WORK/nosamples
 mkdir -p "$NOS"

@@ -62,18 +62,24 @@ shards() {
 # zhou_fig1: two Monte Carlo calls over one data set, 300 runs = 5 blocks (the last of 44 runs), so
 # 2 of 7 shards are empty. zhou_fig2: four calls with per-run samples, 130 runs = 3 blocks.
 # custom: a model and per-sensor links given as relative paths (the merge runs where the shards did).
+# sweep: a 3 x 4 stability map (one Monte Carlo call of 150 runs = 3 blocks, the values of all 12 points) with
+# a gilbert_elliott link's recovery rate on one axis.
 mkdir -p "$WORK/in"
 cp "$ROOT/config/models/tracking_2d.yaml" "$ROOT/config/channels/wifi_bursty.yaml" \
   "$ROOT/config/channels/bernoulli_0.2.yaml" "$ROOT/config/estimators/kf.yaml" "$ROOT/config/estimators/kfio.yaml" \
-  "$WORK/in/"
+  "$ROOT/config/models/unstable_two_links.yaml" "$ROOT/config/channels/gilbert_elliott_bursty.yaml" "$WORK/in/"
 CUSTOM=(--experiment custom --model in/tracking_2d.yaml --channel gnss=in/wifi_bursty.yaml
   --channel camera=in/bernoulli_0.2.yaml --settings in/kf.yaml,in/kfio.yaml --runs 200 --steps 60)
+SWEEP=(--experiment sweep --model in/unstable_two_links.yaml --channel camera=in/gilbert_elliott_bursty.yaml
+  --settings in/kfio.yaml,in/kf.yaml --axis gnss.arrival_rate=0.2:0.8:3 --axis camera.recovery_rate=0.1:0.7:4
+  --runs 150 --steps 30)
 cd "$WORK"
-for EXP in zhou_fig1 zhou_fig2 custom; do
+for EXP in zhou_fig1 zhou_fig2 custom sweep; do
   case $EXP in
     zhou_fig1) ARGS=(--experiment zhou_fig1 --runs 300 --steps 50) ;;
     zhou_fig2) ARGS=(--experiment zhou_fig2 --runs 130 --steps 50 --seed 7) ;;
     custom) ARGS=("${CUSTOM[@]}") ;;
+    sweep) ARGS=("${SWEEP[@]}") ;;
   esac
   D=$WORK/$EXP
   run_rc rc "$MC" "${ARGS[@]}" --out "$D/full"
@@ -93,6 +99,14 @@ for EXP in zhou_fig1 zhou_fig2 custom; do
     fi
   done
 done
+check "the unsharded sweep is not trivial (3 x 4 points x 2 estimators, every cell with a mean)" \
+  [ "$(grep -cE '^[0-9]+,[0-9]+,[0-9]+,[0-9.]+,[0-9.]+,kfi?o?,150,0,0,[0-9]' "$WORK/sweep/full/sweep.csv")" = 24 ]
+"$MC" "${SWEEP[@]/0.1:0.7:4/0.1:0.7:3}" --shard 2/3 --out "$WORK/sweep_axes" 2>/dev/null
+cp "$WORK/sweep/n3/sweep.shard-1-of-3.json" "$WORK/sweep/n3/sweep.shard-3-of-3.json" "$WORK/sweep_axes/"
+run_rc rc "$MC" merge "$WORK/sweep_axes" --out "$WORK/out_axes"
+refused "a sweep shard of other axes is refused, naming the axes" 2 \
+  "foreign shard: axes is [gnss.arrival_rate=0.2:0.8:3, camera.recovery_rate=0.1:0.7:3]"
+check "the refused sweep merge writes nothing" no_files "$WORK/out_axes"
 check "the unsharded outputs are not trivial (zhou_fig2: 4 cases x 130 samples)" \
   [ "$(wc -l <"$WORK/zhou_fig2/full/zhou_fig2_samples.csv")" = 521 ]
 check "an empty shard (zhou_fig1 shard 7 of 7: 5 blocks) holds no block" \

@@ -232,5 +232,78 @@ check "montecarlo --actuator-channel on a model without control: exit 2 naming i
 run_rc rc "$BIN/montecarlo" --experiment zhou_fig1 --channel "$BURSTY" --out "$L/mc4"
 check "--channel is only for the custom experiment: exit 2" rc_and_grep "$rc" 2 "only for --experiment custom" "$WORK/err.txt"
 
+# --- stability maps: montecarlo --experiment sweep --------------------------------------------
+# The README's command (Stability maps), as written there but for the output directory: a 20 x 20
+# map of unstable_two_links. Every cell has a mean (50 steps stay below the rounding floor), and the
+# analysis' verdict at each point is the closed form: stable iff 2.25 (1 - l_gnss)(1 - l_camera) < 1.
+M2=$WORK/map
+UNSTABLE2=$ROOT/config/models/unstable_two_links.yaml
+(cd "$ROOT" && "$BIN/montecarlo" --experiment sweep --model config/models/unstable_two_links.yaml --settings config/estimators/kfio.yaml \
+    --axis gnss.arrival_rate=0.025:0.975:20 --axis camera.arrival_rate=0.025:0.975:20 \
+    --runs 1000 --steps 50 --threads 2 --out "$M2/readme") >"$WORK/out.txt" 2>"$WORK/err.txt" && rc=0 || rc=$?
+check "README stability map: exit 0" [ "$rc" = 0 ]
+check "README stability map: 400 points x 1 estimator + header" [ "$(lines "$M2/readme/sweep.csv")" = 401 ]
+check "README stability map: every cell has a mean, verdicts as the closed form" python3 - "$M2/readme/sweep.csv" <<'PY'
+import csv, sys
+bad = 0
+for row in csv.DictReader(open(sys.argv[1])):
+    g = 2.25 * (1 - float(row["x1"])) * (1 - float(row["x2"]))
+    if row["trP_mean"] == "" or row["n"] != "1000" or row["diverged"] != "0" or row["floored"] != "0":
+        bad += 1
+    if abs(g - 1) > 1e-9 and row["verdict"] != ("stable" if g < 1 else "unstable"):
+        print("verdict", row); bad += 1
+sys.exit(bad != 0)
+PY
+check "README stability map: the JSON has the critical curve (20 entries)" \
+  [ "$(grep -c '{"at": ' "$M2/readme/sweep.json")" = 20 ]
+check "README stability map: no cell without a mean" grep -q '"incomplete_cells": 0,' "$M2/readme/sweep.json"
+
+# a sweep does not stop on runs it cannot count: 100 steps of the unstable plant cross the rounding
+# floor in every run (exit 0, floored = n, no mean), where custom exits 3
+run_rc rc "$BIN/montecarlo" --experiment sweep --model "$UNSTABLE2" --settings "$EST/kfio.yaml,$EST/kf.yaml" \
+  --axis camera.arrival_rate=0.5:1:2 --runs 70 --steps 100 --out "$M2/floor"
+check "sweep past the rounding floor: exit 0" [ "$rc" = 0 ]
+check "sweep past the rounding floor: every run floored, no mean" \
+  [ "$(grep -c ',70,0,70,,,,,,,,,' "$M2/floor/sweep.csv")" = 4 ]
+check "sweep past the rounding floor: the JSON counts 4 incomplete cells" \
+  grep -q '"incomplete_cells": 4,' "$M2/floor/sweep.json"
+
+# bad axes: exit 2, the argument named, nothing written
+sweep_refused() {  # NAME PATTERN AXIS/OPTION ARGS...
+  local name=$1 pattern=$2
+  shift 2
+  run_rc rc "$BIN/montecarlo" --experiment sweep --model "$UNSTABLE2" --settings "$EST/kfio.yaml" \
+    --runs 10 --steps 5 --out "$M2/bad" "$@"
+  check "sweep: $name: exit 2 naming it" rc_and_grep "$rc" 2 "$pattern" "$WORK/err.txt"
+  check "sweep: $name: no output" no_files "$M2/bad"
+}
+sweep_refused "unknown sensor" "error: --axis 'gps.arrival_rate=0:1:3': no sensor 'gps' in model 'unstable_two_links' \(sensors: gnss, camera\)" \
+  --axis gps.arrival_rate=0:1:3
+sweep_refused "unknown parameter" "error: --axis 'gnss.loss=0:1:3': unknown parameter 'loss' \(valid: arrival_rate, recovery_rate\)" \
+  --axis gnss.loss=0:1:3
+sweep_refused "schedule period" "error: --axis 'schedule.period=1:4:4': the schedule is not swept" --axis schedule.period=1:4:4
+sweep_refused "N < 1" "error: --axis 'gnss.arrival_rate=0:1:0': N '0' is not an integer in \[1, 10000\]" \
+  --axis gnss.arrival_rate=0:1:0
+sweep_refused "LO > HI" "error: --axis 'gnss.arrival_rate=0.8:0.2:3': LO 0.8 is above HI 0.2" --axis gnss.arrival_rate=0.8:0.2:3
+sweep_refused "a rate above 1" "error: --axis 'gnss.arrival_rate=0:1.2:3': arrival_rate must lie in \[0, 1\]" \
+  --axis gnss.arrival_rate=0:1.2:3
+sweep_refused "bad form" "error: --axis 'gnss.arrival_rate=0:1': expected SENSOR.PARAM=LO:HI:N" --axis gnss.arrival_rate=0:1
+sweep_refused "recovery_rate on an i.i.d. link" \
+  "error: --axis 'camera.recovery_rate=0:1:3': recovery_rate needs a gilbert_elliott link on sensor 'camera'" \
+  --axis camera.recovery_rate=0:1:3 --channel camera="$BERNOULLI"
+sweep_refused "one sensor twice" "sensor 'gnss' is already swept" --axis gnss.arrival_rate=0:1:3 --axis gnss.arrival_rate=0:1:2
+sweep_refused "three axes" "option '--axis': at most two axes, found 3" --axis gnss.arrival_rate=0:1:3 \
+  --axis camera.arrival_rate=0:1:3 --axis gnss.arrival_rate=0:1:2
+sweep_refused "no axis" "experiment sweep needs --axis"
+sweep_refused "more than 10000 grid points" "101 x 100 = 10100 grid points, at most 10000" \
+  --axis gnss.arrival_rate=0:1:101 --axis camera.arrival_rate=0:1:100
+run_rc rc "$BIN/montecarlo" --experiment custom --model "$UNSTABLE2" --settings "$EST/kfio.yaml" --runs 10 --steps 5 \
+  --axis gnss.arrival_rate=0:1:3 --out "$M2/bad"
+check "--axis is only for sweep: exit 2" rc_and_grep "$rc" 2 "option '--axis' is only for --experiment sweep" "$WORK/err.txt"
+run_rc rc "$BIN/montecarlo" --experiment sweep --model "$UNSTABLE2" --settings "$EST/kfio.yaml" --runs 10 --steps 5 \
+  --channel camera="$BURSTY" --axis camera.recovery_rate=0:1:3 --out "$M2/ge"
+check "sweep of a gilbert_elliott recovery rate: exit 0, 3 points" \
+  [ "$rc" = 0 -a "$(lines "$M2/ge/sweep.csv" 2>/dev/null)" = 4 ]
+
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

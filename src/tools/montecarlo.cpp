@@ -10,6 +10,7 @@
 #include "cli.hpp"
 #include "networked_estimation/experiments/montecarlo.hpp"
 #include "networked_estimation/experiments/montecarlo_shards.hpp"
+#include "networked_estimation/experiments/sweep.hpp"
 
 using namespace networked_estimation;
 
@@ -76,9 +77,9 @@ int mergeMain(int argc, char** argv)
       "DIR/NAME.csv and DIR/NAME.json (and zhou_fig2_samples.csv), exactly as the unsharded run writes them\n"
       "(the JSON's threads and wall_seconds aside: the shards' largest thread count and their summed wall time).\n"
       "Every shard file in the directories (of --experiment NAME only, when given) is read; they must be of\n"
-      "one experiment with the same --runs, --steps, --seed, N and custom arguments, every K of 1..N exactly\n"
-      "once, and a custom experiment's input files (read again at their recorded paths, relative ones from\n"
-      "the current directory) unchanged.\n"
+      "one experiment with the same --runs, --steps, --seed, N and custom or sweep arguments (--axis too),\n"
+      "every K of 1..N exactly once, and a custom or sweep experiment's input files (read again at their\n"
+      "recorded paths, relative ones from the current directory) unchanged.\n"
       "Exit codes: 0 ok; 2 bad arguments, or a missing, duplicate, foreign or malformed shard (the message\n"
       "names the file and the field); 3 never.",
       {
@@ -149,8 +150,16 @@ int main(int argc, char** argv)
           "experiment, the blocks of 64 runs b with b % N = K-1) and writes DIR/NAME.shard-K-of-N.json instead;\n"
           "`montecarlo merge DIR... [--out DIR]` then writes the same DIR/NAME.csv and .json as one unsharded\n"
           "run (see montecarlo merge --help).\n"
+          "Stability maps: --experiment sweep takes custom's --model, --settings and --channel options and one or\n"
+          "two --axis SENSOR.PARAM=LO:HI:N (PARAM arrival_rate: that sensor's link becomes i.i.d. with this arrival\n"
+          "rate; recovery_rate: its gilbert_elliott --channel link gets r = value), runs --runs runs of --steps\n"
+          "steps at each of the N1 x N2 grid points and writes DIR/sweep.csv, one row per (point, estimator): mean\n"
+          "and sd of tr P and of |x - xhat|^2 at the last step and averaged over the last half, the runs where the\n"
+          "estimator diverged or the plant crossed the rounding floor (then no mean: a sweep never stops on\n"
+          "them), and the point's analytic verdict; DIR/sweep.json adds the critical curve of the last axis (for\n"
+          "each value of the first). plot_montecarlo.py draws it as a heat map. Schedules are not swept.\n"
           "Exit codes: 0 ok, 2 bad arguments or files, 3 an estimator diverged, or a run's plant state\n"
-          "crossed the rounding floor (the message names the run and the step: use fewer --steps).",
+          "crossed the rounding floor (the message names the run and the step: use fewer --steps; not sweep).",
       {
           {"experiment", "NAME", "experiment to run", true, false},
           {"runs", "N", "Monte Carlo runs (default: per experiment)", false, false},
@@ -158,14 +167,18 @@ int main(int argc, char** argv)
           {"seed", "S", "seed (default 1)", false, false},
           {"threads", "J", "worker threads (default: hardware concurrency)", false, false},
           {"out", "DIR", "output directory (created when missing)", true, false},
-          {"model", "FILE", "custom: model file (YAML)", false, false},
+          {"model", "FILE", "custom, sweep: model file (YAML)", false, false},
           {"channel", "[NAME=]FILE",
-           "custom: sensor link channel settings (YAML) for every sensor, or NAME=FILE for sensor NAME; a sensor "
+           "custom, sweep: sensor link channel settings (YAML) for every sensor, or NAME=FILE for sensor NAME; a sensor "
            "with neither is lossless",
            false, true},
-          {"actuator-channel", "FILE", "custom: controller-to-actuator channel settings (default: lossless)", false,
-           false},
-          {"settings", "S1,S2,...", "custom: estimator settings files, comma-separated", false, false},
+          {"actuator-channel", "FILE", "custom, sweep: controller-to-actuator channel settings (default: lossless)",
+           false, false},
+          {"settings", "S1,S2,...", "custom, sweep: estimator settings files, comma-separated", false, false},
+          {"axis", "SENSOR.PARAM=LO:HI:N",
+           "sweep: a grid axis, N values from LO to HI (PARAM: arrival_rate or recovery_rate, values in [0, 1]); "
+           "once or twice",
+           false, true},
           {"shard", "K/N",
            "compute shard K of N (1 <= K <= N) only and write DIR/NAME.shard-K-of-N.json (merge with montecarlo "
            "merge)",
@@ -186,13 +199,33 @@ int main(int argc, char** argv)
     cfg.steps = cl.getLong("steps", 0, 1, 100000000);
     cfg.seed = cl.getUint64("seed", 1);
     cfg.threads = static_cast<int>(cl.getLong("threads", 0, 1, 1024));
-    const bool custom = cfg.experiment == "custom";
+    const bool sweep = cfg.experiment == "sweep";
+    const bool custom = cfg.experiment == "custom" || sweep;
     for (const char* key : {"model", "settings"})
       if (custom && !cl.has(key))
-        throw cli::UsageError(std::string("experiment custom needs --") + key);
+        throw cli::UsageError("experiment " + cfg.experiment + " needs --" + key);
     for (const char* key : {"model", "channel", "actuator-channel", "settings"})
       if (!custom && cl.has(key))
-        throw cli::UsageError(std::string("option '--") + key + "' is only for --experiment custom");
+        throw cli::UsageError(std::string("option '--") + key + "' is only for --experiment custom or sweep");
+    if (sweep && !cl.has("axis"))
+      throw cli::UsageError("experiment sweep needs --axis SENSOR.PARAM=LO:HI:N (once or twice)");
+    if (!sweep && cl.has("axis"))
+      throw cli::UsageError("option '--axis' is only for --experiment sweep");
+    if (sweep)
+    {
+      cfg.axis_args = cl.getAll("axis");
+      if (cfg.axis_args.size() > 2)
+        throw cli::UsageError("option '--axis': at most two axes, found " + std::to_string(cfg.axis_args.size()));
+      for (const std::string& a : cfg.axis_args)
+        try
+        {
+          parseSweepAxis(a);  // the form and the range now; the sensor once the model is read
+        }
+        catch (const ConfigError& e)
+        {
+          throw cli::UsageError(e.what());
+        }
+    }
     if (custom)
     {
       cfg.model_path = cl.get("model");
@@ -222,9 +255,10 @@ int main(int argc, char** argv)
     }
     const ExperimentResult result = runExperiment(cfg, &progress);
     writeExperiment(result, cl.get("out"));
-    std::fprintf(stderr, "montecarlo: %s: %ld runs x %ld steps on %d threads in %.2f s -> %s/%s.csv\n",
-                 result.experiment.c_str(), result.runs, result.steps, result.threads, result.wall_seconds,
-                 cl.get("out").c_str(), result.experiment.c_str());
+    std::fprintf(stderr, "montecarlo: %s: %ld runs x %ld steps%s on %d threads in %.2f s -> %s/%s.csv\n",
+                 result.experiment.c_str(), result.runs, result.steps,
+                 result.sweep ? (" x " + std::to_string(result.sweep->points) + " grid points").c_str() : "",
+                 result.threads, result.wall_seconds, cl.get("out").c_str(), result.experiment.c_str());
     return 0;
   });
 }

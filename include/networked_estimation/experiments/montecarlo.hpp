@@ -8,12 +8,15 @@
 //   DIR/<experiment>.csv    case,series,x,mean,sd,n       (numbers with %.10g)
 //   DIR/<experiment>.json   metadata and per-series summaries (see writeExperimentJson)
 //   DIR/zhou_fig2_samples.csv  case,run,P11,P12,P21,P22   (zhou_fig2 only)
+//   sweep: DIR/sweep.csv holds one row per (grid point, estimator) instead (sweep.hpp), and
+//   DIR/sweep.json a "sweep" member with the grid, the verdicts and the critical curve
 // A sharded run writes DIR/<experiment>.shard-K-of-N.json instead (montecarlo_shards.hpp).
 #pragma once
 
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -182,6 +185,8 @@ struct SampleSet
   std::vector<double> values;  ///< runs x columns, row-major
 };
 
+struct SweepResult;  // sweep.hpp
+
 struct ExperimentResult
 {
   std::string experiment;
@@ -195,6 +200,8 @@ struct ExperimentResult
   std::vector<CaseResult> cases;
   std::vector<std::string> sample_columns;  ///< empty: no samples file
   std::vector<SampleSet> samples;
+  /// sweep only: the grid (then `cases` is empty and the CSV is sweepCsv's).
+  std::shared_ptr<const SweepResult> sweep;
 };
 
 /// Fills time_average and final_value of every series from its window.
@@ -223,12 +230,14 @@ struct MonteCarloConfig
   long steps = 0;  ///< 0 = the experiment's default
   std::uint64_t seed = 1;
   int threads = 0;  ///< 0 = hardware concurrency
-  // custom only
+  // custom and sweep only
   std::string model_path;
   /// The --channel options: FILE (every sensor) and NAME=FILE (that sensor), see sensor_links.hpp.
   std::vector<std::string> channel_args;
   std::string actuator_channel_path;  ///< empty: every command arrives
   std::vector<std::string> settings_paths;
+  /// sweep only: the --axis options, SENSOR.PARAM=LO:HI:N (sweep.hpp).
+  std::vector<std::string> axis_args;
 };
 
 /// Names of the experiments, in a fixed order.

@@ -42,10 +42,41 @@ struct LossyRunOptions
   bool noise_on_loss = true;
 };
 
+/// The sensor links of a run: one loss stream per sensor (or none: lossless), seeded from the run's
+/// seed S as LossyRun does (sensor s: deriveSeed(S ^ settings.seed, 100 + s)), and the rule that
+/// turns a true sample into what reaches the estimator. LossyRun holds one; a sweep holds one per
+/// grid point to replay one simulated plant behind every point's links.
+class SensorLinkSet
+{
+public:
+  /// `links`: one entry per sensor, or empty (every sensor lossless). Throws ConfigError when the
+  /// count differs from the model's sensors.
+  SensorLinkSet(const Model& model, const std::vector<std::optional<ChannelSettings>>& links, std::uint64_t seed,
+                bool noise_on_loss);
+
+  /// Restarts every loss stream for the run seed `seed` (no allocation).
+  void reseed(std::uint64_t seed);
+
+  /// Draws every link's loss for one step (whether or not its sensor transmits: time-driven links)
+  /// and writes what arrived into `received`: y with the cells of a lost or unscheduled sensor NaN,
+  /// gamma = 1 when some sensor arrived (else y = v, or NaN, on the scheduled sensors), u.
+  void receive(const SimulatedSample& sample, const std::vector<bool>& scheduled, Sample& received);
+
+private:
+  const Model* model_;
+  bool noise_on_loss_;
+  std::vector<std::unique_ptr<LossModel>> links_;  ///< null = lossless
+  std::vector<std::uint64_t> seeds_;               ///< per sensor: its settings' seed
+};
+
 class LossyRun
 {
 public:
   LossyRun(const Model& model, std::uint64_t seed, const LossyRunOptions& options);
+
+  /// Starts over at k = 0 exactly as LossyRun(model, seed, options) with the constructor's options
+  /// would, reseeding every stream instead of allocating them anew (Monte Carlo runs).
+  void restart(std::uint64_t seed);
 
   /// Advances to step k = k() + 1. Returns the true sample; received() is what reached the
   /// estimator: a lost sensor's cells are NaN, gamma = 1 when at least one sensor arrived.
@@ -59,9 +90,8 @@ public:
   long k() const { return sim_.k(); }
 
 private:
-  const Model& model_;
-  bool noise_on_loss_;
-  std::vector<std::unique_ptr<LossModel>> links_;  ///< null = lossless
+  SensorLinkSet links_;
+  std::uint64_t actuator_seed_ = 0;  ///< the actuator link settings' seed
   PlantSimulator sim_;
   ScheduleSampler schedule_;
   Sample received_;

@@ -17,6 +17,9 @@ public:
   /// with `seed`; a periodic one (or none) uses no randomness.
   ScheduleSampler(const Schedule& schedule, std::size_t sensors, std::uint64_t seed);
 
+  /// Starts over before the first step, as if constructed with `seed` (no allocation).
+  void restart(std::uint64_t seed);
+
   /// Advances to the next step and returns, per sensor, whether it transmits there.
   const std::vector<bool>& next();
   /// The mask of the last next() (every sensor before the first).

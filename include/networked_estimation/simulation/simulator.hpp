@@ -86,6 +86,10 @@ public:
   /// constructor are not used. Throws InputError when `applied` has the wrong size or is not finite.
   const SimulatedSample& stepApplied(const Eigen::VectorXd* applied);
 
+  /// Starts over at k = 0 exactly as a PlantSimulator(model, seed, control, actuator) would, the
+  /// actuator link (if any) reseeded with `actuator_seed`, without allocating (Monte Carlo runs).
+  void restart(std::uint64_t seed, std::uint64_t actuator_seed = 0);
+
   const Eigen::VectorXd& state() const { return x_; }
   long k() const { return k_; }
 
@@ -97,6 +101,7 @@ public:
 
 private:
   const SimulatedSample& advance(bool nu);
+  void start();  ///< x_0 and eps_0 from the freshly seeded generators
   [[noreturn]] void throwBeyondFloor() const;
 
   const Model& model_;
@@ -104,6 +109,8 @@ private:
   std::unique_ptr<LossModel> actuator_;
   Rng rng_x0_, rng_w_, rng_v_, rng_eps_;
   Eigen::MatrixXd sqrtQ_, sqrtR_;  ///< lower Cholesky factors
+  Eigen::MatrixXd sqrtP0_;         ///< psdSqrt(P0): x_0 = x0 + sqrtP0 z
+  Eigen::VectorXd z0_;
   Eigen::VectorXd x_;
   long k_ = 0;
   SimulatedSample sample_;

@@ -263,33 +263,42 @@ ExperimentResult zhouFig2(const RunConfig& rc)
   return res;
 }
 
+CustomSetup loadCustomSetup(const MonteCarloConfig& cfg, const std::string& experiment)
+{
+  if (cfg.model_path.empty() || cfg.settings_paths.empty())
+    throw ConfigError("experiment " + experiment + ": needs a model and at least one settings file");
+  CustomSetup su;
+  su.model = loadModel(cfg.model_path);
+  su.links = resolveSensorLinks(su.model, cfg.channel_args);
+  su.options.sensor_links = su.links.link;
+  if (su.model.hasControl())
+    su.options.control = ControlSequence::parse("paper", "control");  // simulate's default sequence
+  if (!cfg.actuator_channel_path.empty())
+  {
+    if (!su.model.hasControl())
+      throw ConfigError("--actuator-channel: model '" + su.model.name + "' has no control input");
+    su.options.actuator_link = loadChannelSettings(cfg.actuator_channel_path);
+  }
+  for (const std::string& p : cfg.settings_paths)
+  {
+    su.settings.push_back(loadEstimatorSettings(p));
+    makeEstimator(su.model, su.settings.back());  // validates the combination before any run
+    su.names.push_back(stem(p));
+  }
+  return su;
+}
+
 ExperimentResult customExperiment(const RunConfig& rc)
 {
   const MonteCarloConfig& cfg = *rc.config;
-  if (cfg.model_path.empty() || cfg.settings_paths.empty())
-    throw ConfigError("experiment custom: needs a model and at least one settings file");
-  const Model model = loadModel(cfg.model_path);
-  const SensorLinks links = resolveSensorLinks(model, cfg.channel_args);
-  LossyRunOptions options;
-  options.sensor_links = links.link;
-  if (model.hasControl())
-    options.control = ControlSequence::parse("paper", "control");  // simulate's default sequence
-  if (!cfg.actuator_channel_path.empty())
-  {
-    if (!model.hasControl())
-      throw ConfigError("--actuator-channel: model '" + model.name + "' has no control input");
-    options.actuator_link = loadChannelSettings(cfg.actuator_channel_path);
-  }
+  const CustomSetup su = loadCustomSetup(cfg, "custom");
+  const Model& model = su.model;
+  const SensorLinks& links = su.links;
+  const LossyRunOptions& options = su.options;
+  const std::vector<std::string>& names = su.names;
   std::vector<ErrorFilter> filters;
-  std::vector<std::string> names;
-  for (const std::string& p : cfg.settings_paths)
-  {
-    ErrorFilter f;
-    f.settings = loadEstimatorSettings(p);
-    makeEstimator(model, f.settings);  // validates the combination before any run
-    filters.push_back(f);
-    names.push_back(stem(p));
-  }
+  for (const EstimatorSettings& s : su.settings)
+    filters.push_back({s, false});
   if (rc.progress)
     rc.progress->setTotal(rc.runs);
   const long T = rc.steps;

@@ -12,6 +12,7 @@
 
 #include "experiments/montecarlo_experiments.hpp"
 #include "networked_estimation/common/error.hpp"
+#include "networked_estimation/experiments/sweep.hpp"
 #include "networked_estimation/io/json_writer.hpp"
 #include "networked_estimation/io/atomic_file.hpp"
 
@@ -353,6 +354,8 @@ std::string jsonStrings(const std::vector<std::string>& v, const std::string& in
 
 std::string experimentCsv(const ExperimentResult& result)
 {
+  if (result.sweep)
+    return sweepCsv(*result.sweep);
   std::ostringstream os;
   os << "case,series,x,mean,sd,n\n";
   for (const CaseResult& c : result.cases)
@@ -396,7 +399,9 @@ std::string experimentJson(const ExperimentResult& r)
     }
     os << "\n      ]\n    }";
   }
-  os << "\n  ],\n";
+  os << (r.cases.empty() ? "],\n" : "\n  ],\n");
+  if (r.sweep)
+    os << "  \"sweep\": " << sweepJson(*r.sweep, "  ") << ",\n";
   os << "  \"notes\": " << jsonStrings(r.notes, "  ") << "\n";
   os << "}\n";
   return os.str();
@@ -482,7 +487,8 @@ const std::vector<ExperimentEntry>& entries()
 {
   static const std::vector<ExperimentEntry> e = {
       {"zhou_fig1", 5000, 500, &mc::zhouFig1}, {"zhou_fig2", 5000, 500, &mc::zhouFig2},
-      {"custom", 1000, 200, &mc::customExperiment}, {"lin_fig2", 1000, 30, &mc::linFig2},
+      {"custom", 1000, 200, &mc::customExperiment}, {"sweep", 1000, 200, &mc::sweepExperiment},
+      {"lin_fig2", 1000, 30, &mc::linFig2},
       {"lin_fig3", 500, 30, &mc::linFig3},   {"lin_fig4", 1000, 30, &mc::linFig4},
       {"lin_fig5", 1000, 50, &mc::linFig5},  {"yang_fig2", 10000, 40, &mc::yangFig2},
   };

@@ -6,8 +6,11 @@
 #include <string>
 #include <vector>
 
+#include "networked_estimation/config/estimator_settings.hpp"
 #include "networked_estimation/config/model.hpp"
+#include "networked_estimation/config/sensor_links.hpp"
 #include "networked_estimation/experiments/montecarlo.hpp"
+#include "networked_estimation/simulation/lossy_run.hpp"
 
 namespace networked_estimation
 {
@@ -27,11 +30,26 @@ struct RunConfig
 ExperimentResult zhouFig1(const RunConfig& rc);
 ExperimentResult zhouFig2(const RunConfig& rc);
 ExperimentResult customExperiment(const RunConfig& rc);
+ExperimentResult sweepExperiment(const RunConfig& rc);
 ExperimentResult linFig2(const RunConfig& rc);
 ExperimentResult linFig3(const RunConfig& rc);
 ExperimentResult linFig4(const RunConfig& rc);
 ExperimentResult linFig5(const RunConfig& rc);
 ExperimentResult yangFig2(const RunConfig& rc);
+
+/// What the custom and sweep experiments load from --model, --channel, --actuator-channel and
+/// --settings: the model, each sensor's link, the run options (links, paper control sequence) and
+/// the estimators (validated against the model) with their names (the settings files' stems).
+struct CustomSetup
+{
+  Model model;
+  SensorLinks links;
+  LossyRunOptions options;  ///< options.sensor_links = links.link
+  std::vector<EstimatorSettings> settings;
+  std::vector<std::string> names;
+};
+/// Throws ConfigError naming the experiment, the option or the file.
+CustomSetup loadCustomSetup(const MonteCarloConfig& config, const std::string& experiment);
 
 /// Zhou's example (Section IV of the paper) with eps ~ U[-delta, delta].
 Model zhouExampleModel(double delta);

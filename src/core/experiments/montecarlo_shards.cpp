@@ -539,6 +539,7 @@ std::vector<std::pair<std::string, std::string>> identity(const ShardFile& s)
       {"channel", joinStrings(c.channel_args)},
       {"actuator_channel", "'" + c.actuator_channel_path + "'"},
       {"settings", joinStrings(c.settings_paths)},
+      {"axes", joinStrings(c.axis_args)},
       {"fingerprint (of the input files)", s.fingerprint},
   };
 }
@@ -569,7 +570,7 @@ bool parseShardSpec(const std::string& text, int& index, int& count)
 std::vector<ShardInput> hashInputs(const MonteCarloConfig& config)
 {
   std::vector<ShardInput> v;
-  if (config.experiment != "custom")
+  if (config.experiment != "custom" && config.experiment != "sweep")
     return v;
   auto add = [&v](const std::string& option, const std::string& path) {
     if (!path.empty())
@@ -648,6 +649,8 @@ std::string shardJson(const ShardFile& s)
   out += "  \"channel\": " + jsonStringList(c.channel_args) + ",\n";
   out += "  \"actuator_channel\": " + jsonString(c.actuator_channel_path) + ",\n";
   out += "  \"settings\": " + jsonStringList(c.settings_paths) + ",\n";
+  if (!c.axis_args.empty())
+    out += "  \"axes\": " + jsonStringList(c.axis_args) + ",\n";
   out += "  \"inputs\": [";
   for (std::size_t i = 0; i < s.inputs.size(); ++i)
     out += std::string(i ? "," : "") + "\n    {\"option\": " + jsonString(s.inputs[i].option) +
@@ -737,6 +740,8 @@ ShardFile parseShard(const std::string& text, const std::string& path)
       c.actuator_channel_path = in.string();
     else if (key == "settings")
       c.settings_paths = in.strings();
+    else if (key == "axes")
+      c.axis_args = in.strings();  // sweep only (absent otherwise)
     else if (key == "inputs")
       s.inputs = readInputs(in);
     else if (key == "fingerprint")

@@ -32,6 +32,14 @@ ScheduleSampler::ScheduleSampler(const Schedule& schedule, std::size_t sensors, 
 {
 }
 
+void ScheduleSampler::restart(std::uint64_t seed)
+{
+  rng_.reseed(seed);
+  mask_.assign(mask_.size(), true);
+  state_ = -1;
+  k_ = 0;
+}
+
 const std::vector<bool>& ScheduleSampler::next()
 {
   ++k_;

@@ -240,19 +240,10 @@ PlantSimulator::PlantSimulator(const Model& model, std::uint64_t seed, ControlSe
                              : "process noise sqrt(lambda_min+(B Q B'))";
   state_limit_ = kFloorFraction * noise_sd_ / std::numeric_limits<double>::epsilon();
 
-  // x_0 ~ N(x0, P0), P0 possibly singular.
-  Eigen::VectorXd z0(n);
-  for (int i = 0; i < n; ++i)
-    z0(i) = rng_x0_.normal();
-  x_ = model.x0 + psdSqrt(model.P0) * z0;
-
-  // eps_0: used in A and B of the first transition.
+  sqrtP0_ = psdSqrt(model.P0);
+  z0_.resize(n);
   eps_.resize(ne);
-  for (int j = 0; j < ne; ++j)
-  {
-    const double range = model.uncertainty[j].range;
-    eps_(j) = rng_eps_.uniform(-range, range);
-  }
+  start();
 
   if (ne > 0)
   {
@@ -267,6 +258,33 @@ PlantSimulator::PlantSimulator(const Model& model, std::uint64_t seed, ControlSe
   sample_.x.resize(n);
   sample_.y.resize(m);
   sample_.v.resize(m);
+}
+
+void PlantSimulator::start()
+{
+  // x_0 ~ N(x0, P0), P0 possibly singular.
+  for (Eigen::Index i = 0; i < z0_.size(); ++i)
+    z0_(i) = rng_x0_.normal();
+  x_ = model_.x0 + sqrtP0_ * z0_;
+
+  // eps_0: used in A and B of the first transition.
+  for (int j = 0; j < model_.ne(); ++j)
+  {
+    const double range = model_.uncertainty[j].range;
+    eps_(j) = rng_eps_.uniform(-range, range);
+  }
+}
+
+void PlantSimulator::restart(std::uint64_t seed, std::uint64_t actuator_seed)
+{
+  rng_x0_.reseed(deriveSeed(seed, 0));
+  rng_w_.reseed(deriveSeed(seed, 1));
+  rng_v_.reseed(deriveSeed(seed, 2));
+  rng_eps_.reseed(deriveSeed(seed, 3));
+  if (actuator_)
+    actuator_->reseed(actuator_seed);
+  k_ = 0;
+  start();
 }
 
 const SimulatedSample& PlantSimulator::step()

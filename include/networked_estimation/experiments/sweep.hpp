@@ -1,0 +1,116 @@
+// Stability maps: `montecarlo --experiment sweep` runs the custom experiment's model, links and
+// estimators at every point of a grid of one or two link parameters and writes, per grid point and
+// estimator, the mean and spread of tr(P) and of the squared error, the analytic verdict of the
+// point and the critical curve of the stability analysis (docs/formats.md, section 8,
+// "Stability maps"). ROS-free.
+//
+// An axis is SENSOR.PARAM=LO:HI:N, N values LO + (HI - LO) i / (N - 1), i = 0 .. N-1:
+//   SENSOR.arrival_rate   the sensor's link becomes i.i.d. (bernoulli) with P(arrived) = value
+//   SENSOR.recovery_rate  the sensor's gilbert_elliott link (from its --channel file) gets r = value
+//                         (its p, loss_bad, loss_good as in the file)
+#pragma once
+
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "networked_estimation/config/channel_settings.hpp"
+#include "networked_estimation/config/model.hpp"
+
+namespace networked_estimation
+{
+
+/// One axis of a sweep.
+struct SweepAxis
+{
+  std::string arg;     ///< the --axis argument as given
+  std::string sensor;  ///< sensor name
+  std::string param;   ///< "arrival_rate" or "recovery_rate"
+  int sensor_index = -1;  ///< into Model::sensors (resolveSweepAxes)
+  double lo = 0.0, hi = 0.0;
+  long count = 0;
+  std::vector<double> values;
+  std::string name() const { return sensor + "." + param; }
+};
+
+/// The parameters an axis can name.
+const std::vector<std::string>& sweepParameters();
+
+/// N values from lo to hi, both included (lo alone when n = 1).
+std::vector<double> sweepValues(double lo, double hi, long n);
+
+/// Parses "SENSOR.PARAM=LO:HI:N" (not yet against a model). Throws ConfigError naming the argument
+/// for a bad form, an unknown PARAM, N < 1 (or > 10000), LO > HI, N = 1 with LO != HI, or a value
+/// outside [0, 1].
+SweepAxis parseSweepAxis(const std::string& arg);
+
+/// Resolves the axes against the model and the sensors' links (one per sensor, none = lossless):
+/// the sensor must exist, recovery_rate needs that sensor's link to be gilbert_elliott, at most two
+/// axes, no sensor swept twice, at most 10000 grid points. Throws ConfigError naming the argument.
+void resolveSweepAxes(std::vector<SweepAxis>& axes, const Model& model,
+                      const std::vector<std::optional<ChannelSettings>>& links);
+
+/// The links at one grid point: `links` with each axis's sensor changed to its value.
+std::vector<std::optional<ChannelSettings>> sweepPointLinks(const std::vector<std::optional<ChannelSettings>>& links,
+                                                            const std::vector<SweepAxis>& axes,
+                                                            const std::vector<double>& values);
+
+/// The analytic side of a sweep (core stability analysis, docs/stability.md 2.1 and 4.3).
+struct SweepAnalysis
+{
+  /// Per grid point (axis 1 major: point = i1 * N2 + i2): "stable", "unstable", "undecided" or
+  /// "not applicable".
+  std::vector<std::string> verdicts;
+  /// The critical value of the last axis: for a two-axis sweep one per value of axis 1 (the other
+  /// links as at that value), for one axis a single one. Unstable at and below diverges_at, stable
+  /// at and above converges_at (NaN: none found in [0, 1]); undecided_band when rates in between
+  /// were neither. Only when the stable set along the axis is a half-line (`note` says otherwise).
+  struct Critical
+  {
+    double at = std::numeric_limits<double>::quiet_NaN();  ///< axis 1 value (NaN for one axis)
+    double diverges_at = std::numeric_limits<double>::quiet_NaN();
+    double converges_at = std::numeric_limits<double>::quiet_NaN();
+    bool undecided_band = false;
+    bool half_line = true;
+    std::string note;  ///< how it was found (sensorMargins), or why there is none
+  };
+  std::vector<Critical> critical;
+};
+
+/// Verdicts of every grid point and the critical curve of the last axis.
+SweepAnalysis analyseSweep(const Model& model, const std::vector<std::optional<ChannelSettings>>& links,
+                           const std::vector<SweepAxis>& axes);
+
+/// What a sweep computes per (grid point, estimator): over the n runs, the mean and sample sd of
+/// tr(P_T) and |x_T - xhat_T|^2 at the final step T and of their averages over the last half of the
+/// horizon (k = floor(T/2) + 1 .. T). Undefined (NaN, written as empty / null) unless every run
+/// completed: `diverged` runs where the estimator failed (DivergenceError, or a non-finite tr P or
+/// error), `floored` runs where the plant crossed the rounding floor (simulator.hpp: no estimator
+/// statistic is meaningful there).
+struct SweepCell
+{
+  long n = 0, diverged = 0, floored = 0;
+  double trP_mean = std::nan(""), trP_sd = std::nan("");
+  double err_mean = std::nan(""), err_sd = std::nan("");
+  double trP_avg_mean = std::nan(""), trP_avg_sd = std::nan("");
+  double err_avg_mean = std::nan(""), err_avg_sd = std::nan("");
+};
+
+struct SweepResult
+{
+  std::vector<SweepAxis> axes;
+  std::vector<std::string> estimators;
+  long points = 0;
+  std::vector<std::vector<double>> point_values;  ///< per point, the value of each axis
+  std::vector<SweepCell> cells;                   ///< point-major: cells[point * estimators + j]
+  SweepAnalysis analysis;
+};
+
+/// `point,i1,i2,<axis 1>,<axis 2>,estimator,n,diverged,floored,trP_mean,...,verdict` rows.
+std::string sweepCsv(const SweepResult& sweep);
+/// The "sweep" member of DIR/sweep.json (an object, indented by `indent`).
+std::string sweepJson(const SweepResult& sweep, const std::string& indent);
+
+}  // namespace networked_estimation
