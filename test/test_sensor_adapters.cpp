@@ -9,6 +9,7 @@
 #include <map>
 
 #include "networked_estimation/common/random.hpp"
+#include "frame_transforms.hpp"
 #include "odometry_output.hpp"
 #include "sensor_adapters.hpp"
 
@@ -302,4 +303,107 @@ TEST(SensorAdapters, CommandTypes)
   a.data = {1.5};
   EXPECT_FALSE(ne::readFields(ne::view(a), g, u, why));
   EXPECT_NE(why.find("data[1] is out of range: the message has 1 values"), std::string::npos) << why;
+}
+
+namespace
+{
+
+/// A fixed table of transforms target <- source for the frame tests.
+ne::Frames tableFrames(const std::map<std::pair<std::string, std::string>, tf2::Transform>& table)
+{
+  ne::Frames f;
+  f.world = "map";
+  f.base = "base_link";
+  f.lookup = [table](const std::string& target, const std::string& source, const ros::Time&, tf2::Transform& out,
+                     std::string& why) {
+    auto it = table.find({target, source});
+    if (it == table.end())
+    {
+      why = "no transform " + target + " <- " + source;
+      return false;
+    }
+    out = it->second;
+    return true;
+  };
+  return f;
+}
+
+}  // namespace
+
+// Measurements into the model's frames: positions and orientations into world (p' = R p + t,
+// q' = q_T q), velocities into base_link (rotation only), an IMU's rates rotated and its
+// orientation turned into base_link's; no transform when the frame is the target or empty; a
+// missing transform refused naming both frames.
+TEST(FrameTransforms, IntoWorldAndBaseLink)
+{
+  tf2::Quaternion yaw90;
+  yaw90.setRPY(0.0, 0.0, M_PI / 2);
+  const tf2::Transform map_odom(yaw90, tf2::Vector3(1.0, 2.0, 0.5));
+  tf2::Quaternion imu_rot;
+  imu_rot.setRPY(M_PI, 0.0, 0.0);  // an IMU mounted upside down
+  const tf2::Transform base_imu(imu_rot, tf2::Vector3(0.1, 0.0, 0.2));
+  const ne::Frames f = tableFrames({{{"map", "odom"}, map_odom}, {{"base_link", "imu_link"}, base_imu},
+                                    {{"base_link", "odom"}, map_odom}});
+  std::string why;
+  geometry_msgs::PoseStamped p;
+  p.header.frame_id = "odom";
+  p.pose.position.x = 3.0;
+  p.pose.position.y = -1.0;
+  tf2::Quaternion q;
+  q.setRPY(0.0, 0.0, 0.3);
+  ne::fromTf(q, p.pose.orientation);
+  ASSERT_TRUE(ne::intoFrames(f, p, why)) << why;
+  EXPECT_NEAR(p.pose.position.x, 1.0 + 1.0, 1e-12);  // R (3, -1) = (1, 3), plus (1, 2)
+  EXPECT_NEAR(p.pose.position.y, 2.0 + 3.0, 1e-12);
+  EXPECT_NEAR(p.pose.position.z, 0.5, 1e-12);
+  double yaw = 0.0;
+  const std::vector<ne::InputField> yawf = {ne::inputFieldFromString(ne::InputType::POSE, "pose.orientation.yaw", "k")};
+  ASSERT_TRUE(ne::readFields(ne::view(p), yawf, &yaw, why)) << why;
+  EXPECT_NEAR(yaw, 0.3 + M_PI / 2, 1e-12);
+  // Already in the world frame, or no frame: untouched.
+  geometry_msgs::PointStamped pt;
+  pt.point.x = 4.0;
+  pt.header.frame_id = "map";
+  ASSERT_TRUE(ne::intoFrames(f, pt, why));
+  EXPECT_EQ(pt.point.x, 4.0);
+  pt.header.frame_id = "";
+  ASSERT_TRUE(ne::intoFrames(f, pt, why));
+  EXPECT_EQ(pt.point.x, 4.0);
+  // A twist in the IMU's frame: rotated by pi about x.
+  geometry_msgs::TwistStamped t;
+  t.header.frame_id = "imu_link";
+  t.twist.linear.y = 1.0;
+  t.twist.angular.z = 0.5;
+  ASSERT_TRUE(ne::intoFrames(f, t, why)) << why;
+  EXPECT_NEAR(t.twist.linear.y, -1.0, 1e-12);
+  EXPECT_NEAR(t.twist.angular.z, -0.5, 1e-12);
+  // An IMU upside down: yaw rate and the z acceleration change sign; a level IMU orientation
+  // (identity) becomes base_link rolled by pi.
+  sensor_msgs::Imu imu;
+  imu.header.frame_id = "imu_link";
+  imu.angular_velocity.z = 0.2;
+  imu.linear_acceleration.z = -9.81;
+  imu.orientation.w = 1.0;
+  ASSERT_TRUE(ne::intoFrames(f, imu, why)) << why;
+  EXPECT_NEAR(imu.angular_velocity.z, -0.2, 1e-12);
+  EXPECT_NEAR(imu.linear_acceleration.z, 9.81, 1e-12);
+  double roll = 0.0;
+  const std::vector<ne::InputField> rollf = {ne::inputFieldFromString(ne::InputType::IMU, "orientation.roll", "k")};
+  ASSERT_TRUE(ne::readFields(ne::view(imu), rollf, &roll, why)) << why;
+  EXPECT_NEAR(std::fabs(roll), M_PI, 1e-12);
+  // Odometry: the pose from its header frame into map, the twist from child_frame_id into base_link.
+  nav_msgs::Odometry o;
+  o.header.frame_id = "odom";
+  o.child_frame_id = "base_link";
+  o.pose.pose.orientation.w = 1.0;
+  o.twist.twist.linear.x = 0.7;
+  ASSERT_TRUE(ne::intoFrames(f, o, why)) << why;
+  EXPECT_NEAR(o.pose.pose.position.x, 1.0, 1e-12);
+  EXPECT_EQ(o.twist.twist.linear.x, 0.7);  // already in base_link
+  // A missing transform.
+  geometry_msgs::PoseStamped lost;
+  lost.header.frame_id = "camera";
+  why.clear();
+  EXPECT_FALSE(ne::intoFrames(f, lost, why));
+  EXPECT_EQ(why, "no transform map <- camera");
 }

@@ -23,7 +23,9 @@
 #include <pluginlib/class_list_macros.hpp>
 #include <ros/ros.h>
 #include <std_msgs/Float64.h>
+#include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
 
 #include <algorithm>
 #include <atomic>
@@ -54,7 +56,14 @@ namespace networked_estimation
 class EstimatorNodelet : public nodelet::Nodelet
 {
 public:
-  ~EstimatorNodelet() override { stopWorker(mutex_, stop_, wake_, thread_); }
+  ~EstimatorNodelet() override
+  {
+    stopWorker(mutex_, stop_, wake_, thread_);
+    // Before the tf2 buffer the input callbacks use goes.
+    for (ros::Subscriber& s : subs_)
+      s.shutdown();
+    cmd_sub_.shutdown();
+  }
 
 private:
   void onInit() override
@@ -93,6 +102,7 @@ private:
       const std::string who = "sensor '" + model.sensors[i].name + "' (" + toString(in.type) + " on " + in.topic + ")";
       sink.bad = [this, who](const std::string& why) { reject(who + ": " + why); };
       sink.datum = [this](const LocalEnu& d) { publishDatum(d); };
+      sink.frames = frames();
       subs_.push_back(subscribeSensor(nh, in, queue_size_, sink, datum_));
     }
     if (!datum_.empty())
@@ -108,6 +118,7 @@ private:
       sink.ok = [this](const ros::Time& stamp, const double* u, std::size_t n) { onHeldCommand(stamp, u, n); };
       const std::string who = "command (" + toString(command_.type) + " on " + command_.topic + ")";
       sink.bad = [this, who](const std::string& why) { reject(who + ": " + why); };
+      sink.frames = frames();
       cmd_sub_ = subscribeSensor(nh, command_, queue_size_, sink, {});
     }
     if (model.schedule.kind == Schedule::Kind::RANDOM)
@@ -158,6 +169,38 @@ private:
     });
     reconfigure_ready_ = true;
     reconfigure_->updateConfig(now);
+  }
+
+  /// world_frame and base_link_frame, looked up in tf2 at the message's stamp (a missing or
+  /// extrapolated transform rejects the message, naming both frames).
+  Frames frames()
+  {
+    if (!tf_buffer_)
+    {
+      tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
+      tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_);
+    }
+    Frames f;
+    f.world = world_frame_;
+    f.base = base_link_frame_;
+    tf2_ros::Buffer* buffer = tf_buffer_.get();
+    f.lookup = [buffer](const std::string& target, const std::string& source, const ros::Time& stamp,
+                        tf2::Transform& out, std::string& why) {
+      try
+      {
+        const geometry_msgs::TransformStamped t = buffer->lookupTransform(target, source, stamp);
+        const auto& r = t.transform.rotation;
+        const auto& x = t.transform.translation;
+        out = tf2::Transform(tf2::Quaternion(r.x, r.y, r.z, r.w), tf2::Vector3(x.x, x.y, x.z));
+        return true;
+      }
+      catch (const tf2::TransformException& e)
+      {
+        why = "no transform " + target + " <- " + source + " at the message's stamp: " + e.what();
+        return false;
+      }
+    };
+    return f;
   }
 
   /// The ENU origin of the NavSatFix inputs, latched on ~datum and logged (pin it with ~datum).
@@ -650,6 +693,8 @@ private:
   ros::Subscriber cmd_sub_, schedule_sub_;
   ros::Publisher estimate_pub_, trace_pub_, pose_pub_, odom_pub_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   ros::WallTimer tf_timer_;
   Estimate::ConstPtr last_estimate_;
   ros::Time last_tf_;

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "frame_transforms.hpp"
 #include "sensor_adapters.hpp"
 
 namespace networked_estimation
@@ -20,6 +21,8 @@ struct SensorSink
   std::function<void(const std::string& why)> bad;
   /// NavSatFix only: a fix became the datum.
   std::function<void(const LocalEnu& datum)> datum;
+  /// The model's frames and the tf2 lookup (frame_transforms.hpp); no lookup: frames are not used.
+  Frames frames;
 };
 
 template <class M>
@@ -42,8 +45,11 @@ ros::Subscriber subscribeFields(ros::NodeHandle& nh, const SensorInput& in, uint
       [fields, sink](const typename M::ConstPtr& m) {
         std::vector<double> y(fields.size());
         std::string why;
-        if (readFields(view(*m), fields, y.data(), why))
-          sink.ok(stampOf(*m), y.data(), y.size());
+        M local = *m;  // into the model's frames
+        if (!intoFrames(sink.frames, local, why))
+          sink.bad(why);
+        else if (readFields(view(local), fields, y.data(), why))
+          sink.ok(stampOf(local), y.data(), y.size());
         else
           sink.bad(why);
       },

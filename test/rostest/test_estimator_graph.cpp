@@ -3,6 +3,7 @@
 // scenario of this binary (selected with --gtest_filter). Private parameters of the test node:
 // model (file), settings (kfio settings file), steps (plant steps).
 #include <gtest/gtest.h>
+#include <ros/package.h>
 #include <ros/ros.h>
 #include <geometry_msgs/PointStamped.h>
 #include <rosgraph_msgs/Clock.h>
@@ -14,6 +15,7 @@
 #include <sensor_msgs/NavSatFix.h>
 #include <sensor_msgs/Range.h>
 #include <tf2/LinearMath/Matrix3x3.h>
+#include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2/LinearMath/Quaternion.h>
 #include <std_msgs/Empty.h>
 
@@ -672,7 +674,7 @@ TEST(EstimatorGraph, StandardTypesAtMixedRates)
       if (k > N)
         continue;
       const Estimate& e = got.at(k);
-      EXPECT_EQ(o.header.frame_id, "map");
+      EXPECT_EQ(o.header.frame_id, "odom");  // world_frame
       EXPECT_EQ(o.child_frame_id, "base_link");
       EXPECT_EQ(o.pose.pose.position.x, e.state[0]) << k;
       EXPECT_EQ(o.pose.pose.position.y, e.state[1]) << k;
@@ -779,6 +781,59 @@ TEST(EstimatorGraph, WrongTypeOnASensorTopic)
                                     "nav_msgs/Odometry"),
             std::string::npos)
       << diag.lastMessage();
+}
+
+// Frames (tf2): a PointStamped in "cam" reaches the world frame "map" through the static
+// transform map <- cam (x + 2): the estimates equal kfio on y = x_cam + 2 to 1e-12; a point in a
+// frame without a transform is refused and counted, naming both frames.
+TEST(EstimatorGraph, MeasurementsIntoTheWorldFrame)
+{
+  ros::NodeHandle nh;
+  tf2_ros::StaticTransformBroadcaster statics;
+  geometry_msgs::TransformStamped t;
+  t.header.stamp = ros::Time::now();
+  t.header.frame_id = "map";
+  t.child_frame_id = "cam";
+  t.transform.translation.x = 2.0;
+  t.transform.rotation.w = 1.0;
+  statics.sendTransform(t);
+  ros::Publisher pub = nh.advertise<geometry_msgs::PointStamped>("/cam_point", 100);
+  Collector<Estimate> est(nh, "framed/estimate");
+  ASSERT_TRUE(waitFor([&] { return pub.getNumSubscribers() > 0 && est.sub.getNumPublishers() > 0; }, 20.0));
+  ros::WallDuration(1.0).sleep();  // the estimator's tf listener receives the static transform
+  DiagnosticsProbe diag(nh, "framed/estimator: estimator");
+  const ne::Model model = ne::loadModel(ros::package::getPath("networked_estimation") +
+                                        "/test/rostest/models/scalar_unstable.yaml");
+  const int N = 10;
+  const ros::Time t0 = ros::Time::now();
+  for (int k = 1; k <= N; ++k)
+  {
+    geometry_msgs::PointStamped m;
+    m.header.stamp = t0 + ros::Duration(0.05 * (k - 1));
+    m.header.frame_id = "cam";
+    m.point.x = 0.1 * k;
+    pub.publish(m);
+    ros::WallDuration(0.05).sleep();
+  }
+  ASSERT_TRUE(waitFor([&] { return est.size() >= static_cast<std::size_t>(N); }, 10.0));
+  const std::map<long, Estimate> got = byStep(est);
+  ne::EstimatorSettings st;
+  st.algorithm = ne::Algorithm::KFIO;
+  auto ref = ne::makeEstimator(model, st);
+  ne::Sample smp;
+  for (long k = 1; k <= N; ++k)
+  {
+    smp.gamma = true;
+    smp.y = Eigen::VectorXd::Constant(1, 0.1 * static_cast<double>(k) + 2.0);
+    ref->step(smp);
+    ASSERT_EQ(got.count(k), 1u) << k;
+    EXPECT_NEAR(got.at(k).state[0], ref->state()(0), 1e-12) << k;
+  }
+  geometry_msgs::PointStamped lost;
+  lost.header.stamp = t0 + ros::Duration(0.05 * N);
+  lost.header.frame_id = "nowhere";
+  pub.publish(lost);
+  ASSERT_TRUE(waitFor([&] { return diag.get("rejected") == 1.0; }, 10.0)) << diag.get("rejected");
 }
 
 // Foreign input types: PointStamped (two 2-row position sensors) and Range (one scalar sensor)
