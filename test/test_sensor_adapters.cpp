@@ -11,6 +11,7 @@
 #include "networked_estimation/common/random.hpp"
 #include "frame_transforms.hpp"
 #include "odometry_output.hpp"
+#include "tf_output.hpp"
 #include "sensor_adapters.hpp"
 
 namespace ne = networked_estimation;
@@ -406,4 +407,37 @@ TEST(FrameTransforms, IntoWorldAndBaseLink)
   why.clear();
   EXPECT_FALSE(ne::intoFrames(f, lost, why));
   EXPECT_EQ(why, "no transform map <- camera");
+}
+
+// The tf plan when the estimate drives base_link: never a second parent.
+TEST(TfOutput, NeverASecondParentForBaseLink)
+{
+  using K = ne::TfPlan::Kind;
+  const std::string me = "/manager";
+  // The estimate's own frame (default child <algorithm>_estimate): always direct.
+  EXPECT_EQ(ne::planTf("map", "odom", "base_link", "kfio_estimate", "odom", "/wheels", me).kind, K::DIRECT);
+  // base_link without a parent, or parented by us: direct world -> base_link.
+  EXPECT_EQ(ne::planTf("odom", "odom", "base_link", "base_link", "", "", me).kind, K::DIRECT);
+  EXPECT_EQ(ne::planTf("odom", "odom", "base_link", "base_link", "odom", me, me).kind, K::DIRECT);
+  // world map and someone's odom -> base_link: map -> odom.
+  EXPECT_EQ(ne::planTf("map", "odom", "base_link", "base_link", "odom", "/wheels", me).kind, K::MAP_TO_ODOM);
+  // world odom and someone else's odom -> base_link, or another parent: nothing, and why.
+  const ne::TfPlan none = ne::planTf("odom", "odom", "base_link", "base_link", "odom", "/wheels", me);
+  EXPECT_EQ(none.kind, K::NONE);
+  EXPECT_EQ(none.reason, "odom -> base_link is published by /wheels: not giving base_link a second parent (odom)");
+  EXPECT_EQ(ne::planTf("map", "odom", "base_link", "base_link", "world", "/other", me).kind, K::NONE);
+  // map -> odom composes to the estimate: (map <- odom)(odom <- base) = map <- base.
+  tf2::Quaternion a, b;
+  a.setRPY(0, 0, 0.4);
+  b.setRPY(0, 0, -1.1);
+  const tf2::Transform map_base(a, tf2::Vector3(3, 1, 0)), odom_base(b, tf2::Vector3(-2, 0.5, 0));
+  const tf2::Transform back = ne::mapToOdom(map_base, odom_base) * odom_base;
+  EXPECT_NEAR((back.getOrigin() - map_base.getOrigin()).length(), 0.0, 1e-12);
+  EXPECT_NEAR(back.getRotation().angleShortestPath(map_base.getRotation()), 0.0, 1e-7);
+  std::string parent, who;
+  ne::parentOf("base_link: {parent: 'odom', broadcaster: '/wheels', rate: 10.0}\n", "base_link", parent, who);
+  EXPECT_EQ(parent, "odom");
+  EXPECT_EQ(who, "/wheels");
+  ne::parentOf("[] not a map", "base_link", parent, who);
+  EXPECT_EQ(parent, "");
 }

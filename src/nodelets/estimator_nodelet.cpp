@@ -47,6 +47,7 @@
 #include "load_failure.hpp"
 #include "param_yaml.hpp"
 #include "odometry_output.hpp"
+#include "tf_output.hpp"
 #include "sensor_subscriptions.hpp"
 #include "worker.hpp"
 
@@ -131,6 +132,8 @@ private:
     diag_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
     if (publish_tf_)
     {
+      if (child_frame_id_ == base_link_frame_)
+        frames();  // listen to tf from the start: base_link's parent decides what we publish
       tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
       tf_timer_ = nh.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { tfTimer(); });
     }
@@ -229,6 +232,7 @@ private:
     state_map_ = c.state_map;
     world_frame_ = c.world_frame;
     base_link_frame_ = c.base_link_frame;
+    odom_frame_ = c.odom_frame;
     datum_ = c.datum;
     frame_id_ = c.frame_id;
     child_frame_id_ = c.child_frame_id;
@@ -527,10 +531,57 @@ private:
     geometry_msgs::TransformStamped t;
     t.header = e->header;
     t.child_frame_id = child_frame_id_;
-    double* xyz[3] = {&t.transform.translation.x, &t.transform.translation.y, &t.transform.translation.z};
-    for (std::size_t i = 0; i < positions_.size(); ++i)
-      *xyz[i] = e->state[positions_[i]];
-    t.transform.rotation.w = 1.0;
+    if (child_frame_id_ != base_link_frame_)
+    {
+      // The estimate's own frame: its position entries, no rotation.
+      double* xyz[3] = {&t.transform.translation.x, &t.transform.translation.y, &t.transform.translation.z};
+      for (std::size_t i = 0; i < positions_.size(); ++i)
+        *xyz[i] = e->state[positions_[i]];
+      t.transform.rotation.w = 1.0;
+      tf_->sendTransform(t);
+      return;
+    }
+    // Driving base_link: its pose from ~state_mapping, and never a second parent.
+    std::string parent, broadcaster;
+    const Frames f = frames();  // the tf2 buffer exists from onInit on in this mode
+    parentOf(tf_buffer_->allFramesAsYAML(), base_link_frame_, parent, broadcaster);
+    const TfPlan plan =
+        planTf(world_frame_, odom_frame_, base_link_frame_, child_frame_id_, parent, broadcaster, ros::this_node::getName());
+    if (plan.kind == TfPlan::Kind::NONE)
+    {
+      NODELET_WARN_THROTTLE(10.0, "Estimator: no tf: %s", plan.reason.c_str());
+      return;
+    }
+    const int n = static_cast<int>(e->state.size());
+    const Eigen::Map<const Eigen::VectorXd> x(e->state.data(), n);
+    const nav_msgs::Odometry o = toOdometry(x, Eigen::MatrixXd::Zero(n, n), state_map_, e->header.stamp, world_frame_,
+                                            base_link_frame_);
+    const auto& p = o.pose.pose;
+    tf2::Transform world_base(tf2::Quaternion(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w),
+                              tf2::Vector3(p.position.x, p.position.y, p.position.z));
+    t.header.frame_id = world_frame_;
+    if (plan.kind == TfPlan::Kind::MAP_TO_ODOM)
+    {
+      tf2::Transform odom_base;
+      std::string why;
+      if (!f.lookup(odom_frame_, base_link_frame_, ros::Time(0), odom_base, why))
+      {
+        NODELET_WARN_THROTTLE(10.0, "Estimator: no %s -> %s tf: %s", world_frame_.c_str(), odom_frame_.c_str(),
+                              why.c_str());
+        return;
+      }
+      world_base = mapToOdom(world_base, odom_base);
+      t.child_frame_id = odom_frame_;
+    }
+    const tf2::Vector3& v = world_base.getOrigin();
+    const tf2::Quaternion q = world_base.getRotation();
+    t.transform.translation.x = v.x();
+    t.transform.translation.y = v.y();
+    t.transform.translation.z = v.z();
+    t.transform.rotation.x = q.x();
+    t.transform.rotation.y = q.y();
+    t.transform.rotation.z = q.z();
+    t.transform.rotation.w = q.w();
     tf_->sendTransform(t);
   }
 
@@ -681,7 +732,7 @@ private:
   SensorInput command_;
   std::map<double, std::vector<double>> held_;  ///< a held command type: commands by stamp (s)
   StateMap state_map_;
-  std::string world_frame_, base_link_frame_;
+  std::string world_frame_, base_link_frame_, odom_frame_;
   std::vector<double> datum_;
   ros::Publisher datum_pub_;
   std::vector<int> positions_;

@@ -16,6 +16,8 @@
 #include <sensor_msgs/Range.h>
 #include <tf2/LinearMath/Matrix3x3.h>
 #include <tf2_ros/static_transform_broadcaster.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
 #include <tf2/LinearMath/Quaternion.h>
 #include <std_msgs/Empty.h>
 
@@ -33,6 +35,7 @@
 #include <vector>
 
 #include "graph_test_support.hpp"
+#include "tf_output.hpp"
 #include "networked_estimation/ChannelEvent.h"
 #include "networked_estimation/Estimate.h"
 #include "networked_estimation/Measurement.h"
@@ -834,6 +837,52 @@ TEST(EstimatorGraph, MeasurementsIntoTheWorldFrame)
   lost.header.frame_id = "nowhere";
   pub.publish(lost);
   ASSERT_TRUE(waitFor([&] { return diag.get("rejected") == 1.0; }, 10.0)) << diag.get("rejected");
+}
+
+// tf when the estimate drives base_link (estimator_tf.test): the test plays the robot's odometry,
+// odom -> base_link at x = 1.5; the Estimator (world_frame map) publishes map -> odom such that
+// map -> base_link is the estimate, and base_link keeps its one parent, odom.
+TEST(EstimatorGraph, MapToOdomNeverASecondParent)
+{
+  ros::NodeHandle nh;
+  tf2_ros::Buffer buffer;
+  tf2_ros::TransformListener listener(buffer);
+  tf2_ros::TransformBroadcaster odom;
+  ros::Publisher pub = nh.advertise<Measurement>("loc/measurement", 100);
+  Collector<Estimate> est(nh, "loc/estimate");
+  ASSERT_TRUE(waitFor([&] { return pub.getNumSubscribers() > 0 && est.sub.getNumPublishers() > 0; }, 20.0));
+  const ros::Time t0 = ros::Time::now();
+  PeriodicFeeder feeder(0.05, [&](long k) {
+    geometry_msgs::TransformStamped t;
+    t.header.stamp = ros::Time::now();
+    t.header.frame_id = "odom";
+    t.child_frame_id = "base_link";
+    t.transform.translation.x = 1.5;
+    t.transform.rotation.w = 1.0;
+    odom.sendTransform(t);
+    Measurement m;
+    m.header.stamp = t0 + ros::Duration(0.05 * static_cast<double>(k - 1));
+    m.step = static_cast<std::uint64_t>(k);
+    m.y = {0.2};
+    pub.publish(m);
+  });
+  ASSERT_TRUE(waitFor([&] { return buffer.canTransform("map", "odom", ros::Time(0)); }, 20.0));
+  ros::WallDuration(1.0).sleep();
+  for (int i = 0; i < 5; ++i)
+  {
+    std::string parent, who;
+    ne::parentOf(buffer.allFramesAsYAML(), "base_link", parent, who);
+    EXPECT_EQ(parent, "odom");
+    const geometry_msgs::TransformStamped map_base = buffer.lookupTransform("map", "base_link", ros::Time(0));
+    double x_est;
+    {
+      std::lock_guard<std::mutex> lock(est.mutex);
+      x_est = est.msgs.back().state[0];
+    }
+    // The estimate moves little per step (y is constant): within 0.05 of the latest one.
+    EXPECT_NEAR(map_base.transform.translation.x, x_est, 0.05);
+    ros::WallDuration(0.2).sleep();
+  }
 }
 
 // Foreign input types: PointStamped (two 2-row position sensors) and Range (one scalar sensor)

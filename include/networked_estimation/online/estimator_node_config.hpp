@@ -51,6 +51,9 @@ struct EstimatorNodeConfig
   /// `odometry/filtered`: header.frame_id and child_frame_id (REP-105 names; world_frame defaults
   /// to frame_id), and the state mapping (default: x, y, z from position_indices).
   std::string world_frame, base_link_frame = "base_link";
+  /// The robot's odometry frame: with child_frame_id = base_link_frame and world_frame map, an
+  /// existing odom -> base_link makes the tf map -> odom (robot_localization's scheme).
+  std::string odom_frame = "odom";
   StateMap state_map;
   double trace_bound = 0.0;        ///< default: +inf (no bound)
   std::size_t queue_size = 1000;
@@ -63,7 +66,7 @@ struct EstimatorNodeConfig
 /// max_components, period, latency_budget, late_policy, history_length, max_future_steps,
 /// max_past_steps, input_type, frame_id, child_frame_id, position_indices, publish_tf, trace_bound,
 /// queue_size, link_model, stability_window, stability_min_samples, sensors.<name>.{topic, type,
-/// fields, rate}, datum, command.{topic, type, fields}, world_frame, base_link_frame, state_mapping.{x, y, z, yaw, vx, vy, vz, yaw_rate}; diagnostic_period is left to
+/// fields, rate}, datum, command.{topic, type, fields}, world_frame, base_link_frame, odom_frame, state_mapping.{x, y, z, yaw, vx, vy, vz, yaw_rate}; diagnostic_period is left to
 /// diagnostic_updater). Throws ConfigError naming `source` and the key, also for an unknown key,
 /// a model file that cannot be read, and ack_kf (the graph does not carry nu_k).
 EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std::string& source);

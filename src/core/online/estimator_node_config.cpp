@@ -200,6 +200,7 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   c.publish_tf = p.flag("publish_tf", true);
   c.world_frame = p.text("world_frame", c.frame_id);
   c.base_link_frame = p.text("base_link_frame", "base_link");
+  c.odom_frame = p.text("odom_frame", "odom");
   int* slots[3] = {&c.state_map.x, &c.state_map.y, &c.state_map.z};
   for (std::size_t i = 0; i < c.position_indices.size(); ++i)
     *slots[i] = c.position_indices[i];
