@@ -309,3 +309,16 @@ TEST_F(EstimatorConfig, CommandInput)
       "command.fields: networked_estimation/ControlInput has no field selection");
   has(error("{sensors: {b: {type: networked_estimation/ControlInput}}}", planar_), "sensors.b.type: unknown type");
 }
+
+// The robot template (config/robot/estimator_template.yaml) with its model parses as it stands.
+TEST_F(EstimatorConfig, RobotTemplateParses)
+{
+  const std::string root = NE_SOURCE_DIR;
+  YAML::Node n = YAML::LoadFile(root + "/config/robot/estimator_template.yaml");
+  n["model"] = root + "/config/models/planar_robot.yaml";
+  const ne::EstimatorNodeConfig c = ne::parseEstimatorNodeConfig(n, "template");
+  ASSERT_EQ(c.inputs.size(), 3u);
+  EXPECT_EQ(c.inputs[2].type, ne::InputType::NAVSATFIX);
+  EXPECT_EQ(c.online.rate_ratio, (std::vector<double>{1.0, 2.0, 10.0}));
+  EXPECT_EQ(c.state_map.yaw_rate, 5);
+}

@@ -139,10 +139,13 @@ private:
     }
     startReconfigure(pnh);
     thread_ = std::thread(&EstimatorNodelet::deadlineLoop, this);
-    NODELET_INFO("Estimator %s on '%s' (n = %d, %zu sensor(s), %s input): period %g s, latency_budget %g s, "
-                 "late_policy %s", toString(settings_.algorithm).c_str(), model.name.c_str(), model.n(),
-                 model.sensors.size(), input_type_.c_str(), clock_.period(), clock_.budget(),
-                 toString(online_->options().late_policy).c_str());
+    std::string inputs;
+    for (std::size_t i = 0; i < inputs_.size(); ++i)
+      inputs += (i ? ", " : "") + model.sensors[i].name + " (" + toString(inputs_[i].type) + " on " +
+                nh.resolveName(inputs_[i].topic) + ")";
+    NODELET_INFO("Estimator %s on '%s' (n = %d): period %g s, latency_budget %g s, late_policy %s; inputs: %s",
+                 toString(settings_.algorithm).c_str(), model.name.c_str(), model.n(), clock_.period(), clock_.budget(),
+                 toString(online_->options().late_policy).c_str(), inputs.c_str());
   }
 
   static ros::TransportHints hints() { return ros::TransportHints().tcpNoDelay(); }
