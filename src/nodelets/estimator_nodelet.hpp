@@ -1,0 +1,204 @@
+// Estimator nodelet: one estimator (kf, kfio, rseio, aoe, oe) on a measurement stream
+// (estimator_nodelet.cpp: parameters, inputs and steps; estimator_outputs.cpp: what it publishes).
+//
+// The sample assembly is the core OnlineEstimator: exactly one filter step per sample k, with
+// gamma_k = 1 iff y_k is in hand at the deadline stamp_k + latency_budget. A step is taken as soon
+// as everything it can use has arrived (same result, lowest latency), otherwise at its deadline by
+// a thread that sleeps in ROS time. The nodelet only translates messages and parameters.
+//
+// Inputs: per sensor of the model, the topic, standard type and fields of its ~sensors block
+// (sensor_subscriptions.hpp; default `measurement` for one sensor or `measurement/<sensor>` of
+// ~input_type: networked_estimation/Measurement, sensor_msgs/Range or geometry_msgs/PointStamped).
+// The step of a message without a step number is the nearest k to its stamp; a sensor slower than
+// the model is due only at its own steps. `command` (ControlInput, the
+// commands before the actuator link) for models with control, and `schedule` (ScheduleStep) for a
+// model with a random sensor schedule (a periodic one is known from k): a sensor that is not
+// scheduled at k is not waited for and not counted as lost.
+// Outputs: `estimate` (Estimate), `covariance_trace` (std_msgs/Float64), `pose`
+// (PoseWithCovarianceStamped of ~position_indices), `odometry/filtered` (nav_msgs/Odometry of
+// ~state_mapping, ~world_frame -> ~base_link_frame), tf ~frame_id -> ~child_frame_id, diagnostics.
+#pragma once
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/server.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <nodelet/nodelet.h>
+#include <ros/ros.h>
+#include <std_msgs/Float64.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <algorithm>
+#include <atomic>
+#include <condition_variable>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "networked_estimation/ControlInput.h"
+#include "networked_estimation/EstimatorConfig.h"
+#include "networked_estimation/Estimate.h"
+#include "networked_estimation/Measurement.h"
+#include "networked_estimation/ScheduleStep.h"
+#include "networked_estimation/common/error.hpp"
+#include "networked_estimation/online/estimator_node_config.hpp"
+#include "networked_estimation/stability/live_stability.hpp"
+#include "networked_estimation/online/online_estimator.hpp"
+#include "networked_estimation/stability/stability.hpp"
+#include "load_failure.hpp"
+#include "param_yaml.hpp"
+#include "odometry_output.hpp"
+#include "tf_output.hpp"
+#include "sensor_subscriptions.hpp"
+#include "worker.hpp"
+
+namespace networked_estimation
+{
+
+class EstimatorNodelet : public nodelet::Nodelet
+{
+public:
+  ~EstimatorNodelet() override
+  {
+    stopWorker(mutex_, stop_, wake_, thread_);
+    // Before the tf2 buffer the input callbacks use goes.
+    for (ros::Subscriber& s : subs_)
+      s.shutdown();
+    cmd_sub_.shutdown();
+  }
+
+private:
+  void onInit() override;
+
+  static ros::TransportHints hints() { return ros::TransportHints().tcpNoDelay(); }
+
+  /// dynamic_reconfigure: latency_budget, late_policy, trace_bound (1e300 = no bound). Starts
+  /// from the values in use (the server's first call, with what it read, is not applied).
+  void startReconfigure(ros::NodeHandle& pnh);
+
+  /// world_frame and base_link_frame, looked up in tf2 at the message's stamp (a missing or
+  /// extrapolated transform rejects the message, naming both frames).
+  Frames frames();
+
+  /// The ENU origin of the NavSatFix inputs, latched on ~datum and logged (pin it with ~datum).
+  void publishDatum(const LocalEnu& d);
+
+  void configure(ros::NodeHandle& pnh);
+
+
+  // --- inputs (subscriber threads) ---------------------------------------------------------------
+
+  void onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m);
+
+  void measurement(std::size_t sensor, const Measurement::ConstPtr& m);
+
+  void onForeign(std::size_t sensor, const ros::Time& stamp, const double* y, std::size_t size);
+
+  /// k < 0: the step is the nearest one to the stamp (anchored on the first message as k = 1).
+  /// Estimates are published with the mutex held, so that they leave in step order whichever
+  /// thread takes the step (publish only queues the message; it never calls back into us).
+  void offer(std::size_t sensor, long k, double stamp, const double* y, std::size_t size, bool has_step);
+
+  /// Starts the timeline on the first message of the stream, step k stamped `stamp` (mutex held).
+  /// False (rejected) for k < 1.
+  bool anchorLocked(long k, double stamp);
+
+  void onCommand(const ControlInput::ConstPtr& c);
+
+  void onSchedule(const ScheduleStep::ConstPtr& sc);
+
+  /// A command of a standard type (a Twist on /cmd_vel...): its step is the nearest one to its
+  /// stamp (its arrival for unstamped types), and it holds until the next one, as a robot base
+  /// holds /cmd_vel: a step without a command of its own uses the latest earlier one.
+  void onHeldCommand(const ros::Time& stamp, const double* u, std::size_t n);
+
+  /// A held command type: offers the latest command of a step <= k for step k when k has none of
+  /// its own (mutex held), and forgets the older ones.
+  void offerHeldCommand(long k);
+
+  void reject(const std::string& why);
+
+  void rejectLocked(const std::string& why);
+
+  unsigned long rejectedLocked() const;
+
+  // --- steps -------------------------------------------------------------------------------------
+
+  /// Takes the steps whose deadline is at or before `now` (mutex held), at most `limit`.
+  void catchUp(double now, int limit = 1000);
+
+  /// Takes every step whose inputs are complete (mutex held).
+  void drainComplete();
+
+  /// One filter step (mutex held); returns its message.
+  Estimate::Ptr stepLocked();
+
+  /// Publishes one step's outputs (mutex held).
+  void publishLocked(const Estimate::Ptr& e);
+
+  /// The latest estimate as the tf frame_id -> child_frame_id, 20 times a second (tf is for
+  /// viewing; sending it from the deadline thread stalled the manager's callback queues).
+  void publishOdometry(const Estimate& e);
+
+  void tfTimer();
+
+  /// Takes the steps whose deadline has passed (in ROS time) and resets on a backwards time jump.
+  void deadlineLoop();
+
+  // --- diagnostics -------------------------------------------------------------------------------
+
+  /// The inputs whose topic is advertised with another type than configured (ROS then connects
+  /// nothing: without this check the sensor would just look silent), e.g.
+  /// "sensor 'gps': /fix is geometry_msgs/PointStamped, expected sensor_msgs/NavSatFix".
+  std::vector<std::string> wrongTypes() const;
+
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
+
+  void diagnoseLink(diagnostic_updater::DiagnosticStatusWrapper& stat);
+
+  EstimatorSettings settings_;
+  std::unique_ptr<OnlineEstimator> online_;
+  std::unique_ptr<LiveStability> live_;
+  std::uint64_t resets_seen_ = 0;  ///< divergence resets of the filter already told to live_
+
+  StepClock clock_{1.0, 0.0};
+  std::string input_type_, frame_id_, child_frame_id_;
+  std::vector<SensorInput> inputs_;
+  SensorInput command_;
+  std::map<double, std::vector<double>> held_;  ///< a held command type: commands by stamp (s)
+  StateMap state_map_;
+  std::string world_frame_, base_link_frame_, odom_frame_;
+  std::vector<double> datum_;
+  ros::Publisher datum_pub_;
+  std::vector<int> positions_;
+  bool publish_tf_ = true;
+  double trace_bound_ = std::numeric_limits<double>::infinity();
+  uint32_t queue_size_ = 1000;
+
+  std::vector<ros::Subscriber> subs_;
+  ros::Subscriber cmd_sub_, schedule_sub_;
+  ros::Publisher estimate_pub_, trace_pub_, pose_pub_, odom_pub_;
+  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  ros::WallTimer tf_timer_;
+  Estimate::ConstPtr last_estimate_;
+  ros::Time last_tf_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::WallTimer diag_timer_;
+
+  boost::recursive_mutex reconfigure_mutex_;
+  std::unique_ptr<dynamic_reconfigure::Server<EstimatorConfig>> reconfigure_;
+  bool reconfigure_ready_ = false;
+
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::thread thread_;
+  bool stop_ = false;
+  double last_trace_ = 0.0;
+  std::uint64_t rejected_topic_ = 0, time_resets_ = 0, last_processed_ = 0;
+  ros::WallTime last_diag_;
+};
+
+}  // namespace networked_estimation

@@ -1,0 +1,226 @@
+// The Estimator nodelet (estimator_nodelet.hpp): what it publishes: the estimate, odometry/filtered,
+// pose, tf, the NavSatFix datum and the diagnostics.
+#include "estimator_nodelet.hpp"
+
+namespace networked_estimation
+{
+
+void EstimatorNodelet::publishDatum(const LocalEnu& d)
+{
+  sensor_msgs::NavSatFix m;
+  m.header.stamp = ros::Time::now();
+  m.header.frame_id = frame_id_;
+  m.status.status = sensor_msgs::NavSatStatus::STATUS_FIX;
+  m.latitude = d.latitude();
+  m.longitude = d.longitude();
+  m.altitude = d.altitude();
+  m.position_covariance_type = sensor_msgs::NavSatFix::COVARIANCE_TYPE_UNKNOWN;
+  datum_pub_.publish(m);
+  NODELET_INFO("Estimator: NavSatFix datum (ENU origin) %.9f, %.9f, %.3f%s", d.latitude(), d.longitude(),
+               d.altitude(), datum_.empty() ? " (the first valid fix; set ~datum to pin it)" : "");
+}
+
+void EstimatorNodelet::publishLocked(const Estimate::Ptr& e)
+{
+  {
+    estimate_pub_.publish(e);
+    if (trace_pub_.getNumSubscribers() > 0)
+    {
+      std_msgs::Float64::Ptr t = boost::make_shared<std_msgs::Float64>();
+      t->data = e->covariance_trace;
+      trace_pub_.publish(t);
+    }
+    if (odom_pub_.getNumSubscribers() > 0)
+      publishOdometry(*e);
+    const bool want_pose = pose_pub_.getNumSubscribers() > 0;
+    if (publish_tf_)
+      last_estimate_ = e;  // tf leaves from tfTimer() in the nodelet's own queue, not this thread
+    if (!want_pose)
+      return;
+    const int n = static_cast<int>(e->state.size());
+    double xyz[3] = {0.0, 0.0, 0.0};
+    for (std::size_t i = 0; i < positions_.size(); ++i)
+      xyz[i] = e->state[positions_[i]];
+    geometry_msgs::PoseWithCovarianceStamped::Ptr p = boost::make_shared<geometry_msgs::PoseWithCovarianceStamped>();
+    p->header = e->header;
+    p->pose.pose.position.x = xyz[0];
+    p->pose.pose.position.y = xyz[1];
+    p->pose.pose.position.z = xyz[2];
+    p->pose.pose.orientation.w = 1.0;
+    // 6x6 row-major (x y z roll pitch yaw): the position block from P; axes that are not
+    // estimated get a large variance (1e6) rather than a false certainty.
+    for (int i = 0; i < 6; ++i)
+      p->pose.covariance[i * 6 + i] = 1e6;
+    for (std::size_t a = 0; a < positions_.size(); ++a)
+      for (std::size_t b = 0; b < positions_.size(); ++b)
+        p->pose.covariance[a * 6 + b] = e->covariance[static_cast<std::size_t>(positions_[a]) * n + positions_[b]];
+    pose_pub_.publish(p);
+  }
+}
+
+void EstimatorNodelet::publishOdometry(const Estimate& e)
+{
+  const int n = static_cast<int>(e.state.size());
+  const Eigen::Map<const Eigen::VectorXd> x(e.state.data(), n);
+  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> P(
+      e.covariance.data(), n, n);
+  odom_pub_.publish(toOdometry(x, P, state_map_, e.header.stamp, world_frame_, base_link_frame_));
+}
+
+void EstimatorNodelet::tfTimer()
+{
+  Estimate::ConstPtr e;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    e = last_estimate_;
+  }
+  if (!e || e->header.stamp == last_tf_)
+    return;
+  last_tf_ = e->header.stamp;
+  geometry_msgs::TransformStamped t;
+  t.header = e->header;
+  t.child_frame_id = child_frame_id_;
+  if (child_frame_id_ != base_link_frame_)
+  {
+    // The estimate's own frame: its position entries, no rotation.
+    double* xyz[3] = {&t.transform.translation.x, &t.transform.translation.y, &t.transform.translation.z};
+    for (std::size_t i = 0; i < positions_.size(); ++i)
+      *xyz[i] = e->state[positions_[i]];
+    t.transform.rotation.w = 1.0;
+    tf_->sendTransform(t);
+    return;
+  }
+  // Driving base_link: its pose from ~state_mapping, and never a second parent.
+  std::string parent, broadcaster;
+  const Frames f = frames();  // the tf2 buffer exists from onInit on in this mode
+  parentOf(tf_buffer_->allFramesAsYAML(), base_link_frame_, parent, broadcaster);
+  const TfPlan plan =
+      planTf(world_frame_, odom_frame_, base_link_frame_, child_frame_id_, parent, broadcaster, ros::this_node::getName());
+  if (plan.kind == TfPlan::Kind::NONE)
+  {
+    NODELET_WARN_THROTTLE(10.0, "Estimator: no tf: %s", plan.reason.c_str());
+    return;
+  }
+  const int n = static_cast<int>(e->state.size());
+  const Eigen::Map<const Eigen::VectorXd> x(e->state.data(), n);
+  const nav_msgs::Odometry o = toOdometry(x, Eigen::MatrixXd::Zero(n, n), state_map_, e->header.stamp, world_frame_,
+                                          base_link_frame_);
+  const auto& p = o.pose.pose;
+  tf2::Transform world_base(tf2::Quaternion(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w),
+                            tf2::Vector3(p.position.x, p.position.y, p.position.z));
+  t.header.frame_id = world_frame_;
+  if (plan.kind == TfPlan::Kind::MAP_TO_ODOM)
+  {
+    tf2::Transform odom_base;
+    std::string why;
+    if (!f.lookup(odom_frame_, base_link_frame_, ros::Time(0), odom_base, why))
+    {
+      NODELET_WARN_THROTTLE(10.0, "Estimator: no %s -> %s tf: %s", world_frame_.c_str(), odom_frame_.c_str(),
+                            why.c_str());
+      return;
+    }
+    world_base = mapToOdom(world_base, odom_base);
+    t.child_frame_id = odom_frame_;
+  }
+  const tf2::Vector3& v = world_base.getOrigin();
+  const tf2::Quaternion q = world_base.getRotation();
+  t.transform.translation.x = v.x();
+  t.transform.translation.y = v.y();
+  t.transform.translation.z = v.z();
+  t.transform.rotation.x = q.x();
+  t.transform.rotation.y = q.y();
+  t.transform.rotation.z = q.z();
+  t.transform.rotation.w = q.w();
+  tf_->sendTransform(t);
+}
+
+std::vector<std::string> EstimatorNodelet::wrongTypes() const
+{
+  ros::master::V_TopicInfo topics;
+  std::vector<std::string> out;
+  if (!ros::master::getTopics(topics))
+    return out;
+  const ros::NodeHandle& nh = const_cast<EstimatorNodelet*>(this)->getNodeHandle();
+  auto check = [&](const std::string& who, const std::string& topic, const std::string& expected) {
+    const std::string name = nh.resolveName(topic);
+    for (const ros::master::TopicInfo& t : topics)
+      if (t.name == name && t.datatype != expected)
+        out.push_back(who + ": " + name + " is " + t.datatype + ", expected " + expected);
+  };
+  const Model& model = online_->model();
+  for (std::size_t i = 0; i < inputs_.size(); ++i)
+    check("sensor '" + model.sensors[i].name + "'", inputs_[i].topic, toString(inputs_[i].type));
+  if (model.hasControl())
+    check("command", command_.topic, toString(command_.type));
+  return out;
+}
+
+void EstimatorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat)
+{
+  const std::vector<std::string> wrong = wrongTypes();  // asks the master: outside the lock
+  for (const std::string& w : wrong)
+    NODELET_WARN_THROTTLE(10.0, "Estimator: wrong message type on an input topic: %s", w.c_str());
+  std::lock_guard<std::mutex> lock(mutex_);
+  const OnlineCounters& c = online_->counters();
+  const ros::WallTime now = ros::WallTime::now();
+  const double dt = last_diag_.isZero() ? 0.0 : (now - last_diag_).toSec();
+  const double rate = dt > 0.0 ? static_cast<double>(c.processed - last_processed_) / dt : 0.0;
+  last_diag_ = now;
+  last_processed_ = c.processed;
+  const double arrival = c.processed > 0 ? static_cast<double>(c.arrivals) / static_cast<double>(c.processed) : 0.0;
+  if (!online_->started())
+    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "waiting for measurements");
+  else if (!(last_trace_ <= trace_bound_))
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "covariance trace %.4g above trace_bound %.4g",
+                  last_trace_, trace_bound_);
+  else
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "step %ld, arrival rate %.3f", online_->nextStep() - 1,
+                  arrival);
+  if (!wrong.empty())
+    stat.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN, "wrong message type: %s", wrong.front().c_str());
+  stat.add("wrong type inputs", wrong.size());
+  stat.add("algorithm", toString(settings_.algorithm));
+  stat.add("steps", c.processed);
+  stat.add("step rate (Hz)", rate);
+  stat.add("arrival rate", arrival);
+  stat.add("accepted", c.accepted);
+  stat.add("late dropped", c.late_dropped);
+  stat.add("late fused", c.late_fused);
+  stat.add("duplicates", c.duplicates);
+  stat.add("rejected", c.rejected + rejected_topic_);
+  stat.add("missing commands", c.missing_commands);
+  // "arrival rate" above is gamma's (some sensor arrived); these count only the samples that
+  // were due: scheduled, and at a slower sensor's own steps.
+  stat.add("due samples", c.due);
+  stat.add("due arrival rate", c.due > 0 ? static_cast<double>(c.due_arrived) / static_cast<double>(c.due) : 0.0);
+  if (online_->model().schedule.active())
+  {
+    stat.add("unscheduled measurements", c.unscheduled);
+    if (online_->model().schedule.kind == Schedule::Kind::RANDOM)
+      stat.add("steps without schedule", c.schedule_missing);
+  }
+  stat.add("divergence resets", c.divergence_resets);
+  stat.add("time resets", time_resets_);
+  stat.add("covariance trace", last_trace_);
+  stat.add("trace bound", trace_bound_);
+}
+
+void EstimatorNodelet::diagnoseLink(diagnostic_updater::DiagnosticStatusWrapper& stat)
+{
+  // Copied under the lock, evaluated outside it (three core stability tests and the Gan-Liu
+  // evidence, well under a millisecond), so the filter thread is never held up by it.
+  std::unique_ptr<LiveStability> snapshot;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    snapshot = std::make_unique<LiveStability>(*live_);
+  }
+  const LiveStabilityReport report = snapshot->evaluate();
+  const unsigned char level = report.status.level == LinkStatus::Level::OK ? diagnostic_msgs::DiagnosticStatus::OK
+                              : report.status.level == LinkStatus::Level::WARN
+                                  ? diagnostic_msgs::DiagnosticStatus::WARN
+                                  : diagnostic_msgs::DiagnosticStatus::ERROR;
+  stat.summary(level, report.status.message);
+  for (const auto& kv : report.values)
+    stat.add(kv.first, kv.second);
+}
+}  // namespace networked_estimation
