@@ -59,6 +59,10 @@ public:
   virtual std::unique_ptr<Estimator> clone() const = 0;
 
   virtual Algorithm algorithm() const = 0;
+  /// Which compiled form of the algorithm runs: "dynamic" (the general one, any size) or the
+  /// fixed-size one makeEstimator chose for the model's dimensions, e.g. "fixed n=2 m=1". Both
+  /// compute the same estimate; for logs, benchmarks and tests.
+  virtual std::string implementation() const { return "dynamic"; }
   /// Number of steps taken since construction / reset.
   long steps() const { return steps_; }
   /// Whether the last step used a measurement (some sensor arrived and was fused).

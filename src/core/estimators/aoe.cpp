@@ -1,5 +1,6 @@
 // AOE and OE for non-acknowledged control links with Markov losses (docs/algorithms.md 5.3, 5.4).
 #include "estimators/aoe_estimators.hpp"
+#include "estimators/estimator_common.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -10,207 +11,288 @@ namespace networked_estimation
 {
 namespace detail
 {
-
-Aoe::Aoe(const Model& model, ControlLink link)
-  : EstimatorBase(model, Algorithm::AOE), link_(link), nu1_(link.stationary())
+namespace
 {
-}
 
-void Aoe::reset()
+template <class S>
+class Aoe : public EstimatorBase<S>
 {
-  EstimatorBase::reset();
-  nu1_ = link_.stationary();
-}
+  using Base = EstimatorBase<S>;
+  using Base::last_updated_;
+  using Base::sel_;
+  using Base::A_;
+  using Base::bu_;
+  using Base::x_;
+  using Base::P_;
+  using Base::Ppred_;
 
-void Aoe::step(const Sample& sample)
-{
-  checkNotDiverged();
-  sel_.checkInput(sample);
-  const int rows = sel_.select(sample, false);
-  guardedStep([&] {
-    // 1. mode prediction (19a,b)
-    const double nubar1 = link_.next(nu1_);
-    const double nubar0 = 1.0 - nubar1;
-    // 2. conditional prediction (20a,b): zbar0 = A x, zbar1 = zbar0 + Bu u; Zbar = A P A' + BQB'
-    const bool has_input = commandEffect(sample);
-    z0_.noalias() = model_.A * x_;
-    predictCovariance(P_);
-    dlt_ = bu_;  // zhat1 - zhat0, before the update
-    last_updated_ = rows > 0;
-    double nuhat1 = nubar1;
-    if (last_updated_)
-    {
-      // 3-5. gain, mode update (19c) in log-odds form, conditional update (20c,d)
-      upd_.factor(Ppred_, sel_.C(), sel_.R());
-      innov_ = sel_.y();
-      innov_.noalias() -= sel_.C() * z0_;
-      upd_.whiten(innov_);  // L^{-1} e0
-      z0_.noalias() += upd_.W().transpose() * innov_;
+public:
+  Aoe(const Model& model, ControlLink link) : Base(model, Algorithm::AOE), link_(link), nu1_(link.stationary()) {}
+  std::unique_ptr<Estimator> clone() const override { return std::make_unique<Aoe>(*this); }
+  double commandArrivalProbability() const override { return nu1_; }
+
+  void reset() override
+  {
+    Base::reset();
+    nu1_ = link_.stationary();
+  }
+
+  void step(const Sample& sample) override
+  {
+    this->checkNotDiverged();
+    sel_.checkInput(sample);
+    const int rows = this->select(sample, false);
+    this->guardedStep([&] {
+      // 1. mode prediction (19a,b)
+      const double nubar1 = link_.next(nu1_);
+      const double nubar0 = 1.0 - nubar1;
+      // 2. conditional prediction (20a,b): zbar0 = A x, zbar1 = zbar0 + Bu u; Zbar = A P A' + BQB'
+      const bool has_input = this->commandEffect(sample);
+      z0_.noalias() = A_ * x_;
+      this->predictCovariance(P_);
+      dlt_ = bu_;  // zhat1 - zhat0, before the update
+      last_updated_ = rows > 0;
+      double nuhat1 = nubar1;
+      if (last_updated_)
+      {
+        // 3-5. gain, mode update (19c) in log-odds form, conditional update (20c,d)
+        this->withArrived([&](auto& upd, const auto& C, const auto& R, const auto& y) {
+          upd.factor(Ppred_, C, R);
+          const auto& innov = upd.updateMean(y, z0_);  // L^{-1} e0; z0 += W' L^{-1} e0
+          if (has_input)
+          {
+            const auto& wd = upd.whitenedImage(bu_);  // L^{-1} C Bu u
+            const double L = innov.dot(wd) - 0.5 * wd.squaredNorm() + std::log(nubar1) - std::log(nubar0);
+            nuhat1 = 1.0 / (1.0 + std::exp(-L));
+            dlt_.noalias() -= upd.W().transpose() * wd;  // (I - K C) Bu u
+          }
+          upd.downdate(Ppred_);  // Zhat
+        });
+      }
+      // 6. collapse (21), (22): x = zhat0 + nuhat1 dlt, P = Zhat + nuhat0 nuhat1 dlt dlt'
+      x_ = z0_;
       if (has_input)
       {
-        wd_.noalias() = sel_.C() * bu_;
-        upd_.whiten(wd_);  // L^{-1} C Bu u
-        const double L = innov_.dot(wd_) - 0.5 * wd_.squaredNorm() + std::log(nubar1) - std::log(nubar0);
-        nuhat1 = 1.0 / (1.0 + std::exp(-L));
-        dlt_.noalias() -= upd_.W().transpose() * wd_;  // (I - K C) Bu u
+        x_ += nuhat1 * dlt_;
+        const double spread = nuhat1 * (1.0 - nuhat1);
+        if (spread > 0.0)
+        {
+          Ppred_.noalias() += spread * (dlt_ * dlt_.transpose());
+          mirrorLower(Ppred_);
+        }
       }
-      upd_.downdate(Ppred_);  // Zhat
-    }
-    // 6. collapse (21), (22): x = zhat0 + nuhat1 dlt, P = Zhat + nuhat0 nuhat1 dlt dlt'
-    x_ = z0_;
-    if (has_input)
-    {
-      x_ += nuhat1 * dlt_;
-      const double spread = nuhat1 * (1.0 - nuhat1);
-      if (spread > 0.0)
-      {
-        Ppred_.noalias() += spread * (dlt_ * dlt_.transpose());
-        mirrorLower(Ppred_);
-      }
-    }
-    nu1_ = nuhat1;
-    P_.swap(Ppred_);
-  });
-}
+      nu1_ = nuhat1;
+      this->commit(P_, Ppred_);
+    });
+  }
 
-OptimalEstimator::OptimalEstimator(const Model& model, ControlLink link, std::size_t max_components)
-  : EstimatorBase(model, Algorithm::OE), link_(link), max_components_(std::max<std::size_t>(1, max_components))
-{
-  reset();
-}
+private:
+  ControlLink link_;
+  double nu1_;  ///< nuhat_k^[1]
+  typename S::VecN z0_, dlt_;
+};
 
-void OptimalEstimator::reset()
+template <class S>
+class OptimalFilter : public EstimatorBase<S>, public OptimalEstimator
 {
-  EstimatorBase::reset();
-  const Eigen::Index cap = static_cast<Eigen::Index>(max_components_);
-  means_.resize(model_.n(), std::min<Eigen::Index>(cap, 64));
-  logw_.resize(means_.cols());
-  q_.resize(means_.cols());
-  count_ = 1;
-  means_.col(0) = model_.x0;
-  logw_[0] = 0.0;
-  q_[0] = link_.stationary();  // nuhat_0 = pi_nu
-  M_ = model_.P0;
-  nu1_ = q_[0];
-  capped_ = false;
-}
+  using Base = EstimatorBase<S>;
+  using Base::last_updated_;
+  using Base::model_;
+  using Base::sel_;
+  using Base::A_;
+  using Base::bu_;
+  using Base::x_;
+  using Base::P_;
+  using Base::Ppred_;
+  using MatNX = Mat<S::N, kDynamic>;  ///< one column per component
 
-void OptimalEstimator::step(const Sample& sample)
-{
-  checkNotDiverged();
-  sel_.checkInput(sample);
-  const int rows = sel_.select(sample, false);
-  guardedStep([&] {
-    const int n = model_.n();
-    const bool split = commandEffect(sample);
-    // prediction of the shared covariance (12)
-    predictCovariance(M_);
-    M_.swap(Ppred_);
-    // children: nu_k = 0 (A m) and nu_k = 1 (A m + Bu u), prior weights (15) through the link chain.
-    // Without an input effect both children have the same mean: they stay one component whose
-    // newest-bit probability carries the chain (exact, and no doubling).
-    const Eigen::Index children = split ? 2 * count_ : count_;
-    if (next_means_.cols() < children)
+public:
+  OptimalFilter(const Model& model, ControlLink link, std::size_t max_components)
+    : Base(model, Algorithm::OE), link_(link), max_components_(std::max<std::size_t>(1, max_components))
+  {
+    reset();
+  }
+  std::unique_ptr<Estimator> clone() const override { return std::make_unique<OptimalFilter>(*this); }
+  double commandArrivalProbability() const override { return nu1_; }
+  std::size_t components() const override { return static_cast<std::size_t>(count_); }
+  const Eigen::MatrixXd& componentCovariance() const override
+  {
+    if constexpr (S::kFixed)
     {
-      next_means_.resize(n, children);
-      next_logw_.resize(children);
-      next_q_.resize(children);
+      Md_ = M_;
+      return Md_;
     }
-    Am_.noalias() = model_.A * means_.leftCols(count_);  // A m for every parent, one product
-    Eigen::Index c = 0;
-    for (Eigen::Index i = 0; i < count_; ++i)
+    else
     {
-      const double t1 = link_.next(q_[i]);
-      if (!split)
+      return M_;
+    }
+  }
+  bool capped() const override { return capped_; }
+
+  void reset() override
+  {
+    Base::reset();
+    const Eigen::Index cap = static_cast<Eigen::Index>(max_components_);
+    means_.resize(model_.n(), std::min<Eigen::Index>(cap, 64));
+    logw_.resize(means_.cols());
+    q_.resize(means_.cols());
+    count_ = 1;
+    means_.col(0) = model_.x0;
+    logw_[0] = 0.0;
+    q_[0] = link_.stationary();  // nuhat_0 = pi_nu
+    M_ = model_.P0;
+    nu1_ = q_[0];
+    capped_ = false;
+  }
+
+  void step(const Sample& sample) override
+  {
+    this->checkNotDiverged();
+    sel_.checkInput(sample);
+    const int rows = this->select(sample, false);
+    this->guardedStep([&] {
+      const int n = model_.n();
+      const bool split = this->commandEffect(sample);
+      // prediction of the shared covariance (12)
+      this->predictCovariance(M_);
+      this->commit(M_, Ppred_);
+      // children: nu_k = 0 (A m) and nu_k = 1 (A m + Bu u), prior weights (15) through the link chain.
+      // Without an input effect both children have the same mean: they stay one component whose
+      // newest-bit probability carries the chain (exact, and no doubling).
+      const Eigen::Index children = split ? 2 * count_ : count_;
+      if (next_means_.cols() < children)
       {
-        next_means_.col(c) = Am_.col(i);
-        next_logw_[c] = logw_[i];
-        next_q_[c] = t1;
-        ++c;
-        continue;
+        next_means_.resize(n, children);
+        next_logw_.resize(children);
+        next_q_.resize(children);
       }
-      const double lw[2] = {logw_[i] + std::log(1.0 - t1), logw_[i] + std::log(t1)};
-      for (int b = 0; b < 2; ++b)
+      Am_.noalias() = A_ * means_.leftCols(count_);  // A m for every parent, one product
+      Eigen::Index c = 0;
+      for (Eigen::Index i = 0; i < count_; ++i)
       {
-        if (!(lw[b] > -std::numeric_limits<double>::infinity()))
-          continue;  // a hypothesis of probability zero
-        next_means_.col(c) = Am_.col(i);
-        if (b == 1)
-          next_means_.col(c) += bu_;
-        next_logw_[c] = lw[b];
-        next_q_[c] = b;
-        ++c;
+        const double t1 = link_.next(q_[i]);
+        if (!split)
+        {
+          next_means_.col(c) = Am_.col(i);
+          next_logw_[c] = logw_[i];
+          next_q_[c] = t1;
+          ++c;
+          continue;
+        }
+        const double lw[2] = {logw_[i] + std::log(1.0 - t1), logw_[i] + std::log(t1)};
+        for (int b = 0; b < 2; ++b)
+        {
+          if (!(lw[b] > -std::numeric_limits<double>::infinity()))
+            continue;  // a hypothesis of probability zero
+          next_means_.col(c) = Am_.col(i);
+          if (b == 1)
+            next_means_.col(c) += bu_;
+          next_logw_[c] = lw[b];
+          next_q_[c] = b;
+          ++c;
+        }
+      }
+      count_ = c;
+      means_.swap(next_means_);
+      logw_.swap(next_logw_);
+      q_.swap(next_q_);
+      // measurement update (13), (14): shared gain, per-component innovations and likelihoods
+      last_updated_ = rows > 0;
+      if (last_updated_)
+      {
+        this->withArrived([&](auto& upd, const auto& C, const auto& R, const auto& y) {
+          upd.factor(M_, C, R);
+          auto mc = means_.leftCols(count_);
+          E_.noalias() = -C * mc;  // no temporary: E_ keeps its storage across steps
+          E_.colwise() += y;
+          upd.whiten(E_);
+          logw_.head(count_) -= 0.5 * E_.colwise().squaredNorm().transpose();
+          mc.noalias() += upd.W().transpose() * E_;
+          upd.downdate(M_);
+        });
+      }
+      // normalise (log-sum-exp)
+      const double mx = logw_.head(count_).maxCoeff();
+      const double lse = mx + std::log((logw_.head(count_).array() - mx).exp().sum());
+      logw_.head(count_).array() -= lse;
+      cap();
+      output();
+    });
+  }
+
+private:
+  void cap()
+  {
+    const Eigen::Index cap = static_cast<Eigen::Index>(max_components_);
+    if (count_ <= cap)
+      return;
+    order_.resize(count_);
+    std::iota(order_.begin(), order_.end(), 0);
+    std::nth_element(order_.begin(), order_.begin() + cap, order_.end(),
+                     [&](Eigen::Index a, Eigen::Index b) { return logw_[a] > logw_[b]; });
+    order_.resize(cap);
+    std::sort(order_.begin(), order_.end());
+    for (Eigen::Index j = 0; j < cap; ++j)
+    {
+      const Eigen::Index i = order_[j];
+      if (i != j)
+      {
+        means_.col(j) = means_.col(i);
+        logw_[j] = logw_[i];
+        q_[j] = q_[i];
       }
     }
-    count_ = c;
-    means_.swap(next_means_);
-    logw_.swap(next_logw_);
-    q_.swap(next_q_);
-    // measurement update (13), (14): shared gain, per-component innovations and likelihoods
-    last_updated_ = rows > 0;
-    if (last_updated_)
-    {
-      upd_.factor(M_, sel_.C(), sel_.R());
-      auto mc = means_.leftCols(count_);
-      E_.noalias() = -sel_.C() * mc;  // no temporary: E_ keeps its storage across steps
-      E_.colwise() += sel_.y();
-      upd_.whiten(E_);
-      logw_.head(count_) -= 0.5 * E_.colwise().squaredNorm().transpose();
-      mc.noalias() += upd_.W().transpose() * E_;
-      upd_.downdate(M_);
-    }
-    // normalise (log-sum-exp)
+    count_ = cap;
     const double mx = logw_.head(count_).maxCoeff();
     const double lse = mx + std::log((logw_.head(count_).array() - mx).exp().sum());
     logw_.head(count_).array() -= lse;
-    cap();
-    output();
-  });
-}
+    capped_ = true;
+  }
 
-void OptimalEstimator::cap()
-{
-  const Eigen::Index cap = static_cast<Eigen::Index>(max_components_);
-  if (count_ <= cap)
-    return;
-  order_.resize(count_);
-  std::iota(order_.begin(), order_.end(), 0);
-  std::nth_element(order_.begin(), order_.begin() + cap, order_.end(),
-                   [&](Eigen::Index a, Eigen::Index b) { return logw_[a] > logw_[b]; });
-  order_.resize(cap);
-  std::sort(order_.begin(), order_.end());
-  for (Eigen::Index j = 0; j < cap; ++j)
+  void output()
   {
-    const Eigen::Index i = order_[j];
-    if (i != j)
+    // (17): x = sum w m; P = M + sum w (m - x)(m - x)'
+    w_ = logw_.head(count_).array().exp();
+    const auto mc = means_.leftCols(count_);
+    x_.noalias() = mc * w_;
+    nu1_ = w_.dot(q_.head(count_));
+    P_ = M_;
+    if (count_ > 1)
     {
-      means_.col(j) = means_.col(i);
-      logw_[j] = logw_[i];
-      q_[j] = q_[i];
+      D_ = mc.colwise() - x_;
+      D_ = D_ * w_.cwiseSqrt().asDiagonal();
+      P_.noalias() += D_ * D_.transpose();
+      mirrorLower(P_);
     }
   }
-  count_ = cap;
-  const double mx = logw_.head(count_).maxCoeff();
-  const double lse = mx + std::log((logw_.head(count_).array() - mx).exp().sum());
-  logw_.head(count_).array() -= lse;
-  capped_ = true;
+
+  ControlLink link_;
+  std::size_t max_components_;
+  Eigen::Index count_ = 1;
+  MatNX means_, next_means_;            ///< n x capacity
+  Eigen::VectorXd logw_, next_logw_;    ///< log weights
+  Eigen::VectorXd q_, next_q_;          ///< P(newest bit = 1 | component)
+  typename S::MatN M_;
+  Mat<S::M, kDynamic> E_;                ///< whitened innovations, one column per component
+  MatNX D_, Am_;
+  mutable Eigen::MatrixXd Md_;          ///< fixed sizes: the dynamic copy componentCovariance() returns
+  Eigen::VectorXd w_;
+  std::vector<Eigen::Index> order_;
+  double nu1_;
+  bool capped_ = false;
+};
+
+}  // namespace
+
+std::unique_ptr<Estimator> makeAoe(const Model& model, ControlLink link, SizeChoice choice)
+{
+  return makeSized<Aoe, Estimator>(KalmanSizes(), choice, false, model, link);
 }
 
-void OptimalEstimator::output()
+std::unique_ptr<Estimator> makeOptimalEstimator(const Model& model, ControlLink link, std::size_t max_components,
+                                                SizeChoice choice)
 {
-  // (17): x = sum w m; P = M + sum w (m - x)(m - x)'
-  w_ = logw_.head(count_).array().exp();
-  const auto mc = means_.leftCols(count_);
-  x_.noalias() = mc * w_;
-  nu1_ = w_.dot(q_.head(count_));
-  P_ = M_;
-  if (count_ > 1)
-  {
-    D_ = mc.colwise() - x_;
-    D_ = D_ * w_.cwiseSqrt().asDiagonal();
-    P_.noalias() += D_ * D_.transpose();
-    mirrorLower(P_);
-  }
+  return makeSized<OptimalFilter, Estimator>(KalmanSizes(), choice, false, model, link, max_components);
 }
 
 }  // namespace detail

@@ -1,6 +1,11 @@
 #pragma once
 
-#include "estimators/estimator_common.hpp"
+#include <Eigen/Core>
+#include <cstddef>
+#include <memory>
+
+#include "estimators/estimator_sizes.hpp"
+#include "networked_estimation/estimators/estimator.hpp"
 
 namespace networked_estimation
 {
@@ -18,53 +23,25 @@ struct ControlLink
 };
 
 /// Approximate optimal estimator (docs/algorithms.md 5.4): a 2-component mixture over nu_k collapsed to
-/// one Gaussian by moment matching each step.
-class Aoe : public EstimatorBase
-{
-public:
-  Aoe(const Model& model, ControlLink link);
-  void step(const Sample& sample) override;
-  std::unique_ptr<Estimator> clone() const override { return std::make_unique<Aoe>(*this); }
-  double commandArrivalProbability() const override { return nu1_; }
-  void reset() override;
-
-private:
-  ControlLink link_;
-  double nu1_;  ///< nuhat_k^[1]
-  Eigen::VectorXd z0_, dlt_, wd_;
-};
+/// one Gaussian by moment matching each step. Fixed-size for the sizes of KalmanSizes.
+std::unique_ptr<Estimator> makeAoe(const Model& model, ControlLink link, SizeChoice choice);
 
 /// Exact optimal estimator (docs/algorithms.md 5.3): a Gaussian mixture over the command-loss history
-/// with one shared covariance, log-weights, and a cap keeping the largest weights.
-class OptimalEstimator : public EstimatorBase
+/// with one shared covariance, log-weights, and a cap keeping the largest weights. Fixed-size for
+/// the sizes of KalmanSizes. The estimator it returns is also an OptimalEstimator.
+std::unique_ptr<Estimator> makeOptimalEstimator(const Model& model, ControlLink link, std::size_t max_components,
+                                                SizeChoice choice);
+
+/// What the exact optimal estimator tells beyond the Estimator interface (any size; reached by
+/// dynamic_cast from the Estimator that makeOptimalEstimator returns).
+class OptimalEstimator
 {
 public:
-  OptimalEstimator(const Model& model, ControlLink link, std::size_t max_components);
-  void step(const Sample& sample) override;
-  std::unique_ptr<Estimator> clone() const override { return std::make_unique<OptimalEstimator>(*this); }
-  double commandArrivalProbability() const override { return nu1_; }
-  std::size_t components() const override { return static_cast<std::size_t>(count_); }
-  void reset() override;
+  virtual ~OptimalEstimator() = default;
   /// The shared component covariance Mhat_k (equals the ACK Kalman filter's, Theorem 1).
-  const Eigen::MatrixXd& componentCovariance() const { return M_; }
+  virtual const Eigen::MatrixXd& componentCovariance() const = 0;
   /// Whether the cap has ever discarded a component (the result is then approximate).
-  bool capped() const { return capped_; }
-
-private:
-  void cap();
-  void output();
-
-  ControlLink link_;
-  std::size_t max_components_;
-  Eigen::Index count_ = 1;
-  Eigen::MatrixXd means_, next_means_;     ///< n x capacity
-  Eigen::VectorXd logw_, next_logw_;       ///< log weights
-  Eigen::VectorXd q_, next_q_;             ///< P(newest bit = 1 | component)
-  Eigen::MatrixXd M_, E_, D_, Am_;
-  Eigen::VectorXd w_;
-  std::vector<Eigen::Index> order_;
-  double nu1_;
-  bool capped_ = false;
+  virtual bool capped() const = 0;
 };
 
 }  // namespace detail

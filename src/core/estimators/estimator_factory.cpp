@@ -1,14 +1,26 @@
+#include "estimators/estimator_factory.hpp"
 #include "estimators/aoe_estimators.hpp"
 #include "estimators/kalman_filter.hpp"
 #include "estimators/rseio_estimator.hpp"
+#include "networked_estimation/common/error.hpp"
 
 namespace networked_estimation
 {
 
 std::unique_ptr<Estimator> makeEstimator(const Model& model, const EstimatorSettings& settings)
 {
+  return detail::makeEstimator(model, settings, detail::SizeChoice::AUTOMATIC);
+}
+
+namespace detail
+{
+
+// Each algorithm's factory picks its fixed-size form when the model's sizes are among the
+// instantiated ones (estimator_sizes.hpp) and the dynamic form otherwise.
+std::unique_ptr<Estimator> makeEstimator(const Model& model, const EstimatorSettings& settings, SizeChoice choice)
+{
   const std::string name = toString(settings.algorithm);
-  detail::ControlLink link;
+  ControlLink link;
   if (settings.algorithm == Algorithm::AOE || settings.algorithm == Algorithm::OE)
   {
     if (model.hasControl() && !settings.has_control_link)
@@ -25,15 +37,16 @@ std::unique_ptr<Estimator> makeEstimator(const Model& model, const EstimatorSett
     case Algorithm::KF:
     case Algorithm::KFIO:
     case Algorithm::ACK_KF:
-      return std::make_unique<detail::KalmanFilter>(model, settings.algorithm);
+      return makeKalmanFilter(model, settings.algorithm, choice);
     case Algorithm::RSEIO:
-      return std::make_unique<detail::Rseio>(model, settings.mu);
+      return makeRseio(model, settings.mu, choice);
     case Algorithm::AOE:
-      return std::make_unique<detail::Aoe>(model, link);
+      return makeAoe(model, link, choice);
     case Algorithm::OE:
-      return std::make_unique<detail::OptimalEstimator>(model, link, settings.max_components);
+      return makeOptimalEstimator(model, link, settings.max_components, choice);
   }
   throw ConfigError("settings: algorithm: unsupported value");
 }
 
+}  // namespace detail
 }  // namespace networked_estimation

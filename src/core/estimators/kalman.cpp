@@ -4,47 +4,76 @@
 //   kfio:   Sinopoli's filter: updates only when gamma_k = 1; u applied as delivered.
 //   ack_kf: kfio told nu_k: applies nu_k Bu u_k (docs/algorithms.md 5.2).
 #include "estimators/kalman_filter.hpp"
+#include "estimators/estimator_common.hpp"
 
 namespace networked_estimation
 {
 namespace detail
 {
-
-KalmanFilter::KalmanFilter(const Model& model, Algorithm algorithm) : EstimatorBase(model, algorithm)
+namespace
 {
-}
 
-void KalmanFilter::step(const Sample& sample)
+template <class S>
+class KalmanFilter : public EstimatorBase<S>
 {
-  checkNotDiverged();
-  sel_.checkInput(sample);
-  if (algorithm_ == Algorithm::ACK_KF && model_.p() > 0 && sample.u.size() != 0 && sample.nu != 0 &&
-      sample.nu != 1)
-    throw InputError("ack_kf: nu_k (whether the command reached the actuator) must be 0 or 1, found " +
-                     std::to_string(sample.nu));
-  const int rows = sel_.select(sample, algorithm_ == Algorithm::KF);
-  guardedStep([&] {
-    // prediction
-    bool apply = commandEffect(sample);
-    if (algorithm_ == Algorithm::ACK_KF)
-    {
-      apply = apply && sample.nu == 1;
-      nu_ = sample.nu;
-    }
-    xpred_.noalias() = model_.A * x_;
-    if (apply)
-      xpred_ += bu_;
-    predictCovariance(P_);
-    last_updated_ = rows > 0;
-    updateAndCommit();
-  });
-}
+  using Base = EstimatorBase<S>;
+  using Base::algorithm_;
+  using Base::last_updated_;
+  using Base::model_;
+  using Base::sel_;
+  using Base::A_;
+  using Base::bu_;
+  using Base::x_;
+  using Base::xpred_;
+  using Base::P_;
 
-double KalmanFilter::commandArrivalProbability() const
+public:
+  /// algorithm: KF, KFIO or ACK_KF.
+  KalmanFilter(const Model& model, Algorithm algorithm) : Base(model, algorithm) {}
+  std::unique_ptr<Estimator> clone() const override { return std::make_unique<KalmanFilter>(*this); }
+
+  void step(const Sample& sample) override
+  {
+    this->checkNotDiverged();
+    sel_.checkInput(sample);
+    if (algorithm_ == Algorithm::ACK_KF && model_.p() > 0 && sample.u.size() != 0 && sample.nu != 0 &&
+        sample.nu != 1)
+      throw InputError("ack_kf: nu_k (whether the command reached the actuator) must be 0 or 1, found " +
+                       std::to_string(sample.nu));
+    const int rows = this->select(sample, algorithm_ == Algorithm::KF);
+    this->guardedStep([&] {
+      // prediction
+      bool apply = this->commandEffect(sample);
+      if (algorithm_ == Algorithm::ACK_KF)
+      {
+        apply = apply && sample.nu == 1;
+        nu_ = sample.nu;
+      }
+      xpred_.noalias() = A_ * x_;
+      if (apply)
+        xpred_ += bu_;
+      this->predictCovariance(P_);
+      last_updated_ = rows > 0;
+      this->updateAndCommit();
+    });
+  }
+
+  double commandArrivalProbability() const override
+  {
+    if (algorithm_ == Algorithm::ACK_KF && nu_ >= 0)
+      return nu_;
+    return Estimator::commandArrivalProbability();
+  }
+
+private:
+  int nu_ = -1;
+};
+
+}  // namespace
+
+std::unique_ptr<Estimator> makeKalmanFilter(const Model& model, Algorithm algorithm, SizeChoice choice)
 {
-  if (algorithm_ == Algorithm::ACK_KF && nu_ >= 0)
-    return nu_;
-  return Estimator::commandArrivalProbability();
+  return makeSized<KalmanFilter, Estimator>(KalmanSizes(), choice, false, model, algorithm);
 }
 
 }  // namespace detail

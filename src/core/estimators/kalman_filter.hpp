@@ -1,24 +1,17 @@
 #pragma once
 
-#include "estimators/estimator_common.hpp"
+#include <memory>
+
+#include "estimators/estimator_sizes.hpp"
+#include "networked_estimation/estimators/estimator.hpp"
 
 namespace networked_estimation
 {
 namespace detail
 {
 
-class KalmanFilter : public EstimatorBase
-{
-public:
-  /// algorithm: KF, KFIO or ACK_KF.
-  KalmanFilter(const Model& model, Algorithm algorithm);
-  void step(const Sample& sample) override;
-  std::unique_ptr<Estimator> clone() const override { return std::make_unique<KalmanFilter>(*this); }
-  double commandArrivalProbability() const override;
-
-private:
-  int nu_ = -1;
-};
+/// kf, kfio or ack_kf (algorithm), fixed-size for the sizes of KalmanSizes, dynamic otherwise.
+std::unique_ptr<Estimator> makeKalmanFilter(const Model& model, Algorithm algorithm, SizeChoice choice);
 
 }  // namespace detail
 }  // namespace networked_estimation
