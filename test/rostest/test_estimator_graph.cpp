@@ -73,6 +73,32 @@ Params params()
   return p;
 }
 
+/// Checks the estimates of steps 1..N against kfio stepped offline on y(k) (every y in hand) and
+/// u(k) (models with control), state by state to 1e-12.
+template <class Y, class U>
+void expectKfioOffline(const ne::Model& model, const std::map<long, Estimate>& got, long N, Y y, U u)
+{
+  ne::EstimatorSettings st;
+  st.algorithm = ne::Algorithm::KFIO;
+  auto ref = ne::makeEstimator(model, st);
+  ne::Sample smp;
+  for (long k = 1; k <= N; ++k)
+  {
+    smp.gamma = true;
+    smp.y = y(k);
+    smp.u = u(k);
+    ref->step(smp);
+    ASSERT_EQ(got.count(k), 1u) << "step " << k;
+    const Estimate& e = got.at(k);
+    EXPECT_TRUE(e.gamma) << "step " << k;
+    for (int j = 0; j < model.n(); ++j)
+      ASSERT_NEAR(e.state[j], ref->state()(j), 1e-12) << "step " << k << " state " << j;
+  }
+}
+
+/// No control input.
+inline Eigen::VectorXd noInput(long) { return Eigen::VectorXd(); }
+
 /// Estimates of one estimator by step; fails the test on a repeated step.
 std::map<long, Estimate> byStep(Collector<Estimate>& c)
 {
@@ -651,22 +677,8 @@ TEST(EstimatorGraph, StandardTypesAtMixedRates)
   });
   ASSERT_TRUE(waitFor([&] { return diag.get("steps") >= N; }, 30.0)) << diag.get("steps");
   const std::map<long, Estimate> got = byStep(est);
-  ne::EstimatorSettings st;
-  st.algorithm = ne::Algorithm::KFIO;
-  auto ref = ne::makeEstimator(model, st);
-  ne::Sample smp;
   std::lock_guard<std::mutex> lock(mutex);
-  for (long k = 1; k <= N; ++k)
-  {
-    smp.y = y[k];
-    smp.gamma = true;
-    ref->step(smp);
-    ASSERT_EQ(got.count(k), 1u) << "step " << k;
-    const Estimate& e = got.at(k);
-    EXPECT_TRUE(e.gamma);
-    for (int j = 0; j < 3; ++j)
-      ASSERT_NEAR(e.state[j], ref->state()(j), 1e-12) << "step " << k << " state " << j;
-  }
+  expectKfioOffline(model, got, N, [&](long k) { return y[k]; }, noInput);
   // odometry/filtered: the same estimates, state_mapping {x: 0, y: 1, yaw: 2}, REP-105 frames.
   {
     std::lock_guard<std::mutex> fl(filtered.mutex);
@@ -735,20 +747,9 @@ TEST(EstimatorGraph, TwistCommandsAreHeld)
     meas.publish(m);
   });
   ASSERT_TRUE(waitFor([&] { return est.size() >= static_cast<std::size_t>(N); }, 30.0));
-  const std::map<long, Estimate> got = byStep(est);
-  ne::EstimatorSettings st;
-  st.algorithm = ne::Algorithm::KFIO;
-  auto ref = ne::makeEstimator(model, st);
-  ne::Sample smp;
-  for (long k = 1; k <= N; ++k)
-  {
-    smp.gamma = true;
-    smp.y = Eigen::VectorXd::Constant(1, value(k));
-    smp.u = Eigen::VectorXd::Constant(1, speed(k - (k - 1) % 5));  // the latest command, held
-    ref->step(smp);
-    ASSERT_EQ(got.count(k), 1u) << "step " << k;
-    ASSERT_NEAR(got.at(k).state[0], ref->state()(0), 1e-12) << "step " << k;
-  }
+  expectKfioOffline(
+      model, byStep(est), N, [&](long k) { return Eigen::VectorXd::Constant(1, value(k)); },
+      [&](long k) { return Eigen::VectorXd::Constant(1, speed(k - (k - 1) % 5)); });  // the latest command, held
   EXPECT_EQ(diag.get("missing commands"), 0.0);
 
   // dynamic_reconfigure (base/estimator/reconfigure): a trace bound below trace(P) turns the
@@ -819,19 +820,9 @@ TEST(EstimatorGraph, MeasurementsIntoTheWorldFrame)
     ros::WallDuration(0.05).sleep();
   }
   ASSERT_TRUE(waitFor([&] { return est.size() >= static_cast<std::size_t>(N); }, 10.0));
-  const std::map<long, Estimate> got = byStep(est);
-  ne::EstimatorSettings st;
-  st.algorithm = ne::Algorithm::KFIO;
-  auto ref = ne::makeEstimator(model, st);
-  ne::Sample smp;
-  for (long k = 1; k <= N; ++k)
-  {
-    smp.gamma = true;
-    smp.y = Eigen::VectorXd::Constant(1, 0.1 * static_cast<double>(k) + 2.0);
-    ref->step(smp);
-    ASSERT_EQ(got.count(k), 1u) << k;
-    EXPECT_NEAR(got.at(k).state[0], ref->state()(0), 1e-12) << k;
-  }
+  expectKfioOffline(
+      model, byStep(est), N, [](long k) { return Eigen::VectorXd::Constant(1, 0.1 * static_cast<double>(k) + 2.0); },
+      noInput);
   geometry_msgs::PointStamped lost;
   lost.header.stamp = t0 + ros::Duration(0.05 * N);
   lost.header.frame_id = "nowhere";
