@@ -316,3 +316,86 @@ TEST(BadInput, RejectedWithoutTouchingTheEstimate)
     expectRejected(s, "gamma = 1 but no values");
   }
 }
+
+// Sample::R, a per-step R_k (issue: message covariances), for every algorithm and both compiled
+// forms (n = 2 with two scalar sensors runs fixed-size, n = 3 dynamic):
+//  - R_k equal to the model's R gives bit-identical results;
+//  - a constant R_k equals the estimator built on a model with that R (bit for bit);
+//  - a wrong size or a non-finite R_k is an InputError that leaves the estimate untouched.
+TEST(StepR, EqualsTheModelsRAndReplacesIt)
+{
+  for (int n : {2, 3})
+    for (Algorithm a : {Algorithm::KF, Algorithm::KFIO, Algorithm::ACK_KF, Algorithm::RSEIO, Algorithm::AOE,
+                        Algorithm::OE})
+    {
+      Rng rng(40 + n);
+      const Model m = randomModel(rng, n, n, {1, 1}, 0, 1);
+      Model other = m;
+      other.R = randomSpd(rng, 2, 0.3, 2.0);
+      auto plain = make(m, a), same = make(m, a), own = make(m, a), built = make(other, a);
+      for (int k = 0; k < 150; ++k)
+      {
+        Sample s;
+        s.gamma = rng.bernoulli(0.7);
+        s.y = randomMatrix(rng, 2, 1, 2.0);
+        if (rng.bernoulli(0.3))
+          s.y(rng.bernoulli(0.5) ? 0 : 1) = kNaN;  // one sensor lost
+        s.u = randomMatrix(rng, 1, 1);
+        s.nu = rng.bernoulli(0.5) ? 1 : 0;
+        plain->step(s);
+        built->step(s);
+        s.R = m.R;
+        same->step(s);
+        s.R = other.R;
+        own->step(s);
+        ASSERT_EQ(same->state(), plain->state()) << toString(a) << " n " << n << " k " << k;
+        ASSERT_EQ(same->covariance(), plain->covariance()) << toString(a) << " n " << n << " k " << k;
+        ASSERT_EQ(own->state(), built->state()) << toString(a) << " n " << n << " k " << k;
+        ASSERT_EQ(own->covariance(), built->covariance()) << toString(a) << " n " << n << " k " << k;
+      }
+      const VectorXd x = own->state();
+      Sample bad;
+      bad.y = VectorXd::Zero(2);
+      bad.u = VectorXd::Zero(1);
+      bad.nu = 1;
+      bad.R = MatrixXd::Identity(3, 3);
+      EXPECT_THROW(own->step(bad), InputError) << toString(a);
+      bad.R = MatrixXd::Identity(2, 2);
+      bad.R(1, 1) = kNaN;
+      EXPECT_THROW(own->step(bad), InputError) << toString(a);
+      EXPECT_EQ(own->state(), x) << toString(a);
+    }
+}
+
+// A changing R_k: kfio equals the textbook Joseph filter run with R_k at every step (rows of the
+// arrived sensors only).
+TEST(StepR, ChangingRkEqualsTheTextbookFilter)
+{
+  for (int n : {2, 4})
+  {
+    Rng rng(50 + n);
+    const Model m = randomModel(rng, n, n, {1, 1}, 0, 1);
+    auto est = make(m, Algorithm::KFIO);
+    VectorXd x = m.x0;
+    MatrixXd P = m.P0;
+    for (int k = 0; k < 200; ++k)
+    {
+      Sample s;
+      s.y = randomMatrix(rng, 2, 1, 2.0);
+      const bool lost0 = rng.bernoulli(0.2);
+      if (lost0)
+        s.y(0) = kNaN;
+      s.u = randomMatrix(rng, 1, 1);
+      s.R = randomSpd(rng, 2, 0.1, 5.0);
+      est->step(s);
+      x = m.A * x + m.Bu * s.u;
+      P = m.A * P * m.A.transpose() + m.B * m.Q * m.B.transpose();
+      if (lost0)
+        josephUpdate(x, P, m.C.row(1), s.R.block(1, 1, 1, 1), s.y.tail(1));
+      else
+        josephUpdate(x, P, m.C, s.R, s.y);
+      ASSERT_LT(maxAbsDiff(est->state(), x), 1e-9 * (1 + x.norm())) << "n " << n << " k " << k;
+      ASSERT_LT(maxAbsDiff(est->covariance(), P), 1e-9 * P.norm()) << "n " << n << " k " << k;
+    }
+  }
+}

@@ -30,6 +30,10 @@ struct Sample
   Eigen::VectorXd u;
   /// nu_k: 1 when u_k reached the actuator, 0 when lost, -1 unknown. Only ack_kf reads it.
   int nu = -1;
+  /// Optional R_k of this step (m x m, e.g. from the messages' covariances): empty uses the
+  /// model's R. Its blocks of the fused sensors must be symmetric positive definite (the caller
+  /// validates them); a non-finite entry or a wrong size is an InputError.
+  Eigen::MatrixXd R;
 };
 
 class Estimator

@@ -400,7 +400,16 @@ protected:
   /// column of R unit and its y zero (rows the update leaves out exactly: KalmanUpdate).
   int select(const Sample& sample, bool ignore_gamma)
   {
+    const bool own_R = sample.R.size() != 0;
+    if (own_R)
+      checkStepR(sample.R);
     const int rows = sel_.select(sample, ignore_gamma);
+    // A per-step R (Sample::R) replaces the model's for this step; the compacted copies are
+    // rebuilt whenever this step's R or the previous one's was its own.
+    const bool rebuild = sel_.changed() || own_R || own_R_;
+    own_R_ = own_R;
+    if (own_R)
+      Rk_ = sample.R;
     if (rows == 0)
       return 0;
     if (sel_.all())
@@ -409,9 +418,10 @@ protected:
       return rows;
     }
     const std::vector<int>& idx = sel_.arrivedRows();
+    const typename S::MatM& R = own_R ? Rk_ : R_;
     if constexpr (S::kFixed)
     {
-      if (sel_.changed())
+      if (rebuild)
       {
         Ca_.setZero();
         Ra_.setIdentity();
@@ -419,7 +429,7 @@ protected:
         {
           Ca_.row(i) = C_.row(i);
           for (int j : idx)
-            Ra_(i, j) = R_(i, j);
+            Ra_(i, j) = R(i, j);
         }
       }
       ya_.setZero();
@@ -428,10 +438,10 @@ protected:
     }
     else
     {
-      if (sel_.changed())
+      if (rebuild)
       {
         Ca_ = selectRows(C_, idx);
-        Ra_ = selectBlock(R_, idx, idx);
+        Ra_ = selectBlock(R, idx, idx);
       }
       ya_.resize(rows);
       for (int i = 0; i < rows; ++i)
@@ -444,9 +454,19 @@ protected:
   void withArrived(F&& f)
   {
     if (sel_.all())
-      f(upd_, C_, R_, y_);
+      f(upd_, C_, own_R_ ? Rk_ : R_, y_);
     else
       f(upd_, Ca_, Ra_, ya_);
+  }
+  /// Sample::R: m x m and finite (InputError otherwise, before anything changes).
+  void checkStepR(const Eigen::MatrixXd& R) const
+  {
+    const int m = model_.m();
+    if (R.rows() != m || R.cols() != m)
+      throw InputError("R_k: expected " + std::to_string(m) + " x " + std::to_string(m) + ", found " +
+                       std::to_string(R.rows()) + " x " + std::to_string(R.cols()));
+    if (!R.allFinite())
+      throw InputError("R_k: not finite");
   }
   /// Ppred_ <- A Pin A' + B Q B' (exactly symmetric).
   void predictCovariance(const MatN& Pin)
@@ -541,6 +561,8 @@ protected:
   typename S::MatNP Bu_;
   typename S::MatMN C_, Ca_;  ///< C; the rows of the arrived sensors (select())
   typename S::MatM R_, Ra_;
+  typename S::MatM Rk_;  ///< this step's own R (Sample::R), when own_R_
+  bool own_R_ = false;
   typename S::VecM y_, ya_;
   Update upd_;
   VecN x_, xpred_, bu_;
