@@ -239,7 +239,24 @@ TEST_F(EstimatorConfig, SensorsBlockRefusalsNameTheKey)
   has(error("{sensors: {b: {rate: 25}}}", planar_), "found 25");
   has(error("{sensors: {b: {topic: ''}}}", planar_), "sensors.b.topic: expected a topic name");
   has(error("{sensors: {b: {colour: red}}}", planar_), "sensors.b: unknown parameter(s): colour");
-  has(error("{sensors: {b: {covariance: message}}}", planar_), "sensors.b.covariance: not supported yet");
+  has(error("{sensors: {b: {covariance: message}}}", planar_),
+      "sensors.b.covariance: message: networked_estimation/Measurement carries no covariance (use covariance: model)");
+  has(error("{sensors: {b: {type: geometry_msgs/PoseStamped, fields: [pose.position.x], covariance: message}}}", planar_),
+      "sensors.b.covariance: message: geometry_msgs/PoseStamped has no covariance of 'pose.position.x'");
+  has(error("{sensors: {b: {type: sensor_msgs/Imu, fields: [orientation.z], covariance: message}}}", planar_),
+      "has no covariance of 'orientation.z'");
+  has(error("{sensors: {b: {type: sensor_msgs/Imu, fields: [angular_velocity.z], covariance: sometimes}}}", planar_),
+      "covariance");
+  has(error("{sensors: {b: {rejection_threshold: 3}}}", planar_), "sensors.b.rejection_threshold: not supported yet");
+  const ne::EstimatorNodeConfig m = parse(
+      "{sensors: {a: {type: nav_msgs/Odometry, fields: [pose.pose.position.x, twist.twist.angular.z], covariance: message}}}",
+      planar_);
+  EXPECT_TRUE(m.inputs[0].message_covariance);
+  EXPECT_FALSE(m.inputs[1].message_covariance);
+  EXPECT_EQ(ne::covarianceOf(ne::InputType::ODOMETRY, m.inputs[0].fields[1]).block, ne::CovarianceBlock::TWIST);
+  EXPECT_EQ(ne::covarianceOf(ne::InputType::ODOMETRY, m.inputs[0].fields[1]).index, 5);
+  EXPECT_EQ(ne::covarianceOf(ne::InputType::IMU, ne::inputFieldFromString(ne::InputType::IMU, "orientation.yaw", "k")).block,
+            ne::CovarianceBlock::ORIENTATION);
   has(error("{sensors: {b: [1, 2]}}", planar_), "sensors.b: expected a map");
   has(error("{sensors: [a, b]}", planar_), "sensors: expected a map from sensor names");
 }

@@ -617,3 +617,38 @@ TEST(PlantSimulator, StepAppliedUsesOnlyTheDeliveredCommand)
   Eigen::VectorXd wrong(2);
   EXPECT_THROW(a.stepApplied(&wrong), ne::InputError);
 }
+
+// A sensor's own R_k block (the message's covariance): the step's input is the model's R with that
+// block replaced and its cross-blocks zero; the result equals the estimator stepped offline with
+// that R_k, and a step without own blocks uses the model's R.
+TEST(OnlineEstimator, OwnRBlocksMakeTheStepsR)
+{
+  ne::Rng rng(13);
+  const ne::Model model = ne::test::randomModel(rng, 3, 3, {1, 2}, 0, 0);
+  const int T = 40;
+  const Stream s = simulate(model, T, 8);
+  ne::OnlineEstimator on(model, settingsFor(ne::Algorithm::KFIO), {});
+  auto ref = ne::makeEstimator(model, settingsFor(ne::Algorithm::KFIO));
+  on.start(1);
+  for (long k = 1; k <= T; ++k)
+  {
+    const bool own = k % 3 != 0;
+    const Eigen::MatrixXd R1 = ne::test::randomSpd(rng, 2, 0.2, 3.0);
+    Eigen::Matrix<double, 2, 2, Eigen::RowMajor> rm = R1;
+    ASSERT_EQ(offerY(on, model, s, k, 0), Offer::ACCEPTED);
+    ASSERT_EQ(on.offerMeasurement(k, 1, s.y[k - 1].data() + 1, 2, own ? rm.data() : nullptr).offer, Offer::ACCEPTED);
+    on.process();
+    ne::Sample smp;
+    smp.y = s.y[k - 1];
+    if (own)
+    {
+      smp.R = model.R;
+      smp.R.row(0).tail(2).setZero();
+      smp.R.col(0).tail(2).setZero();
+      smp.R.bottomRightCorner(2, 2) = R1;
+    }
+    ref->step(smp);
+    ASSERT_EQ(on.estimator().state(), ref->state()) << k;
+    ASSERT_EQ(on.estimator().covariance(), ref->covariance()) << k;
+  }
+}

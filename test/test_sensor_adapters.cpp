@@ -441,3 +441,79 @@ TEST(TfOutput, NeverASecondParentForBaseLink)
   ne::parentOf("[] not a map", "base_link", parent, who);
   EXPECT_EQ(parent, "");
 }
+
+// covariance: message. R of the selected fields from the message's blocks (fields of different
+// blocks uncorrelated), ROS's "unknown" conventions as a fallback to the model's R, and bad
+// covariances refused naming the fields; rotated with the frame (diag(R, R) for a 6 x 6 pose).
+TEST(SensorAdapters, MessageCovariances)
+{
+  nav_msgs::Odometry o;
+  for (int i = 0; i < 6; ++i)
+  {
+    o.pose.covariance[static_cast<std::size_t>(7 * i)] = 1.0 + i;  // diagonal 1..6
+    o.twist.covariance[static_cast<std::size_t>(7 * i)] = 10.0 + i;
+  }
+  o.pose.covariance[1] = o.pose.covariance[6] = 0.5;  // cov(x, y)
+  o.pose.pose.orientation.w = 1.0;
+  const std::vector<ne::InputField> f = {
+      ne::inputFieldFromString(ne::InputType::ODOMETRY, "pose.pose.position.y", "k"),
+      ne::inputFieldFromString(ne::InputType::ODOMETRY, "pose.pose.position.x", "k"),
+      ne::inputFieldFromString(ne::InputType::ODOMETRY, "twist.twist.angular.z", "k")};
+  double R[9];
+  std::string why;
+  ASSERT_EQ(ne::readCovariance(ne::InputType::ODOMETRY, ne::view(o), f, R, why), ne::CovarianceRead::OK) << why;
+  const double expect[9] = {2.0, 0.5, 0.0, 0.5, 1.0, 0.0, 0.0, 0.0, 15.0};
+  for (int i = 0; i < 9; ++i)
+    EXPECT_EQ(R[i], expect[i]) << i;
+  // Rotated into a world frame yawed by 90 degrees: x and y swap their variances.
+  tf2::Quaternion yaw90;
+  yaw90.setRPY(0.0, 0.0, M_PI / 2);
+  ne::Frames frames = tableFrames({{{"map", "odom"}, tf2::Transform(yaw90, tf2::Vector3(0, 0, 0))}});
+  geometry_msgs::PoseWithCovarianceStamped p;
+  p.header.frame_id = "odom";
+  p.pose = o.pose;
+  ASSERT_TRUE(ne::intoFrames(frames, p, why)) << why;
+  const std::vector<ne::InputField> xy = {
+      ne::inputFieldFromString(ne::InputType::POSE_WITH_COVARIANCE, "pose.pose.position.x", "k"),
+      ne::inputFieldFromString(ne::InputType::POSE_WITH_COVARIANCE, "pose.pose.position.y", "k")};
+  double R2[4];
+  ASSERT_EQ(ne::readCovariance(ne::InputType::POSE_WITH_COVARIANCE, ne::view(p), xy, R2, why), ne::CovarianceRead::OK);
+  EXPECT_NEAR(R2[0], 2.0, 1e-12);   // var x' = var y
+  EXPECT_NEAR(R2[3], 1.0, 1e-12);   // var y' = var x
+  EXPECT_NEAR(R2[1], -0.5, 1e-12);  // cov(x', y') = -cov(x, y)
+  // IMU: a leading -1 means unknown.
+  sensor_msgs::Imu imu;
+  imu.orientation.w = 1.0;
+  imu.angular_velocity_covariance[0] = -1.0;
+  const std::vector<ne::InputField> gz = {ne::inputFieldFromString(ne::InputType::IMU, "angular_velocity.z", "k")};
+  EXPECT_EQ(ne::readCovariance(ne::InputType::IMU, ne::view(imu), gz, R, why), ne::CovarianceRead::FALLBACK);
+  EXPECT_NE(why.find("covariance unknown (a leading -1)"), std::string::npos) << why;
+  imu.angular_velocity_covariance = {};  // all zeros: unknown too
+  EXPECT_EQ(ne::readCovariance(ne::InputType::IMU, ne::view(imu), gz, R, why), ne::CovarianceRead::FALLBACK);
+  EXPECT_EQ(why, "covariance all zeros");
+  imu.angular_velocity_covariance[8] = -0.1;  // negative variance
+  EXPECT_EQ(ne::readCovariance(ne::InputType::IMU, ne::view(imu), gz, R, why), ne::CovarianceRead::BAD);
+  EXPECT_NE(why.find("covariance of [angular_velocity.z] is not positive definite"), std::string::npos) << why;
+  // Asymmetric and non-finite.
+  o.pose.covariance[1] = 0.7;
+  EXPECT_EQ(ne::readCovariance(ne::InputType::ODOMETRY, ne::view(o), f, R, why), ne::CovarianceRead::BAD);
+  EXPECT_NE(why.find("is not symmetric"), std::string::npos) << why;
+  o.pose.covariance[1] = 0.5;
+  o.twist.covariance[35] = std::nan("");
+  EXPECT_EQ(ne::readCovariance(ne::InputType::ODOMETRY, ne::view(o), f, R, why), ne::CovarianceRead::BAD);
+  EXPECT_NE(why.find("is not finite"), std::string::npos) << why;
+  // NavSatFix: the type UNKNOWN falls back.
+  ne::MessageView v;
+  const Eigen::Vector3d enu(1, 2, 3);
+  const double cov[9] = {4, 0, 0, 0, 9, 0, 0, 0, 16};
+  v.enu = &enu;
+  v.enu_cov = cov;
+  v.enu_cov_type = sensor_msgs::NavSatFix::COVARIANCE_TYPE_UNKNOWN;
+  const std::vector<ne::InputField> en = {ne::inputFields(ne::InputType::NAVSATFIX)[0],
+                                          ne::inputFields(ne::InputType::NAVSATFIX)[1]};
+  EXPECT_EQ(ne::readCovariance(ne::InputType::NAVSATFIX, v, en, R, why), ne::CovarianceRead::FALLBACK);
+  v.enu_cov_type = sensor_msgs::NavSatFix::COVARIANCE_TYPE_DIAGONAL_KNOWN;
+  ASSERT_EQ(ne::readCovariance(ne::InputType::NAVSATFIX, v, en, R, why), ne::CovarianceRead::OK);
+  EXPECT_EQ(R[0], 4.0);
+  EXPECT_EQ(R[3], 9.0);
+}

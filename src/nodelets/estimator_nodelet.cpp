@@ -38,9 +38,12 @@ void EstimatorNodelet::onInit()
       continue;
     }
     SensorSink sink;
-    sink.ok = [this, i](const ros::Time& stamp, const double* y, std::size_t n) { onForeign(i, stamp, y, n); };
+    sink.ok = [this, i](const ros::Time& stamp, const double* y, std::size_t n, const double* R) {
+      onForeign(i, stamp, y, n, R);
+    };
     const std::string who = "sensor '" + model.sensors[i].name + "' (" + toString(in.type) + " on " + in.topic + ")";
     sink.bad = [this, who](const std::string& why) { reject(who + ": " + why); };
+    sink.fallback = [this, who](const std::string& why) { covarianceFallback(who + ": " + why); };
     sink.datum = [this](const LocalEnu& d) { publishDatum(d); };
     sink.frames = frames();
     subs_.push_back(subscribeSensor(nh, in, queue_size_, sink, datum_));
@@ -55,7 +58,9 @@ void EstimatorNodelet::onInit()
   else if (model.hasControl())
   {
     SensorSink sink;
-    sink.ok = [this](const ros::Time& stamp, const double* u, std::size_t n) { onHeldCommand(stamp, u, n); };
+    sink.ok = [this](const ros::Time& stamp, const double* u, std::size_t n, const double*) {
+      onHeldCommand(stamp, u, n);
+    };
     const std::string who = "command (" + toString(command_.type) + " on " + command_.topic + ")";
     sink.bad = [this, who](const std::string& why) { reject(who + ": " + why); };
     sink.frames = frames();
@@ -202,12 +207,22 @@ void EstimatorNodelet::measurement(std::size_t sensor, const Measurement::ConstP
   offer(sensor, static_cast<long>(m->step), t, m->y.data(), m->y.size(), true);
 }
 
-void EstimatorNodelet::onForeign(std::size_t sensor, const ros::Time& stamp, const double* y, std::size_t size)
+void EstimatorNodelet::onForeign(std::size_t sensor, const ros::Time& stamp, const double* y, std::size_t size,
+                                 const double* R)
 {
-  offer(sensor, -1, stamp.toSec(), y, size, false);
+  offer(sensor, -1, stamp.toSec(), y, size, false, R);
 }
 
-void EstimatorNodelet::offer(std::size_t sensor, long k, double stamp, const double* y, std::size_t size, bool has_step)
+void EstimatorNodelet::covarianceFallback(const std::string& why)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++covariance_fallbacks_;
+  NODELET_WARN_THROTTLE(10.0, "Estimator: message without a covariance, the model's R is used: %s (%lu so far)",
+                        why.c_str(), static_cast<unsigned long>(covariance_fallbacks_));
+}
+
+void EstimatorNodelet::offer(std::size_t sensor, long k, double stamp, const double* y, std::size_t size, bool has_step,
+                             const double* R)
 {
   std::lock_guard<std::mutex> lock(mutex_);
   if (!clock_.anchored() && !anchorLocked(has_step ? k : 1, stamp))
@@ -217,7 +232,7 @@ void EstimatorNodelet::offer(std::size_t sensor, long k, double stamp, const dou
   // Steps whose deadline has passed are taken first (the deadline thread may not have woken
   // yet): what arrives after a deadline is late, exactly, whichever thread notices first.
   catchUp(ros::Time::now().toSec());
-  const OfferResult r = online_->offerMeasurement(k, sensor, y, size);
+  const OfferResult r = online_->offerMeasurement(k, sensor, y, size, R);
   if (r.offer == Offer::REJECTED)
     NODELET_WARN_THROTTLE(1.0, "Estimator %s: measurement rejected: %s (%lu rejected so far)",
                           toString(settings_.algorithm).c_str(), r.reason.c_str(), rejectedLocked());

@@ -93,12 +93,15 @@ private:
 
   void measurement(std::size_t sensor, const Measurement::ConstPtr& m);
 
-  void onForeign(std::size_t sensor, const ros::Time& stamp, const double* y, std::size_t size);
+  void onForeign(std::size_t sensor, const ros::Time& stamp, const double* y, std::size_t size, const double* R);
+  /// covariance: message, and a message without one: counted, warned about (throttled).
+  void covarianceFallback(const std::string& why);
 
   /// k < 0: the step is the nearest one to the stamp (anchored on the first message as k = 1).
   /// Estimates are published with the mutex held, so that they leave in step order whichever
   /// thread takes the step (publish only queues the message; it never calls back into us).
-  void offer(std::size_t sensor, long k, double stamp, const double* y, std::size_t size, bool has_step);
+  void offer(std::size_t sensor, long k, double stamp, const double* y, std::size_t size, bool has_step,
+             const double* R = nullptr);
 
   /// Starts the timeline on the first message of the stream, step k stamped `stamp` (mutex held).
   /// False (rejected) for k < 1.
@@ -197,7 +200,7 @@ private:
   std::thread thread_;
   bool stop_ = false;
   double last_trace_ = 0.0;
-  std::uint64_t rejected_topic_ = 0, time_resets_ = 0, last_processed_ = 0;
+  std::uint64_t rejected_topic_ = 0, time_resets_ = 0, last_processed_ = 0, covariance_fallbacks_ = 0;
   ros::WallTime last_diag_;
 };
 

@@ -189,6 +189,7 @@ void EstimatorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   stat.add("duplicates", c.duplicates);
   stat.add("rejected", c.rejected + rejected_topic_);
   stat.add("missing commands", c.missing_commands);
+  stat.add("covariance fallbacks", covariance_fallbacks_);
   // "arrival rate" above is gamma's (some sensor arrived); these count only the samples that
   // were due: scheduled, and at a slower sensor's own steps.
   stat.add("due samples", c.due);

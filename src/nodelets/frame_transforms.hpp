@@ -11,6 +11,8 @@
 #include <tf2/LinearMath/Transform.h>
 #include <tf2/LinearMath/Vector3.h>
 
+#include <Eigen/Core>
+
 #include <functional>
 #include <string>
 
@@ -44,6 +46,20 @@ inline void fromTf(const tf2::Quaternion& t, geometry_msgs::Quaternion& q)
   q.w = t.w();
 }
 
+/// A row-major covariance of `blocks` 3-vectors (3 or 6 rows) rotated: S' = G S G', G = diag(R, ..).
+inline void rotateCovariance(double* S, int blocks, const tf2::Matrix3x3& R)
+{
+  const int n = 3 * blocks;
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(n, n);
+  for (int b = 0; b < blocks; ++b)
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        G(3 * b + i, 3 * b + j) = R[i][j];
+  Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> M(S, n, n);
+  const Eigen::MatrixXd rotated = G * M * G.transpose();
+  M = rotated;
+}
+
 /// The transform target <- frame, or identity when no transform is needed.
 inline bool lookupInto(const Frames& f, const std::string& target, const std::string& frame, const ros::Time& stamp,
                        tf2::Transform& T, bool& needed, std::string& why)
@@ -53,9 +69,10 @@ inline bool lookupInto(const Frames& f, const std::string& target, const std::st
   return !needed || f.lookup(target, frame, stamp, T, why);
 }
 
-/// A pose in `frame` into world: p' = R p + t, q' = q_T q.
+/// A pose in `frame` into world: p' = R p + t, q' = q_T q, and its 6 x 6 covariance (if given)
+/// rotated by diag(R, R).
 inline bool poseToWorld(const Frames& f, const std::string& frame, const ros::Time& stamp, geometry_msgs::Pose& p,
-                        std::string& why)
+                        std::string& why, double* cov6 = nullptr)
 {
   tf2::Transform T;
   bool needed = false;
@@ -71,20 +88,27 @@ inline bool poseToWorld(const Frames& f, const std::string& frame, const ros::Ti
                     p.orientation.z * p.orientation.z + p.orientation.w * p.orientation.w;
   if (n2 > 0.0)  // a zero quaternion stays zero: readFields refuses it if an orientation is read
     fromTf(T.getRotation() * toTf(p.orientation), p.orientation);
+  if (cov6)
+    rotateCovariance(cov6, 2, T.getBasis());
   return true;
 }
 
-/// Vectors in `frame` rotated into base_link.
+/// Vectors in `frame` rotated into base_link (and a 6 x 6 twist covariance, if given).
 inline bool vectorsToBase(const Frames& f, const std::string& frame, const ros::Time& stamp,
-                          std::initializer_list<geometry_msgs::Vector3*> vectors, std::string& why)
+                          std::initializer_list<geometry_msgs::Vector3*> vectors, std::string& why,
+                          double* cov6 = nullptr)
 {
   tf2::Transform T;
   bool needed = false;
   if (!lookupInto(f, f.base, frame, stamp, T, needed, why))
     return false;
   if (needed)
+  {
     for (geometry_msgs::Vector3* v : vectors)
       fromTf(T.getBasis() * toTf(*v), *v);
+    if (cov6)
+      rotateCovariance(cov6, 2, T.getBasis());
+  }
   return true;
 }
 
@@ -92,12 +116,13 @@ inline bool vectorsToBase(const Frames& f, const std::string& frame, const ros::
 // missing.
 inline bool intoFrames(const Frames& f, nav_msgs::Odometry& m, std::string& why)
 {
-  return poseToWorld(f, m.header.frame_id, m.header.stamp, m.pose.pose, why) &&
-         vectorsToBase(f, m.child_frame_id, m.header.stamp, {&m.twist.twist.linear, &m.twist.twist.angular}, why);
+  return poseToWorld(f, m.header.frame_id, m.header.stamp, m.pose.pose, why, m.pose.covariance.data()) &&
+         vectorsToBase(f, m.child_frame_id, m.header.stamp, {&m.twist.twist.linear, &m.twist.twist.angular}, why,
+                       m.twist.covariance.data());
 }
 inline bool intoFrames(const Frames& f, geometry_msgs::PoseWithCovarianceStamped& m, std::string& why)
 {
-  return poseToWorld(f, m.header.frame_id, m.header.stamp, m.pose.pose, why);
+  return poseToWorld(f, m.header.frame_id, m.header.stamp, m.pose.pose, why, m.pose.covariance.data());
 }
 inline bool intoFrames(const Frames& f, geometry_msgs::PoseStamped& m, std::string& why)
 {
@@ -114,7 +139,8 @@ inline bool intoFrames(const Frames& f, geometry_msgs::PointStamped& m, std::str
 }
 inline bool intoFrames(const Frames& f, geometry_msgs::TwistWithCovarianceStamped& m, std::string& why)
 {
-  return vectorsToBase(f, m.header.frame_id, m.header.stamp, {&m.twist.twist.linear, &m.twist.twist.angular}, why);
+  return vectorsToBase(f, m.header.frame_id, m.header.stamp, {&m.twist.twist.linear, &m.twist.twist.angular}, why,
+                       m.twist.covariance.data());
 }
 inline bool intoFrames(const Frames& f, geometry_msgs::TwistStamped& m, std::string& why)
 {
@@ -135,6 +161,9 @@ inline bool intoFrames(const Frames& f, sensor_msgs::Imu& m, std::string& why)
   const tf2::Quaternion q = toTf(m.orientation);
   if (q.length2() > 0.0)
     fromTf(q * T.getRotation().inverse(), m.orientation);
+  for (auto* cov : {&m.orientation_covariance, &m.angular_velocity_covariance, &m.linear_acceleration_covariance})
+    if ((*cov)[0] != -1.0)  // -1: unknown, kept as the marker
+      rotateCovariance(cov->data(), 1, T.getBasis());
   return true;
 }
 /// Frame-free types: NavSatFix (its ENU is the world's by construction), Range and Float64 (scalars

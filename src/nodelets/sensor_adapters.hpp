@@ -17,6 +17,7 @@
 #include <tf2/LinearMath/Matrix3x3.h>
 #include <tf2/LinearMath/Quaternion.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 
 #include <cmath>
@@ -42,6 +43,14 @@ struct MessageView
   const Eigen::Vector3d* enu = nullptr;
   const std::vector<double>* array = nullptr;
   double scalar = std::numeric_limits<double>::quiet_NaN();
+  // Covariances (row-major; null where the type has none): 6 x 6 pose and twist, 3 x 3 IMU and fix.
+  const double* pose_cov = nullptr;
+  const double* twist_cov = nullptr;
+  const double* orientation_cov = nullptr;
+  const double* angular_cov = nullptr;
+  const double* acceleration_cov = nullptr;
+  const double* enu_cov = nullptr;
+  int enu_cov_type = 0;  ///< NavSatFix.position_covariance_type
 };
 
 inline MessageView view(const geometry_msgs::Pose& p)
@@ -63,11 +72,23 @@ inline MessageView view(const nav_msgs::Odometry& m)
   MessageView v = view(m.pose.pose);
   v.linear = &m.twist.twist.linear;
   v.angular = &m.twist.twist.angular;
+  v.pose_cov = m.pose.covariance.data();
+  v.twist_cov = m.twist.covariance.data();
   return v;
 }
-inline MessageView view(const geometry_msgs::PoseWithCovarianceStamped& m) { return view(m.pose.pose); }
+inline MessageView view(const geometry_msgs::PoseWithCovarianceStamped& m)
+{
+  MessageView v = view(m.pose.pose);
+  v.pose_cov = m.pose.covariance.data();
+  return v;
+}
 inline MessageView view(const geometry_msgs::PoseStamped& m) { return view(m.pose); }
-inline MessageView view(const geometry_msgs::TwistWithCovarianceStamped& m) { return view(m.twist.twist); }
+inline MessageView view(const geometry_msgs::TwistWithCovarianceStamped& m)
+{
+  MessageView v = view(m.twist.twist);
+  v.twist_cov = m.twist.covariance.data();
+  return v;
+}
 inline MessageView view(const geometry_msgs::TwistStamped& m) { return view(m.twist); }
 inline MessageView view(const geometry_msgs::PointStamped& m)
 {
@@ -81,6 +102,9 @@ inline MessageView view(const sensor_msgs::Imu& m)
   v.orientation = &m.orientation;
   v.angular = &m.angular_velocity;
   v.acceleration = &m.linear_acceleration;
+  v.orientation_cov = m.orientation_covariance.data();
+  v.angular_cov = m.angular_velocity_covariance.data();
+  v.acceleration_cov = m.linear_acceleration_covariance.data();
   return v;
 }
 inline MessageView view(const sensor_msgs::Range& m)
@@ -171,6 +195,93 @@ inline bool readFields(const MessageView& v, const std::vector<InputField>& fiel
     y[i] = value;
   }
   return true;
+}
+
+enum class CovarianceRead
+{
+  OK,        ///< R holds the message's covariance of the fields
+  FALLBACK,  ///< the message says it has none (ROS conventions): use the model's R (why says which)
+  BAD        ///< not finite, not symmetric or not positive definite: refuse the message
+};
+
+/// R (fields x fields, row-major) from the message's covariances of the fields (covarianceOf);
+/// fields of different blocks are uncorrelated. ROS's "unknown" conventions give FALLBACK: a
+/// leading -1 in an Imu block, NavSatFix COVARIANCE_TYPE_UNKNOWN, and all-zero entries.
+inline CovarianceRead readCovariance(InputType type, const MessageView& v, const std::vector<InputField>& fields,
+                                     double* R, std::string& why)
+{
+  const std::size_t n = fields.size();
+  auto source = [&](CovarianceBlock b, int& dim) -> const double* {
+    dim = b == CovarianceBlock::POSE || b == CovarianceBlock::TWIST ? 6 : 3;
+    switch (b)
+    {
+      case CovarianceBlock::POSE:
+        return v.pose_cov;
+      case CovarianceBlock::TWIST:
+        return v.twist_cov;
+      case CovarianceBlock::ORIENTATION:
+        return v.orientation_cov;
+      case CovarianceBlock::ANGULAR:
+        return v.angular_cov;
+      case CovarianceBlock::ACCELERATION:
+        return v.acceleration_cov;
+      case CovarianceBlock::POSITION_ENU:
+        return v.enu_cov;
+      case CovarianceBlock::NONE:
+        break;
+    }
+    return nullptr;
+  };
+  bool any = false;
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const CovarianceSource a = covarianceOf(type, fields[i]);
+    int dim = 0;
+    const double* c = source(a.block, dim);
+    if (!c)
+    {
+      why = fields[i].name + ": the message has no covariance";
+      return CovarianceRead::FALLBACK;
+    }
+    const bool imu = a.block == CovarianceBlock::ORIENTATION || a.block == CovarianceBlock::ANGULAR ||
+                     a.block == CovarianceBlock::ACCELERATION;
+    if (imu && c[0] == -1.0)
+    {
+      why = fields[i].name + ": covariance unknown (a leading -1)";
+      return CovarianceRead::FALLBACK;
+    }
+    if (a.block == CovarianceBlock::POSITION_ENU && v.enu_cov_type == sensor_msgs::NavSatFix::COVARIANCE_TYPE_UNKNOWN)
+    {
+      why = "position_covariance_type UNKNOWN";
+      return CovarianceRead::FALLBACK;
+    }
+    for (std::size_t j = 0; j < n; ++j)
+    {
+      const CovarianceSource b = covarianceOf(type, fields[j]);
+      const double value = a.block == b.block ? c[a.index * dim + b.index] : 0.0;
+      R[i * n + j] = value;
+      any = any || value != 0.0;
+    }
+  }
+  if (!any)
+  {
+    why = "covariance all zeros";
+    return CovarianceRead::FALLBACK;
+  }
+  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> M(
+      R, static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+  std::string names;
+  for (const InputField& f : fields)
+    names += (names.empty() ? "" : ", ") + f.name;
+  if (!M.allFinite())
+    why = "covariance of [" + names + "] is not finite";
+  else if (!((M - M.transpose()).cwiseAbs().maxCoeff() <= 1e-9 * M.cwiseAbs().maxCoeff()))
+    why = "covariance of [" + names + "] is not symmetric";
+  else if (Eigen::LLT<Eigen::MatrixXd>(M).info() != Eigen::Success)
+    why = "covariance of [" + names + "] is not positive definite";
+  else
+    return CovarianceRead::OK;
+  return CovarianceRead::BAD;
 }
 
 /// NavSatFix to local ENU about a datum: the configured one, else the first valid fix.

@@ -17,8 +17,12 @@ namespace networked_estimation
 
 struct SensorSink
 {
-  std::function<void(const ros::Time& stamp, const double* y, std::size_t size)> ok;
+  /// A valid message: its fields, and (covariance: message) their R_k block, row-major, or null for
+  /// the model's R.
+  std::function<void(const ros::Time& stamp, const double* y, std::size_t size, const double* R)> ok;
   std::function<void(const std::string& why)> bad;
+  /// covariance: message, and the message said it has none: the model's R is used (counted).
+  std::function<void(const std::string& why)> fallback;
   /// NavSatFix only: a fix became the datum.
   std::function<void(const LocalEnu& datum)> datum;
   /// The model's frames and the tf2 lookup (frame_transforms.hpp); no lookup: frames are not used.
@@ -36,22 +40,47 @@ inline ros::Time stampOf(const std_msgs::Float64&) { return ros::Time::now(); }
 inline ros::Time stampOf(const std_msgs::Float64MultiArray&) { return ros::Time::now(); }
 inline ros::Time stampOf(const geometry_msgs::Twist&) { return ros::Time::now(); }
 
+/// The fields of a message's view (and their covariance with covariance: message) to the sink.
+inline void deliver(const SensorInput& in, const MessageView& v, const ros::Time& stamp, const SensorSink& sink)
+{
+  const std::size_t n = in.fields.size();
+  std::vector<double> y(n), R(n * n);
+  std::string why;
+  if (!readFields(v, in.fields, y.data(), why))
+  {
+    sink.bad(why);
+    return;
+  }
+  const double* own = nullptr;
+  if (in.message_covariance)
+    switch (readCovariance(in.type, v, in.fields, R.data(), why))
+    {
+      case CovarianceRead::OK:
+        own = R.data();
+        break;
+      case CovarianceRead::FALLBACK:
+        if (sink.fallback)
+          sink.fallback(why);
+        break;
+      case CovarianceRead::BAD:
+        sink.bad(why);
+        return;
+    }
+  sink.ok(stamp, y.data(), n, own);
+}
+
 template <class M>
 ros::Subscriber subscribeFields(ros::NodeHandle& nh, const SensorInput& in, uint32_t queue, const SensorSink& sink)
 {
-  const std::vector<InputField> fields = in.fields;
   return nh.subscribe<M>(
       in.topic, queue,
-      [fields, sink](const typename M::ConstPtr& m) {
-        std::vector<double> y(fields.size());
+      [in, sink](const typename M::ConstPtr& m) {
         std::string why;
         M local = *m;  // into the model's frames
         if (!intoFrames(sink.frames, local, why))
           sink.bad(why);
-        else if (readFields(view(local), fields, y.data(), why))
-          sink.ok(stampOf(local), y.data(), y.size());
         else
-          sink.bad(why);
+          deliver(in, view(local), stampOf(local), sink);
       },
       ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
 }
@@ -59,11 +88,10 @@ ros::Subscriber subscribeFields(ros::NodeHandle& nh, const SensorInput& in, uint
 inline ros::Subscriber subscribeNavSatFix(ros::NodeHandle& nh, const SensorInput& in, uint32_t queue,
                                           const SensorSink& sink, const std::vector<double>& datum)
 {
-  const std::vector<InputField> fields = in.fields;
   auto enu = std::make_shared<NavSatFixEnu>(datum);
   return nh.subscribe<sensor_msgs::NavSatFix>(
       in.topic, queue,
-      [fields, sink, enu](const sensor_msgs::NavSatFix::ConstPtr& m) {
+      [in, sink, enu](const sensor_msgs::NavSatFix::ConstPtr& m) {
         Eigen::Vector3d local;
         std::string why;
         bool new_datum = false;
@@ -76,11 +104,9 @@ inline ros::Subscriber subscribeNavSatFix(ros::NodeHandle& nh, const SensorInput
           sink.datum(*enu->datum());
         MessageView v;
         v.enu = &local;
-        std::vector<double> y(fields.size());
-        if (readFields(v, fields, y.data(), why))
-          sink.ok(m->header.stamp, y.data(), y.size());
-        else
-          sink.bad(why);
+        v.enu_cov = m->position_covariance.data();  // ENU already (sensor_msgs/NavSatFix)
+        v.enu_cov_type = m->position_covariance_type;
+        deliver(in, v, m->header.stamp, sink);
       },
       ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
 }

@@ -73,10 +73,11 @@ Params params()
   return p;
 }
 
-/// Checks the estimates of steps 1..N against kfio stepped offline on y(k) (every y in hand) and
-/// u(k) (models with control), state by state to 1e-12.
-template <class Y, class U>
-void expectKfioOffline(const ne::Model& model, const std::map<long, Estimate>& got, long N, Y y, U u)
+/// Checks the estimates of steps 1..N against kfio stepped offline on y(k) (every y in hand), u(k)
+/// (models with control) and R_k = r(k) (empty: the model's R), state by state to 1e-12.
+template <class Y, class U, class R = Eigen::MatrixXd (*)(long)>
+void expectKfioOffline(const ne::Model& model, const std::map<long, Estimate>& got, long N, Y y, U u,
+                       R r = [](long) { return Eigen::MatrixXd(); })
 {
   ne::EstimatorSettings st;
   st.algorithm = ne::Algorithm::KFIO;
@@ -87,6 +88,7 @@ void expectKfioOffline(const ne::Model& model, const std::map<long, Estimate>& g
     smp.gamma = true;
     smp.y = y(k);
     smp.u = u(k);
+    smp.R = r(k);  // the step's own R_k (empty: the model's)
     ref->step(smp);
     ASSERT_EQ(got.count(k), 1u) << "step " << k;
     const Estimate& e = got.at(k);
@@ -590,7 +592,7 @@ TEST(EstimatorGraph, ScheduledSensorsAreNotDueNorLost)
 }
 
 // Standard types at mixed rates (estimator_standard_inputs.test): Odometry every step, Imu every
-// 5th and NavSatFix every 25th, stamped on the grid. Every step is estimated as soon as the
+// 5th and NavSatFix every 25th (with its own covariance: covariance: message), stamped on the grid. Every step is estimated as soon as the
 // sensors due at it are in hand; the estimates equal the filter stepped offline on the selected
 // fields (the fix converted about the pinned datum) to 1e-12; every due sample arrived (a 2 Hz
 // GNSS that delivers every fix shows an arrival rate of 1, not 0.04), and the datum is latched.
@@ -613,6 +615,7 @@ TEST(EstimatorGraph, StandardTypesAtMixedRates)
   const ne::LocalEnu enu(48.137, 11.575, 520.0);
   const int N = 150;
   std::vector<Eigen::VectorXd> y(N + 1, Eigen::VectorXd::Constant(5, std::nan("")));
+  std::vector<Eigen::MatrixXd> R(N + 1);
   auto truth = [](long k) {
     return Eigen::Vector3d(3.0 * std::sin(0.05 * k), 2.0 * std::cos(0.03 * k), 0.01 * k - 0.5);
   };
@@ -647,6 +650,10 @@ TEST(EstimatorGraph, StandardTypesAtMixedRates)
     f.latitude = lla(0);
     f.longitude = lla(1);
     f.altitude = lla(2);
+    // covariance: message: a fix's own ENU covariance, changing from fix to fix.
+    const double var_e = 1.0 + 0.1 * static_cast<double>(k % 7), var_n = 2.0 + 0.05 * static_cast<double>(k % 5);
+    f.position_covariance = {var_e, 0.3, 0, 0.3, var_n, 0, 0, 0, 9.0};
+    f.position_covariance_type = sensor_msgs::NavSatFix::COVARIANCE_TYPE_KNOWN;
     const bool with_imu = (k - 1) % 5 == 0, with_fix = (k - 1) % 25 == 0;
     if (with_imu)
     {
@@ -654,16 +661,20 @@ TEST(EstimatorGraph, StandardTypesAtMixedRates)
       tf2::Matrix3x3(q).getRPY(roll, pitch, yaw);
       row(2) = yaw;
     }
+    Eigen::MatrixXd Rk;
     if (with_fix)
     {
       const Eigen::Vector3d e = enu.forward(f.latitude, f.longitude, f.altitude);  // what the estimator computes
       row(3) = e(0);
       row(4) = e(1);
+      Rk = model.R;  // the model's R with the fix's block (no cross-terms: the model has none)
+      Rk.block(3, 3, 2, 2) << var_e, 0.3, 0.3, var_n;
     }
     if (k <= N)
     {
       std::lock_guard<std::mutex> lock(mutex);
       y[k] = row;
+      R[k] = Rk;
     }
     // Odometry (due at every step) leaves one tick after the slow sensors of its step, so that a
     // step is never complete before them: a slow sensor's phase is unknown until its first sample.
@@ -678,7 +689,7 @@ TEST(EstimatorGraph, StandardTypesAtMixedRates)
   ASSERT_TRUE(waitFor([&] { return diag.get("steps") >= N; }, 30.0)) << diag.get("steps");
   const std::map<long, Estimate> got = byStep(est);
   std::lock_guard<std::mutex> lock(mutex);
-  expectKfioOffline(model, got, N, [&](long k) { return y[k]; }, noInput);
+  expectKfioOffline(model, got, N, [&](long k) { return y[k]; }, noInput, [&](long k) { return R[k]; });
   // odometry/filtered: the same estimates, state_mapping {x: 0, y: 1, yaw: 2}, REP-105 frames.
   {
     std::lock_guard<std::mutex> fl(filtered.mutex);

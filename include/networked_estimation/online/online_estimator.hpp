@@ -110,7 +110,11 @@ public:
   long nextStep() const { return next_; }
 
   /// Offers y_k of sensor `sensor` (index into model.sensors). `size` must equal the sensor's rows.
-  OfferResult offerMeasurement(long k, std::size_t sensor, const double* y, std::size_t size);
+  /// `R`: optionally the sensor's own R_k block for this sample (size x size, row-major; e.g. the
+  /// message's covariance, validated by the caller): that step's filter input then has the model's
+  /// R with this sensor's block replaced and its cross-blocks with other sensors zero.
+  OfferResult offerMeasurement(long k, std::size_t sensor, const double* y, std::size_t size,
+                               const double* R = nullptr);
   /// Offers the command u_k (p values). Only meaningful for models with control.
   OfferResult offerCommand(long k, const double* u, std::size_t size);
 
@@ -167,6 +171,8 @@ private:
     bool have_u = false;
     std::vector<char> scheduled;  ///< random schedule: the draw for this step, per sensor
     bool have_schedule = false;
+    std::vector<char> own_R;      ///< per sensor: its R_k block was offered (in R)
+    Eigen::MatrixXd R;            ///< m x m, allocated on the first own block
   };
 
   Slot& slot(long k);
@@ -177,6 +183,8 @@ private:
   void stepChecked(Estimator& est, const Sample& sample);
   void rewind();
   OfferResult checkStep(long k) const;
+  /// Keeps a sensor's own R_k block in the slot (no-op for R = nullptr).
+  void storeR(Slot& s, std::size_t sensor, const double* R);
   /// Whether sensor `sensor` is due at step k (slot `s` holds k, or is null when nothing is in
   /// hand for k).
   bool due(const Slot* s, long k, std::size_t sensor) const;

@@ -62,12 +62,37 @@ constexpr int kMaxArrayFields = 64;
 /// The fields a type offers (empty for MEASUREMENT and CONTROL_INPUT, taken whole).
 const std::vector<InputField>& inputFields(InputType t);
 
+/// Where a field's variance sits in its message (covariance: message).
+enum class CovarianceBlock
+{
+  NONE,          ///< the type has no covariance for this field
+  POSE,          ///< 6 x 6 [x y z roll pitch yaw] (Odometry, PoseWithCovarianceStamped)
+  TWIST,         ///< 6 x 6 [vx vy vz wx wy wz] (Odometry, TwistWithCovarianceStamped)
+  ORIENTATION,   ///< Imu.orientation_covariance, 3 x 3 [roll pitch yaw]
+  ANGULAR,       ///< Imu.angular_velocity_covariance, 3 x 3
+  ACCELERATION,  ///< Imu.linear_acceleration_covariance, 3 x 3
+  POSITION_ENU   ///< NavSatFix.position_covariance, 3 x 3 [east north up]
+};
+
+struct CovarianceSource
+{
+  CovarianceBlock block = CovarianceBlock::NONE;
+  int index = 0;  ///< row/column of the field in its block
+};
+
+/// The covariance entry of a field of `type` (NONE where the message has none, e.g. a raw
+/// quaternion component, or a type without covariances).
+CovarianceSource covarianceOf(InputType type, const InputField& field);
+
 struct SensorInput
 {
   std::string topic;
   InputType type = InputType::MEASUREMENT;
   std::vector<InputField> fields;  ///< the sensor's rows, in order (empty for MEASUREMENT)
   double rate = 0.0;               ///< nominal Hz (the model's rate by default)
+  /// covariance: message: R_k is the message's covariance of the fields (per field: covarianceOf);
+  /// false (model): the model's R.
+  bool message_covariance = false;
 };
 
 /// Parses a type name (e.g. "sensor_msgs/NavSatFix") among `allowed`; throws ConfigError naming

@@ -71,11 +71,16 @@ void parseSensorInputs(const YAML::Node& block, const std::string& source, Estim
     if (!entry.second.IsMap())
       throw ConfigError(key + ": expected a map (keys: topic, type, fields, rate)");
     ParamReader p(entry.second, key);
-    for (const char* later : {"covariance", "rejection_threshold"})
-      if (p.has(later))
-        throw ConfigError(key + "." + later + ": not supported yet (R comes from the model file and " +
-                          "every measurement is fused)");
+    if (p.has("rejection_threshold"))
+      throw ConfigError(key + ".rejection_threshold: not supported yet (every valid measurement is fused)");
     parseInput(p, key, sensorInputTypes(), model.sensors[index].size, "row of sensor '" + name + "'", in);
+    in.message_covariance = p.choice("covariance", "model", {"model", "message"}) == "message";
+    if (in.message_covariance)
+      for (const InputField& f : in.fields.empty() ? std::vector<InputField>{InputField()} : in.fields)
+        if (in.fields.empty() || covarianceOf(in.type, f).block == CovarianceBlock::NONE)
+          throw ConfigError(key + ".covariance: message: " + toString(in.type) +
+                            (in.fields.empty() ? " carries no covariance" : " has no covariance of '" + f.name + "'") +
+                            " (use covariance: model)");
     in.rate = p.number("rate", model_rate, 0.0, 1e9);
     if (!(in.rate > 0.0) || in.rate > model_rate * (1.0 + 1e-9))
       throw ConfigError(key + ".rate: expected > 0 and at most the model's rate " + std::to_string(model_rate) +

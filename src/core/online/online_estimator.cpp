@@ -55,6 +55,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const EstimatorSettings& se
     s.y = Eigen::VectorXd::Constant(model_.m(), std::numeric_limits<double>::quiet_NaN());
     s.have.assign(model_.sensors.size(), 0);
     s.scheduled.assign(model_.sensors.size(), 0);
+    s.own_R.assign(model_.sensors.size(), 0);
   }
   sample_.y.resize(model_.m());
   last_arrived_.assign(model_.sensors.size(), false);
@@ -103,6 +104,7 @@ OnlineEstimator::Slot* OnlineEstimator::slotFor(long k)
     s.k = k;
     s.y.setConstant(std::numeric_limits<double>::quiet_NaN());
     std::fill(s.have.begin(), s.have.end(), 0);
+    std::fill(s.own_R.begin(), s.own_R.end(), 0);
     s.have_u = false;
     s.have_schedule = false;
   }
@@ -174,7 +176,20 @@ OfferResult OnlineEstimator::reject(const std::string& why)
   return r;
 }
 
-OfferResult OnlineEstimator::offerMeasurement(long k, std::size_t sensor, const double* y, std::size_t size)
+void OnlineEstimator::storeR(Slot& s, std::size_t sensor, const double* R)
+{
+  if (!R)
+    return;
+  const Sensor& sn = model_.sensors[sensor];
+  if (s.R.rows() != model_.m())
+    s.R.resize(model_.m(), model_.m());
+  s.R.block(sn.offset, sn.offset, sn.size, sn.size) =
+      Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(R, sn.size, sn.size);
+  s.own_R[sensor] = 1;
+}
+
+OfferResult OnlineEstimator::offerMeasurement(long k, std::size_t sensor, const double* y, std::size_t size,
+                                              const double* R)
 {
   OfferResult r;
   if (sensor >= model_.sensors.size())
@@ -213,6 +228,7 @@ OfferResult OnlineEstimator::offerMeasurement(long k, std::size_t sensor, const 
     Slot* d = slotFor(k);
     d->have[sensor] = 1;
     d->y.segment(sn.offset, sn.size) = Eigen::Map<const Eigen::VectorXd>(y, sn.size);
+    storeR(*d, sensor, R);
     ++counters_.late_fused;
     rewind();
     r.offer = Offer::LATE_FUSED;
@@ -227,6 +243,7 @@ OfferResult OnlineEstimator::offerMeasurement(long k, std::size_t sensor, const 
   }
   s->have[sensor] = 1;
   s->y.segment(sn.offset, sn.size) = Eigen::Map<const Eigen::VectorXd>(y, sn.size);
+  storeR(*s, sensor, R);
   ++counters_.accepted;
   if (k > anchor_[sensor])
     anchor_[sensor] = k;  // a slower sensor's phase follows its latest sample
@@ -335,6 +352,7 @@ void OnlineEstimator::fillSample(long k, Sample& sample) const
     sample.gamma = false;
     sample.y.setConstant(std::numeric_limits<double>::quiet_NaN());
     sample.u.resize(0);
+    sample.R.resize(0, 0);
     return;
   }
   int arrived = 0;
@@ -342,6 +360,24 @@ void OnlineEstimator::fillSample(long k, Sample& sample) const
     arrived += h ? 1 : 0;
   sample.gamma = arrived > 0;
   sample.y = s.y;
+  // Own R_k blocks: the model's R with each such sensor's block replaced, its cross-blocks zero.
+  bool own = false;
+  for (std::size_t i = 0; i < s.own_R.size(); ++i)
+    own = own || (s.own_R[i] && s.have[i]);
+  if (!own)
+    sample.R.resize(0, 0);
+  else
+  {
+    sample.R = model_.R;
+    for (std::size_t i = 0; i < s.own_R.size(); ++i)
+      if (s.own_R[i] && s.have[i])
+      {
+        const Sensor& sn = model_.sensors[i];
+        sample.R.middleRows(sn.offset, sn.size).setZero();
+        sample.R.middleCols(sn.offset, sn.size).setZero();
+        sample.R.block(sn.offset, sn.offset, sn.size, sn.size) = s.R.block(sn.offset, sn.offset, sn.size, sn.size);
+      }
+  }
   if (s.have_u)
     sample.u = s.u;
   else
@@ -371,6 +407,7 @@ void OnlineEstimator::stepChecked(Estimator& est, const Sample& sample)
     predict.gamma = false;
     predict.y.setConstant(std::numeric_limits<double>::quiet_NaN());
     predict.u.resize(0);
+    predict.R.resize(0, 0);
     est.step(predict);
   }
 }

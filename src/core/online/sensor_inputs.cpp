@@ -167,6 +167,48 @@ const std::vector<InputField>& inputFields(InputType t)
   return table[static_cast<std::size_t>(t)];
 }
 
+CovarianceSource covarianceOf(InputType type, const InputField& f)
+{
+  CovarianceSource c;
+  const bool pose_type = type == InputType::ODOMETRY || type == InputType::POSE_WITH_COVARIANCE;
+  const bool twist_type = type == InputType::ODOMETRY || type == InputType::TWIST_WITH_COVARIANCE;
+  switch (f.quantity)
+  {
+    case Quantity::POSITION:
+      if (pose_type)
+        c = {CovarianceBlock::POSE, f.axis};
+      break;
+    case Quantity::ORIENTATION_RPY:
+      if (pose_type)
+        c = {CovarianceBlock::POSE, 3 + f.axis};
+      else if (type == InputType::IMU)
+        c = {CovarianceBlock::ORIENTATION, f.axis};
+      break;
+    case Quantity::LINEAR_VELOCITY:
+      if (twist_type)
+        c = {CovarianceBlock::TWIST, f.axis};
+      break;
+    case Quantity::ANGULAR_VELOCITY:
+      if (twist_type)
+        c = {CovarianceBlock::TWIST, 3 + f.axis};
+      else if (type == InputType::IMU)
+        c = {CovarianceBlock::ANGULAR, f.axis};
+      break;
+    case Quantity::LINEAR_ACCELERATION:
+      if (type == InputType::IMU)
+        c = {CovarianceBlock::ACCELERATION, f.axis};
+      break;
+    case Quantity::ENU:
+      c = {CovarianceBlock::POSITION_ENU, f.axis};
+      break;
+    case Quantity::ORIENTATION:
+    case Quantity::SCALAR:
+    case Quantity::ELEMENT:
+      break;
+  }
+  return c;
+}
+
 InputType inputTypeFromString(const std::string& name, const std::string& key, const std::vector<InputType>& allowed)
 {
   std::string names;
