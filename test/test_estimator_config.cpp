@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <string>
 #include <unistd.h>
 
@@ -247,7 +248,10 @@ TEST_F(EstimatorConfig, SensorsBlockRefusalsNameTheKey)
       "has no covariance of 'orientation.z'");
   has(error("{sensors: {b: {type: sensor_msgs/Imu, fields: [angular_velocity.z], covariance: sometimes}}}", planar_),
       "covariance");
-  has(error("{sensors: {b: {rejection_threshold: 3}}}", planar_), "sensors.b.rejection_threshold: not supported yet");
+  has(error("{sensors: {b: {rejection_threshold: 0}}}", planar_),
+      "sensors.b.rejection_threshold: expected a Mahalanobis distance > 0, found 0");
+  EXPECT_EQ(parse("{sensors: {b: {rejection_threshold: 3}}}", planar_).online.rejection_threshold,
+            (std::vector<double>{std::numeric_limits<double>::infinity(), 3.0}));
   const ne::EstimatorNodeConfig m = parse(
       "{sensors: {a: {type: nav_msgs/Odometry, fields: [pose.pose.position.x, twist.twist.angular.z], covariance: message}}}",
       planar_);

@@ -652,3 +652,42 @@ TEST(OnlineEstimator, OwnRBlocksMakeTheStepsR)
     ASSERT_EQ(on.estimator().covariance(), ref->covariance()) << k;
   }
 }
+
+// rejection_threshold, for every algorithm: a gross outlier of sensor 1 (+1e3) is not fused (the
+// estimate equals the filter stepped without it), counts as not arrived and is counted; the
+// ordinary samples pass (the threshold of 10 is far above their innovations: with y simulated by
+// the model, d^2 is chi-square with 2 degrees of freedom, P(d > 10) = exp(-50)).
+TEST(OnlineEstimator, RejectionThresholdForEveryAlgorithm)
+{
+  for (ne::Algorithm a : {ne::Algorithm::KF, ne::Algorithm::KFIO, ne::Algorithm::RSEIO, ne::Algorithm::AOE,
+                          ne::Algorithm::OE})
+  {
+    const ne::Model model = ne::test::aoeModel();  // control, two rows of y
+    const int T = 60;
+    const Stream s = simulate(model, T, 5);
+    ne::OnlineOptions o;
+    o.rejection_threshold = {10.0};
+    ne::OnlineEstimator on(model, settingsFor(a), o);
+    on.start(1);
+    std::vector<std::vector<bool>> used(T, std::vector<bool>(1, true));
+    for (long k = 1; k <= T; ++k)
+    {
+      on.offerCommand(k, s.u[k - 1].data(), s.u[k - 1].size());
+      Eigen::VectorXd y = s.y[k - 1];
+      if (k == 30)
+        y.array() += 1e3;
+      ASSERT_EQ(on.offerMeasurement(k, 0, y.data(), y.size()).offer, Offer::ACCEPTED);
+      on.process();
+      EXPECT_EQ(on.lastArrived()[0], k != 30) << ne::toString(a) << " k " << k;
+    }
+    used[29][0] = false;
+    EXPECT_EQ(on.counters().gated, 1u) << ne::toString(a);
+    EXPECT_EQ(on.counters().gated_per_sensor[0], 1u);
+    EXPECT_EQ(on.counters().due_arrived, static_cast<std::uint64_t>(T - 1));
+    const auto ref = offline(model, settingsFor(a), s, used);
+    EXPECT_LT((on.estimator().state() - ref.back()).norm(), 1e-9 * (1.0 + ref.back().norm())) << ne::toString(a);
+  }
+  ne::OnlineOptions bad;
+  bad.rejection_threshold = {0.0};
+  EXPECT_THROW(ne::OnlineEstimator(ne::test::aoeModel(), settingsFor(ne::Algorithm::KFIO), bad), ne::ConfigError);
+}

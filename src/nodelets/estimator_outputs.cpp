@@ -190,6 +190,9 @@ void EstimatorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   stat.add("rejected", c.rejected + rejected_topic_);
   stat.add("missing commands", c.missing_commands);
   stat.add("covariance fallbacks", covariance_fallbacks_);
+  for (std::size_t i = 0; i < inputs_.size(); ++i)
+    if (std::isfinite(inputs_[i].rejection_threshold))
+      stat.add(online_->model().sensors[i].name + " rejected by threshold", c.gated_per_sensor[i]);
   // "arrival rate" above is gamma's (some sensor arrived); these count only the samples that
   // were due: scheduled, and at a slower sensor's own steps.
   stat.add("due samples", c.due);

@@ -52,6 +52,13 @@ struct OnlineOptions
   /// >= 1. A sensor with a ratio r > 1 is due only every r steps (rounded), on its own phase: the
   /// step of its latest sample. Before its first sample it is not due.
   std::vector<double> rate_ratio;
+  /// Per sensor (empty = none): the largest Mahalanobis distance sqrt(nu' S^-1 nu) of the
+  /// sensor's innovation nu = y - C xpred, S = C Ppred C' + R, that is still fused (as
+  /// robot_localization's *_rejection_threshold); +inf = off. xpred = A x + Bu u and Ppred =
+  /// A P A' + B Q B' from the estimator's x_{k-1|k-1}, P_{k-1|k-1} (for rseio its pseudo-
+  /// covariance, for aoe/oe the mixture's moments, with the command as sent). A measurement beyond
+  /// it is not fused and counts as not arrived (a loss for the link statistics).
+  std::vector<double> rejection_threshold;
 };
 
 /// Validates options (history_length >= 1 for rewind, max_future_steps >= 1, max_past_steps >=
@@ -94,6 +101,9 @@ struct OnlineCounters
   /// Sensor samples due at the processed steps (sum over steps of the sensors due there), and
   /// those of them in hand at the step: their ratio is the arrival rate of what was sent.
   std::uint64_t due = 0, due_arrived = 0;
+  /// Measurements refused by their sensor's rejection_threshold (total, and per sensor).
+  std::uint64_t gated = 0;
+  std::vector<std::uint64_t> gated_per_sensor;
 };
 
 class OnlineEstimator
@@ -172,6 +182,7 @@ private:
     std::vector<char> scheduled;  ///< random schedule: the draw for this step, per sensor
     bool have_schedule = false;
     std::vector<char> own_R;      ///< per sensor: its R_k block was offered (in R)
+    std::vector<char> gated;      ///< per sensor: refused by its rejection_threshold when processed
     Eigen::MatrixXd R;            ///< m x m, allocated on the first own block
   };
 
@@ -183,6 +194,9 @@ private:
   void stepChecked(Estimator& est, const Sample& sample);
   void rewind();
   OfferResult checkStep(long k) const;
+  /// The rejection thresholds at step k: refuses (in `sample` and the slot) every arrived sensor
+  /// whose innovation is beyond its threshold.
+  void gate(Slot& s, Sample& sample);
   /// Keeps a sensor's own R_k block in the slot (no-op for R = nullptr).
   void storeR(Slot& s, std::size_t sensor, const double* R);
   /// Whether sensor `sensor` is due at step k (slot `s` holds k, or is null when nothing is in

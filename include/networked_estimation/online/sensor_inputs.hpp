@@ -6,6 +6,7 @@
 // message; this file only names and validates them.
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -93,6 +94,8 @@ struct SensorInput
   /// covariance: message: R_k is the message's covariance of the fields (per field: covarianceOf);
   /// false (model): the model's R.
   bool message_covariance = false;
+  /// Largest Mahalanobis distance of the innovation still fused (+inf: off; OnlineOptions).
+  double rejection_threshold = std::numeric_limits<double>::infinity();
 };
 
 /// Parses a type name (e.g. "sensor_msgs/NavSatFix") among `allowed`; throws ConfigError naming

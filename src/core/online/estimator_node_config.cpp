@@ -71,8 +71,6 @@ void parseSensorInputs(const YAML::Node& block, const std::string& source, Estim
     if (!entry.second.IsMap())
       throw ConfigError(key + ": expected a map (keys: topic, type, fields, rate)");
     ParamReader p(entry.second, key);
-    if (p.has("rejection_threshold"))
-      throw ConfigError(key + ".rejection_threshold: not supported yet (every valid measurement is fused)");
     parseInput(p, key, sensorInputTypes(), model.sensors[index].size, "row of sensor '" + name + "'", in);
     in.message_covariance = p.choice("covariance", "model", {"model", "message"}) == "message";
     if (in.message_covariance)
@@ -81,6 +79,11 @@ void parseSensorInputs(const YAML::Node& block, const std::string& source, Estim
           throw ConfigError(key + ".covariance: message: " + toString(in.type) +
                             (in.fields.empty() ? " carries no covariance" : " has no covariance of '" + f.name + "'") +
                             " (use covariance: model)");
+    const double inf = std::numeric_limits<double>::infinity();
+    in.rejection_threshold = p.number("rejection_threshold", inf, 0.0, inf);
+    if (!(in.rejection_threshold > 0.0))
+      throw ConfigError(key + ".rejection_threshold: expected a Mahalanobis distance > 0, found " +
+                        std::to_string(in.rejection_threshold));
     in.rate = p.number("rate", model_rate, 0.0, 1e9);
     if (!(in.rate > 0.0) || in.rate > model_rate * (1.0 + 1e-9))
       throw ConfigError(key + ".rate: expected > 0 and at most the model's rate " + std::to_string(model_rate) +
@@ -182,7 +185,10 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
     q.rejectUnknown();
   }
   for (const SensorInput& in : c.inputs)
+  {
     c.online.rate_ratio.push_back(model_rate / in.rate);
+    c.online.rejection_threshold.push_back(in.rejection_threshold);
+  }
   validateOnlineOptions(c.online, source);
   if (p.has("datum"))
   {

@@ -56,7 +56,17 @@ OnlineEstimator::OnlineEstimator(const Model& model, const EstimatorSettings& se
     s.have.assign(model_.sensors.size(), 0);
     s.scheduled.assign(model_.sensors.size(), 0);
     s.own_R.assign(model_.sensors.size(), 0);
+    s.gated.assign(model_.sensors.size(), 0);
   }
+  counters_.gated_per_sensor.assign(model_.sensors.size(), 0);
+  if (!options_.rejection_threshold.empty() && options_.rejection_threshold.size() != model_.sensors.size())
+    throw ConfigError("online estimator options: rejection_threshold: expected " +
+                      std::to_string(model_.sensors.size()) + " values (one per sensor), found " +
+                      std::to_string(options_.rejection_threshold.size()));
+  for (double t : options_.rejection_threshold)
+    if (!(t > 0.0))
+      throw ConfigError("online estimator options: rejection_threshold: expected > 0 (+inf: off), found " +
+                        std::to_string(t));
   sample_.y.resize(model_.m());
   last_arrived_.assign(model_.sensors.size(), false);
   last_due_.assign(model_.sensors.size(), true);
@@ -105,6 +115,7 @@ OnlineEstimator::Slot* OnlineEstimator::slotFor(long k)
     s.y.setConstant(std::numeric_limits<double>::quiet_NaN());
     std::fill(s.have.begin(), s.have.end(), 0);
     std::fill(s.own_R.begin(), s.own_R.end(), 0);
+    std::fill(s.gated.begin(), s.gated.end(), 0);
     s.have_u = false;
     s.have_schedule = false;
   }
@@ -356,10 +367,14 @@ void OnlineEstimator::fillSample(long k, Sample& sample) const
     return;
   }
   int arrived = 0;
-  for (char h : s.have)
-    arrived += h ? 1 : 0;
+  for (std::size_t i = 0; i < s.have.size(); ++i)
+    arrived += s.have[i] && !s.gated[i] ? 1 : 0;
   sample.gamma = arrived > 0;
   sample.y = s.y;
+  for (std::size_t i = 0; i < s.gated.size(); ++i)
+    if (s.gated[i])  // refused by its rejection threshold when the step was first taken
+      sample.y.segment(model_.sensors[i].offset, model_.sensors[i].size).setConstant(
+          std::numeric_limits<double>::quiet_NaN());
   // Own R_k blocks: the model's R with each such sensor's block replaced, its cross-blocks zero.
   bool own = false;
   for (std::size_t i = 0; i < s.own_R.size(); ++i)
@@ -434,11 +449,13 @@ void OnlineEstimator::process()
   const long k = next_;
   Slot& s = slot(k);
   fillSample(k, sample_);
+  if (s.k == k && !options_.rejection_threshold.empty())
+    gate(s, sample_);
   last_sensors_ = 0;
   const Slot* held = s.k == k ? &s : nullptr;
   for (std::size_t i = 0; i < last_arrived_.size(); ++i)
   {
-    last_arrived_[i] = held && held->have[i];
+    last_arrived_[i] = held && held->have[i] && !held->gated[i];
     last_sensors_ += last_arrived_[i] ? 1 : 0;
     last_due_[i] = due(held, k, i);
     counters_.due += last_due_[i] ? 1 : 0;
@@ -484,6 +501,46 @@ void OnlineEstimator::setLatePolicy(LatePolicy policy)
   }
   else
     checkpoint_.reset();
+}
+
+void OnlineEstimator::gate(Slot& s, Sample& sample)
+{
+  const Estimator& est = *live_;
+  bool predicted = false;
+  Eigen::VectorXd xp;
+  Eigen::MatrixXd Pp;
+  for (std::size_t i = 0; i < model_.sensors.size(); ++i)
+  {
+    const double threshold = options_.rejection_threshold[i];
+    if (!s.have[i] || s.gated[i] || !std::isfinite(threshold))
+      continue;
+    if (!predicted)
+    {
+      xp = model_.A * est.state();
+      if (model_.hasControl() && sample.u.size() == model_.p())
+        xp += model_.Bu * sample.u;
+      Pp = model_.A * est.covariance() * model_.A.transpose() + model_.B * model_.Q * model_.B.transpose();
+      predicted = true;
+    }
+    const Sensor& sn = model_.sensors[i];
+    const Eigen::MatrixXd C = model_.C.middleRows(sn.offset, sn.size);
+    const Eigen::MatrixXd& R = sample.R.size() ? sample.R : model_.R;
+    const Eigen::MatrixXd S = C * Pp * C.transpose() + R.block(sn.offset, sn.offset, sn.size, sn.size);
+    const Eigen::VectorXd nu = sample.y.segment(sn.offset, sn.size) - C * xp;
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(S);
+    const double d2 = nu.dot(ldlt.solve(nu));
+    if (!(d2 <= threshold * threshold))  // beyond it, or not computable (S singular, overflow)
+    {
+      s.gated[i] = 1;
+      ++counters_.gated;
+      ++counters_.gated_per_sensor[i];
+      sample.y.segment(sn.offset, sn.size).setConstant(std::numeric_limits<double>::quiet_NaN());
+    }
+  }
+  bool any = false;
+  for (std::size_t i = 0; i < s.have.size(); ++i)
+    any = any || (s.have[i] && !s.gated[i]);
+  sample.gamma = any;
 }
 
 void OnlineEstimator::rewind()
