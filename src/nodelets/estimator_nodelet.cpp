@@ -228,7 +228,14 @@ void EstimatorNodelet::offer(std::size_t sensor, long k, double stamp, const dou
   if (!clock_.anchored() && !anchorLocked(has_step ? k : 1, stamp))
     return;
   if (!has_step)
+  {
     k = clock_.stepAt(stamp);
+    // How far stamps sit from the step grid (diagnostics).
+    const double off = std::fabs(stamp - clock_.stamp(k));
+    offset_sum_ += off;
+    offset_max_ = std::max(offset_max_, off);
+    ++offset_count_;
+  }
   // Steps whose deadline has passed are taken first (the deadline thread may not have woken
   // yet): what arrives after a deadline is late, exactly, whichever thread notices first.
   catchUp(ros::Time::now().toSec());

@@ -201,6 +201,8 @@ private:
   bool stop_ = false;
   double last_trace_ = 0.0;
   std::uint64_t rejected_topic_ = 0, time_resets_ = 0, last_processed_ = 0, covariance_fallbacks_ = 0;
+  double offset_sum_ = 0.0, offset_max_ = 0.0;  ///< |stamp - grid| of the messages matched by stamp
+  std::uint64_t offset_count_ = 0;
   ros::WallTime last_diag_;
 };
 

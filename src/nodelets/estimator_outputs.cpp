@@ -190,6 +190,11 @@ void EstimatorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   stat.add("rejected", c.rejected + rejected_topic_);
   stat.add("missing commands", c.missing_commands);
   stat.add("covariance fallbacks", covariance_fallbacks_);
+  if (offset_count_ > 0)
+  {
+    stat.add("stamp offset mean (s)", offset_sum_ / static_cast<double>(offset_count_));
+    stat.add("stamp offset max (s)", offset_max_);
+  }
   for (std::size_t i = 0; i < inputs_.size(); ++i)
     if (std::isfinite(inputs_[i].rejection_threshold))
       stat.add(online_->model().sensors[i].name + " rejected by threshold", c.gated_per_sensor[i]);

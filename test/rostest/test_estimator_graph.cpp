@@ -714,6 +714,8 @@ TEST(EstimatorGraph, StandardTypesAtMixedRates)
   const std::map<std::string, std::string> d = diag.snapshot();
   EXPECT_EQ(std::stod(d.at("due arrival rate")), 1.0);
   EXPECT_EQ(std::stod(d.at("rejected")), 0.0);
+  // Stamps exactly on the grid (t0 + 0.02 (k - 1), anchored on the first): offsets of rounding only.
+  EXPECT_LT(std::stod(d.at("stamp offset max (s)")), 1e-6);
   EXPECT_TRUE(waitFor([&] { return link.text("gps arrival rate").rfind("1 [", 0) == 0; }, 10.0))
       << link.text("gps arrival rate");
   EXPECT_EQ(link.text("imu arrival rate").rfind("1 [", 0), 0u) << link.text("imu arrival rate");
