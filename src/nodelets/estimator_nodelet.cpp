@@ -117,19 +117,17 @@ void EstimatorNodelet::startReconfigure(ros::NodeHandle& pnh)
   reconfigure_->updateConfig(now);
 }
 
-Frames EstimatorNodelet::frames()
+const Frames& EstimatorNodelet::frames()
 {
-  if (!tf_buffer_)
-  {
-    tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
-    tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_);
-  }
-  Frames f;
-  f.world = world_frame_;
-  f.base = base_link_frame_;
+  if (tf_buffer_)
+    return frames_;
+  tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
+  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_);
+  frames_.world = world_frame_;
+  frames_.base = base_link_frame_;
   tf2_ros::Buffer* buffer = tf_buffer_.get();
-  f.lookup = [buffer](const std::string& target, const std::string& source, const ros::Time& stamp,
-                      tf2::Transform& out, std::string& why) {
+  frames_.lookup = [buffer](const std::string& target, const std::string& source, const ros::Time& stamp,
+                            tf2::Transform& out, std::string& why) {
     try
     {
       const geometry_msgs::TransformStamped t = buffer->lookupTransform(target, source, stamp);
@@ -144,7 +142,7 @@ Frames EstimatorNodelet::frames()
       return false;
     }
   };
-  return f;
+  return frames_;
 }
 
 void EstimatorNodelet::configure(ros::NodeHandle& pnh)

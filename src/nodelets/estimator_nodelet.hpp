@@ -79,7 +79,8 @@ private:
 
   /// world_frame and base_link_frame, looked up in tf2 at the message's stamp (a missing or
   /// extrapolated transform rejects the message, naming both frames).
-  Frames frames();
+  /// (Built once, with the tf2 buffer and listener, on the first call.)
+  const Frames& frames();
 
   /// The ENU origin of the NavSatFix inputs, latched on ~datum and logged (pin it with ~datum).
   void publishDatum(const LocalEnu& d);
@@ -185,6 +186,10 @@ private:
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  Frames frames_;
+  /// base_link's parent in tf and its broadcaster, looked up at most once a second (tfTimer).
+  std::string base_parent_, base_broadcaster_;
+  ros::WallTime base_parent_checked_;
   ros::WallTimer tf_timer_;
   Estimate::ConstPtr last_estimate_;
   ros::Time last_tf_;

@@ -91,11 +91,15 @@ void EstimatorNodelet::tfTimer()
     return;
   }
   // Driving base_link: its pose from ~state_mapping, and never a second parent.
-  std::string parent, broadcaster;
-  const Frames f = frames();  // the tf2 buffer exists from onInit on in this mode
-  parentOf(tf_buffer_->allFramesAsYAML(), base_link_frame_, parent, broadcaster);
-  const TfPlan plan =
-      planTf(world_frame_, odom_frame_, base_link_frame_, child_frame_id_, parent, broadcaster, ros::this_node::getName());
+  const Frames& f = frames();  // the tf2 buffer exists from onInit on in this mode
+  const ros::WallTime now = ros::WallTime::now();
+  if (base_parent_checked_.isZero() || (now - base_parent_checked_).toSec() >= 1.0)
+  {
+    parentOf(tf_buffer_->allFramesAsYAML(), base_link_frame_, base_parent_, base_broadcaster_);
+    base_parent_checked_ = now;
+  }
+  const TfPlan plan = planTf(world_frame_, odom_frame_, base_link_frame_, child_frame_id_, base_parent_,
+                             base_broadcaster_, ros::this_node::getName());
   if (plan.kind == TfPlan::Kind::NONE)
   {
     NODELET_WARN_THROTTLE(10.0, "Estimator: no tf: %s", plan.reason.c_str());
@@ -103,9 +107,7 @@ void EstimatorNodelet::tfTimer()
   }
   const int n = static_cast<int>(e->state.size());
   const Eigen::Map<const Eigen::VectorXd> x(e->state.data(), n);
-  const nav_msgs::Odometry o = toOdometry(x, Eigen::MatrixXd::Zero(n, n), state_map_, e->header.stamp, world_frame_,
-                                          base_link_frame_);
-  const auto& p = o.pose.pose;
+  const geometry_msgs::Pose p = poseOf(x, state_map_);
   tf2::Transform world_base(tf2::Quaternion(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w),
                             tf2::Vector3(p.position.x, p.position.y, p.position.z));
   t.header.frame_id = world_frame_;

@@ -20,6 +20,24 @@ namespace networked_estimation
 /// The variance written for an entry the state does not estimate (and no correlation with it).
 constexpr double kUnmappedVariance = 1e6;
 
+/// The pose of the mapped entries of x: position x, y, z and a rotation by yaw (roll, pitch 0);
+/// unmapped entries are 0.
+inline geometry_msgs::Pose poseOf(const Eigen::Ref<const Eigen::VectorXd>& x, const StateMap& map)
+{
+  auto value = [&](int i) { return i >= 0 ? x(i) : 0.0; };
+  geometry_msgs::Pose p;
+  p.position.x = value(map.x);
+  p.position.y = value(map.y);
+  p.position.z = value(map.z);
+  tf2::Quaternion q;
+  q.setRPY(0.0, 0.0, value(map.yaw));
+  p.orientation.x = q.x();
+  p.orientation.y = q.y();
+  p.orientation.z = q.z();
+  p.orientation.w = q.w();
+  return p;
+}
+
 /// x_{k|k} and P_{k|k} as an Odometry in `world_frame` with child `base_link_frame`. The pose is
 /// [x y z roll pitch yaw] (roll and pitch are never estimated: 0 with kUnmappedVariance); the
 /// twist is [vx vy vz wx wy wz] with wz the yaw rate, taken as the state has them (REP-105 wants
@@ -37,15 +55,7 @@ inline nav_msgs::Odometry toOdometry(const Eigen::Ref<const Eigen::VectorXd>& x,
   const int pose[6] = {map.x, map.y, map.z, -1, -1, map.yaw};
   const int twist[6] = {map.vx, map.vy, map.vz, -1, -1, map.yaw_rate};
   auto value = [&](int i) { return i >= 0 ? x(i) : 0.0; };
-  o.pose.pose.position.x = value(map.x);
-  o.pose.pose.position.y = value(map.y);
-  o.pose.pose.position.z = value(map.z);
-  tf2::Quaternion q;
-  q.setRPY(0.0, 0.0, value(map.yaw));
-  o.pose.pose.orientation.x = q.x();
-  o.pose.pose.orientation.y = q.y();
-  o.pose.pose.orientation.z = q.z();
-  o.pose.pose.orientation.w = q.w();
+  o.pose.pose = poseOf(x, map);
   o.twist.twist.linear.x = value(map.vx);
   o.twist.twist.linear.y = value(map.vy);
   o.twist.twist.linear.z = value(map.vz);

@@ -62,7 +62,8 @@ struct OnlineOptions
 };
 
 /// Validates options (history_length >= 1 for rewind, max_future_steps >= 1, max_past_steps >=
-/// history_length, every rate_ratio finite and >= 1). Throws ConfigError naming `source` and the key.
+/// history_length, every rate_ratio finite and >= 1, every rejection_threshold > 0). Throws
+/// ConfigError naming `source` and the key.
 void validateOnlineOptions(const OnlineOptions& o, const std::string& source);
 
 /// What happened to one offered message.

@@ -73,12 +73,13 @@ void parseSensorInputs(const YAML::Node& block, const std::string& source, Estim
     ParamReader p(entry.second, key);
     parseInput(p, key, sensorInputTypes(), model.sensors[index].size, "row of sensor '" + name + "'", in);
     in.message_covariance = p.choice("covariance", "model", {"model", "message"}) == "message";
-    if (in.message_covariance)
-      for (const InputField& f : in.fields.empty() ? std::vector<InputField>{InputField()} : in.fields)
-        if (in.fields.empty() || covarianceOf(in.type, f).block == CovarianceBlock::NONE)
-          throw ConfigError(key + ".covariance: message: " + toString(in.type) +
-                            (in.fields.empty() ? " carries no covariance" : " has no covariance of '" + f.name + "'") +
-                            " (use covariance: model)");
+    if (in.message_covariance && in.fields.empty())
+      throw ConfigError(key + ".covariance: message: " + toString(in.type) +
+                        " carries no covariance (use covariance: model)");
+    for (const InputField& f : in.fields)
+      if (in.message_covariance && covarianceOf(in.type, f).block == CovarianceBlock::NONE)
+        throw ConfigError(key + ".covariance: message: " + toString(in.type) + " has no covariance of '" + f.name +
+                          "' (use covariance: model)");
     const double inf = std::numeric_limits<double>::infinity();
     in.rejection_threshold = p.number("rejection_threshold", inf, 0.0, inf);
     if (!(in.rejection_threshold > 0.0))

@@ -32,6 +32,10 @@ void validateOnlineOptions(const OnlineOptions& o, const std::string& source)
   if (o.max_future_steps < 1 || o.max_future_steps > 1000000)
     throw ConfigError(source + ": max_future_steps: expected in [1, 1000000], found " +
                       std::to_string(o.max_future_steps));
+  for (std::size_t i = 0; i < o.rejection_threshold.size(); ++i)
+    if (!(o.rejection_threshold[i] > 0.0))
+      throw ConfigError(source + ": rejection_threshold[" + std::to_string(i) + "]: expected > 0 (+inf: off), found " +
+                        std::to_string(o.rejection_threshold[i]));
   for (std::size_t i = 0; i < o.rate_ratio.size(); ++i)
     if (!(o.rate_ratio[i] >= 1.0 && o.rate_ratio[i] <= 1e9))
       throw ConfigError(source + ": rate_ratio[" + std::to_string(i) + "]: expected in [1, 1e9] (a sensor rate at or " +
@@ -63,10 +67,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const EstimatorSettings& se
     throw ConfigError("online estimator options: rejection_threshold: expected " +
                       std::to_string(model_.sensors.size()) + " values (one per sensor), found " +
                       std::to_string(options_.rejection_threshold.size()));
-  for (double t : options_.rejection_threshold)
-    if (!(t > 0.0))
-      throw ConfigError("online estimator options: rejection_threshold: expected > 0 (+inf: off), found " +
-                        std::to_string(t));
+
   sample_.y.resize(model_.m());
   last_arrived_.assign(model_.sensors.size(), false);
   last_due_.assign(model_.sensors.size(), true);
@@ -523,7 +524,7 @@ void OnlineEstimator::gate(Slot& s, Sample& sample)
       predicted = true;
     }
     const Sensor& sn = model_.sensors[i];
-    const Eigen::MatrixXd C = model_.C.middleRows(sn.offset, sn.size);
+    const auto C = model_.C.middleRows(sn.offset, sn.size);
     const Eigen::MatrixXd& R = sample.R.size() ? sample.R : model_.R;
     const Eigen::MatrixXd S = C * Pp * C.transpose() + R.block(sn.offset, sn.offset, sn.size, sn.size);
     const Eigen::VectorXd nu = sample.y.segment(sn.offset, sn.size) - C * xp;
