@@ -507,6 +507,57 @@ TEST(ReplayInput, WriterRoundTrip)
   EXPECT_EQ(in2.rows[0].u[0], 1.0 + std::exp(-0.1));
 }
 
+// Per-step R columns (r<a>_<b>: the upper triangle of each sensor's block): a row's blocks replace
+// the model's; empty cells keep it; they round-trip through the writer exactly.
+TEST(ReplayInput, PerStepRColumns)
+{
+  const Model model = twoSensorModel();  // left: y1; right: y2, y3
+  EXPECT_EQ(replayRColumns(model), (std::vector<std::string>{"r1_1", "r2_2", "r2_3", "r3_3"}));
+  const ReplayInput in = parse("k,gamma,y1,y2,y3,r1_1,r2_2,r2_3,r3_3\n"
+                               "1,1,0.5,1,2,,,,\n"
+                               "2,1,0.5,1,2,4,2,0.5,3\n"
+                               "3,1,0.5,-,-,0.25,,,\n",
+                               model);
+  ASSERT_TRUE(in.has_R);
+  EXPECT_EQ(in.rows[0].R.size(), 0);  // none given: the model's R
+  Eigen::MatrixXd R2(3, 3);
+  R2 << 4, 0, 0, 0, 2, 0.5, 0, 0.5, 3;
+  EXPECT_EQ(in.rows[1].R, R2);
+  Eigen::MatrixXd R3 = model.R;
+  R3(0, 0) = 0.25;
+  EXPECT_EQ(in.rows[2].R, R3);
+  EXPECT_FALSE(in.rows[2].scheduled[1]);
+
+  std::ostringstream os;
+  writeReplayInputHeader(os, model.m(), model.p(), false, replayRColumns(model));
+  const Eigen::Vector3d y(0.1, 1.0 / 3.0, 2.0);
+  Eigen::MatrixXd R = model.R;
+  R(1, 2) = R(2, 1) = 1.0 / 7.0;
+  R(0, 0) = 0.1;
+  std::ostringstream tail;
+  writeReplayRowR(tail, model, R, {false, true});
+  writeReplayInputRow(os, 1, true, y, Eigen::VectorXd(), false, -1, nullptr, tail.str());
+  const ReplayInput back = parse(os.str(), model);
+  Eigen::MatrixXd expect = R;
+  expect(0, 0) = model.R(0, 0);  // left's block was not given
+  EXPECT_EQ(back.rows[0].R, expect);
+  EXPECT_EQ(back.rows[0].y, y);
+}
+
+TEST(ReplayInputErrors, BadRColumns)
+{
+  const Model model = twoSensorModel();
+  expectInputError("k,gamma,y1,y2,y3,r1_1,r2_2\n1,1,0,0,0,1,1\n", model, 1, "r2_3", "missing column of the per-step R");
+  expectInputError("k,gamma,y1,y2,y3,r1_1,r2_2,r3_2,r3_3\n", model, 1, "r2_3", "unexpected column name");
+  expectInputError("k,gamma,y1,y2,y3,r1_1,r2_2,r2_3,r3_3,x\n", model, 1, "x", "unexpected column");
+  const std::string h = "k,gamma,y1,y2,y3,r1_1,r2_2,r2_3,r3_3\n";
+  expectInputError(h + "1,1,0,0,0,1,1,,1\n", model, 2, "r2_3", "sensor 'right' has a partly empty R");
+  expectInputError(h + "1,1,0,0,0,1,1,2,1\n", model, 2, "r2_2", "sensor 'right': its R block is not positive definite");
+  expectInputError(h + "1,1,0,0,0,-1,,,\n", model, 2, "r1_1", "not positive definite");
+  expectInputError(h + "1,1,0,0,0,nan,,,\n", model, 2, "r1_1", "not finite");
+  expectInputError(h + "1,1,0,0,0,abc,,,\n", model, 2, "r1_1", "not a number");
+}
+
 TEST(Truth, RoundTrip)
 {
   std::ostringstream os;

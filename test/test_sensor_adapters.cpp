@@ -5,6 +5,7 @@
 
 #include <GeographicLib/LocalCartesian.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 
@@ -13,6 +14,7 @@
 #include "odometry_output.hpp"
 #include "tf_output.hpp"
 #include "sensor_adapters.hpp"
+#include "sensor_writers.hpp"
 
 namespace ne = networked_estimation;
 
@@ -516,4 +518,137 @@ TEST(SensorAdapters, MessageCovariances)
   ASSERT_EQ(ne::readCovariance(ne::InputType::NAVSATFIX, v, en, R, why), ne::CovarianceRead::OK);
   EXPECT_EQ(R[0], 4.0);
   EXPECT_EQ(R[3], 9.0);
+}
+
+// The PlantSimulator's writers (sensor_writers.hpp) against the Estimator's readers: for every
+// output type, y written into random selections of its fields and R into its covariance read back
+// as y exactly and R exactly (Range: y in single precision); other diagonal entries of a used
+// block say "not measured" (1e6) and an unused Imu block has its leading -1.
+namespace
+{
+
+template <class M>
+void expectRoundTrip(ne::InputType type, const std::vector<std::string>& names, ne::Rng& rng)
+{
+  std::vector<ne::InputField> fields;
+  for (const std::string& n : names)
+    fields.push_back(ne::inputFieldFromString(type, n, "test"));
+  const std::size_t n = fields.size();
+  std::vector<double> y(n), R(n * n, 0.0);
+  Eigen::MatrixXd L = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    y[i] = 2.0 * rng.uniform() - 1.0;  // a roll/pitch/yaw in (-1, 1) rad round-trips through its quaternion
+    for (std::size_t j = 0; j <= i; ++j)
+      L(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = i == j ? 0.5 + rng.uniform() : 0.3 * rng.uniform();
+  }
+  // Fields of one covariance block are correlated, of different blocks not (the reader's rule).
+  const Eigen::MatrixXd S = L * L.transpose();
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = 0; j < n; ++j)
+      if (ne::covarianceOf(type, fields[i]).block == ne::covarianceOf(type, fields[j]).block)
+        R[i * n + j] = S(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
+  M m;
+  const ne::MessageSlots s = ne::slots(m);
+  ne::writeFields(s, fields, y.data());
+  ne::writeCovariance(type, s, fields, R.data());
+  std::vector<double> back(n), Rback(n * n);
+  std::string why;
+  ASSERT_TRUE(ne::readFields(ne::view(m), fields, back.data(), why)) << why;
+  const bool rpy = std::any_of(fields.begin(), fields.end(),
+                               [](const ne::InputField& f) { return f.quantity == ne::Quantity::ORIENTATION_RPY; });
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    if (type == ne::InputType::RANGE)
+      EXPECT_EQ(back[i], static_cast<double>(static_cast<float>(y[i])));
+    else if (rpy && fields[i].quantity == ne::Quantity::ORIENTATION_RPY)
+      EXPECT_NEAR(back[i], y[i], 1e-12) << fields[i].name;  // through a quaternion: rounding only
+    else
+      EXPECT_EQ(back[i], y[i]) << ne::toString(type) << " " << fields[i].name;
+  }
+  bool has_cov = true;
+  for (const ne::InputField& f : fields)
+    has_cov = has_cov && ne::covarianceOf(type, f).block != ne::CovarianceBlock::NONE;
+  if (!has_cov)
+    return;
+  ASSERT_EQ(ne::readCovariance(type, ne::view(m), fields, Rback.data(), why), ne::CovarianceRead::OK) << why;
+  for (std::size_t i = 0; i < n * n; ++i)
+    EXPECT_EQ(Rback[i], R[i]) << ne::toString(type) << " entry " << i;
+}
+
+}  // namespace
+
+TEST(SensorWriters, EveryOutputTypeRoundTripsThroughItsReader)
+{
+  ne::Rng rng(5);
+  for (int trial = 0; trial < 20; ++trial)
+  {
+    expectRoundTrip<nav_msgs::Odometry>(ne::InputType::ODOMETRY,
+                                        {"pose.pose.position.y", "pose.pose.position.x", "twist.twist.linear.x",
+                                         "pose.pose.orientation.yaw", "twist.twist.angular.z"},
+                                        rng);
+    expectRoundTrip<geometry_msgs::PoseWithCovarianceStamped>(
+        ne::InputType::POSE_WITH_COVARIANCE, {"pose.pose.position.x", "pose.pose.position.z", "pose.pose.orientation.roll"},
+        rng);
+    expectRoundTrip<geometry_msgs::PoseStamped>(ne::InputType::POSE, {"pose.position.x", "pose.orientation.yaw"}, rng);
+    expectRoundTrip<geometry_msgs::PointStamped>(ne::InputType::POINT, {"point.z", "point.x"}, rng);
+    expectRoundTrip<geometry_msgs::TwistWithCovarianceStamped>(
+        ne::InputType::TWIST_WITH_COVARIANCE, {"twist.twist.linear.y", "twist.twist.angular.z"}, rng);
+    expectRoundTrip<geometry_msgs::TwistStamped>(ne::InputType::TWIST, {"twist.linear.x"}, rng);
+    expectRoundTrip<sensor_msgs::Imu>(
+        ne::InputType::IMU, {"orientation.yaw", "angular_velocity.z", "linear_acceleration.x", "linear_acceleration.y"},
+        rng);
+    expectRoundTrip<sensor_msgs::Range>(ne::InputType::RANGE, {"range"}, rng);
+  }
+  // The entries y does not set: "not measured" in a used block, -1 in an unused Imu block.
+  sensor_msgs::Imu imu;
+  const std::vector<ne::InputField> gz = {ne::inputFieldFromString(ne::InputType::IMU, "angular_velocity.z", "k")};
+  const double y = 0.25, R = 0.01;
+  ne::writeFields(ne::slots(imu), gz, &y);
+  ne::writeCovariance(ne::InputType::IMU, ne::slots(imu), gz, &R);
+  EXPECT_EQ(imu.orientation.w, 1.0);  // no orientation field: the identity, a valid quaternion
+  EXPECT_EQ(imu.angular_velocity_covariance[8], 0.01);
+  EXPECT_EQ(imu.angular_velocity_covariance[0], ne::kUnmeasuredVariance);
+  EXPECT_EQ(imu.angular_velocity_covariance[1], 0.0);
+  EXPECT_EQ(imu.orientation_covariance[0], -1.0);
+  EXPECT_EQ(imu.linear_acceleration_covariance[0], -1.0);
+}
+
+TEST(SensorWriters, FixAtLocalEnuReadsBackThroughTheDatum)
+{
+  const ne::LocalEnu datum(48.137, 11.575, 520.0);
+  const std::vector<ne::InputField> en = {ne::inputFieldFromString(ne::InputType::NAVSATFIX, "north", "k"),
+                                          ne::inputFieldFromString(ne::InputType::NAVSATFIX, "east", "k")};
+  const double y[2] = {-1234.5, 876.25}, R[4] = {4.0, 0.5, 0.5, 9.0};
+  Eigen::Vector3d enu = Eigen::Vector3d::Zero();
+  ne::writeFields(ne::MessageSlots(), en, y, &enu);
+  EXPECT_EQ(enu, Eigen::Vector3d(876.25, -1234.5, 0.0));
+  const sensor_msgs::NavSatFix f = ne::fixAt(datum, enu, en, R);
+  EXPECT_EQ(f.status.status, sensor_msgs::NavSatStatus::STATUS_FIX);
+  EXPECT_EQ(f.position_covariance_type, sensor_msgs::NavSatFix::COVARIANCE_TYPE_KNOWN);
+  // GeographicLib's own forward of the fix, independently of the adapters.
+  const GeographicLib::LocalCartesian lc(48.137, 11.575, 520.0);
+  double e = 0, n = 0, u = 0;
+  lc.Forward(f.latitude, f.longitude, f.altitude, e, n, u);
+  EXPECT_NEAR(e, 876.25, 1e-8);  // km-scale round trip of GeographicLib: nanometres
+  EXPECT_NEAR(n, -1234.5, 1e-8);
+  EXPECT_NEAR(u, 0.0, 1e-8);
+  // Through the Estimator's reader: NavSatFixEnu about the same datum, then the fields and R.
+  ne::NavSatFixEnu reader(std::vector<double>{48.137, 11.575, 520.0});
+  Eigen::Vector3d local;
+  std::string why;
+  bool new_datum = false;
+  ASSERT_TRUE(reader.convert(f, local, why, new_datum)) << why;
+  ne::MessageView v;
+  v.enu = &local;
+  v.enu_cov = f.position_covariance.data();
+  v.enu_cov_type = f.position_covariance_type;
+  double back[2], Rback[4];
+  ASSERT_TRUE(ne::readFields(v, en, back, why)) << why;
+  EXPECT_NEAR(back[0], -1234.5, 1e-8);
+  EXPECT_NEAR(back[1], 876.25, 1e-8);
+  ASSERT_EQ(ne::readCovariance(ne::InputType::NAVSATFIX, v, en, Rback, why), ne::CovarianceRead::OK) << why;
+  for (int i = 0; i < 4; ++i)
+    EXPECT_EQ(Rback[i], R[i]) << i;
+  EXPECT_EQ(f.position_covariance[8], ne::kUnmeasuredVariance);  // up: not measured
 }

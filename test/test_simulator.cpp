@@ -11,7 +11,11 @@
 
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/channel/loss_model.hpp"
+#include "networked_estimation/config/param_reader.hpp"
+#include "networked_estimation/simulation/sensor_outputs.hpp"
 #include "networked_estimation/simulation/simulator.hpp"
+
+#include <yaml-cpp/yaml.h>
 #include "test_support.hpp"
 
 namespace ne = networked_estimation;
@@ -550,4 +554,91 @@ TEST(PlantSimulator, NonFiniteStateIsRefusedWhateverTheLimit)
     const std::string message = e.what();
     EXPECT_NE(message.find("model 'scalar' is no longer finite at step k = 2"), std::string::npos) << message;
   }
+}
+
+namespace
+{
+
+/// parseSimulatorOutputs on a YAML text, for a model of sensors odom (2 rows), imu (1), gps (2) at 50 Hz.
+networked_estimation::SimulatorOutputs outputsOf(const std::string& yaml)
+{
+  using namespace networked_estimation;
+  Model m;
+  m.name = "robot";
+  m.period = 0.02;
+  m.A = Eigen::MatrixXd::Identity(3, 3);
+  m.B = m.Q = Eigen::MatrixXd::Identity(3, 3);
+  m.C = Eigen::MatrixXd::Zero(5, 3);
+  m.C(0, 0) = m.C(1, 1) = m.C(2, 2) = m.C(3, 0) = m.C(4, 1) = 1.0;
+  m.R = Eigen::MatrixXd::Identity(5, 5);
+  m.x0 = Eigen::VectorXd::Zero(3);
+  m.P0 = Eigen::MatrixXd::Identity(3, 3);
+  m.sensors = {{"odom", 0, 2}, {"imu", 2, 1}, {"gps", 3, 2}};
+  m.Bu.resize(3, 0);
+  validateModel(m, "robot");
+  ParamReader p(YAML::Load(yaml), "plant");
+  SimulatorOutputs o = parseSimulatorOutputs(p, m, 0.02, "plant");
+  p.rejectUnknown();
+  return o;
+}
+
+void expectOutputsError(const std::string& yaml, const std::string& text)
+{
+  try
+  {
+    outputsOf(yaml);
+    ADD_FAILURE() << "no ConfigError for " << yaml;
+  }
+  catch (const networked_estimation::ConfigError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find(text), std::string::npos) << e.what() << "\n lacks: " << text;
+  }
+}
+
+}  // namespace
+
+// The PlantSimulator's per-sensor outputs: standard types with fields, rates as whole numbers of
+// steps, covariance scales, and every bad setting refused naming its key.
+TEST(SimulatorOutputs, TypesRatesAndScales)
+{
+  using namespace networked_estimation;
+  const SimulatorOutputs none = outputsOf("{}");
+  ASSERT_EQ(none.sensors.size(), 3u);
+  EXPECT_EQ(none.sensors[1].format.type, InputType::MEASUREMENT);
+  EXPECT_EQ(none.sensors[1].format.topic, "measurement/imu");
+  EXPECT_TRUE(none.sensors[1].dueAt(1) && none.sensors[1].dueAt(2));
+  const SimulatorOutputs o = outputsOf(R"({datum: [48.1, 11.5, 500], sensors: {
+      imu: {topic: /imu, type: sensor_msgs/Imu, fields: [orientation.yaw], rate: 10},
+      gps: {topic: /fix, type: sensor_msgs/NavSatFix, fields: [east, north], rate: 2, covariance_scales: [1, 4],
+            frame_id: antenna}}})");
+  EXPECT_EQ(o.sensors[1].format.type, InputType::IMU);
+  EXPECT_EQ(o.sensors[1].every, 5);
+  EXPECT_TRUE(o.sensors[1].dueAt(1));
+  EXPECT_FALSE(o.sensors[1].dueAt(5));
+  EXPECT_TRUE(o.sensors[1].dueAt(6));
+  EXPECT_EQ(o.sensors[2].every, 25);
+  EXPECT_EQ(o.sensors[2].frame_id, "antenna");
+  EXPECT_EQ(o.sensors[2].scaleOf(0), 1.0);
+  EXPECT_EQ(o.sensors[2].scaleOf(3), 4.0);
+  EXPECT_EQ(o.datum, (std::vector<double>{48.1, 11.5, 500}));
+
+  expectOutputsError("{sensors: {lidar: {type: sensor_msgs/Range, fields: [range]}}}",
+                     "plant: sensors.lidar: 'lidar' is not a sensor of the model (sensors: odom, imu, gps)");
+  expectOutputsError("{sensors: {imu: {type: std_msgs/Float64, fields: [data]}}}", "plant: sensors.imu.type");
+  expectOutputsError("{sensors: {imu: {type: sensor_msgs/Imu, fields: [orientation.yew]}}}",
+                     "'orientation.yew' is not a field of sensor_msgs/Imu");
+  expectOutputsError("{sensors: {odom: {type: nav_msgs/Odometry, fields: [pose.pose.position.x]}}}",
+                     "sensors.odom.fields: expected 2 fields");
+  expectOutputsError("{sensors: {imu: {type: sensor_msgs/Imu, fields: [orientation.yaw], rate: 15}}}",
+                     "sensors.imu.rate: expected the model's rate 50");
+  expectOutputsError("{sensors: {imu: {type: sensor_msgs/Imu, fields: [orientation.yaw], rate: 0}}}",
+                     "sensors.imu.rate");
+  expectOutputsError("{sensors: {imu: {type: sensor_msgs/Imu, fields: [orientation.yaw], rate: 100}}}",
+                     "sensors.imu.rate");
+  expectOutputsError("{sensors: {imu: {type: sensor_msgs/Imu, fields: [orientation.yaw], covariance_scales: [1, 0]}}}",
+                     "sensors.imu.covariance_scales[1]: expected a finite number > 0, found 0");
+  expectOutputsError("{sensors: {imu: {type: sensor_msgs/Imu, fields: [orientation.yaw], colour: red}}}", "colour");
+  expectOutputsError("{sensors: {gps: {type: sensor_msgs/NavSatFix, fields: [east, north]}}}",
+                     "plant: sensors.gps: sensor_msgs/NavSatFix needs a datum");
+  expectOutputsError("{datum: [95, 0, 0]}", "plant: datum: expected [latitude");
 }

@@ -20,7 +20,7 @@ int main(int argc, char** argv)
                       {
                           {"model", "FILE", "model file (YAML)", true, false},
                           {"settings", "FILE", "estimator settings (YAML)", true, false},
-                          {"input", "IN", "replay input CSV (k,gamma,y1..ym[,u1..up][,nu])", true, false},
+                          {"input", "IN", "replay input CSV (k,gamma,y1..ym[,u1..up][,nu][,r1_1..]: docs/formats.md)", true, false},
                           {"output", "OUT", "replay output CSV (k,gamma,x1..xn,P11..Pnn,trace)", true, false},
                           {"truth", "FILE", "truth CSV of simulate: nu for ack_kf when the input has no nu column",
                            false, false},
@@ -55,6 +55,7 @@ int main(int argc, char** argv)
       sample.y = row.y;
       sample.u = row.u;
       sample.nu = ack ? row.nu : -1;  // only ack_kf may read nu
+      sample.R = row.R;               // empty: the model's R
       try
       {
         estimator->step(sample);

@@ -1,7 +1,7 @@
 // ROS-free CSV input/output of the command-line tools (docs/formats.md, "Replay input",
 // "Replay output", "Truth"): what `simulate` writes and `replay` reads and writes.
 //
-//   replay input:   k,gamma,y1,...,ym[,u1,...,up][,nu]
+//   replay input:   k,gamma,y1,...,ym[,u1,...,up][,nu][,r1_1,r1_2,...]   (r: per-step R blocks)
 //   replay output:  k,gamma,x1,...,xn,P11,P12,...,Pnn,trace
 //   truth:          k,x1,...,xn,nu          (nu = 1 when u_k reached the actuator)
 //
@@ -39,6 +39,9 @@ struct ReplayRow
   /// Per sensor, whether it was scheduled to transmit (a sensor whose cells are all '-' was not:
   /// not a loss). Empty when every sensor was scheduled.
   std::vector<bool> scheduled;
+  /// R_k of this step (m x m: the model's R with the blocks the row's r cells give); empty when
+  /// the row gives none (the model's R).
+  Eigen::MatrixXd R;
   /// Line of the file this row came from (1-based, the header is line 1).
   long line = 0;
 };
@@ -49,6 +52,7 @@ struct ReplayInput
   std::vector<ReplayRow> rows;
   bool has_u = false;
   bool has_nu = false;
+  bool has_R = false;  ///< the file has the r columns
 };
 
 /// Reads and validates a replay input file against the model (number of outputs, sensor blocks,
@@ -57,14 +61,21 @@ ReplayInput readReplayInput(const std::string& path, const Model& model);
 /// Same, from a stream; `source` names it in messages.
 ReplayInput parseReplayInput(std::istream& in, const std::string& source, const Model& model);
 
-/// Header `k,gamma,y1..ym[,u1..up][,nu]`.
-void writeReplayInputHeader(std::ostream& os, int m, int p, bool with_nu);
+/// The per-step R columns, last in the header: per sensor, the upper triangle of its block of the
+/// stacked R, row by row, as r<a>_<b> (1-based rows a <= b of y), e.g. r1_1,r1_2,r2_2,r3_3.
+std::vector<std::string> replayRColumns(const Model& model);
+/// Appends a row's r cells (a leading comma each): sensor i's block of R when given[i], else empty.
+void writeReplayRowR(std::ostream& os, const Model& model, const Eigen::MatrixXd& R, const std::vector<bool>& given);
+
+/// Header `k,gamma,y1..ym[,u1..up][,nu]` (the r columns: append replayRColumns).
+void writeReplayInputHeader(std::ostream& os, int m, int p, bool with_nu,
+                            const std::vector<std::string>& r_columns = {});
 /// One row. NaN entries of y are written as empty cells, entries marked in `off` (m flags: the
 /// rows of a sensor that was not scheduled) as '-'; u is written when non-empty; nu when with_nu.
-/// Numbers use %.17g.
+/// Numbers use %.17g. `tail` (e.g. writeReplayRowR's cells) ends the row.
 void writeReplayInputRow(std::ostream& os, long k, bool gamma, const Eigen::VectorXd& y,
                          const Eigen::VectorXd& u, bool with_nu = false, int nu = -1,
-                         const std::vector<bool>* off = nullptr);
+                         const std::vector<bool>* off = nullptr, const std::string& tail = "");
 
 // ---------------------------------------------------------------------------------------------
 // Replay output

@@ -107,4 +107,11 @@ const std::vector<InputType>& commandInputTypes();
 /// The field of `type` called `name`; throws ConfigError naming `key` and listing the fields.
 InputField inputFieldFromString(InputType type, const std::string& name, const std::string& key);
 
+class ParamReader;
+/// The topic, type (among `allowed`, default the first) and fields (`rows` of them, unless the
+/// type is taken whole) of one input block `key` (`what` names its rows in errors), read from `p`
+/// into `in` (its topic is the default). Throws ConfigError naming the key.
+void parseInputBlock(ParamReader& p, const std::string& key, const std::vector<InputType>& allowed, int rows,
+                     const std::string& what, SensorInput& in);
+
 }  // namespace networked_estimation

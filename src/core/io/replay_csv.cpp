@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -302,7 +303,73 @@ void writeNumber(std::ostream& os, double value)
   os.write(buf, len);
 }
 
+/// A row's r cells: per sensor all empty (the model's R) or all numbers forming a symmetric
+/// positive definite block; row.R is the model's R with those blocks (empty when none is given).
+void parseRowR(const std::string& source, long line, const Model& model, const std::vector<std::string>& names,
+               const std::vector<std::string>& cells, std::size_t r_begin, ReplayRow& row)
+{
+  std::size_t c = r_begin;
+  for (const Sensor& s : model.sensors)
+  {
+    const std::size_t first = c;
+    const int count = s.size * (s.size + 1) / 2;
+    int empty = 0;
+    for (int i = 0; i < count; ++i)
+      empty += cells[first + static_cast<std::size_t>(i)].empty() ? 1 : 0;
+    if (empty == count)
+    {
+      c += static_cast<std::size_t>(count);
+      continue;
+    }
+    if (empty > 0)
+    {
+      std::size_t e = first;
+      while (!cells[e].empty())
+        ++e;
+      fail(source, line, names[e], "sensor '" + s.name + "' has a partly empty R",
+           "all of " + names[first] + ".." + names[first + static_cast<std::size_t>(count) - 1] +
+               " empty (the model's R) or all numbers",
+           cells[e]);
+    }
+    Eigen::MatrixXd block(s.size, s.size);
+    for (int a = 0; a < s.size; ++a)
+      for (int b = a; b < s.size; ++b, ++c)
+        block(a, b) = block(b, a) = parseNumber(source, line, names[c], cells[c]);
+    if (Eigen::LLT<Eigen::MatrixXd>(block).info() != Eigen::Success)
+      failRaw(source, line, names[first], "sensor '" + s.name + "': its R block is not positive definite",
+              "a positive definite block", names[first] + ".." + names[c - 1] + " = " + cells[first] + "...");
+    if (row.R.size() == 0)
+      row.R = model.R;
+    row.R.block(s.offset, s.offset, s.size, s.size) = block;
+  }
+}
+
 }  // namespace
+
+std::vector<std::string> replayRColumns(const Model& model)
+{
+  std::vector<std::string> names;
+  for (const Sensor& s : model.sensors)
+    for (int a = s.offset; a < s.offset + s.size; ++a)
+      for (int b = a; b < s.offset + s.size; ++b)
+        names.push_back("r" + std::to_string(a + 1) + "_" + std::to_string(b + 1));
+  return names;
+}
+
+void writeReplayRowR(std::ostream& os, const Model& model, const Eigen::MatrixXd& R, const std::vector<bool>& given)
+{
+  for (std::size_t si = 0; si < model.sensors.size(); ++si)
+  {
+    const Sensor& s = model.sensors[si];
+    for (int a = s.offset; a < s.offset + s.size; ++a)
+      for (int b = a; b < s.offset + s.size; ++b)
+      {
+        os << ',';
+        if (R.size() > 0 && si < given.size() && given[si])
+          writeNumber(os, R(a, b));
+      }
+  }
+}
 
 // ---------------------------------------------------------------------------------------------
 // Helpers
@@ -349,24 +416,40 @@ ReplayInput parseReplayInput(std::istream& in, const std::string& source, const 
       failRaw(source, 1, names[i], "missing column", squote(joinNames(names) + "[,nu]"), "end of header");
     fail(source, 1, names[i], "unexpected column name", squote(names[i]), header[i]);
   }
-  if (header.size() > u_end)
+  // Then an optional nu, then the optional per-step R columns r<a>_<b> (replayRColumns).
+  std::size_t at = u_end;
+  if (at < header.size() && header[at] == "nu")
   {
-    if (header[u_end] == "nu" && header.size() == u_end + 1)
+    input.has_nu = true;
+    ++at;
+  }
+  const std::vector<std::string> r_names = replayRColumns(model);
+  if (at < header.size() && header[at].size() > 1 && header[at][0] == 'r' && std::isdigit(static_cast<unsigned char>(header[at][1])))
+  {
+    for (std::size_t i = 0; i < r_names.size(); ++i)
     {
-      input.has_nu = true;
+      if (at + i >= header.size())
+        failRaw(source, 1, r_names[i], "missing column of the per-step R", squote(joinNames(r_names)), "end of header");
+      if (header[at + i] != r_names[i])
+        fail(source, 1, r_names[i], "unexpected column name", squote(r_names[i]), header[at + i]);
     }
-    else
-    {
-      const std::size_t bad = header[u_end] == "nu" ? u_end + 1 : u_end;
-      const bool looks_like_u = p == 0 && header[bad].size() > 1 && header[bad][0] == 'u';
-      fail(source, 1, header[bad],
-           looks_like_u ? "unexpected column: model '" + model.name + "' has no control" : "unexpected column",
-           bad == u_end ? "'nu' or end of header" : "end of header", header[bad]);
-    }
+    input.has_R = true;
+    at += r_names.size();
+  }
+  if (at < header.size())
+  {
+    const bool looks_like_u = p == 0 && at == u_end && header[at].size() > 1 && header[at][0] == 'u';
+    fail(source, 1, header[at],
+         looks_like_u ? "unexpected column: model '" + model.name + "' has no control" : "unexpected column",
+         at == u_end ? "'nu', r columns or end of header" : input.has_R ? "end of header" : "r columns or end of header",
+         header[at]);
   }
   input.has_u = p > 0;
   if (input.has_nu)
     names.push_back("nu");
+  const std::size_t r_begin = names.size();
+  if (input.has_R)
+    append(names, r_names);
 
   std::vector<std::string> cells;
   long line = 0;
@@ -491,6 +574,8 @@ ReplayInput parseReplayInput(std::istream& in, const std::string& source, const 
       row.u[j] = parseNumber(source, line, names[y_end + j], cells[y_end + j]);
     if (input.has_nu)
       row.nu = parseFlag(source, line, "nu", cells[u_end]) ? 1 : 0;
+    if (input.has_R)
+      parseRowR(source, line, model, names, cells, r_begin, row);
     input.rows.push_back(std::move(row));
   }
   return input;
@@ -503,7 +588,7 @@ ReplayInput readReplayInput(const std::string& path, const Model& model)
   return parseReplayInput(file, path, model);
 }
 
-void writeReplayInputHeader(std::ostream& os, int m, int p, bool with_nu)
+void writeReplayInputHeader(std::ostream& os, int m, int p, bool with_nu, const std::vector<std::string>& r_columns)
 {
   os << "k,gamma";
   for (int i = 1; i <= m; ++i)
@@ -512,11 +597,13 @@ void writeReplayInputHeader(std::ostream& os, int m, int p, bool with_nu)
     os << ",u" << j;
   if (with_nu)
     os << ",nu";
+  for (const std::string& r : r_columns)
+    os << ',' << r;
   os << '\n';
 }
 
 void writeReplayInputRow(std::ostream& os, long k, bool gamma, const Eigen::VectorXd& y, const Eigen::VectorXd& u,
-                         bool with_nu, int nu, const std::vector<bool>* off)
+                         bool with_nu, int nu, const std::vector<bool>* off, const std::string& tail)
 {
   os << k << ',' << (gamma ? '1' : '0');
   for (Eigen::Index i = 0; i < y.size(); ++i)
@@ -534,7 +621,7 @@ void writeReplayInputRow(std::ostream& os, long k, bool gamma, const Eigen::Vect
   }
   if (with_nu)
     os << ',' << nu;
-  os << '\n';
+  os << tail << '\n';
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -15,37 +15,6 @@ namespace networked_estimation
 namespace
 {
 
-/// topic, type (among `allowed`, default the first) and fields (`rows` of them, unless the type
-/// is taken whole) of one input block `key` (`what` names its rows in errors).
-void parseInput(ParamReader& p, const std::string& key, const std::vector<InputType>& allowed, int rows,
-                const std::string& what, SensorInput& in)
-{
-  in.topic = p.text("topic", in.topic);
-  if (in.topic.empty())
-    throw ConfigError(key + ".topic: expected a topic name, found an empty string");
-  in.type = inputTypeFromString(p.text("type", toString(allowed.front())), key + ".type", allowed);
-  const YAML::Node fields = p.take("fields");  // a null node when absent
-  in.fields.clear();
-  if (inputFields(in.type).empty())
-  {
-    if (!fields.IsNull())
-      throw ConfigError(key + ".fields: " + toString(in.type) + " has no field selection (it is taken whole)");
-    return;
-  }
-  if (!fields.IsSequence() || fields.size() == 0)
-    throw ConfigError(key + ".fields: expected a list of " + toString(in.type) + " fields, one per " + what);
-  for (std::size_t i = 0; i < fields.size(); ++i)
-  {
-    const std::string at = key + ".fields[" + std::to_string(i) + "]";
-    if (!fields[i].IsScalar())
-      throw ConfigError(at + ": expected a field name");
-    in.fields.push_back(inputFieldFromString(in.type, fields[i].as<std::string>(), at));
-  }
-  if (static_cast<int>(in.fields.size()) != rows)
-    throw ConfigError(key + ".fields: expected " + std::to_string(rows) + " fields (one per " + what + "), found " +
-                      std::to_string(in.fields.size()));
-}
-
 /// The `sensors` block: one map per sensor of the model, keyed by the sensor's name.
 void parseSensorInputs(const YAML::Node& block, const std::string& source, EstimatorNodeConfig& c)
 {
@@ -71,7 +40,7 @@ void parseSensorInputs(const YAML::Node& block, const std::string& source, Estim
     if (!entry.second.IsMap())
       throw ConfigError(key + ": expected a map (keys: topic, type, fields, rate)");
     ParamReader p(entry.second, key);
-    parseInput(p, key, sensorInputTypes(), model.sensors[index].size, "row of sensor '" + name + "'", in);
+    parseInputBlock(p, key, sensorInputTypes(), model.sensors[index].size, "row of sensor '" + name + "'", in);
     in.message_covariance = p.choice("covariance", "model", {"model", "message"}) == "message";
     if (in.message_covariance && in.fields.empty())
       throw ConfigError(key + ".covariance: message: " + toString(in.type) +
@@ -182,7 +151,7 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
     if (!block.IsMap())
       throw ConfigError(source + ": command: expected a map (keys: topic, type, fields)");
     ParamReader q(block, source + ": command");
-    parseInput(q, source + ": command", commandInputTypes(), model.p(), "entry of u", c.command);
+    parseInputBlock(q, source + ": command", commandInputTypes(), model.p(), "entry of u", c.command);
     q.rejectUnknown();
   }
   for (const SensorInput& in : c.inputs)

@@ -1,7 +1,10 @@
 // The Estimator's per-sensor input types and fields (sensor_inputs.hpp).
 #include "networked_estimation/online/sensor_inputs.hpp"
 
+#include <yaml-cpp/yaml.h>
+
 #include "networked_estimation/common/error.hpp"
+#include "networked_estimation/config/param_reader.hpp"
 
 namespace networked_estimation
 {
@@ -236,6 +239,35 @@ InputField inputFieldFromString(InputType type, const std::string& name, const s
     throw ConfigError(key + ": '" + name + "' is not a field of std_msgs/Float64MultiArray (fields: data[i], 0 <= i < " +
                       std::to_string(kMaxArrayFields) + ")");
   throw ConfigError(key + ": '" + name + "' is not a field of " + toString(type) + " (fields: " + names + ")");
+}
+
+void parseInputBlock(ParamReader& p, const std::string& key, const std::vector<InputType>& allowed, int rows,
+                const std::string& what, SensorInput& in)
+{
+  in.topic = p.text("topic", in.topic);
+  if (in.topic.empty())
+    throw ConfigError(key + ".topic: expected a topic name, found an empty string");
+  in.type = inputTypeFromString(p.text("type", toString(allowed.front())), key + ".type", allowed);
+  const YAML::Node fields = p.take("fields");  // a null node when absent
+  in.fields.clear();
+  if (inputFields(in.type).empty())
+  {
+    if (!fields.IsNull())
+      throw ConfigError(key + ".fields: " + toString(in.type) + " has no field selection (it is taken whole)");
+    return;
+  }
+  if (!fields.IsSequence() || fields.size() == 0)
+    throw ConfigError(key + ".fields: expected a list of " + toString(in.type) + " fields, one per " + what);
+  for (std::size_t i = 0; i < fields.size(); ++i)
+  {
+    const std::string at = key + ".fields[" + std::to_string(i) + "]";
+    if (!fields[i].IsScalar())
+      throw ConfigError(at + ": expected a field name");
+    in.fields.push_back(inputFieldFromString(in.type, fields[i].as<std::string>(), at));
+  }
+  if (static_cast<int>(in.fields.size()) != rows)
+    throw ConfigError(key + ".fields: expected " + std::to_string(rows) + " fields (one per " + what + "), found " +
+                      std::to_string(in.fields.size()));
 }
 
 }  // namespace networked_estimation
