@@ -10,6 +10,8 @@
 
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/config/model.hpp"
+#include "networked_estimation/config/rate_schedule.hpp"
+#include "networked_estimation/stability/stability.hpp"
 #include "networked_estimation/io/replay_csv.hpp"
 #include "networked_estimation/simulation/lossy_run.hpp"
 #include "networked_estimation/simulation/schedule_sampler.hpp"
@@ -254,4 +256,56 @@ TEST(Schedule, ReplayCsvDashCells)
   // Without '-' cells no schedule information is kept.
   std::istringstream plain("k,gamma,y1,y2,y3,y4\n1,1,1,2,3,4\n");
   EXPECT_TRUE(parseReplayInput(plain, "p.csv", m).rows[0].scheduled.empty());
+}
+
+// Sensor rates as a schedule (rate_schedule.hpp): the pattern, and the verdict it gives. A 2-D
+// model, x1 a random walk seen by "odom" (every step) and "imu" (every 5th), x2 = 1.01 x2 + w seen
+// only by "gps" (every 25th): between two chances to arrive x2 grows by 1.01^25, so the i.i.d.
+// critical arrival rate of gps is 1 - 1/1.01^50 (a scalar block, Sinopoli's closed form), not the
+// 1 - 1/1.01^2 that an every-step analysis would give.
+TEST(RateSchedule, PatternAndTheVerdictItGives)
+{
+  Model m;
+  m.name = "rates";
+  m.period = 0.02;
+  m.A = Eigen::Matrix2d(Eigen::Vector2d(1.0, 1.01).asDiagonal());
+  m.B = m.Q = Eigen::MatrixXd::Identity(2, 2);
+  m.C.resize(3, 2);
+  m.C << 1, 0, 1, 0, 0, 1;
+  m.R = Eigen::MatrixXd::Identity(3, 3);
+  m.x0 = Eigen::VectorXd::Zero(2);
+  m.P0 = Eigen::MatrixXd::Identity(2, 2);
+  m.sensors = {{"odom", 0, 1}, {"imu", 1, 1}, {"gps", 2, 1}};
+  m.Bu.resize(2, 0);
+  validateModel(m, "rates");
+
+  std::string note;
+  EXPECT_FALSE(withSensorRates(m, {1, 1, 1}, &note).schedule.active());
+  const Model r = withSensorRates(m, {1, 5, 25}, &note);
+  EXPECT_TRUE(note.empty()) << note;
+  ASSERT_EQ(r.schedule.kind, Schedule::Kind::PERIODIC);
+  ASSERT_EQ(r.schedule.period(), 25);
+  for (int t = 0; t < 25; ++t)
+  {
+    EXPECT_TRUE(r.schedule.pattern[t][0]);
+    EXPECT_EQ(r.schedule.pattern[t][1], t % 5 == 0) << t;
+    EXPECT_EQ(r.schedule.pattern[t][2], t == 0) << t;
+  }
+  validateModel(r, "rates with schedule");
+
+  const std::vector<LinkModel> links = {LinkModel::iid(1.0), LinkModel::iid(1.0), LinkModel::iid(0.5)};
+  AnalysisOptions opt;
+  opt.per_sensor = false;
+  const std::vector<SensorMargin> every_step = sensorMargins(m, links, opt);
+  const std::vector<SensorMargin> own_rates = sensorMargins(r, links, opt);
+  // Both by bisection on Theorem 14 to its exact_tolerance (1e-7): 1e-6 leaves room for it.
+  EXPECT_NEAR(every_step[2].band.converges_at, 1.0 - 1.0 / std::pow(1.01, 2), 1e-6);
+  EXPECT_NEAR(own_rates[2].band.converges_at, 1.0 - 1.0 / std::pow(1.01, 50), 1e-6);
+
+  // What cannot be a periodic schedule is refused with the reason.
+  const Model same = withSensorRates(m, {1, 2.5, 25}, &note);
+  EXPECT_FALSE(same.schedule.active());
+  EXPECT_NE(note.find("sensor 'imu' is sampled every 2.5"), std::string::npos) << note;
+  withSensorRates(m, {1, 9973, 9967}, &note);
+  EXPECT_NE(note.find("repeat only after more than 10000 steps"), std::string::npos) << note;
 }

@@ -173,7 +173,12 @@ void EstimatorNodelet::configure(ros::NodeHandle& pnh)
   live.markov = c.markov_link;
   live.min_samples = c.stability_min_samples;
   live.late_data_dropped = c.online.late_policy == LatePolicy::DROP;
-  live_ = std::make_unique<LiveStability>(online_->model(), settings_, live);
+  // Sensors at their own rates: the verdicts see each sensor only at its own steps.
+  std::string rates_note;
+  stability_model_ = withSensorRates(online_->model(), c.online.rate_ratio, &rates_note);
+  if (!rates_note.empty())
+    NODELET_WARN("Estimator: %s", rates_note.c_str());
+  live_ = std::make_unique<LiveStability>(stability_model_, settings_, live);
 }
 
 void EstimatorNodelet::onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m)

@@ -43,6 +43,7 @@
 #include "networked_estimation/ScheduleStep.h"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/online/estimator_node_config.hpp"
+#include "networked_estimation/config/rate_schedule.hpp"
 #include "networked_estimation/stability/live_stability.hpp"
 #include "networked_estimation/online/online_estimator.hpp"
 #include "networked_estimation/stability/stability.hpp"
@@ -163,6 +164,7 @@ private:
 
   EstimatorSettings settings_;
   std::unique_ptr<OnlineEstimator> online_;
+  Model stability_model_;  ///< the model with the sensors' rates as a schedule (live_ reads it)
   std::unique_ptr<LiveStability> live_;
   std::uint64_t resets_seen_ = 0;  ///< divergence resets of the filter already told to live_
 
