@@ -33,8 +33,15 @@
 #include <geometry_msgs/PointStamped.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <geometry_msgs/Twist.h>
+#include <geometry_msgs/TwistStamped.h>
+#include <geometry_msgs/TwistWithCovarianceStamped.h>
+#include <nav_msgs/Odometry.h>
 #include <sensor_msgs/Imu.h>
+#include <sensor_msgs/NavSatFix.h>
 #include <sensor_msgs/Range.h>
+#include <std_msgs/Float64.h>
+#include <std_msgs/Float64MultiArray.h>
 #include "networked_estimation/SetParameters.h"
 #include "load_failure.hpp"
 #include "param_yaml.hpp"
@@ -99,14 +106,29 @@ bool advertiseKnown(ros::NodeHandle& nh, const std::string& type, uint32_t queue
     pub = nh.advertise<geometry_msgs::PoseStamped>("out", queue);
   else if (type == "geometry_msgs/PoseWithCovarianceStamped")
     pub = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("out", queue);
+  else if (type == "geometry_msgs/TwistStamped")
+    pub = nh.advertise<geometry_msgs::TwistStamped>("out", queue);
+  else if (type == "geometry_msgs/TwistWithCovarianceStamped")
+    pub = nh.advertise<geometry_msgs::TwistWithCovarianceStamped>("out", queue);
+  else if (type == "geometry_msgs/Twist")
+    pub = nh.advertise<geometry_msgs::Twist>("out", queue);
+  else if (type == "nav_msgs/Odometry")
+    pub = nh.advertise<nav_msgs::Odometry>("out", queue);
+  else if (type == "sensor_msgs/NavSatFix")
+    pub = nh.advertise<sensor_msgs::NavSatFix>("out", queue);
+  else if (type == "std_msgs/Float64")
+    pub = nh.advertise<std_msgs::Float64>("out", queue);
+  else if (type == "std_msgs/Float64MultiArray")
+    pub = nh.advertise<std_msgs::Float64MultiArray>("out", queue);
   else
     return false;
   return true;
 }
 
 const char* kKnownTypes =
-    "networked_estimation/{Measurement, ControlInput, PlantState, Estimate}, sensor_msgs/{Range, Imu}, "
-    "geometry_msgs/{PointStamped, PoseStamped, PoseWithCovarianceStamped}";
+    "networked_estimation/{Measurement, ControlInput, PlantState, Estimate}, nav_msgs/Odometry, "
+    "sensor_msgs/{Range, Imu, NavSatFix}, geometry_msgs/{PointStamped, PoseStamped, PoseWithCovarianceStamped, "
+    "TwistStamped, TwistWithCovarianceStamped, Twist}, std_msgs/{Float64, Float64MultiArray}";
 
 }  // namespace
 

@@ -138,8 +138,9 @@ public:
   OfferResult offerSchedule(long k, const std::vector<bool>& transmitting);
 
   /// Whether everything step nextStep() can use is in hand (the y_k of every sensor due at k, the
-  /// schedule draw of a random schedule, and u_k for a model with control): processing it before
-  /// its deadline gives the same result.
+  /// schedule draw of a random schedule, u_k for a model with control, and the first sample of a
+  /// slower sensor whose phase is not known yet): processing it before its deadline gives the
+  /// same result.
   bool nextComplete() const;
 
   /// Takes the filter step nextStep() with what is in hand, then advances nextStep().

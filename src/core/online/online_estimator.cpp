@@ -438,8 +438,16 @@ bool OnlineEstimator::nextComplete() const
   if (model_.schedule.kind == Schedule::Kind::RANDOM && !s.have_schedule)
     return false;
   for (std::size_t i = 0; i < s.have.size(); ++i)
-    if (!s.have[i] && due(&s, next_, i))
+  {
+    if (s.have[i])
+      continue;
+    if (due(&s, next_, i))
       return false;
+    // A slower sensor before its first sample: its phase is unknown, any step may be its own, so
+    // the step waits for it up to the deadline (without counting it as due there).
+    if (ratio_[i] > 1.0 && anchor_[i] < 0)
+      return false;
+  }
   return true;
 }
 
