@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# End-to-end checks of the command-line tools simulate, replay and score.
+# End-to-end checks of the command-line tools simulate, replay, score and make_model.
 #   usage: test_tools.sh TOOLS_DIR REPO_ROOT
 # Prints "N passed, M failed" and exits non-zero when any check failed.
 set -euo pipefail
@@ -10,7 +10,7 @@ if [ $# -ne 2 ]; then
 fi
 BIN=$(cd "$1" && pwd)
 ROOT=$(cd "$2" && pwd)
-for tool in simulate replay score montecarlo; do
+for tool in simulate replay score montecarlo make_model; do
   if [ ! -x "$BIN/$tool" ]; then
     echo "missing tool $BIN/$tool" >&2
     exit 2
@@ -304,6 +304,62 @@ run_rc rc "$BIN/montecarlo" --experiment sweep --model "$UNSTABLE2" --settings "
   --channel camera="$BURSTY" --axis camera.recovery_rate=0:1:3 --out "$M2/ge"
 check "sweep of a gilbert_elliott recovery rate: exit 0, 3 points" \
   [ "$rc" = 0 -a "$(lines "$M2/ge/sweep.csv" 2>/dev/null)" = 4 ]
+
+# --- make_model: a kinematic model that the other tools accept ---------------------------------
+K=$WORK/kinematic
+mkdir -p "$K"
+run_rc rc "$BIN/make_model" --motion constant_velocity --dims 2 --rate 20 --accel-density 0.25 \
+  --sensor gnss:position:1 --sensor odom:velocity:0.1 --name planar_cv --output "$K/cv.yaml"
+cat "$WORK/out.txt"
+check "make_model constant_velocity 2-D exits 0" rc_and_grep "$rc" 0 "wrote .*cv.yaml: .* n = 4, m = 4" "$WORK/out.txt"
+check "make_model: the header has the command line" grep -q "^#   make_model --motion constant_velocity --dims 2 " "$K/cv.yaml"
+check "make_model: the header has the state order" grep -q "^# State \[x, y, vx, vy\] (m, m/s)" "$K/cv.yaml"
+run_rc rc "$BIN/make_model" --motion constant_velocity --dims 2 --rate 20 --accel-density 0.25 \
+  --sensor gnss:position:1 --sensor odom:velocity:0.1 --name planar_cv
+check "make_model to stdout: the same model as --output" \
+  cmp -s <(grep -v '^#' "$WORK/out.txt") <(grep -v '^#' "$K/cv.yaml")
+run_rc rc "$BIN/simulate" --model "$K/cv.yaml" --channel "$BERNOULLI" --steps 200 --seed 3 --out "$K/sim"
+check "simulate accepts the generated model" [ "$rc" = 0 ]
+check "simulate of the generated model: input.csv header" [ "$(head -1 "$K/sim/input.csv")" = "k,gamma,y1,y2,y3,y4" ]
+run_rc rc "$BIN/replay" --model "$K/cv.yaml" --settings "$EST/kfio.yaml" --input "$K/sim/input.csv" \
+  --output "$K/sim/kfio.csv"
+check "replay kfio on the generated model exits 0" [ "$rc" = 0 ]
+run_rc rc "$BIN/score" --truth "$K/sim/truth.csv" --estimate kfio="$K/sim/kfio.csv"
+check "score of the generated model exits 0" rc_and_grep "$rc" 0 "^kfio +200 " "$WORK/out.txt"
+run_rc rc "$BIN/make_model" --motion constant_acceleration --dims 3 --rate 100 --jerk-density 2 \
+  --sensor gnss:position:0.5 --sensor imu:acceleration:0.05 --output "$K/ca.yaml"
+check "make_model constant_acceleration 3-D exits 0" [ "$rc" = 0 ]
+run_rc rc "$BIN/analyze" --model "$K/ca.yaml" --channel "$BERNOULLI"
+check "analyze accepts the generated constant_acceleration model" [ "$rc" = 0 ]
+# refusals: exit 2, the option named, no output file
+made_refused() {  # NAME PATTERN ARGS...
+  local name=$1 pattern=$2
+  shift 2
+  run_rc rc "$BIN/make_model" --output "$K/bad.yaml" "$@"
+  check "make_model $name: exit 2 naming it" rc_and_grep "$rc" 2 "$pattern" "$WORK/err.txt"
+  check "make_model $name: no output file" [ -z "$(find "$K" -name 'bad.yaml*')" ]
+}
+CV=(--motion constant_velocity --rate 20 --accel-density 0.25 --sensor gnss:position:1)
+made_refused "unknown option" "error: unknown option '--bogus'" "${CV[@]}" --dims 2 --bogus 1
+made_refused "--dims 4" "error: kinematic model 'kinematic': dims: expected 1, 2 or 3, found 4" "${CV[@]}" --dims 4
+made_refused "--rate 0" "rate: expected a finite number of Hz > 0, found 0" --motion constant_velocity --dims 2 \
+  --rate 0 --accel-density 0.25 --sensor gnss:position:1
+made_refused "bad --sensor" "option '--sensor': expected NAME:QUANTITY:SIGMA, found 'gnss:position'" \
+  --motion constant_velocity --dims 2 --rate 20 --accel-density 0.25 --sensor gnss:position
+made_refused "unknown quantity" "sensors\[1\].quantity: expected position or velocity for a constant_velocity model" \
+  "${CV[@]}" --dims 2 --sensor odom:speed:1
+made_refused "--jerk-density on constant_velocity" "option '--jerk-density' is not for a constant_velocity model" \
+  "${CV[@]}" --dims 2 --jerk-density 1
+made_refused "no --sensor" "missing required option '--sensor'" --motion constant_velocity --dims 2 --rate 20 \
+  --accel-density 0.25
+made_refused "unknown motion" "motion: expected constant_velocity or constant_acceleration, found 'cv'" \
+  --motion cv --dims 2 --rate 20 --accel-density 0.25 --sensor gnss:position:1
+made_refused "a rate too high for constant_acceleration" "rate: 1000 Hz is too high .* the highest rate accepted is about" \
+  --motion constant_acceleration --dims 3 --rate 1000 --jerk-density 1 --sensor gnss:position:1
+run_rc rc "$BIN/make_model" "${CV[@]}" --dims 2 --output "$K/missing_dir/cv.yaml"
+check "make_model to a folder that does not exist: exit 2" rc_and_grep "$rc" 2 "cannot create output file" "$WORK/err.txt"
+run_rc rc "$BIN/make_model" --help
+check "make_model --help: exit code 0 and usage" rc_and_grep "$rc" 0 "usage: make_model" "$WORK/out.txt"
 
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

@@ -45,6 +45,22 @@ std::string formatNumber(double v, int max_digits)
   return buf;
 }
 
+std::string plainNumber(double v)
+{
+  const std::string text = formatNumber(v);
+  const double magnitude = std::abs(v);
+  if (!std::isfinite(v) || magnitude < 1.0 || magnitude >= 1e15 ||
+      text.find('e') == std::string::npos)
+  {
+    return text;
+  }
+  // %g chose an exponent because the exponent reached the digits needed: as many digits as the
+  // integer part has are at least as many, so the text still reads back as v.
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.*g", static_cast<int>(std::floor(std::log10(magnitude))) + 1, v);
+  return buf;
+}
+
 std::string dims(Eigen::Index rows, Eigen::Index cols)
 {
   return std::to_string(rows) + "x" + std::to_string(cols);

@@ -22,6 +22,8 @@ namespace detail
 
 /// Shortest decimal text that reads back as exactly `v` (at most `max_digits` significant digits).
 std::string formatNumber(double v, int max_digits = 17);
+/// formatNumber without an exponent for magnitudes in [1, 1e15): "20", not "2e+01".
+std::string plainNumber(double v);
 /// "RxC".
 std::string dims(Eigen::Index rows, Eigen::Index cols);
 /// "a, b, c".

@@ -1,0 +1,322 @@
+// Constant-velocity and constant-acceleration models (kinematic_model.hpp).
+#include "networked_estimation/config/kinematic_model.hpp"
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "config/yaml_reader.hpp"
+#include "networked_estimation/common/error.hpp"
+
+namespace networked_estimation
+{
+using namespace detail;
+
+namespace
+{
+
+const char* const kConstantVelocity = "constant_velocity";
+const char* const kConstantAcceleration = "constant_acceleration";
+const char* const kQuantities[] = {"position", "velocity", "acceleration"};
+const char* const kUnits[] = {"m", "m/s", "m/s^2"};
+
+double factorial(int k)
+{
+  double f = 1.0;
+  for (int i = 2; i <= k; ++i)
+  {
+    f *= i;
+  }
+  return f;
+}
+
+/// One axis, derivatives 0..order-1: A_ij = T^(j-i) / (j-i)!, and with m = order - 1
+/// Q_ij = q T^(2m+1-i-j) / ((m-i)! (m-j)! (2m+1-i-j)), the integral of
+/// (e^{F s} G)_i (e^{F s} G)_j = s^(m-i) / (m-i)! * s^(m-j) / (m-j)! over [0, T].
+void axisBlocks(int order, double T, double q, Eigen::MatrixXd& A, Eigen::MatrixXd& Q)
+{
+  const int m = order - 1;
+  A = Eigen::MatrixXd::Zero(order, order);
+  Q = Eigen::MatrixXd::Zero(order, order);
+  for (int i = 0; i < order; ++i)
+  {
+    for (int j = 0; j < order; ++j)
+    {
+      if (j >= i)
+      {
+        A(i, j) = std::pow(T, j - i) / factorial(j - i);
+      }
+      const int power = 2 * m + 1 - i - j;
+      Q(i, j) = q * std::pow(T, power) / (factorial(m - i) * factorial(m - j) * power);
+    }
+  }
+}
+
+/// Whether the per-axis Q at this period passes the model checks' definiteness test (q scales
+/// out: the test is relative).
+bool axisQAccepted(int order, double T)
+{
+  Eigen::MatrixXd A, Q;
+  axisBlocks(order, T, 1.0, A, Q);
+  return definitenessProblem(Q, true).empty();
+}
+
+/// The highest rate (Hz, three digits, rounded down) at which axisQAccepted holds, below `rate`
+/// where it does not (the smallest eigenvalue of Q relative to its largest falls with the rate).
+double highestAcceptedRate(int order, double rate)
+{
+  double lo = rate, hi = rate;
+  for (int i = 0; i < 200 && !axisQAccepted(order, 1.0 / lo); ++i)
+  {
+    hi = lo;
+    lo /= 2.0;
+  }
+  for (int i = 0; i < 60; ++i)
+  {
+    const double mid = std::sqrt(lo * hi);
+    (axisQAccepted(order, 1.0 / mid) ? lo : hi) = mid;
+  }
+  const double scale = std::pow(10.0, std::floor(std::log10(lo)) - 2.0);
+  return std::floor(lo / scale) * scale;
+}
+
+std::string quoted(const std::string& text) { return "'" + text + "'"; }
+
+std::string motionProblem(const std::string& motion)
+{
+  return std::string("expected ") + kConstantVelocity + " or " + kConstantAcceleration +
+         ", found " + quoted(motion);
+}
+
+/// 2, 3, or 0 for an unknown motion.
+int orderOf(const std::string& motion)
+{
+  return motion == kConstantVelocity ? 2 : motion == kConstantAcceleration ? 3 : 0;
+}
+
+/// Index of the quantity among the first `order` ones (position, velocity, acceleration), or -1.
+int quantityIndex(const std::string& quantity, int order)
+{
+  for (int i = 0; i < order; ++i)
+  {
+    if (quantity == kQuantities[i])
+    {
+      return i;
+    }
+  }
+  return -1;
+}
+
+}  // namespace
+
+int kinematicOrder(const std::string& motion)
+{
+  const int order = orderOf(motion);
+  if (order == 0)
+  {
+    throw ConfigError(message("kinematic model", 0, "motion", motionProblem(motion)));
+  }
+  return order;
+}
+
+std::string densityKey(const std::string& motion)
+{
+  return kinematicOrder(motion) == 2 ? "accel-density" : "jerk-density";
+}
+
+std::vector<std::string> kinematicStateNames(int order, int dims)
+{
+  const char* const axes[] = {"x", "y", "z"};
+  const char* const prefixes[] = {"", "v", "a"};
+  std::vector<std::string> names;
+  for (int i = 0; i < order; ++i)
+  {
+    for (int a = 0; a < dims; ++a)
+    {
+      names.push_back(std::string(prefixes[i]) + axes[a]);
+    }
+  }
+  return names;
+}
+
+Model makeKinematicModel(const KinematicSpec& spec)
+{
+  const std::string source = "kinematic model " + quoted(spec.name);
+  const auto fail = [&source](const std::string& key, const std::string& problem)
+  {
+    throw ConfigError(message(source, 0, key, problem));
+  };
+
+  const int order = orderOf(spec.motion);
+  if (order == 0)
+  {
+    fail("motion", motionProblem(spec.motion));
+  }
+  if (spec.dims < 1 || spec.dims > 3)
+  {
+    fail("dims", "expected 1, 2 or 3, found " + std::to_string(spec.dims));
+  }
+  if (!std::isfinite(spec.rate) || !(spec.rate > 0.0))
+  {
+    fail("rate", "expected a finite number of Hz > 0, found " + plainNumber(spec.rate));
+  }
+  const std::string q_units = order == 2 ? "m^2/s^3" : "m^2/s^5";
+  if (!std::isfinite(spec.density) || !(spec.density > 0.0))
+  {
+    fail(densityKey(spec.motion), "expected a finite spectral density > 0 (" + q_units +
+                                      "), found " + plainNumber(spec.density));
+  }
+  const int d = spec.dims;
+  const int n = order * d;
+  const double T = 1.0 / spec.rate;
+
+  Model model;
+  model.name = spec.name;
+  model.period = T;
+  Eigen::MatrixXd A1, Q1;
+  axisBlocks(order, T, spec.density, A1, Q1);
+  model.A = Eigen::MatrixXd::Zero(n, n);
+  model.Q = Eigen::MatrixXd::Zero(n, n);
+  for (int i = 0; i < order; ++i)
+  {
+    for (int j = 0; j < order; ++j)
+    {
+      for (int a = 0; a < d; ++a)
+      {
+        model.A(i * d + a, j * d + a) = A1(i, j);
+        model.Q(i * d + a, j * d + a) = Q1(i, j);
+      }
+    }
+  }
+  model.B = Eigen::MatrixXd::Identity(n, n);
+  if (!definitenessProblem(model.Q, true).empty())
+  {
+    fail("rate", plainNumber(spec.rate) + " Hz is too high for a " + spec.motion +
+                     " model: its Q (entries from T^" + std::to_string(2 * order - 1) +
+                     " to T) is no longer positive definite to the relative precision 1e-12 the "
+                     "model checks require; the highest rate accepted is about " +
+                     plainNumber(highestAcceptedRate(order, spec.rate)) + " Hz");
+  }
+
+  // Sensors
+  if (spec.sensors.empty())
+  {
+    fail("sensors", "expected at least one sensor, found none");
+  }
+  model.C = Eigen::MatrixXd::Zero(d * static_cast<int>(spec.sensors.size()), n);
+  model.R = Eigen::MatrixXd::Zero(model.C.rows(), model.C.rows());
+  for (std::size_t s = 0; s < spec.sensors.size(); ++s)
+  {
+    const KinematicSensor& in = spec.sensors[s];
+    const std::string key = indexKey("sensors", s);
+    if (in.name.empty())
+    {
+      fail(key + ".name", "expected a non-empty name, found ''");
+    }
+    for (std::size_t k = 0; k < s; ++k)
+    {
+      if (spec.sensors[k].name == in.name)
+      {
+        fail(key + ".name", "duplicate sensor name " + quoted(in.name) + " (also " +
+                                indexKey("sensors", k) + ".name)");
+      }
+    }
+    const int which = quantityIndex(in.quantity, order);
+    if (which < 0)
+    {
+      const std::string expected =
+          order == 2 ? "position or velocity" : "position, velocity or acceleration";
+      const std::string note = order == 2 && in.quantity == kQuantities[2]
+                                   ? " (acceleration needs a constant_acceleration model)"
+                                   : "";
+      fail(key + ".quantity", "expected " + expected + " for a " + spec.motion + " model" + note +
+                                  ", found " + quoted(in.quantity));
+    }
+    if (!std::isfinite(in.sigma) || !(in.sigma > 0.0))
+    {
+      fail(key + ".sigma", std::string("expected a finite standard deviation > 0 (") +
+                               kUnits[which] + "), found " + plainNumber(in.sigma));
+    }
+    const int offset = static_cast<int>(s) * d;
+    for (int a = 0; a < d; ++a)
+    {
+      model.C(offset + a, which * d + a) = 1.0;
+      model.R(offset + a, offset + a) = in.sigma * in.sigma;
+    }
+    model.sensors.push_back(Sensor{in.name, offset, d});
+  }
+
+  // x0, P0
+  if (spec.x0.size() == 0)
+  {
+    model.x0 = Eigen::VectorXd::Zero(n);
+  }
+  else if (spec.x0.size() != n)
+  {
+    fail("x0", "expected " + std::to_string(n) + " entries (n = " + std::to_string(n) +
+                   ", the state " + joinList(kinematicStateNames(order, d)) + "), found " +
+                   std::to_string(spec.x0.size()));
+  }
+  else
+  {
+    model.x0 = spec.x0;
+  }
+  const double variances[] = {spec.p0_position, spec.p0_velocity, spec.p0_acceleration};
+  const char* const p0_keys[] = {"p0-position", "p0-velocity", "p0-acceleration"};
+  model.P0 = Eigen::MatrixXd::Zero(n, n);
+  for (int i = 0; i < order; ++i)
+  {
+    if (!std::isfinite(variances[i]) || variances[i] < 0.0)
+    {
+      fail(p0_keys[i], std::string("expected a finite variance >= 0 (") + kUnits[i] +
+                           " squared), found " + plainNumber(variances[i]));
+    }
+    for (int a = 0; a < d; ++a)
+    {
+      model.P0(i * d + a, i * d + a) = variances[i];
+    }
+  }
+  model.Bu = Eigen::MatrixXd::Zero(n, 0);
+
+  validateModel(model, source);
+  return model;
+}
+
+std::string kinematicModelComment(const KinematicSpec& spec)
+{
+  const int order = kinematicOrder(spec.motion);
+  const double T = 1.0 / spec.rate;
+  std::string units = "m, m/s";
+  std::string order_text = "all positions, then all velocities";
+  std::string A_text = "[[1, T], [0, 1]]";
+  std::string Q_text = "q [[T^3/3, T^2/2], [T^2/2, T]]";
+  std::string noise = "acceleration";
+  std::string q_units = "m^2/s^3";
+  if (order == 3)
+  {
+    units += ", m/s^2";
+    order_text += ", then all accelerations";
+    A_text = "[[1, T, T^2/2], [0, 1, T], [0, 0, 1]]";
+    Q_text = "q [[T^5/20, T^4/8, T^3/6], [T^4/8, T^3/3, T^2/2], [T^3/6, T^2/2, T]]";
+    noise = "jerk";
+    q_units = "m^2/s^5";
+  }
+  std::string out = spec.motion + " model in " + std::to_string(spec.dims) + "-D at " +
+                    plainNumber(spec.rate) + " Hz (period T = " + plainNumber(T) + " s).\n";
+  out += "State [" + joinList(kinematicStateNames(order, spec.dims)) + "] (" + units + "): " +
+         order_text + ".\n";
+  out += "Process noise: white " + noise + " of spectral density q = " +
+         plainNumber(spec.density) + " " + q_units + " on every axis.\n";
+  out += "A = e^{F T}, per axis " + A_text + ".\n";
+  out += "Q = integral over [0, T] of e^{F s} G q G' e^{F' s} ds, per axis\n";
+  out += "    " + Q_text + "; B = identity.\n";
+  for (const KinematicSensor& s : spec.sensors)
+  {
+    const int which = quantityIndex(s.quantity, order);
+    out += "Sensor " + s.name + ": the " + s.quantity + " of every axis, sigma = " +
+           plainNumber(s.sigma) + " " + kUnits[which < 0 ? 0 : which] + " (R = sigma^2 I).\n";
+  }
+  return out;
+}
+
+}  // namespace networked_estimation

@@ -1,0 +1,148 @@
+// make_model: writes the model file of a constant-velocity or constant-acceleration robot
+// (kinematic_model.hpp, docs/formats.md "Kinematic models for robots (make_model)").
+#include <cctype>
+#include <cerrno>
+#include <cstdlib>
+#include <iostream>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cli.hpp"
+#include "networked_estimation/config/kinematic_model.hpp"
+#include "networked_estimation/config/model_writer.hpp"
+#include "networked_estimation/io/atomic_file.hpp"
+
+using namespace networked_estimation;
+
+namespace
+{
+
+/// A number (inf and nan are passed on, for the model's own checks to name).
+double parseNumber(const std::string& text, const std::string& what)
+{
+  errno = 0;
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE)
+    throw cli::UsageError(what + ": expected a number, found '" + text + "'");
+  return v;
+}
+
+std::vector<std::string> split(const std::string& text, char sep)
+{
+  std::vector<std::string> parts(1);
+  for (const char c : text)
+  {
+    if (c == sep)
+      parts.emplace_back();
+    else
+      parts.back() += c;
+  }
+  return parts;
+}
+
+KinematicSensor parseSensor(const std::string& text)
+{
+  const std::vector<std::string> parts = split(text, ':');
+  if (parts.size() != 3)
+    throw cli::UsageError("option '--sensor': expected NAME:QUANTITY:SIGMA, found '" + text + "'");
+  return KinematicSensor{parts[0], parts[1], parseNumber(parts[2], "option '--sensor' '" + text + "': SIGMA")};
+}
+
+/// The command line as one shell line (arguments with special characters single-quoted).
+std::string commandLine(int argc, char** argv)
+{
+  std::string out = "make_model";
+  for (int i = 1; i < argc; ++i)
+  {
+    const std::string arg = argv[i];
+    bool plain = !arg.empty();
+    for (const char c : arg)
+      plain = plain && (std::isalnum(static_cast<unsigned char>(c)) || std::string("_-./:=,+@%").find(c) != std::string::npos);
+    std::string quoted;
+    for (const char c : arg)
+      quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    out += " " + (plain ? arg : "'" + quoted + "'");
+  }
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  cli::CommandLine cl(
+      "make_model",
+      "Writes the model file (YAML) of a constant_velocity or constant_acceleration robot in 1-D, 2-D or\n"
+      "3-D sampled at RATE Hz: A and Q are the exact discretisation of white acceleration (constant_velocity,\n"
+      "--accel-density in m^2/s^3) or white jerk (constant_acceleration, --jerk-density in m^2/s^5). The state\n"
+      "is all positions, then all velocities (then accelerations): 2-D constant_velocity is [x, y, vx, vy].\n"
+      "Each --sensor NAME:QUANTITY:SIGMA measures QUANTITY (position, velocity or acceleration) on every\n"
+      "axis with standard deviation SIGMA (m, m/s, m/s^2). Writes to stdout unless --output is given.",
+      {
+          {"motion", "MOTION", "constant_velocity or constant_acceleration", true, false},
+          {"dims", "D", "number of axes: 1, 2 or 3", true, false},
+          {"rate", "HZ", "sampling rate (the model's period is 1 / HZ)", true, false},
+          {"accel-density", "Q", "constant_velocity: spectral density of the acceleration (m^2/s^3)", false, false},
+          {"jerk-density", "Q", "constant_acceleration: spectral density of the jerk (m^2/s^5)", false, false},
+          {"sensor", "NAME:QUANTITY:SIGMA", "a sensor (at least one)", true, true},
+          {"name", "NAME", "model name (default kinematic)", false, false},
+          {"x0", "V1,V2,...", "initial estimate, n values in the state order (default zeros)", false, false},
+          {"p0-position", "VAR", "initial variance of each position, m^2 (default 1)", false, false},
+          {"p0-velocity", "VAR", "initial variance of each velocity, (m/s)^2 (default 1)", false, false},
+          {"p0-acceleration", "VAR", "constant_acceleration: initial variance of each acceleration (default 1)",
+           false, false},
+          {"output", "FILE", "write the model here (atomically) instead of to stdout", false, false},
+      });
+  return cli::runTool(cl, argc, argv, [&]() -> int {
+    KinematicSpec spec;
+    spec.motion = cl.get("motion");
+    spec.name = cl.get("name", spec.name);
+    spec.dims = static_cast<int>(cl.getLong("dims", 0, -1000, 1000));
+    spec.rate = parseNumber(cl.get("rate"), "option '--rate'");
+
+    const int order = kinematicOrder(spec.motion);  // ConfigError for an unknown motion
+    const std::string density = densityKey(spec.motion);
+    const std::string other = order == 2 ? "jerk-density" : "accel-density";
+    if (cl.has(other))
+      throw cli::UsageError("option '--" + other + "' is not for a " + spec.motion + " model (it takes --" +
+                            density + ")");
+    if (!cl.has(density))
+      throw cli::UsageError("missing required option '--" + density + "' (for a " + spec.motion + " model)");
+    spec.density = parseNumber(cl.get(density), "option '--" + density + "'");
+    if (order == 2 && cl.has("p0-acceleration"))
+      throw cli::UsageError("option '--p0-acceleration' is only for a constant_acceleration model");
+
+    for (const std::string& s : cl.getAll("sensor"))
+      spec.sensors.push_back(parseSensor(s));
+    if (cl.has("x0"))
+    {
+      const std::vector<std::string> values = split(cl.get("x0"), ',');
+      spec.x0.resize(static_cast<Eigen::Index>(values.size()));
+      for (std::size_t i = 0; i < values.size(); ++i)
+        spec.x0[static_cast<Eigen::Index>(i)] = parseNumber(values[i], "option '--x0': entry " + std::to_string(i));
+    }
+    spec.p0_position = parseNumber(cl.get("p0-position", "1"), "option '--p0-position'");
+    spec.p0_velocity = parseNumber(cl.get("p0-velocity", "1"), "option '--p0-velocity'");
+    spec.p0_acceleration = parseNumber(cl.get("p0-acceleration", "1"), "option '--p0-acceleration'");
+
+    const Model model = makeKinematicModel(spec);
+    const std::string comment = "Generated by make_model (docs/formats.md, \"Kinematic models for robots\"):\n  " +
+                                commandLine(argc, argv) + "\n" + kinematicModelComment(spec);
+    if (!cl.has("output"))
+    {
+      std::ostringstream text;
+      writeModelYaml(text, model, comment);
+      std::cout << text.str();
+      return 0;
+    }
+    AtomicFile file(cl.get("output"));
+    writeModelYaml(file.stream(), model, comment);
+    file.commit();
+    std::cout << "wrote " << file.path() << ": " << spec.motion << " in " << spec.dims << "-D at "
+              << cl.get("rate") << " Hz, n = " << model.n() << ", m = " << model.m() << "\n";
+    return 0;
+  });
+}
