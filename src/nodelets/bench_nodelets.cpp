@@ -12,6 +12,7 @@
 //                      and the CPU the rest of the machine used meanwhile (other processes: noise).
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <ros/ros.h>
 #include <topic_tools/shape_shifter.h>
 
@@ -27,6 +28,7 @@
 #include <cstdio>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -272,6 +274,22 @@ private:
     pnh.param("source", source_, std::string());
     pnh.param("queue_size", queue_size, 100000);
     pnh.param("late_after", late_after_, std::numeric_limits<double>::infinity());
+    // ~diagnostics: the name of an Estimator's `estimator` status (e.g. "bench_estimator: estimator"):
+    // its `late dropped`, `accepted` and `rejected` at the end are reported too (a due sample that
+    // came after its step was taken is a missed one, whatever gamma says).
+    pnh.param("diagnostics", diagnostics_, std::string());
+    if (!diagnostics_.empty())
+      diag_sub_ = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
+          "/diagnostics", 100, [this](const diagnostic_msgs::DiagnosticArray::ConstPtr& a) {
+            for (const auto& st : a->status)
+              if (st.name.find(diagnostics_) != std::string::npos)
+              {
+                std::lock_guard<std::mutex> lock(diag_mutex_);
+                for (const auto& kv : st.values)
+                  diag_[kv.key] = kv.value;
+                ++diag_updates_;
+              }
+          });
     // Preallocated: no reallocation while recording (50 % headroom over rate * duration).
     latency_us_.assign(static_cast<std::size_t>(std::max(1000.0, 1.5 * rate * duration_ + 1000.0)), 0.0);
     sample_every_ = static_cast<std::uint64_t>(std::max(10.0, rate / 100.0));
@@ -332,8 +350,33 @@ private:
         break;
       }
     }
+    if (!stop_ && !diagnostics_.empty())
+    {
+      // One more update of the estimator's diagnostics (once a second) after the run.
+      std::uint64_t seen = 0;
+      {
+        std::lock_guard<std::mutex> lock(diag_mutex_);
+        seen = diag_updates_;
+      }
+      const auto until = SteadyClock::now() + std::chrono::milliseconds(2500);
+      while (!stop_ && SteadyClock::now() < until)
+      {
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        std::lock_guard<std::mutex> lock(diag_mutex_);
+        if (diag_updates_ > seen)
+          break;
+      }
+    }
     if (!stop_)
       report();
+  }
+
+  /// An integer value of the estimator's diagnostics; -1 when unknown.
+  long diagValue(const std::string& key)
+  {
+    std::lock_guard<std::mutex> lock(diag_mutex_);
+    auto it = diag_.find(key);
+    return it == diag_.end() ? -1 : std::atol(it->second.c_str());
   }
 
   void report()
@@ -367,13 +410,15 @@ private:
     const double cpu_us_per_msg = cpu_last_count_ > 0 ? 1e6 * cpu / static_cast<double>(cpu_last_count_) : 0.0;
     const double cpu_cores = cpu_span > 0.0 ? cpu / cpu_span : 0.0;
     const double other_cores = cpu_span > 0.0 ? std::max(0.0, (busy_last_ - busy_first_ - cpu) / cpu_span) : 0.0;
-    char line[512];
+    const long late = diagValue("late dropped"), accepted = diagValue("accepted"), rejected = diagValue("rejected");
+    char line[640];
     std::snprintf(line, sizeof line,
                   "sent=%" PRIu64 " received=%" PRIu64 " rate=%.1f latency_us median=%.1f p90=%.1f p99=%.1f "
                   "max=%.1f p99_first_half=%.1f p99_second_half=%.1f median_first_tenth=%.1f median_last_tenth=%.1f "
-                  "cpu_us_per_msg=%.2f cpu_cores=%.2f other_cores=%.2f missed=%" PRIu64,
+                  "cpu_us_per_msg=%.2f cpu_cores=%.2f other_cores=%.2f missed=%" PRIu64
+                  " late_dropped=%ld accepted=%ld rejected=%ld",
                   sent, received_, rate, median, p90, p99, max, p99_first, p99_second, median_first, median_last,
-                  cpu_us_per_msg, cpu_cores, other_cores, missed_);
+                  cpu_us_per_msg, cpu_cores, other_cores, missed_, late, accepted, rejected);
     ROS_INFO("bench_sink %s: %s", label_.c_str(), line);
     if (received_ > latency_us_.size())
       ROS_WARN("bench_sink %s: %zu messages beyond the preallocated %zu are not in the latency statistics",
@@ -393,15 +438,21 @@ private:
     }
     if (empty)
       out << "label,sent,received,rate_hz,median_us,p90_us,p99_us,max_us,p99_first_half_us,p99_second_half_us,"
-             "median_first_tenth_us,median_last_tenth_us,cpu_us_per_msg,cpu_cores,other_cores,missed\n";
+             "median_first_tenth_us,median_last_tenth_us,cpu_us_per_msg,cpu_cores,other_cores,missed,late_dropped,"
+             "accepted,rejected\n";
     std::snprintf(line, sizeof line,
-                  "%s,%" PRIu64 ",%" PRIu64 ",%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.2f,%.2f,%.2f,%" PRIu64 "\n",
+                  "%s,%" PRIu64 ",%" PRIu64 ",%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.2f,%.2f,%.2f,%" PRIu64
+                  ",%ld,%ld,%ld\n",
                   label_.c_str(), sent, received_, rate, median, p90, p99, max, p99_first, p99_second, median_first,
-                  median_last, cpu_us_per_msg, cpu_cores, other_cores, missed_);
+                  median_last, cpu_us_per_msg, cpu_cores, other_cores, missed_, late, accepted, rejected);
     out << line;
   }
 
-  std::string label_, result_file_, source_;
+  std::string label_, result_file_, source_, diagnostics_;
+  ros::Subscriber diag_sub_;
+  std::mutex diag_mutex_;
+  std::map<std::string, std::string> diag_;
+  std::uint64_t diag_updates_ = 0;
   double duration_ = 5.0, start_delay_ = 2.0, grace_ = 1.0;
   ros::Subscriber sub_;
   std::mutex mutex_;

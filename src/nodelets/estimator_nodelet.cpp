@@ -82,6 +82,18 @@ void EstimatorNodelet::onInit()
     tf_timer_ = nh.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { tfTimer(); });
   }
   startReconfigure(pnh);
+  if (ros::Time::isSimTime())
+    clock_sub_ = nh.subscribe<rosgraph_msgs::Clock>(
+        "/clock", 10,
+        [this](const rosgraph_msgs::Clock::ConstPtr& c) {
+          const double t = c->clock.toSec(), before = sim_now_.exchange(t);
+          if (t >= next_deadline_ || t < before)  // a deadline passed, or time went back
+          {
+            { std::lock_guard<std::mutex> lock(mutex_); }  // the loop is waiting (or will see the time)
+            wake_.notify_one();
+          }
+        },
+        ros::VoidConstPtr(), hints());
   thread_ = std::thread(&EstimatorNodelet::deadlineLoop, this);
   std::string inputs;
   for (std::size_t i = 0; i < inputs_.size(); ++i)
@@ -241,7 +253,7 @@ void EstimatorNodelet::offer(std::size_t sensor, long k, double stamp, const dou
   }
   // Steps whose deadline has passed are taken first (the deadline thread may not have woken
   // yet): what arrives after a deadline is late, exactly, whichever thread notices first.
-  catchUp(ros::Time::now().toSec());
+  catchUp(now());
   const OfferResult r = online_->offerMeasurement(k, sensor, y, size, R);
   if (r.offer == Offer::REJECTED)
     NODELET_WARN_THROTTLE(1.0, "Estimator %s: measurement rejected: %s (%lu rejected so far)",
@@ -274,7 +286,7 @@ void EstimatorNodelet::onCommand(const ControlInput::ConstPtr& c)
     rejectLocked("command step " + std::to_string(c->step) + " out of range");
     return;
   }
-  catchUp(ros::Time::now().toSec());
+  catchUp(now());
   const OfferResult r = online_->offerCommand(static_cast<long>(c->step), c->u.data(), c->u.size());
   if (r.offer == Offer::REJECTED)
     NODELET_WARN_THROTTLE(1.0, "Estimator %s: command rejected: %s (%lu rejected so far)",
@@ -293,7 +305,7 @@ void EstimatorNodelet::onSchedule(const ScheduleStep::ConstPtr& sc)
   // The draw of a step leaves before its measurements: it may start the timeline.
   if (!clock_.anchored() && !anchorLocked(static_cast<long>(sc->step), sc->header.stamp.toSec()))
     return;
-  catchUp(ros::Time::now().toSec());
+  catchUp(now());
   const std::vector<bool> transmitting(sc->transmitting.begin(), sc->transmitting.end());
   const OfferResult r = online_->offerSchedule(static_cast<long>(sc->step), transmitting);
   if (r.offer == Offer::REJECTED)
@@ -310,7 +322,7 @@ void EstimatorNodelet::onHeldCommand(const ros::Time& stamp, const double* u, st
   held_[stamp.toSec()].assign(u, u + n);  // kept before the timeline starts, too
   if (!online_->started())
     return;
-  catchUp(ros::Time::now().toSec());
+  catchUp(now());
   const OfferResult r = online_->offerCommand(clock_.stepAt(stamp.toSec()), u, n);
   if (r.offer == Offer::REJECTED)
     NODELET_WARN_THROTTLE(1.0, "Estimator %s: command rejected: %s (%lu rejected so far)",
@@ -395,6 +407,12 @@ Estimate::Ptr EstimatorNodelet::stepLocked()
   return e;
 }
 
+double EstimatorNodelet::now() const
+{
+  const double sim = sim_now_;
+  return sim >= 0.0 ? sim : ros::Time::now().toSec();
+}
+
 void EstimatorNodelet::deadlineLoop()
 {
   std::unique_lock<std::mutex> lock(mutex_);
@@ -406,7 +424,7 @@ void EstimatorNodelet::deadlineLoop()
       wake_.wait_for(lock, std::chrono::milliseconds(50));
       continue;
     }
-    const double now = ros::Time::now().toSec();
+    const double now = this->now();
     if (now < last_now - 0.5 * clock_.period() && now > 0.0)
     {
       // The clock went back (a bag looped, a simulator restarted): start over cleanly.
@@ -429,9 +447,12 @@ void EstimatorNodelet::deadlineLoop()
       lock.lock();
       continue;
     }
-    // Wall-clock wait; under sim time the clock may run at another rate, so re-check often.
-    const double cap = ros::Time::isSimTime() ? 0.0005 : 0.05;
-    wake_.wait_for(lock, std::chrono::duration<double>(std::min(due - now, cap)));
+    // Wall time: sleep until the deadline (a message that completes the step wakes the loop
+    // earlier). Sim time: a /clock message past the deadline wakes it (no polling: idle under a
+    // paused or slow clock costs nothing); the 50 ms cap only bounds a missed notification.
+    next_deadline_ = due;
+    const double wait = ros::Time::isSimTime() ? 0.05 : std::min(due - now, 0.05);
+    wake_.wait_for(lock, std::chrono::duration<double>(wait));
   }
 }
 }  // namespace networked_estimation

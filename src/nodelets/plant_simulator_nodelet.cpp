@@ -9,7 +9,8 @@
 // is applied at step k only when ControlInput k has arrived on `command` (the output of the
 // actuator link) by then; otherwise the input is zero (as in Lin et al.'s model).
 //
-// Clock: a ros::Timer (wall time, or /clock under use_sim_time). With ~publish_clock the plant
+// Clock: wall time, a thread of its own stepping at t0 + k period (steady clock); under
+// use_sim_time, a ros::Timer on /clock. With ~publish_clock the plant
 // drives /clock itself (sim time advancing one period per step, ~time_scale times real time, and
 // ~clock_tail seconds past the last step).
 // Start: ~start_delay wall seconds after load, or after the first message on ~start_after
@@ -21,8 +22,11 @@
 #include <std_msgs/Empty.h>
 #include <tf2_ros/transform_broadcaster.h>
 
+#include <atomic>
+#include <chrono>
 #include <map>
 #include <mutex>
+#include <thread>
 
 #include "networked_estimation/ControlInput.h"
 #include "networked_estimation/Measurement.h"
@@ -42,6 +46,14 @@ namespace networked_estimation
 
 class PlantSimulatorNodelet : public nodelet::Nodelet
 {
+public:
+  ~PlantSimulatorNodelet() override
+  {
+    quit_ = true;
+    if (stepper_.joinable())
+      stepper_.join();
+  }
+
 private:
   void onInit() override
   {
@@ -116,9 +128,32 @@ private:
         sim_now_ = ros::Time(1.0);  // sim time starts at 1 s (0 means "no clock yet" to roscpp)
         wall_timer_ = n.createWallTimer(ros::WallDuration(period_ / time_scale_), [this](const ros::WallTimerEvent&) { clockTick(); });
       }
-      else
+      else if (!ros::Time::isSimTime())
+        stepper_ = std::thread(&PlantSimulatorNodelet::stepOnWallClock, this);
+      else  // someone else's /clock
         ros_timer_ = n.createTimer(ros::Duration(period_), [this](const ros::TimerEvent& e) { tick(e.current_expected); });
     }, true);
+  }
+
+  /// Wall time: steps from this thread at t0 + k period (steady clock, sleep_until), stamped with
+  /// the ROS time of that instant: one wake-up per step, without the timer thread and the callback
+  /// queue between the clock and the publication (a sensor's driver publishes as it samples).
+  void stepOnWallClock()
+  {
+    using Clock = std::chrono::steady_clock;
+    const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(period_));
+    auto next = Clock::now();
+    const ros::Time t0 = ros::Time::now();
+    for (long i = 0; !quit_ && !finished_ && !stopped_; ++i)
+    {
+      std::this_thread::sleep_until(next);
+      if (quit_)
+        break;
+      tick(t0 + ros::Duration(period_ * static_cast<double>(i)));
+      next += period;
+      if (Clock::now() > next + 100 * period)
+        next = Clock::now();  // suspended (or far behind): go on from now instead of a burst
+    }
   }
 
   static std::vector<int> defaultPositions(int n)
@@ -395,6 +430,8 @@ private:
   ros::Publisher state_pub_, clock_pub_;
   ros::Subscriber cmd_sub_;
   ros::Timer ros_timer_;
+  std::thread stepper_;  ///< wall time: the stepping thread (stepOnWallClock)
+  std::atomic<bool> quit_{false};
   ros::WallTimer wall_timer_, start_timer_;
   tf2_ros::TransformBroadcaster tf_;
   ros::Time sim_now_, last_tf_;
