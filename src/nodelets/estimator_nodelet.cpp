@@ -82,18 +82,6 @@ void EstimatorNodelet::onInit()
     tf_timer_ = nh.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { tfTimer(); });
   }
   startReconfigure(pnh);
-  if (ros::Time::isSimTime())
-    clock_sub_ = nh.subscribe<rosgraph_msgs::Clock>(
-        "/clock", 10,
-        [this](const rosgraph_msgs::Clock::ConstPtr& c) {
-          const double t = c->clock.toSec(), before = sim_now_.exchange(t);
-          if (t >= next_deadline_ || t < before)  // a deadline passed, or time went back
-          {
-            { std::lock_guard<std::mutex> lock(mutex_); }  // the loop is waiting (or will see the time)
-            wake_.notify_one();
-          }
-        },
-        ros::VoidConstPtr(), hints());
   thread_ = std::thread(&EstimatorNodelet::deadlineLoop, this);
   std::string inputs;
   for (std::size_t i = 0; i < inputs_.size(); ++i)
@@ -134,7 +122,9 @@ const Frames& EstimatorNodelet::frames()
   if (tf_buffer_)
     return frames_;
   tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
-  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_);
+  // tf messages on the nodelet's own callback queue (spin_thread = false): no dedicated listener
+  // thread waking 100 times a second when no tf flows.
+  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, getNodeHandle(), false);
   frames_.world = world_frame_;
   frames_.base = base_link_frame_;
   tf2_ros::Buffer* buffer = tf_buffer_.get();
@@ -253,7 +243,7 @@ void EstimatorNodelet::offer(std::size_t sensor, long k, double stamp, const dou
   }
   // Steps whose deadline has passed are taken first (the deadline thread may not have woken
   // yet): what arrives after a deadline is late, exactly, whichever thread notices first.
-  catchUp(now());
+  catchUp(ros::Time::now().toSec());
   const OfferResult r = online_->offerMeasurement(k, sensor, y, size, R);
   if (r.offer == Offer::REJECTED)
     NODELET_WARN_THROTTLE(1.0, "Estimator %s: measurement rejected: %s (%lu rejected so far)",
@@ -286,7 +276,7 @@ void EstimatorNodelet::onCommand(const ControlInput::ConstPtr& c)
     rejectLocked("command step " + std::to_string(c->step) + " out of range");
     return;
   }
-  catchUp(now());
+  catchUp(ros::Time::now().toSec());
   const OfferResult r = online_->offerCommand(static_cast<long>(c->step), c->u.data(), c->u.size());
   if (r.offer == Offer::REJECTED)
     NODELET_WARN_THROTTLE(1.0, "Estimator %s: command rejected: %s (%lu rejected so far)",
@@ -305,7 +295,7 @@ void EstimatorNodelet::onSchedule(const ScheduleStep::ConstPtr& sc)
   // The draw of a step leaves before its measurements: it may start the timeline.
   if (!clock_.anchored() && !anchorLocked(static_cast<long>(sc->step), sc->header.stamp.toSec()))
     return;
-  catchUp(now());
+  catchUp(ros::Time::now().toSec());
   const std::vector<bool> transmitting(sc->transmitting.begin(), sc->transmitting.end());
   const OfferResult r = online_->offerSchedule(static_cast<long>(sc->step), transmitting);
   if (r.offer == Offer::REJECTED)
@@ -322,7 +312,7 @@ void EstimatorNodelet::onHeldCommand(const ros::Time& stamp, const double* u, st
   held_[stamp.toSec()].assign(u, u + n);  // kept before the timeline starts, too
   if (!online_->started())
     return;
-  catchUp(now());
+  catchUp(ros::Time::now().toSec());
   const OfferResult r = online_->offerCommand(clock_.stepAt(stamp.toSec()), u, n);
   if (r.offer == Offer::REJECTED)
     NODELET_WARN_THROTTLE(1.0, "Estimator %s: command rejected: %s (%lu rejected so far)",
@@ -407,12 +397,6 @@ Estimate::Ptr EstimatorNodelet::stepLocked()
   return e;
 }
 
-double EstimatorNodelet::now() const
-{
-  const double sim = sim_now_;
-  return sim >= 0.0 ? sim : ros::Time::now().toSec();
-}
-
 void EstimatorNodelet::deadlineLoop()
 {
   std::unique_lock<std::mutex> lock(mutex_);
@@ -424,7 +408,7 @@ void EstimatorNodelet::deadlineLoop()
       wake_.wait_for(lock, std::chrono::milliseconds(50));
       continue;
     }
-    const double now = this->now();
+    const double now = ros::Time::now().toSec();
     if (now < last_now - 0.5 * clock_.period() && now > 0.0)
     {
       // The clock went back (a bag looped, a simulator restarted): start over cleanly.
@@ -447,11 +431,29 @@ void EstimatorNodelet::deadlineLoop()
       lock.lock();
       continue;
     }
-    // Wall time: sleep until the deadline (a message that completes the step wakes the loop
-    // earlier). Sim time: a /clock message past the deadline wakes it (no polling: idle under a
-    // paused or slow clock costs nothing); the 50 ms cap only bounds a missed notification.
-    next_deadline_ = due;
-    const double wait = ros::Time::isSimTime() ? 0.05 : std::min(due - now, 0.05);
+    // Wall time: sleep until the deadline (a message that completes a step takes it at once, in its
+    // callback). Sim time: the deadline is sim time away; the wait in wall time is that over the
+    // clock's rate, measured over the last half second (a bag at -r 4 runs 4 sim seconds per
+    // second), at least 2 ms (ROS time moves in /clock ticks) and at most 50 ms (a paused or
+    // restarted clock). No polling: idle under a running clock costs a few wake-ups per step.
+    double wait = std::min(due - now, 0.05);
+    if (ros::Time::isSimTime())
+    {
+      const double wall = ros::WallTime::now().toSec();
+      if (wall_ref_ == 0.0 || now < sim_ref_)  // the first wait, or time went back
+      {
+        sim_ref_ = now;
+        wall_ref_ = wall;
+      }
+      else if (wall - wall_ref_ >= 0.5)
+      {
+        const double r = (now - sim_ref_) / (wall - wall_ref_);
+        clock_rate_ = r > 1e-3 && r < 1e6 ? r : 1e-3;  // paused: the 50 ms cap
+        sim_ref_ = now;
+        wall_ref_ = wall;
+      }
+      wait = std::max(0.002, std::min((due - now) / clock_rate_, 0.05));
+    }
     wake_.wait_for(lock, std::chrono::duration<double>(wait));
   }
 }

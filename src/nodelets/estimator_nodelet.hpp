@@ -24,7 +24,6 @@
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
-#include <rosgraph_msgs/Clock.h>
 #include <std_msgs/Float64.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
@@ -206,12 +205,8 @@ private:
   std::mutex mutex_;
   std::condition_variable wake_;
   std::thread thread_;
-  /// Sim time: /clock seen here (the deadline loop sleeps until a clock message passes the next
-  /// deadline instead of polling ROS time), and that deadline.
-  ros::Subscriber clock_sub_;
-  std::atomic<double> sim_now_{-1.0};
-  std::atomic<double> next_deadline_{std::numeric_limits<double>::infinity()};
-  double now() const;
+  /// Sim time: sim seconds per wall second, measured by the deadline loop (sim_ref_/wall_ref_).
+  double clock_rate_ = 1.0, sim_ref_ = 0.0, wall_ref_ = 0.0;
   bool stop_ = false;
   double last_trace_ = 0.0;
   std::uint64_t rejected_topic_ = 0, time_resets_ = 0, last_processed_ = 0, covariance_fallbacks_ = 0;
