@@ -430,6 +430,47 @@ TEST(ParseModelErrors, NotPositiveDefinite)
                    "not positive semidefinite (smallest eigenvalue -0.5)");
 }
 
+// The strict test is on Q scaled to unit diagonal (D^-1/2 Q D^-1/2, D = diag(Q)): positive
+// definiteness does not depend on the units of the variables, and Cholesky's accuracy depends on
+// the scaled matrix only. A badly scaled matrix whose eigenvalues span more than 12 orders of
+// magnitude is accepted when its correlation matrix is well conditioned; one that is near-singular
+// after scaling, or indefinite, is refused.
+TEST(ParseModelErrors, DefinitenessIsScaleAware)
+{
+  const auto accepted = [](const std::string& q)
+  {
+    SCOPED_TRACE(q);
+    EXPECT_NO_THROW(ne::parseModel(YAML::Load(modelYaml({{"Q", q}})), "m.yaml"));
+    EXPECT_NO_THROW(ne::parseModel(YAML::Load(modelYaml({{"R", "[[1e-14]]"}, {"Q", q}})), "m.yaml"));
+  };
+  // Eigenvalue ratio 1e-14 (refused before), correlation matrix I.
+  accepted("[[1, 0], [0, 1e-14]]");
+  accepted("[[1e-20, 0], [0, 1e10]]");
+  // Correlation 0.99 between variables of variance 1e-14 and 1: smallest eigenvalue about 2e-16
+  // (ratio 2e-16), scaled eigenvalues 0.01 and 1.99.
+  accepted("[[1e-14, 0.99e-7], [0.99e-7, 1]]");
+  // A matrix the unscaled test accepted is still accepted.
+  accepted("[[1, 0], [0, 1e-11]]");
+
+  // Near-singular after scaling (correlation 1 - 1e-14): refused, well scaled or not.
+  // (the message of docs/formats.md 1.2; the smallest eigenvalue, 1e-14, is computed to about 4e-16)
+  const std::string unit = modelError(modelYaml({{"Q", "[[1, 0.99999999999999], [0.99999999999999, 1]]"}}));
+  EXPECT_CONTAINS(unit, "m.yaml:5: Q: not positive definite (smallest eigenvalue 1");
+  EXPECT_CONTAINS(unit, "e-14, largest 2); scaled to unit diagonal it is near-singular too (smallest eigenvalue 1");
+  const std::string near = modelError(modelYaml({{"Q", "[[1e-14, 0.99999999999999e-7], [0.99999999999999e-7, 1]]"}}));
+  EXPECT_CONTAINS(near, "Q: not positive definite (smallest eigenvalue ");
+  EXPECT_CONTAINS(near, "; scaled to unit diagonal it is near-singular too (smallest eigenvalue ");
+  // Indefinite (correlation 2), badly scaled: refused, naming the negative eigenvalue.
+  expectModelError({{"Q", "[[1e-14, 2e-7], [2e-7, 1]]"}}, "Q", "not positive definite (smallest eigenvalue -");
+  expectModelError({{"Q", "[[1, 2], [2, 1]]"}}, "Q", "not positive definite (smallest eigenvalue -1)");
+  // A zero or negative diagonal entry is never positive definite (no scaling exists).
+  expectModelError({{"Q", "[[1, 0], [0, 0]]"}}, "Q", "not positive definite (smallest eigenvalue 0, largest 1)");
+  expectModelError({{"Q", "[[1e-14, 0], [0, -1e-30]]"}}, "Q", "not positive definite (smallest eigenvalue -1e-30)");
+  // The semidefinite test of P0 is unchanged: a singular P0 is accepted, an indefinite one refused.
+  EXPECT_NO_THROW(ne::parseModel(YAML::Load(modelYaml({{"P0", "[[1, 1], [1, 1]]"}})), "m.yaml"));
+  expectModelError({{"P0", "[[1, 2], [2, 1]]"}}, "P0", "not positive semidefinite (smallest eigenvalue -1)");
+}
+
 TEST(ParseModelErrors, UnknownKeys)
 {
   expectModelError({{"foo", "1"}}, "foo", "unknown key");
@@ -568,6 +609,13 @@ TEST(ValidateModel, RejectsBrokenModels)
   m = handBuilt();
   m.R(1, 1) = -1.0;
   expectMessage(validateError(m), "hand", "R", "not positive definite (smallest eigenvalue -1)");
+
+  // validateModel shares the scale-aware test of parseModel.
+  m = handBuilt();
+  m.R << 1, 0, 0, 1e-14;
+  EXPECT_NO_THROW(ne::validateModel(m, "hand"));
+  m.R << 1, 1 - 1e-14, 1 - 1e-14, 1;
+  expectMessage(validateError(m), "hand", "R", "scaled to unit diagonal it is near-singular too");
 
   m = handBuilt();
   m.A(0, 0) = std::numeric_limits<double>::quiet_NaN();

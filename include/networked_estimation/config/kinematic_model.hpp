@@ -60,9 +60,10 @@ std::vector<std::string> kinematicStateNames(int order, int dims);
 
 /// Builds and validates (validateModel) the model. Throws ConfigError naming the option (motion,
 /// dims, rate, accel-density / jerk-density, sensors[i].name / .quantity / .sigma, x0, p0-*) and the
-/// value found versus the one expected; also when the rate is so high that Q, whose entries span
-/// T^5 to T, is no longer positive definite to the relative precision the model checks require
-/// (the message gives the highest rate accepted).
+/// value found versus the one expected. Every rate is accepted (the model checks' definiteness test
+/// is scale-aware, and Q scaled to unit diagonal does not depend on the rate) until Q's entries,
+/// q T^5 (q T^3) to q T, leave the normal doubles (for q = 1 a rate above about 1.9e61 Hz, 2.5e102
+/// Hz for constant velocity): "rate" then names the rate and the density.
 Model makeKinematicModel(const KinematicSpec& spec);
 
 /// The comment that describes a model built from `spec`: motion, rate, state order, the formulas

@@ -178,8 +178,9 @@ std::string symmetryProblem(const Eigen::MatrixXd& M, const std::string& label)
   return "";
 }
 
-/// For a square, finite, symmetric M. strict: positive definite (smallest eigenvalue
-/// > 1e-12 * largest absolute one); otherwise positive semidefinite (>= -1e-12 * largest).
+/// For a square, finite, symmetric M. strict: positive definite, to a relative precision of 1e-12
+/// after scaling to unit diagonal (see below); otherwise positive semidefinite (smallest eigenvalue
+/// >= -1e-12 * largest absolute one).
 std::string definitenessProblem(const Eigen::MatrixXd& M, bool strict)
 {
   const Eigen::MatrixXd S = 0.5 * (M + M.transpose());
@@ -193,6 +194,37 @@ std::string definitenessProblem(const Eigen::MatrixXd& M, bool strict)
   const double scale = ev.cwiseAbs().maxCoeff();
   if (strict)
   {
+    // Positive definiteness is invariant under a diagonal scaling D^{-1/2} S D^{-1/2}, and what
+    // decides whether S is numerically positive definite (whether its Cholesky factorisation, which
+    // the filters and the simulator use, succeeds and is accurate) is the condition of S scaled to
+    // unit diagonal, not of S itself (van der Sluis: Cholesky's backward error is componentwise in
+    // that scaling). A covariance whose variables have very different units or magnitudes, e.g. the
+    // exact Q of a constant-acceleration model at 1 kHz (entries from T^5 = 1e-15 to T = 1e-3), is
+    // then well conditioned although its eigenvalues span far more than 12 orders of magnitude. So
+    // with D = diag(S) > 0 the test is on the correlation matrix C = D^{-1/2} S D^{-1/2}: smallest
+    // eigenvalue > 1e-12 of the largest (which is in [1, n]). A diagonal entry <= 0 (or not finite)
+    // means S is not positive definite, and the unscaled test below refuses it. The unscaled test
+    // also still accepts on its own: C's ratio is at least S's divided by n, so it is never more than
+    // a factor n stricter, and a matrix accepted before stays accepted.
+    const Eigen::VectorXd d = S.diagonal();
+    const bool scalable = d.size() > 0 && (d.array() > 0.0).all() && d.allFinite();
+    double scaled_smallest = 0.0, scaled_largest = 0.0;
+    if (scalable)
+    {
+      const Eigen::VectorXd inv_sqrt = d.cwiseSqrt().cwiseInverse();
+      const Eigen::MatrixXd C = inv_sqrt.asDiagonal() * S * inv_sqrt.asDiagonal();
+      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> scaled(C, Eigen::EigenvaluesOnly);
+      if (scaled.info() == Eigen::Success)
+      {
+        const Eigen::VectorXd& sv = scaled.eigenvalues();  // ascending
+        scaled_smallest = sv(0);
+        scaled_largest = sv.cwiseAbs().maxCoeff();
+        if (scaled_smallest > 1e-12 * scaled_largest)
+        {
+          return "";
+        }
+      }
+    }
     if (smallest > 1e-12 * scale)
     {
       return "";
@@ -202,7 +234,14 @@ std::string definitenessProblem(const Eigen::MatrixXd& M, bool strict)
     {
       out += ", largest " + formatNumber(ev(ev.size() - 1), 6);
     }
-    return out + ")";
+    out += ")";
+    if (scalable && smallest >= 0.0)
+    {
+      out += "; scaled to unit diagonal it is near-singular too "
+             "(smallest eigenvalue " + formatNumber(scaled_smallest, 6) + ", largest " +
+             formatNumber(scaled_largest, 6) + ")";
+    }
+    return out;
   }
   if (smallest >= -1e-12 * scale)
   {

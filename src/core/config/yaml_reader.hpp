@@ -46,8 +46,9 @@ int lineOf(const YAML::Node& node);
 std::string finitenessProblem(const Eigen::MatrixXd& M, const std::string& label);
 /// Relative tolerance 1e-9 * (largest absolute entry).
 std::string symmetryProblem(const Eigen::MatrixXd& M, const std::string& label);
-/// For a square, finite, symmetric M. strict: positive definite (smallest eigenvalue
-/// > 1e-12 * largest absolute one); otherwise positive semidefinite (>= -1e-12 * largest).
+/// For a square, finite, symmetric M. strict: positive definite, smallest eigenvalue > 1e-12 *
+/// largest of M scaled to unit diagonal (D^{-1/2} M D^{-1/2}, D = diag(M) > 0; or of M itself);
+/// otherwise positive semidefinite (smallest eigenvalue >= -1e-12 * largest absolute one).
 std::string definitenessProblem(const Eigen::MatrixXd& M, bool strict);
 
 /// Typed access to YAML nodes, throwing ConfigError with source, line and key path.
