@@ -331,13 +331,21 @@ TEST_F(EstimatorConfig, CommandInput)
   has(error("{sensors: {b: {type: networked_estimation/ControlInput}}}", planar_), "sensors.b.type: unknown type");
 }
 
-// The robot template (config/robot/estimator_template.yaml) with its model parses as it stands.
+// The robot template (config/robot_template.yaml, with its model inline) parses as it stands, and
+// its model equals config/models/planar_robot.yaml; an inline model's errors name the key.
 TEST_F(EstimatorConfig, RobotTemplateParses)
 {
   const std::string root = NE_SOURCE_DIR;
-  YAML::Node n = YAML::LoadFile(root + "/config/robot/estimator_template.yaml");
-  n["model"] = root + "/config/models/planar_robot.yaml";
+  YAML::Node n = YAML::LoadFile(root + "/config/robot_template.yaml");
   const ne::EstimatorNodeConfig c = ne::parseEstimatorNodeConfig(n, "template");
+  const ne::Model file = ne::loadModel(root + "/config/models/planar_robot.yaml");
+  EXPECT_EQ(c.model.A, file.A);
+  EXPECT_EQ(c.model.Q, file.Q);
+  EXPECT_EQ(c.model.C, file.C);
+  EXPECT_EQ(c.model.R, file.R);
+  YAML::Node bad = YAML::Clone(n);
+  bad["model"]["Q"][0][0] = -1.0;
+  has(error(YAML::Dump(bad)), "/est parameters: model: Q");
   ASSERT_EQ(c.inputs.size(), 3u);
   EXPECT_EQ(c.inputs[2].type, ne::InputType::NAVSATFIX);
   EXPECT_EQ(c.online.rate_ratio, (std::vector<double>{1.0, 2.0, 10.0}));

@@ -68,14 +68,23 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
 {
   ParamReader p(params, source);
   EstimatorNodeConfig c;
-  c.model_file = p.required("model");
-  try
+  // model: a model file, or the model itself (a map with the keys of a model file).
+  if (p.has("model") && p.take("model").IsMap())
   {
-    c.model = loadModel(c.model_file);
+    c.model_file = "(inline)";
+    c.model = parseModel(params["model"], source + ": model");
   }
-  catch (const ConfigError& e)
+  else
   {
-    throw ConfigError(source + ": model: " + e.what());
+    c.model_file = p.required("model");
+    try
+    {
+      c.model = loadModel(c.model_file);
+    }
+    catch (const ConfigError& e)
+    {
+      throw ConfigError(source + ": model: " + e.what());
+    }
   }
   const Model& model = c.model;
 
