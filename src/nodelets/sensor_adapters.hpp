@@ -204,6 +204,32 @@ enum class CovarianceRead
   BAD        ///< not finite, not symmetric or not positive definite: refuse the message
 };
 
+/// A message's covariance block `b` (row-major, dim x dim: 6 for pose and twist, 3 otherwise), or
+/// null where it has none; for MessageView (read) and MessageSlots (write) alike.
+template <class V>
+auto covarianceBlockOf(const V& v, CovarianceBlock b, int& dim) -> decltype(v.pose_cov)
+{
+  dim = b == CovarianceBlock::POSE || b == CovarianceBlock::TWIST ? 6 : 3;
+  switch (b)
+  {
+    case CovarianceBlock::POSE:
+      return v.pose_cov;
+    case CovarianceBlock::TWIST:
+      return v.twist_cov;
+    case CovarianceBlock::ORIENTATION:
+      return v.orientation_cov;
+    case CovarianceBlock::ANGULAR:
+      return v.angular_cov;
+    case CovarianceBlock::ACCELERATION:
+      return v.acceleration_cov;
+    case CovarianceBlock::POSITION_ENU:
+      return v.enu_cov;
+    case CovarianceBlock::NONE:
+      break;
+  }
+  return nullptr;
+}
+
 /// R (fields x fields, row-major) from the message's covariances of the fields (covarianceOf);
 /// fields of different blocks are uncorrelated. ROS's "unknown" conventions give FALLBACK: a
 /// leading -1 in an Imu block, NavSatFix COVARIANCE_TYPE_UNKNOWN, and all-zero entries.
@@ -211,27 +237,7 @@ inline CovarianceRead readCovariance(InputType type, const MessageView& v, const
                                      double* R, std::string& why)
 {
   const std::size_t n = fields.size();
-  auto source = [&](CovarianceBlock b, int& dim) -> const double* {
-    dim = b == CovarianceBlock::POSE || b == CovarianceBlock::TWIST ? 6 : 3;
-    switch (b)
-    {
-      case CovarianceBlock::POSE:
-        return v.pose_cov;
-      case CovarianceBlock::TWIST:
-        return v.twist_cov;
-      case CovarianceBlock::ORIENTATION:
-        return v.orientation_cov;
-      case CovarianceBlock::ANGULAR:
-        return v.angular_cov;
-      case CovarianceBlock::ACCELERATION:
-        return v.acceleration_cov;
-      case CovarianceBlock::POSITION_ENU:
-        return v.enu_cov;
-      case CovarianceBlock::NONE:
-        break;
-    }
-    return nullptr;
-  };
+  auto source = [&](CovarianceBlock b, int& dim) { return covarianceBlockOf(v, b, dim); };
   bool any = false;
   for (std::size_t i = 0; i < n; ++i)
   {

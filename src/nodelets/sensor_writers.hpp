@@ -170,34 +170,13 @@ inline void writeFields(const MessageSlots& s, const std::vector<InputField>& fi
 inline void writeCovariance(InputType type, const MessageSlots& s, const std::vector<InputField>& fields,
                             const double* R)
 {
-  auto block = [&](CovarianceBlock b, int& dim) -> double* {
-    dim = b == CovarianceBlock::POSE || b == CovarianceBlock::TWIST ? 6 : 3;
-    switch (b)
-    {
-      case CovarianceBlock::POSE:
-        return s.pose_cov;
-      case CovarianceBlock::TWIST:
-        return s.twist_cov;
-      case CovarianceBlock::ORIENTATION:
-        return s.orientation_cov;
-      case CovarianceBlock::ANGULAR:
-        return s.angular_cov;
-      case CovarianceBlock::ACCELERATION:
-        return s.acceleration_cov;
-      case CovarianceBlock::POSITION_ENU:
-        return s.enu_cov;
-      case CovarianceBlock::NONE:
-        break;
-    }
-    return nullptr;
-  };
   const CovarianceBlock all[] = {CovarianceBlock::POSE,    CovarianceBlock::TWIST,        CovarianceBlock::ORIENTATION,
                                  CovarianceBlock::ANGULAR, CovarianceBlock::ACCELERATION, CovarianceBlock::POSITION_ENU};
   const std::size_t n = fields.size();
   for (CovarianceBlock b : all)
   {
     int dim = 0;
-    double* c = block(b, dim);
+    double* c = covarianceBlockOf(s, b, dim);
     if (!c)
       continue;
     bool used = false;

@@ -67,6 +67,10 @@ Model parseModel(const YAML::Node& node, const std::string& source);
 /// or a YAML syntax error, with its line).
 Model loadModel(const std::string& path);
 
+/// The index of the sensor called `name`; throws ConfigError "<key>: '<name>' is not a sensor of the
+/// model (sensors: a, b)" when there is none.
+std::size_t sensorIndex(const Model& model, const std::string& name, const std::string& key);
+
 /// Checks the invariants of an already built Model (dimensions, symmetry, definiteness, finite
 /// values). parseModel calls it; code that builds a Model by hand should too.
 void validateModel(const Model& model, const std::string& source);

@@ -439,4 +439,16 @@ void validateModel(const Model& model, const std::string& source)
   }
 }
 
+std::size_t sensorIndex(const Model& model, const std::string& name, const std::string& key)
+{
+  std::string names;
+  for (std::size_t i = 0; i < model.sensors.size(); ++i)
+  {
+    if (model.sensors[i].name == name)
+      return i;
+    names += (names.empty() ? "" : ", ") + model.sensors[i].name;
+  }
+  throw ConfigError(key + ": '" + name + "' is not a sensor of the model (sensors: " + names + ")");
+}
+
 }  // namespace networked_estimation

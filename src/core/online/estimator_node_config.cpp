@@ -26,16 +26,7 @@ void parseSensorInputs(const YAML::Node& block, const std::string& source, Estim
   {
     const std::string name = entry.first.as<std::string>();
     const std::string key = source + ": sensors." + name;
-    std::size_t index = model.sensors.size();
-    std::string names;
-    for (std::size_t i = 0; i < model.sensors.size(); ++i)
-    {
-      if (model.sensors[i].name == name)
-        index = i;
-      names += (names.empty() ? "" : ", ") + model.sensors[i].name;
-    }
-    if (index == model.sensors.size())
-      throw ConfigError(key + ": '" + name + "' is not a sensor of the model (sensors: " + names + ")");
+    const std::size_t index = sensorIndex(model, name, key);
     SensorInput& in = c.inputs[index];
     if (!entry.second.IsMap())
       throw ConfigError(key + ": expected a map (keys: topic, type, fields, rate)");

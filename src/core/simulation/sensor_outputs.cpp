@@ -94,16 +94,7 @@ SimulatorOutputs parseSimulatorOutputs(ParamReader& p, const Model& model, doubl
     {
       const std::string name = entry.first.as<std::string>();
       const std::string key = source + ": sensors." + name;
-      std::size_t index = model.sensors.size();
-      std::string names;
-      for (std::size_t i = 0; i < model.sensors.size(); ++i)
-      {
-        if (model.sensors[i].name == name)
-          index = i;
-        names += (names.empty() ? "" : ", ") + model.sensors[i].name;
-      }
-      if (index == model.sensors.size())
-        throw ConfigError(key + ": '" + name + "' is not a sensor of the model (sensors: " + names + ")");
+      const std::size_t index = sensorIndex(model, name, key);
       parseOne(entry.second, key, model.sensors[index], model_rate, o.sensors[index]);
     }
   }
