@@ -209,7 +209,8 @@ private:
     // The j-th sample of this sensor is drawn with R_j = s_j R: noise sqrt(s_j) v_k.
     const double scale = o.scaleOf(static_cast<long>(published_[i]++));
     y_ = s.y.segment(sn.offset, sn.size) + (std::sqrt(scale) - 1.0) * s.v.segment(sn.offset, sn.size);
-    R_ = scale * model_.R.block(sn.offset, sn.offset, sn.size, sn.size);  // column-major = row-major: symmetric
+    if (o.format.type != InputType::MEASUREMENT)  // a Measurement carries no covariance
+      R_ = scale * model_.R.block(sn.offset, sn.offset, sn.size, sn.size);  // column-major = row-major: symmetric
     switch (o.format.type)
     {
       case InputType::ODOMETRY:

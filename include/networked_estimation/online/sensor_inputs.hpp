@@ -10,6 +10,11 @@
 #include <string>
 #include <vector>
 
+namespace YAML
+{
+class Node;
+}
+
 namespace networked_estimation
 {
 
@@ -106,6 +111,10 @@ const std::vector<InputType>& sensorInputTypes();
 const std::vector<InputType>& commandInputTypes();
 /// The field of `type` called `name`; throws ConfigError naming `key` and listing the fields.
 InputField inputFieldFromString(InputType type, const std::string& name, const std::string& key);
+
+/// A NavSatFix datum [latitude, longitude, altitude] (degrees, degrees, m) from a YAML list;
+/// throws ConfigError naming `key` when it is not three numbers or out of range (LocalEnu's check).
+std::vector<double> parseDatum(const YAML::Node& node, const std::string& key);
 
 class ParamReader;
 /// The topic, type (among `allowed`, default the first) and fields (`rows` of them, unless the

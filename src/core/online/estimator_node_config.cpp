@@ -8,7 +8,6 @@
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/estimators/estimator.hpp"
 #include "networked_estimation/config/param_reader.hpp"
-#include "networked_estimation/geodesy/local_enu.hpp"
 
 namespace networked_estimation
 {
@@ -161,19 +160,7 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   }
   validateOnlineOptions(c.online, source);
   if (p.has("datum"))
-  {
-    const YAML::Node d = p.take("datum");
-    bool ok = d.IsSequence() && d.size() == 3;
-    for (std::size_t i = 0; ok && i < 3; ++i)
-    {
-      double v = 0.0;
-      ok = d[i].IsScalar() && YAML::convert<double>::decode(d[i], v);
-      c.datum.push_back(v);
-    }
-    if (!ok)
-      throw ConfigError(source + ": datum: expected [latitude, longitude, altitude] (degrees, degrees, m)");
-    LocalEnu check(c.datum[0], c.datum[1], c.datum[2], source + ": datum");
-  }
+    c.datum = parseDatum(p.take("datum"), source + ": datum");
   c.frame_id = p.text("frame_id", "map");
   c.child_frame_id = p.text("child_frame_id", toString(c.settings.algorithm) + "_estimate");
   c.position_indices =

@@ -5,6 +5,7 @@
 
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/config/param_reader.hpp"
+#include "networked_estimation/geodesy/local_enu.hpp"
 
 namespace networked_estimation
 {
@@ -268,6 +269,22 @@ void parseInputBlock(ParamReader& p, const std::string& key, const std::vector<I
   if (static_cast<int>(in.fields.size()) != rows)
     throw ConfigError(key + ".fields: expected " + std::to_string(rows) + " fields (one per " + what + "), found " +
                       std::to_string(in.fields.size()));
+}
+
+std::vector<double> parseDatum(const YAML::Node& d, const std::string& key)
+{
+  std::vector<double> datum;
+  bool ok = d.IsSequence() && d.size() == 3;
+  for (std::size_t i = 0; ok && i < 3; ++i)
+  {
+    double v = 0.0;
+    ok = d[i].IsScalar() && YAML::convert<double>::decode(d[i], v);
+    datum.push_back(v);
+  }
+  if (!ok)
+    throw ConfigError(key + ": expected [latitude, longitude, altitude] (degrees, degrees, m)");
+  LocalEnu check(datum[0], datum[1], datum[2], key);
+  return datum;
 }
 
 }  // namespace networked_estimation

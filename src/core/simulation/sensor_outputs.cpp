@@ -99,12 +99,7 @@ SimulatorOutputs parseSimulatorOutputs(ParamReader& p, const Model& model, doubl
     }
   }
   if (p.has("datum"))
-  {
-    o.datum = numbers(p.take("datum"), source + ": datum");
-    if (o.datum.size() != 3 || !(std::fabs(o.datum[0]) <= 90.0) || !(std::fabs(o.datum[1]) <= 180.0) ||
-        !std::isfinite(o.datum[2]))
-      throw ConfigError(source + ": datum: expected [latitude (deg, |.| <= 90), longitude (deg, |.| <= 180), altitude (m)]");
-  }
+    o.datum = parseDatum(p.take("datum"), source + ": datum");
   for (std::size_t i = 0; i < o.sensors.size(); ++i)
     if (o.sensors[i].format.type == InputType::NAVSATFIX && o.datum.empty())
       throw ConfigError(source + ": sensors." + model.sensors[i].name +
