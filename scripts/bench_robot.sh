@@ -118,7 +118,7 @@ roslaunch networked_estimation bench_bag.launch phase:=play model:="$MODEL" > "$
 LAUNCH_PID=$!
 pid=""
 for i in $(seq 1 100); do
-  pid="$(pgrep -f "__name:=estimator" | head -n 1 || true)"
+  pid="$(pgrep -n -f "__name:=estimator" || true)"  # the newest: this run's
   [ -n "$pid" ] && grep -q "Estimator kfio" "$RUNS/play.log" && break
   sleep 0.2
 done

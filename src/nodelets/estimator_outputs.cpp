@@ -64,7 +64,9 @@ void EstimatorNodelet::publishOdometry(const Estimate& e)
   const Eigen::Map<const Eigen::VectorXd> x(e.state.data(), n);
   const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> P(
       e.covariance.data(), n, n);
-  odom_pub_.publish(toOdometry(x, P, state_map_, e.header.stamp, world_frame_, base_link_frame_));
+  // Shared: an intra-process subscriber (a nodelet) gets it without serialization.
+  odom_pub_.publish(
+      boost::make_shared<const nav_msgs::Odometry>(toOdometry(x, P, state_map_, e.header.stamp, world_frame_, base_link_frame_)));
 }
 
 void EstimatorNodelet::tfTimer()

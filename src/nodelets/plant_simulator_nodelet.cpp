@@ -199,7 +199,7 @@ private:
     const MessageSlots s = slots(m);
     writeFields(s, o.format.fields, y);
     writeCovariance(o.format.type, s, o.format.fields, R);
-    meas_pubs_[i].publish(m);
+    meas_pubs_[i].publish(boost::make_shared<const M>(std::move(m)));  // shared: no serialization in-process
   }
 
   void publishSensor(std::size_t i, const ros::Time& stamp, long k, const SimulatedSample& s)
@@ -247,7 +247,7 @@ private:
         sensor_msgs::NavSatFix f = fixAt(*datum_, enu, o.format.fields, R_.data());
         f.header.stamp = stamp;
         f.header.frame_id = !o.frame_id.empty() ? o.frame_id : child_frame_id_;
-        meas_pubs_[i].publish(f);
+        meas_pubs_[i].publish(boost::make_shared<const sensor_msgs::NavSatFix>(std::move(f)));
         return;
       }
       default:
