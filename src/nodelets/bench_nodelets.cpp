@@ -10,6 +10,9 @@
 //                      the CPU time of the whole manager process per message received (every thread:
 //                      source, element under test, sink, ROS's), a load measure less noisy than latency,
 //                      and the CPU the rest of the machine used meanwhile (other processes: noise).
+//  - BenchNullReceiver: subscribes to every topic of ~topics (any type) and does nothing with the
+//                      messages, served by its own thread as the Estimator's inputs are: what
+//                      receiving a stream costs in roscpp (scripts/bench_robot.sh, the bag's floor).
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
 #include <diagnostic_msgs/DiagnosticArray.h>
@@ -35,6 +38,7 @@
 
 #include "networked_estimation/Estimate.h"
 #include "networked_estimation/Measurement.h"
+#include "dispatch_thread.hpp"
 #include "load_failure.hpp"
 
 namespace networked_estimation
@@ -478,8 +482,42 @@ class BenchEstimateSink : public BenchSinkT<Estimate>
 {
 };
 
+/// Receives ~topics and drops the messages (one hand-off each, to its own thread, as the Estimator).
+class BenchNullReceiver : public nodelet::Nodelet
+{
+public:
+  ~BenchNullReceiver() override
+  {
+    dispatch_.stop();
+    for (ros::Subscriber& s : subs_)
+      s.shutdown();
+  }
+
+private:
+  void onInit() override
+  {
+    std::vector<std::string> topics;
+    getPrivateNodeHandle().getParam("topics", topics);
+    if (topics.empty())
+      refuseLoad(getName(), "BenchNullReceiver not started: ~topics: expected a list of topics, found none");
+    dispatch_.start([] { return std::numeric_limits<double>::infinity(); });
+    ros::NodeHandle nh(getNodeHandle());
+    nh.setCallbackQueue(dispatch_.queue());
+    for (const std::string& t : topics)
+      subs_.push_back(nh.subscribe<topic_tools::ShapeShifter>(
+          t, 1000, [this](const topic_tools::ShapeShifter::ConstPtr&) { ++received_; }, ros::VoidConstPtr(),
+          ros::TransportHints().tcpNoDelay()));
+    NODELET_INFO("BenchNullReceiver on %zu topics", topics.size());
+  }
+
+  DispatchThread dispatch_;
+  std::vector<ros::Subscriber> subs_;
+  std::atomic<std::uint64_t> received_{0};
+};
+
 }  // namespace networked_estimation
 
+PLUGINLIB_EXPORT_CLASS(networked_estimation::BenchNullReceiver, nodelet::Nodelet)
 PLUGINLIB_EXPORT_CLASS(networked_estimation::BenchSource, nodelet::Nodelet)
 PLUGINLIB_EXPORT_CLASS(networked_estimation::BenchPassThrough, nodelet::Nodelet)
 PLUGINLIB_EXPORT_CLASS(networked_estimation::BenchSink, nodelet::Nodelet)

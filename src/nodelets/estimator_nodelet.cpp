@@ -10,6 +10,10 @@ void EstimatorNodelet::onInit()
 {
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
+  // The inputs are served by the Estimator's own thread (dispatch_thread.hpp), which also takes
+  // the steps whose deadline passes; timers, tf and reconfigure stay on the nodelet's queue.
+  ros::NodeHandle in_nh(nh);
+  in_nh.setCallbackQueue(dispatch_.queue());
   try
   {
     configure(pnh);
@@ -32,7 +36,7 @@ void EstimatorNodelet::onInit()
     const SensorInput& in = inputs_[i];
     if (in.type == InputType::MEASUREMENT)
     {
-      subs_.push_back(nh.subscribe<Measurement>(
+      subs_.push_back(in_nh.subscribe<Measurement>(
           in.topic, queue_size_, [this, i](const Measurement::ConstPtr& m) { onMeasurement(i, m); },
           ros::VoidConstPtr(), hints()));
       continue;
@@ -46,7 +50,7 @@ void EstimatorNodelet::onInit()
     sink.fallback = [this, who](const std::string& why) { covarianceFallback(who + ": " + why); };
     sink.datum = [this](const LocalEnu& d) { publishDatum(d); };
     sink.frames = frames();
-    subs_.push_back(subscribeSensor(nh, in, queue_size_, sink, datum_));
+    subs_.push_back(subscribeSensor(in_nh, in, queue_size_, sink, datum_));
   }
   if (!datum_.empty())
   {
@@ -54,7 +58,7 @@ void EstimatorNodelet::onInit()
     publishDatum(d);
   }
   if (model.hasControl() && command_.type == InputType::CONTROL_INPUT)
-    cmd_sub_ = nh.subscribe(command_.topic, queue_size_, &EstimatorNodelet::onCommand, this, hints());
+    cmd_sub_ = in_nh.subscribe(command_.topic, queue_size_, &EstimatorNodelet::onCommand, this, hints());
   else if (model.hasControl())
   {
     SensorSink sink;
@@ -64,10 +68,10 @@ void EstimatorNodelet::onInit()
     const std::string who = "command (" + toString(command_.type) + " on " + command_.topic + ")";
     sink.bad = [this, who](const std::string& why) { reject(who + ": " + why); };
     sink.frames = frames();
-    cmd_sub_ = subscribeSensor(nh, command_, queue_size_, sink, {});
+    cmd_sub_ = subscribeSensor(in_nh, command_, queue_size_, sink, {});
   }
   if (model.schedule.kind == Schedule::Kind::RANDOM)
-    schedule_sub_ = nh.subscribe("schedule", queue_size_, &EstimatorNodelet::onSchedule, this, hints());
+    schedule_sub_ = in_nh.subscribe("schedule", queue_size_, &EstimatorNodelet::onSchedule, this, hints());
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
   diagnostics_->setHardwareID(toString(settings_.algorithm));
   diagnostics_->add("estimator", this, &EstimatorNodelet::diagnose);
@@ -82,7 +86,7 @@ void EstimatorNodelet::onInit()
     tf_timer_ = nh.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { tfTimer(); });
   }
   startReconfigure(pnh);
-  thread_ = std::thread(&EstimatorNodelet::deadlineLoop, this);
+  dispatch_.start([this] { return deadlineWork(); });
   std::string inputs;
   for (std::size_t i = 0; i < inputs_.size(); ++i)
     inputs += (i ? ", " : "") + model.sensors[i].name + " (" + toString(inputs_[i].type) + " on " +
@@ -111,7 +115,7 @@ void EstimatorNodelet::startReconfigure(ros::NodeHandle& pnh)
     trace_bound_ = c.trace_bound >= 1e300 ? std::numeric_limits<double>::infinity() : c.trace_bound;
     NODELET_INFO("Estimator reconfigured: latency_budget %g s, late_policy %s, trace_bound %g", c.latency_budget,
                  c.late_policy.c_str(), trace_bound_);
-    wake_.notify_one();
+    dispatch_.wake();  // the deadlines moved
   });
   reconfigure_ready_ = true;
   reconfigure_->updateConfig(now);
@@ -262,7 +266,6 @@ bool EstimatorNodelet::anchorLocked(long k, double stamp)
   // A stream seen from its start is filtered from step 1 (the steps before the first message
   // are losses); joining a running stream starts at the first step seen.
   online_->start(k - 1 <= static_cast<long>(online_->options().history_length) ? 1 : k);
-  wake_.notify_one();
   return true;
 }
 
@@ -397,65 +400,55 @@ Estimate::Ptr EstimatorNodelet::stepLocked()
   return e;
 }
 
-void EstimatorNodelet::deadlineLoop()
+double EstimatorNodelet::deadlineWork()
 {
-  std::unique_lock<std::mutex> lock(mutex_);
-  double last_now = -std::numeric_limits<double>::infinity();
-  while (!stop_)
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!online_->started())
+    return 0.05;
+  const double now = ros::Time::now().toSec();
+  if (now < last_now_ - 0.5 * clock_.period() && now > 0.0)
   {
-    if (!online_->started())
-    {
-      wake_.wait_for(lock, std::chrono::milliseconds(50));
-      continue;
-    }
-    const double now = ros::Time::now().toSec();
-    if (now < last_now - 0.5 * clock_.period() && now > 0.0)
-    {
-      // The clock went back (a bag looped, a simulator restarted): start over cleanly.
-      ++time_resets_;
-      NODELET_WARN("Estimator %s: time jumped back by %.3f s: estimator reset, waiting for the stream to restart",
-                   toString(settings_.algorithm).c_str(), last_now - now);
-      online_->reset();
-      live_->clear();
-      clock_.clear();
-      last_now = -std::numeric_limits<double>::infinity();
-      continue;
-    }
-    last_now = now;
-    const double due = clock_.deadline(online_->nextStep());
-    if (now >= due)
-    {
-      catchUp(now);  // at most 1000 steps per lock hold, so that the inputs are not starved
-      lock.unlock();
-      std::this_thread::yield();
-      lock.lock();
-      continue;
-    }
-    // Wall time: sleep until the deadline (a message that completes a step takes it at once, in its
-    // callback). Sim time: the deadline is sim time away; the wait in wall time is that over the
-    // clock's rate, measured over the last half second (a bag at -r 4 runs 4 sim seconds per
-    // second), at least 2 ms (ROS time moves in /clock ticks) and at most 50 ms (a paused or
-    // restarted clock). No polling: idle under a running clock costs a few wake-ups per step.
-    double wait = std::min(due - now, 0.05);
-    if (ros::Time::isSimTime())
-    {
-      const double wall = ros::WallTime::now().toSec();
-      if (wall_ref_ == 0.0 || now < sim_ref_)  // the first wait, or time went back
-      {
-        sim_ref_ = now;
-        wall_ref_ = wall;
-      }
-      else if (wall - wall_ref_ >= 0.5)
-      {
-        const double r = (now - sim_ref_) / (wall - wall_ref_);
-        clock_rate_ = r > 1e-3 && r < 1e6 ? r : 1e-3;  // paused: the 50 ms cap
-        sim_ref_ = now;
-        wall_ref_ = wall;
-      }
-      wait = std::max(0.002, std::min((due - now) / clock_rate_, 0.05));
-    }
-    wake_.wait_for(lock, std::chrono::duration<double>(wait));
+    // The clock went back (a bag looped, a simulator restarted): start over cleanly.
+    ++time_resets_;
+    NODELET_WARN("Estimator %s: time jumped back by %.3f s: estimator reset, waiting for the stream to restart",
+                 toString(settings_.algorithm).c_str(), last_now_ - now);
+    online_->reset();
+    live_->clear();
+    clock_.clear();
+    last_now_ = -std::numeric_limits<double>::infinity();
+    return 0.0;
   }
+  last_now_ = now;
+  const double due = clock_.deadline(online_->nextStep());
+  if (now >= due)
+  {
+    catchUp(now);  // at most 1000 steps per lock hold, so that the inputs are not starved
+    return 0.0;
+  }
+  // Wall time: wait until the deadline (a message that completes a step takes it at once, in its
+  // callback, and the wait is then set again for the next step: no wake-up per step). Sim time:
+  // the deadline is sim time away; the wait in wall time is that over the clock's rate, measured
+  // over the last half second (a bag at -r 4 runs 4 sim seconds per second), at least 2 ms (ROS
+  // time moves in /clock ticks) and at most 50 ms (a paused or restarted clock).
+  double wait = std::min(due - now, 0.05);
+  if (ros::Time::isSimTime())
+  {
+    const double wall = ros::WallTime::now().toSec();
+    if (wall_ref_ == 0.0 || now < sim_ref_)  // the first wait, or time went back
+    {
+      sim_ref_ = now;
+      wall_ref_ = wall;
+    }
+    else if (wall - wall_ref_ >= 0.5)
+    {
+      const double r = (now - sim_ref_) / (wall - wall_ref_);
+      clock_rate_ = r > 1e-3 && r < 1e6 ? r : 1e-3;  // paused: the 50 ms cap
+      sim_ref_ = now;
+      wall_ref_ = wall;
+    }
+    wait = std::max(0.002, std::min((due - now) / clock_rate_, 0.05));
+  }
+  return wait;
 }
 }  // namespace networked_estimation
 

@@ -4,7 +4,8 @@
 // The sample assembly is the core OnlineEstimator: exactly one filter step per sample k, with
 // gamma_k = 1 iff y_k is in hand at the deadline stamp_k + latency_budget. A step is taken as soon
 // as everything it can use has arrived (same result, lowest latency), otherwise at its deadline by
-// a thread that sleeps in ROS time. The nodelet only translates messages and parameters.
+// the Estimator's own input thread (dispatch_thread.hpp), whose wait for the next message ends at
+// that deadline (in ROS time). The nodelet only translates messages and parameters.
 //
 // Inputs: per sensor of the model, the topic, standard type and fields of its ~sensors block
 // (sensor_subscriptions.hpp; default `measurement` for one sensor or `measurement/<sensor>` of
@@ -52,7 +53,7 @@
 #include "odometry_output.hpp"
 #include "tf_output.hpp"
 #include "sensor_subscriptions.hpp"
-#include "worker.hpp"
+#include "dispatch_thread.hpp"
 
 namespace networked_estimation
 {
@@ -62,11 +63,12 @@ class EstimatorNodelet : public nodelet::Nodelet
 public:
   ~EstimatorNodelet() override
   {
-    stopWorker(mutex_, stop_, wake_, thread_);
-    // Before the tf2 buffer the input callbacks use goes.
+    dispatch_.stop();
+    // Before the tf2 buffer the input callbacks use goes, and while their queue exists.
     for (ros::Subscriber& s : subs_)
       s.shutdown();
     cmd_sub_.shutdown();
+    schedule_sub_.shutdown();
   }
 
 private:
@@ -89,7 +91,7 @@ private:
   void configure(ros::NodeHandle& pnh);
 
 
-  // --- inputs (subscriber threads) ---------------------------------------------------------------
+  // --- inputs (the dispatch thread) ---------------------------------------------------------------
 
   void onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m);
 
@@ -148,8 +150,9 @@ private:
 
   void tfTimer();
 
-  /// Takes the steps whose deadline has passed (in ROS time) and resets on a backwards time jump.
-  void deadlineLoop();
+  /// Takes the steps whose deadline has passed (in ROS time) and resets on a backwards time jump;
+  /// returns the wall seconds until the next deadline (the dispatch thread's wait).
+  double deadlineWork();
 
   // --- diagnostics -------------------------------------------------------------------------------
 
@@ -182,6 +185,7 @@ private:
   double trace_bound_ = std::numeric_limits<double>::infinity();
   uint32_t queue_size_ = 1000;
 
+  DispatchThread dispatch_;  ///< serves the inputs and the deadlines (before the subscribers: outlives them)
   std::vector<ros::Subscriber> subs_;
   ros::Subscriber cmd_sub_, schedule_sub_;
   ros::Publisher estimate_pub_, trace_pub_, pose_pub_, odom_pub_;
@@ -203,11 +207,9 @@ private:
   bool reconfigure_ready_ = false;
 
   std::mutex mutex_;
-  std::condition_variable wake_;
-  std::thread thread_;
   /// Sim time: sim seconds per wall second, measured by the deadline loop (sim_ref_/wall_ref_).
   double clock_rate_ = 1.0, sim_ref_ = 0.0, wall_ref_ = 0.0;
-  bool stop_ = false;
+  double last_now_ = -std::numeric_limits<double>::infinity();  ///< ROS time at the last deadline check
   double last_trace_ = 0.0;
   std::uint64_t rejected_topic_ = 0, time_resets_ = 0, last_processed_ = 0, covariance_fallbacks_ = 0;
   double offset_sum_ = 0.0, offset_max_ = 0.0;  ///< |stamp - grid| of the messages matched by stamp

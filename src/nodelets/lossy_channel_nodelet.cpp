@@ -3,9 +3,11 @@
 // every message on ~events and its health on /diagnostics.
 //
 // Zero-copy: the message object received is the one published (ShapeShifter keeps the serialized
-// bytes; nothing is re-serialised by the channel). Deliveries due immediately are published from
-// the subscriber callback; later ones from a delivery thread that sleeps until the next due time
-// (in ROS time, so delays hold under /use_sim_time).
+// bytes; nothing is re-serialised by the channel). `in` is served by the channel's own thread
+// (dispatch_thread.hpp: one thread hand-off per message instead of the manager's two): deliveries
+// due immediately are published from the subscriber callback, later ones from the same thread when
+// its wait for the next message ends at their due time (in ROS time, so delays hold under
+// /use_sim_time).
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
 #include <nodelet/nodelet.h>
@@ -14,11 +16,10 @@
 #include <topic_tools/shape_shifter.h>
 
 #include <atomic>
-#include <condition_variable>
+#include <functional>
 #include <limits>
 #include <mutex>
 #include <sstream>
-#include <thread>
 #include <unordered_map>
 
 #include "networked_estimation/channel/channel.hpp"
@@ -45,7 +46,7 @@
 #include "networked_estimation/SetParameters.h"
 #include "load_failure.hpp"
 #include "param_yaml.hpp"
-#include "worker.hpp"
+#include "dispatch_thread.hpp"
 
 namespace networked_estimation
 {
@@ -84,45 +85,61 @@ bool startsWithHeader(const std::string& definition)
   return false;
 }
 
-/// `out` advertised before the first message for the types named by ~type (so that subscribers
-/// connect before the stream starts). Returns false for a type not in this list.
-bool advertiseKnown(ros::NodeHandle& nh, const std::string& type, uint32_t queue, ros::Publisher& pub)
+template <class M>
+struct TypeTag
+{
+  using type = M;
+};
+
+/// Calls f(TypeTag<M>{}) for the message class M named by ~type; false for a type not in the list.
+template <class F>
+bool withKnownType(const std::string& type, F&& f)
 {
   if (type == "networked_estimation/Measurement")
-    pub = nh.advertise<Measurement>("out", queue);
+    f(TypeTag<Measurement>{});
   else if (type == "networked_estimation/ControlInput")
-    pub = nh.advertise<ControlInput>("out", queue);
+    f(TypeTag<ControlInput>{});
   else if (type == "networked_estimation/PlantState")
-    pub = nh.advertise<PlantState>("out", queue);
+    f(TypeTag<PlantState>{});
   else if (type == "networked_estimation/Estimate")
-    pub = nh.advertise<Estimate>("out", queue);
+    f(TypeTag<Estimate>{});
   else if (type == "sensor_msgs/Range")
-    pub = nh.advertise<sensor_msgs::Range>("out", queue);
+    f(TypeTag<sensor_msgs::Range>{});
   else if (type == "sensor_msgs/Imu")
-    pub = nh.advertise<sensor_msgs::Imu>("out", queue);
+    f(TypeTag<sensor_msgs::Imu>{});
   else if (type == "geometry_msgs/PointStamped")
-    pub = nh.advertise<geometry_msgs::PointStamped>("out", queue);
+    f(TypeTag<geometry_msgs::PointStamped>{});
   else if (type == "geometry_msgs/PoseStamped")
-    pub = nh.advertise<geometry_msgs::PoseStamped>("out", queue);
+    f(TypeTag<geometry_msgs::PoseStamped>{});
   else if (type == "geometry_msgs/PoseWithCovarianceStamped")
-    pub = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("out", queue);
+    f(TypeTag<geometry_msgs::PoseWithCovarianceStamped>{});
   else if (type == "geometry_msgs/TwistStamped")
-    pub = nh.advertise<geometry_msgs::TwistStamped>("out", queue);
+    f(TypeTag<geometry_msgs::TwistStamped>{});
   else if (type == "geometry_msgs/TwistWithCovarianceStamped")
-    pub = nh.advertise<geometry_msgs::TwistWithCovarianceStamped>("out", queue);
+    f(TypeTag<geometry_msgs::TwistWithCovarianceStamped>{});
   else if (type == "geometry_msgs/Twist")
-    pub = nh.advertise<geometry_msgs::Twist>("out", queue);
+    f(TypeTag<geometry_msgs::Twist>{});
   else if (type == "nav_msgs/Odometry")
-    pub = nh.advertise<nav_msgs::Odometry>("out", queue);
+    f(TypeTag<nav_msgs::Odometry>{});
   else if (type == "sensor_msgs/NavSatFix")
-    pub = nh.advertise<sensor_msgs::NavSatFix>("out", queue);
+    f(TypeTag<sensor_msgs::NavSatFix>{});
   else if (type == "std_msgs/Float64")
-    pub = nh.advertise<std_msgs::Float64>("out", queue);
+    f(TypeTag<std_msgs::Float64>{});
   else if (type == "std_msgs/Float64MultiArray")
-    pub = nh.advertise<std_msgs::Float64MultiArray>("out", queue);
+    f(TypeTag<std_msgs::Float64MultiArray>{});
   else
     return false;
   return true;
+}
+
+/// header.stamp of a typed message; zero for a type without a Header.
+template <class M>
+ros::Time stampOf(const M& m)
+{
+  if constexpr (ros::message_traits::HasHeader<M>::value)
+    return m.header.stamp;
+  else
+    return ros::Time();
 }
 
 const char* kKnownTypes =
@@ -135,7 +152,11 @@ const char* kKnownTypes =
 class LossyChannelNodelet : public nodelet::Nodelet
 {
 public:
-  ~LossyChannelNodelet() override { stopWorker(mutex_, stop_, wake_, thread_); }
+  ~LossyChannelNodelet() override
+  {
+    dispatch_.stop();
+    sub_.shutdown();  // while its queue exists
+  }
 
 private:
   void onInit() override
@@ -158,16 +179,6 @@ private:
     }
     pnh.param("queue_size", queue_size_, 1000);
     channel_ = std::make_unique<LossyChannel>(settings_);
-    if (!type_.empty())
-    {
-      if (!advertiseKnown(nh, type_, static_cast<uint32_t>(queue_size_), out_pub_))
-      {
-        refuseLoad(getName(), "LossyChannel not started: " + source + ": type: expected one of " +
-                                  std::string(kKnownTypes) + ", found '" + type_ + "'");
-      }
-      advertised_ = true;
-      has_header_ = true;  // every listed type starts with a Header
-    }
     t0_ = ros::Time::now();
     events_pub_ = pnh.advertise<ChannelEvent>("events", 1000);
     set_srv_ = pnh.advertiseService("set_parameters", &LossyChannelNodelet::setParameters, this);
@@ -176,15 +187,56 @@ private:
     diagnostics_->setHardwareID("lossy_channel");
     diagnostics_->add("channel", this, &LossyChannelNodelet::diagnose);
     diag_timer_ = nh.createWallTimer(ros::WallDuration(0.5), [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
-    thread_ = std::thread(&LossyChannelNodelet::deliveryLoop, this);
-    sub_ = nh.subscribe("in", static_cast<uint32_t>(queue_size_),
-                                                   &LossyChannelNodelet::onMessage, this,
-                                                   ros::TransportHints().tcpNoDelay());
+    // `in` is served by the channel's own thread, which also publishes the delayed deliveries.
+    dispatch_.start([this] { return deliveryWork(); });
+    ros::NodeHandle in_nh(nh);
+    const auto q = static_cast<uint32_t>(queue_size_);
+    if (type_.empty())  // any type: ShapeShifter, `out` advertised with the first message's type
+    {
+      publish_ = [this](const boost::shared_ptr<const void>& m) {
+        out_pub_.publish(boost::static_pointer_cast<const topic_tools::ShapeShifter>(m));
+      };
+      ros::SubscribeOptions o;
+      o.template initByFullCallbackType<const ros::MessageEvent<topic_tools::ShapeShifter const>&>(
+          "in", q, [this](const ros::MessageEvent<topic_tools::ShapeShifter const>& e) { onMessage(e); });
+      o.callback_queue = dispatch_.queue();  // not direct: onMessage advertises `out` (roscpp's publication lock)
+      o.transport_hints = ros::TransportHints().tcpNoDelay();
+      sub_ = in_nh.subscribe(o);
+    }
+    else  // ~type: typed in and out, the received object forwarded as it is (no serialization in-process)
+    {
+      const bool known = withKnownType(type_, [&](auto tag) {
+        using M = typename decltype(tag)::type;
+        out_pub_ = nh.advertise<M>("out", q);
+        publish_ = [this](const boost::shared_ptr<const void>& m) {
+          out_pub_.publish(boost::static_pointer_cast<const M>(m));
+        };
+        ros::SubscribeOptions o;
+        o.template init<M>("in", q, [this](const boost::shared_ptr<const M>& m) {
+          onInput(m, [&m] { return stampOf(*m); });
+        });
+        subscribeIn(in_nh, o);
+      });
+      if (!known)
+        refuseLoad(getName(), "LossyChannel not started: " + source + ": type: expected one of " +
+                                  std::string(kKnownTypes) + ", found '" + type_ + "'");
+      advertised_ = true;
+    }
     NODELET_INFO("LossyChannel %s -> %s: %s", nh.resolveName("in").c_str(), nh.resolveName("out").c_str(),
                  describe().c_str());
   }
 
   double now() const { return (ros::Time::now() - t0_).toSec(); }
+
+  /// `in` of ~type: messages of in-process publishers handled in their thread, the others on the
+  /// dispatch thread (DirectQueue; its callbacks may run concurrently, mutex_ serializes the engine).
+  void subscribeIn(ros::NodeHandle& nh, ros::SubscribeOptions& o)
+  {
+    o.callback_queue = dispatch_.directQueue();
+    o.allow_concurrent_callbacks = true;
+    o.transport_hints = ros::TransportHints().tcpNoDelay();
+    sub_ = nh.subscribe(o);
+  }
 
   std::string describe() const
   {
@@ -193,57 +245,59 @@ private:
     return e.c_str();
   }
 
+  /// Any type (no ~type): `out` is advertised with the type and latching of the first message.
   void onMessage(const ros::MessageEvent<topic_tools::ShapeShifter const>& event)
   {
     const topic_tools::ShapeShifter::ConstPtr& msg = event.getConstMessage();
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!advertised_)
+      {
+        ros::NodeHandle& nh = getNodeHandle();
+        const auto& header = event.getConnectionHeader();
+        const auto latch = header.find("latching");
+        out_pub_ = msg->advertise(nh, "out", static_cast<uint32_t>(queue_size_),
+                                  latch != header.end() && latch->second == "1");
+        has_header_ = startsWithHeader(msg->getMessageDefinition());
+        advertised_ = true;
+      }
+    }
+    onInput(msg, [this, &msg] { return inputStamp(*msg, has_header_); });
+  }
+
+  /// One message on `in` through the engine; `stamp` gives its header.stamp (for ~events).
+  template <class Stamp>
+  void onInput(const boost::shared_ptr<const void>& msg, const Stamp& stamp)
+  {
     const double t = now();
-    if (!type_.empty() && msg->getDataType() != type_)
-    {
-      ++wrong_type_;
-      NODELET_WARN_THROTTLE(1.0, "LossyChannel: dropped a %s message: `out` carries %s (~type); %lu so far",
-                            msg->getDataType().c_str(), type_.c_str(), static_cast<unsigned long>(wrong_type_.load()));
-      return;
-    }
     std::unique_lock<std::mutex> lock(mutex_);
-    if (!advertised_)
-    {
-      ros::NodeHandle& nh = getNodeHandle();
-      const auto& header = event.getConnectionHeader();
-      const auto latch = header.find("latching");
-      out_pub_ = msg->advertise(nh, "out", static_cast<uint32_t>(queue_size_),
-                                latch != header.end() && latch->second == "1");
-      has_header_ = startsWithHeader(msg->getMessageDefinition());
-      advertised_ = true;
-    }
     const std::uint64_t seq = next_seq_++;
     const ChannelRecord rec = channel_->offer(seq, t);
     monitor_.add(rec.outcome == ChannelOutcome::DELIVERED);
     if (rec.outcome == ChannelOutcome::DELIVERED)
       in_flight_[seq] = {msg, rec.duplicated ? 2 : 1};
     publishDue(t);
-    const bool wake = channel_->nextDue() < std::numeric_limits<double>::infinity();
     lock.unlock();
-    if (events_pub_.getNumSubscribers() > 0)  // the event (and its stamp copy) only when wanted
-      events_pub_.publish(toMessage(rec, msg));
-    if (wake)
-      wake_.notify_one();
+    flush();
+    if (events_pub_.getNumSubscribers() > 0)  // the event (and its stamp) only when wanted
+      events_pub_.publish(toMessage(rec, stamp()));
   }
 
-  ChannelEvent toMessage(const ChannelRecord& e, const topic_tools::ShapeShifter::ConstPtr& msg)
+  ChannelEvent toMessage(const ChannelRecord& e, const ros::Time& input_stamp)
   {
     ChannelEvent m;
     m.header.stamp = t0_ + ros::Duration(e.arrival);
     m.seq = e.seq;
-    m.input_stamp = inputStamp(*msg, has_header_);
+    m.input_stamp = input_stamp;
     m.outcome = static_cast<uint8_t>(e.outcome);
     m.duplicated = e.duplicated;
     m.state = static_cast<uint8_t>(e.state);
     m.delay = e.delay;
-  m.sampled_delay = e.sampled_delay;
+    m.sampled_delay = e.sampled_delay;
     return m;
   }
 
-  /// Publishes every delivery due at t (mutex held: deliveries leave in the engine's order).
+  /// Moves every delivery due at t to the outbox, in the engine's order (mutex held).
   void publishDue(double t)
   {
     channel_->popDue(t, due_);
@@ -252,33 +306,58 @@ private:
       auto it = in_flight_.find(d.seq);
       if (it == in_flight_.end())
         continue;
-      out_pub_.publish(it->second.msg);
+      outbox_.push_back(it->second.msg);
       if (--it->second.remaining == 0)
         in_flight_.erase(it);
     }
   }
 
-  void deliveryLoop()
+  /// Publishes the outbox in order, without holding mutex_ (`in` is a DirectQueue: an in-process
+  /// publisher's thread runs onInput inside roscpp's publish, holding roscpp's publication lock, and
+  /// takes mutex_; a thread holding mutex_ while it publishes would deadlock with it). One thread
+  /// publishes at a time; a thread that finds another publishing leaves its messages to it.
+  void flush()
   {
-    std::unique_lock<std::mutex> lock(mutex_);
-    while (!stop_)
+    for (;;)
     {
+      std::unique_lock<std::mutex> publishing(publishing_, std::try_to_lock);
+      if (!publishing.owns_lock())
+        return;
+      for (;;)
+      {
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          sending_.swap(outbox_);
+        }
+        if (sending_.empty())
+          break;
+        for (const auto& m : sending_)
+          publish_(m);
+        sending_.clear();
+      }
+      publishing.unlock();
+      std::lock_guard<std::mutex> lock(mutex_);  // pushed after our last look, while we held publishing_?
+      if (outbox_.empty())
+        return;
+    }
+  }
+
+  /// Publishes the deliveries that are due; returns the wall seconds until the next one (the
+  /// dispatch thread's wait; it runs on that thread, after every message too).
+  double deliveryWork()
+  {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
       const double due = channel_->nextDue();
       if (due == std::numeric_limits<double>::infinity())
-      {
-        wake_.wait(lock);
-        continue;
-      }
+        return due;
       const double wait = due - now();
-      if (wait > 0.0)
-      {
-        // Wall-clock wait; under sim time the clock may run at another rate, so re-check often.
-        const double cap = ros::Time::isSimTime() ? 0.0005 : wait;
-        wake_.wait_for(lock, std::chrono::duration<double>(std::min(wait, cap)));
-        continue;
-      }
+      if (wait > 0.0)  // wall-clock wait; under sim time the clock may run at another rate: re-check often
+        return ros::Time::isSimTime() ? std::min(wait, 0.0005) : wait;
       publishDue(now());
     }
+    flush();
+    return 0.0;
   }
 
   /// The settings as the dynamic_reconfigure config (the other model's keys at their defaults).
@@ -341,6 +420,7 @@ private:
         channel_->reconfigure(next);
         settings_ = next;
         NODELET_INFO("LossyChannel reconfigured: %s", describe().c_str());
+        dispatch_.wake();
       }
       catch (const ConfigError& e)
       {
@@ -356,16 +436,21 @@ private:
   {
     try
     {
-      std::lock_guard<std::mutex> lock(mutex_);
-      const ChannelSettings next =
-          mergeChannelSettings(settings_, YAML::Load(req.yaml), getPrivateNodeHandle().getNamespace() + "/set_parameters");
-      channel_->reconfigure(next);
-      settings_ = next;
-      if (reconfigure_)
-        reconfigure_->updateConfig(toConfig(settings_));
+      LossyChannelConfig config;
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        const ChannelSettings next = mergeChannelSettings(settings_, YAML::Load(req.yaml),
+                                                          getPrivateNodeHandle().getNamespace() + "/set_parameters");
+        channel_->reconfigure(next);
+        settings_ = next;
+        config = toConfig(settings_);
+        res.message = describe();
+      }
+      if (reconfigure_)  // publishes: not with mutex_ held (flush)
+        reconfigure_->updateConfig(config);
       res.success = true;
-      res.message = describe();
       NODELET_INFO("LossyChannel reconfigured: %s", res.message.c_str());
+      dispatch_.wake();
     }
     catch (const std::exception& e)  // ConfigError, or a YAML syntax error in the request
     {
@@ -376,8 +461,25 @@ private:
     return true;
   }
 
+  /// With ~type: "<in> is <type>, expected <~type>" when the master has `in` with another type
+  /// (roscpp then connects nothing: without this check the link would just look silent); "" if not.
+  std::string wrongType() const
+  {
+    ros::master::V_TopicInfo topics;
+    if (type_.empty() || !ros::master::getTopics(topics))
+      return "";
+    const std::string in = const_cast<LossyChannelNodelet*>(this)->getNodeHandle().resolveName("in");
+    for (const ros::master::TopicInfo& t : topics)
+      if (t.name == in && t.datatype != type_)
+        return in + " is " + t.datatype + ", expected " + type_ + " (~type)";
+    return "";
+  }
+
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat)
   {
+    const std::string wrong = wrongType();  // asks the master: outside the lock
+    if (!wrong.empty())
+      NODELET_WARN_THROTTLE(10.0, "LossyChannel: wrong message type on `in`: %s", wrong.c_str());
     std::lock_guard<std::mutex> lock(mutex_);
     const ChannelCounters& c = channel_->counters();
     stat.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "loss %.3f over %lu messages", channel_->lossRate(),
@@ -395,7 +497,9 @@ private:
     stat.add("delay p50 (s)", channel_->delayQuantile(0.5));
     stat.add("delay p90 (s)", channel_->delayQuantile(0.9));
     stat.add("delay p99 (s)", channel_->delayQuantile(0.99));
-    stat.add("wrong type", wrong_type_.load());
+    if (!wrong.empty())
+      stat.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN, "wrong message type: %s", wrong.c_str());
+    stat.add("wrong type", wrong.empty() ? std::string("none") : wrong);
     // Windowed estimates (last 1000 messages, 95 % Wilson intervals) of what the link does now.
     const RateEstimate a = monitor_.arrivalRate(), r = monitor_.recoveryRate();
     stat.addf("windowed arrival rate", "%.4f [%.4f, %.4f] over %zu", a.value, a.lower, a.upper, a.trials);
@@ -405,7 +509,7 @@ private:
 
   struct Held
   {
-    topic_tools::ShapeShifter::ConstPtr msg;
+    boost::shared_ptr<const void> msg;  ///< a ShapeShifter, or the ~type message class
     int remaining;
   };
 
@@ -413,9 +517,11 @@ private:
   std::unique_ptr<LossyChannel> channel_;
   int queue_size_ = 1000;
   std::string type_;
-  std::atomic<std::uint64_t> wrong_type_{0};
+  /// Publishes a held message on `out` (its class: ShapeShifter, or ~type's).
+  std::function<void(const boost::shared_ptr<const void>&)> publish_;
   LinkMonitor monitor_{1000};
   ros::Time t0_;
+  DispatchThread dispatch_;  ///< serves `in` and the delayed deliveries (before sub_: outlives it)
   ros::Subscriber sub_;
   ros::Publisher out_pub_, events_pub_;
   ros::ServiceServer set_srv_;
@@ -425,9 +531,10 @@ private:
   std::unique_ptr<dynamic_reconfigure::Server<LossyChannelConfig>> reconfigure_;
   bool reconfigure_ready_ = false;
   std::mutex mutex_;
-  std::condition_variable wake_;
-  std::thread thread_;
-  bool stop_ = false;
+  std::mutex publishing_;  ///< held by the one thread that publishes the outbox (flush)
+  std::vector<boost::shared_ptr<const void>> outbox_;   ///< due, not yet published (mutex_)
+  std::vector<boost::shared_ptr<const void>> sending_;  ///< being published (publishing_)
+
   bool advertised_ = false;
   bool has_header_ = false;
   std::uint64_t next_seq_ = 0;

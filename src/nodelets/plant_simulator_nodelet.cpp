@@ -16,6 +16,7 @@
 // Start: ~start_delay wall seconds after load, or after the first message on ~start_after
 // (std_msgs/Empty, e.g. estimate_summary's latched ~ready).
 #include <nodelet/nodelet.h>
+#include <sys/prctl.h>
 #include <pluginlib/class_list_macros.hpp>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
@@ -141,6 +142,9 @@ private:
   void stepOnWallClock()
   {
     using Clock = std::chrono::steady_clock;
+    // The kernel's default timer slack (50 us) would wake each step up to that late: a sensor's
+    // samples would leave later than their stamps say.
+    prctl(PR_SET_TIMERSLACK, 1000UL, 0UL, 0UL, 0UL);
     const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(period_));
     auto next = Clock::now();
     const ros::Time t0 = ros::Time::now();
