@@ -14,7 +14,8 @@
 #     process: CPU per input message (utime + stime of that process over the playback / inputs),
 #     input-to-output latency (scripts/latency_probe.py, another process), and the CPU it uses
 #     idle under sim time (the bag's clock running, no input); and the floor: the same playback into
-#     a receiver that drops every message (BenchNullReceiver), what roscpp alone costs per input.
+#     a receiver that drops every message (BenchNullReceiver; with one hand-off per message, and in
+#     roscpp's receive thread), what roscpp alone costs per input.
 # Builds nothing (scripts/build.sh first). Results: $WS/bench/robot.csv and a table on stdout; logs in
 # $WS/bench/robot_runs/.
 set -euo pipefail
@@ -173,34 +174,41 @@ with open(sys.argv[10], "a") as f:
     f.write("bag_idle_ms_cpu_per_s_ticks,,,,,%.2f,,,,,\n" % idle_ticks)
     f.write("bag_idle_ms_cpu_per_s_schedstat,,,,,%.2f,,,,,\n" % idle_ns)
 PY
-# The floor: the same playback into a receiver that drops every message (BenchNullReceiver, one
-# hand-off per message as the Estimator's inputs): what roscpp alone costs per input here.
-roslaunch networked_estimation bench_bag.launch phase:=null > "$RUNS/null.log" 2>&1 < /dev/null &
-LAUNCH_PID=$!
-pid=""
-for i in $(seq 1 100); do
-  pid="$(pgrep -n -f "__name:=null_receiver" || true)"
-  [ -n "$pid" ] && grep -q "BenchNullReceiver on" "$RUNS/null.log" && break
-  sleep 0.2
-done
-[ -n "$pid" ] || { echo "  the null receiver did not start (log $RUNS/null.log)"; exit 1; }
-sleep 1
-c4="$(cpu "$pid")"
-rosbag play -q --clock -r 4 -d 1 "$BAG" > /dev/null 2>&1
-sleep 0.5
-c5="$(cpu "$pid")"
-stop_launch "$LAUNCH_PID"
-LAUNCH_PID=""
-python3 - "$c4" "$c5" "$HZ" "$INPUTS" "$CSV" <<'PY'
+# The floor: the same playback into a receiver that drops every message (BenchNullReceiver): with
+# one hand-off per message as the Estimator's inputs, and inline (in roscpp's receive thread, no
+# hand-off at all): what roscpp alone costs per input here.
+floor()  # label inline
+{
+  roslaunch networked_estimation bench_bag.launch phase:=null inline:="$2" > "$RUNS/null_$1.log" 2>&1 < /dev/null &
+  LAUNCH_PID=$!
+  local pid="" i c4 c5
+  for i in $(seq 1 100); do
+    pid="$(pgrep -n -f "__name:=null_receiver" || true)"
+    [ -n "$pid" ] && grep -q "BenchNullReceiver on" "$RUNS/null_$1.log" && break
+    sleep 0.2
+  done
+  [ -n "$pid" ] || { echo "  the null receiver did not start (log $RUNS/null_$1.log)"; exit 1; }
+  sleep 1
+  c4="$(cpu "$pid")"
+  rosbag play -q --clock -r 4 -d 1 "$BAG" > /dev/null 2>&1
+  sleep 0.5
+  c5="$(cpu "$pid")"
+  stop_launch "$LAUNCH_PID"
+  LAUNCH_PID=""
+  python3 - "$c4" "$c5" "$HZ" "$INPUTS" "$CSV" "$1" <<'PY'
 import sys
 (k0, n0), (k1, n1) = [tuple(float(x) for x in v.split(":")) for v in sys.argv[1:3]]
-hz, inputs = float(sys.argv[3]), float(sys.argv[4])
+hz, inputs, label = float(sys.argv[3]), float(sys.argv[4]), sys.argv[6]
 ticks, ns = 1e6 * (k1 - k0) / hz / inputs, 1e-3 * (n1 - n0) / inputs
-print("  floor (a receiver that drops every message, same playback): CPU per input %.1f us (utime + stime), %.1f us (schedstat)"
-      % (ticks, ns))
+what = {"queued": "one hand-off per message", "inline": "in roscpp's receive thread"}[label]
+print("  floor, a receiver that drops every message (%s): CPU per input %.1f us (utime + stime), %.1f us (schedstat)"
+      % (what, ticks, ns))
 with open(sys.argv[5], "a") as f:
-    f.write("bag_floor_cpu_us_per_input_ticks,,,,,%.1f,,,,,\n" % ticks)
-    f.write("bag_floor_cpu_us_per_input_schedstat,,,,,%.1f,,,,,\n" % ns)
+    f.write("bag_floor_%s_cpu_us_per_input_ticks,,,,,%.1f,,,,,\n" % (label, ticks))
+    f.write("bag_floor_%s_cpu_us_per_input_schedstat,,,,,%.1f,,,,,\n" % (label, ns))
 PY
+}
+floor queued false
+floor inline true
 echo "load after: $(uptime)"
 echo "results: $CSV"

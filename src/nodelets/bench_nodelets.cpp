@@ -482,7 +482,21 @@ class BenchEstimateSink : public BenchSinkT<Estimate>
 {
 };
 
-/// Receives ~topics and drops the messages (one hand-off each, to its own thread, as the Estimator).
+/// Calls each callback at once in the delivering thread (for BenchNullReceiver's ~inline: its
+/// callback publishes nothing and takes no lock, so it may run in roscpp's receive thread).
+class InlineQueue : public ros::CallbackQueueInterface
+{
+public:
+  void addCallback(const ros::CallbackInterfacePtr& callback, uint64_t) override
+  {
+    while (callback->call() == ros::CallbackInterface::TryAgain)
+      std::this_thread::yield();
+  }
+  void removeByID(uint64_t) override {}
+};
+
+/// Receives ~topics and drops the messages (one hand-off each, to its own thread, as the Estimator;
+/// with ~inline, none: in roscpp's receive thread).
 class BenchNullReceiver : public nodelet::Nodelet
 {
 public:
@@ -500,16 +514,19 @@ private:
     getPrivateNodeHandle().getParam("topics", topics);
     if (topics.empty())
       refuseLoad(getName(), "BenchNullReceiver not started: ~topics: expected a list of topics, found none");
+    bool in_receive_thread = false;
+    getPrivateNodeHandle().param("inline", in_receive_thread, false);
     dispatch_.start([] { return std::numeric_limits<double>::infinity(); });
     ros::NodeHandle nh(getNodeHandle());
-    nh.setCallbackQueue(dispatch_.queue());
+    nh.setCallbackQueue(in_receive_thread ? static_cast<ros::CallbackQueueInterface*>(&inline_) : dispatch_.queue());
     for (const std::string& t : topics)
       subs_.push_back(nh.subscribe<topic_tools::ShapeShifter>(
           t, 1000, [this](const topic_tools::ShapeShifter::ConstPtr&) { ++received_; }, ros::VoidConstPtr(),
           ros::TransportHints().tcpNoDelay()));
-    NODELET_INFO("BenchNullReceiver on %zu topics", topics.size());
+    NODELET_INFO("BenchNullReceiver on %zu topics%s", topics.size(), in_receive_thread ? " (inline)" : "");
   }
 
+  InlineQueue inline_;
   DispatchThread dispatch_;
   std::vector<ros::Subscriber> subs_;
   std::atomic<std::uint64_t> received_{0};
