@@ -245,8 +245,8 @@ void EstimatorNodelet::offer(std::size_t sensor, long k, double stamp, const dou
     offset_max_ = std::max(offset_max_, off);
     ++offset_count_;
   }
-  // Steps whose deadline has passed are taken first (the deadline thread may not have woken
-  // yet): what arrives after a deadline is late, exactly, whichever thread notices first.
+  // Steps whose deadline has passed are taken first (their wait may not have timed out yet): what
+  // arrives after a deadline is late, exactly, whichever callback notices first.
   catchUp(ros::Time::now().toSec());
   const OfferResult r = online_->offerMeasurement(k, sensor, y, size, R);
   if (r.offer == Offer::REJECTED)

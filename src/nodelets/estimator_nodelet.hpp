@@ -144,10 +144,12 @@ private:
   /// Publishes one step's outputs (mutex held).
   void publishLocked(const Estimate::Ptr& e);
 
-  /// The latest estimate as the tf frame_id -> child_frame_id, 20 times a second (tf is for
-  /// viewing; sending it from the deadline thread stalled the manager's callback queues).
+  /// odometry/filtered of one estimate (~state_mapping, world_frame -> base_link_frame).
   void publishOdometry(const Estimate& e);
 
+  /// The latest estimate as the tf frame_id -> child_frame_id, 20 times a second, from the
+  /// manager's queue (tf is for viewing; sending it from the thread that takes the steps stalled
+  /// the manager's callback queues).
   void tfTimer();
 
   /// Takes the steps whose deadline has passed (in ROS time) and resets on a backwards time jump;

@@ -277,7 +277,12 @@ private:
     if (rec.outcome == ChannelOutcome::DELIVERED)
       in_flight_[seq] = {msg, rec.duplicated ? 2 : 1};
     publishDue(t);
+    // Called in a publisher's thread (DirectQueue), nothing else wakes the dispatch thread: tell it
+    // when the next delivery is due before the time it waits for.
+    const bool wake = channel_->nextDue() < armed_due_;
     lock.unlock();
+    if (wake)
+      dispatch_.wake();
     flush();
     if (events_pub_.getNumSubscribers() > 0)  // the event (and its stamp) only when wanted
       events_pub_.publish(toMessage(rec, stamp()));
@@ -349,11 +354,13 @@ private:
     {
       std::lock_guard<std::mutex> lock(mutex_);
       const double due = channel_->nextDue();
+      armed_due_ = due;  // what the wait below is for (onInput wakes the thread for an earlier one)
       if (due == std::numeric_limits<double>::infinity())
         return due;
       const double wait = due - now();
       if (wait > 0.0)  // wall-clock wait; under sim time the clock may run at another rate: re-check often
         return ros::Time::isSimTime() ? std::min(wait, 0.0005) : wait;
+      armed_due_ = -std::numeric_limits<double>::infinity();  // runs again at once
       publishDue(now());
     }
     flush();
@@ -531,6 +538,7 @@ private:
   std::unique_ptr<dynamic_reconfigure::Server<LossyChannelConfig>> reconfigure_;
   bool reconfigure_ready_ = false;
   std::mutex mutex_;
+  double armed_due_ = std::numeric_limits<double>::infinity();  ///< the dispatch thread waits for it (mutex_)
   std::mutex publishing_;  ///< held by the one thread that publishes the outbox (flush)
   std::vector<boost::shared_ptr<const void>> outbox_;   ///< due, not yet published (mutex_)
   std::vector<boost::shared_ptr<const void>> sending_;  ///< being published (publishing_)
