@@ -487,11 +487,7 @@ class BenchEstimateSink : public BenchSinkT<Estimate>
 class InlineQueue : public ros::CallbackQueueInterface
 {
 public:
-  void addCallback(const ros::CallbackInterfacePtr& callback, uint64_t) override
-  {
-    while (callback->call() == ros::CallbackInterface::TryAgain)
-      std::this_thread::yield();
-  }
+  void addCallback(const ros::CallbackInterfacePtr& callback, uint64_t) override { callNow(callback); }
   void removeByID(uint64_t) override {}
 };
 

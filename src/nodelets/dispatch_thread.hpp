@@ -29,7 +29,7 @@ namespace networked_estimation
 
 /// Whether the calling thread is roscpp's receive (poll) thread. Learnt from the poll loop itself,
 /// which calls its listeners on every turn; the first call waits (at most a second) for one turn,
-/// so make it where no roscpp lock is held (DispatchThread::start, from a nodelet's onInit).
+/// so make it where no roscpp lock is held (DispatchThread::directQueue, from a nodelet's onInit).
 inline bool inRoscppPollThread()
 {
   static std::atomic<std::thread::id> poll_thread{std::thread::id()};
@@ -42,6 +42,14 @@ inline bool inRoscppPollThread()
       std::this_thread::sleep_for(std::chrono::microseconds(100));
   });
   return std::this_thread::get_id() == poll_thread.load();
+}
+
+/// Calls a queued callback now, in this thread (TryAgain only comes from a subscription without
+/// concurrent callbacks that another thread is in: wait for that call).
+inline void callNow(const ros::CallbackInterfacePtr& callback)
+{
+  while (callback->call() == ros::CallbackInterface::TryAgain)
+    std::this_thread::yield();
 }
 
 /// A callback queue that calls a subscription's callback at once, in the thread that delivers the
@@ -66,9 +74,7 @@ public:
       queued_->addCallback(callback, owner_id);
       return;
     }
-    // TryAgain only comes from a subscription without concurrent callbacks: wait for the other call.
-    while (callback->call() == ros::CallbackInterface::TryAgain)
-      std::this_thread::yield();
+    callNow(callback);
   }
 
   void removeByID(uint64_t owner_id) override { queued_->removeByID(owner_id); }
@@ -89,14 +95,21 @@ public:
   ros::CallbackQueue* queue() { return &queue_; }
 
   /// In-process publishers' messages handled in their thread, the others on this one (DirectQueue).
-  ros::CallbackQueueInterface* directQueue() { return &direct_; }
+  /// Call it where no roscpp lock is held (a nodelet's onInit): it learns roscpp's receive thread.
+  ros::CallbackQueueInterface* directQueue()
+  {
+    inRoscppPollThread();
+    return &direct_;
+  }
+
+  /// Whether the caller is this thread (work() runs after its callbacks: no wake() needed).
+  bool inThisThread() const { return std::this_thread::get_id() == thread_.get_id(); }
 
   /// Starts the thread. `work` runs the timed work that is due (taking its own locks) and returns
   /// the wall seconds until it is next due (0: at once; infinity: nothing timed). It runs after
   /// every batch of callbacks and whenever that time has passed without a message.
   void start(std::function<double()> work)
   {
-    inRoscppPollThread();  // learn roscpp's receive thread now, while this thread holds no roscpp lock
     work_ = std::move(work);
     thread_ = std::thread([this] { run(); });
   }

@@ -189,7 +189,6 @@ private:
     diag_timer_ = nh.createWallTimer(ros::WallDuration(0.5), [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
     // `in` is served by the channel's own thread, which also publishes the delayed deliveries.
     dispatch_.start([this] { return deliveryWork(); });
-    ros::NodeHandle in_nh(nh);
     const auto q = static_cast<uint32_t>(queue_size_);
     if (type_.empty())  // any type: ShapeShifter, `out` advertised with the first message's type
     {
@@ -199,9 +198,7 @@ private:
       ros::SubscribeOptions o;
       o.template initByFullCallbackType<const ros::MessageEvent<topic_tools::ShapeShifter const>&>(
           "in", q, [this](const ros::MessageEvent<topic_tools::ShapeShifter const>& e) { onMessage(e); });
-      o.callback_queue = dispatch_.queue();  // not direct: onMessage advertises `out` (roscpp's publication lock)
-      o.transport_hints = ros::TransportHints().tcpNoDelay();
-      sub_ = in_nh.subscribe(o);
+      subscribeIn(nh, o, dispatch_.queue());  // not direct: onMessage advertises `out` (roscpp's publication lock)
     }
     else  // ~type: typed in and out, the received object forwarded as it is (no serialization in-process)
     {
@@ -215,7 +212,7 @@ private:
         o.template init<M>("in", q, [this](const boost::shared_ptr<const M>& m) {
           onInput(m, [&m] { return stampOf(*m); });
         });
-        subscribeIn(in_nh, o);
+        subscribeIn(nh, o, dispatch_.directQueue());
       });
       if (!known)
         refuseLoad(getName(), "LossyChannel not started: " + source + ": type: expected one of " +
@@ -228,11 +225,12 @@ private:
 
   double now() const { return (ros::Time::now() - t0_).toSec(); }
 
-  /// `in` of ~type: messages of in-process publishers handled in their thread, the others on the
-  /// dispatch thread (DirectQueue; its callbacks may run concurrently, mutex_ serializes the engine).
-  void subscribeIn(ros::NodeHandle& nh, ros::SubscribeOptions& o)
+  /// `in` on `queue`: the dispatch thread's, or (~type) its DirectQueue, where in-process
+  /// publishers' messages are handled in their thread (callbacks may then run concurrently: mutex_
+  /// serializes the engine).
+  void subscribeIn(ros::NodeHandle& nh, ros::SubscribeOptions& o, ros::CallbackQueueInterface* queue)
   {
-    o.callback_queue = dispatch_.directQueue();
+    o.callback_queue = queue;
     o.allow_concurrent_callbacks = true;
     o.transport_hints = ros::TransportHints().tcpNoDelay();
     sub_ = nh.subscribe(o);
@@ -279,7 +277,7 @@ private:
     publishDue(t);
     // Called in a publisher's thread (DirectQueue), nothing else wakes the dispatch thread: tell it
     // when the next delivery is due before the time it waits for.
-    const bool wake = channel_->nextDue() < armed_due_;
+    const bool wake = !dispatch_.inThisThread() && channel_->nextDue() < armed_due_;
     lock.unlock();
     if (wake)
       dispatch_.wake();
