@@ -1,0 +1,232 @@
+// The rate each sensor needs, the other links fixed (docs/stability.md 4.3): searches along one rate
+// and the per-sensor margins.
+#include "set_verdict.hpp"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace networked_estimation
+{
+namespace stability_internal
+{
+
+/// pred(a) false, pred(b) true: the bracket [a, b] of the change, narrowed to tol.
+std::pair<double, double> bisect(const std::function<bool(double)>& pred, double a, double b, double tol)
+{
+  for (int it = 0; it < 200 && b - a > tol; ++it)
+  {
+    const double m = 0.5 * (a + b);
+    (pred(m) ? b : a) = m;
+  }
+  return {a, b};
+}
+
+/// The stable set along a rate in [0, 1] known to be an upper half-line.
+void halfLine(const KindAt& kind, double tol, SensorMargin& out)
+{
+  out.half_line = true;
+  CriticalBand& band = out.band;
+  const auto isStable = [&](double x) { return kind(x) == Verdict::Kind::STABLE; };
+  const Verdict::Kind k1 = kind(1.0);
+  ++band.evaluations;
+  if (k1 != Verdict::Kind::STABLE)
+  {
+    band.diverges_at = k1 == Verdict::Kind::UNSTABLE ? 1.0 : std::numeric_limits<double>::quiet_NaN();
+    return;
+  }
+  const Verdict::Kind k0 = kind(0.0);
+  ++band.evaluations;
+  if (k0 == Verdict::Kind::STABLE)
+  {
+    band.converges_at = 0.0;
+  }
+  else if (k0 == Verdict::Kind::UNDECIDED)
+  {
+    band.undecided_band = true;
+    band.converges_at = bisect(isStable, 0.0, 1.0, tol).second;
+  }
+  else
+  {
+    double lo = 0.0, hi = 1.0;
+    bool done = false;
+    while (hi - lo > tol && !done)
+    {
+      const double m = 0.5 * (lo + hi);
+      const Verdict::Kind k = kind(m);
+      ++band.evaluations;
+      if (k == Verdict::Kind::STABLE)
+        hi = m;
+      else if (k == Verdict::Kind::UNSTABLE)
+        lo = m;
+      else
+      {
+        band.undecided_band = true;
+        band.converges_at = bisect(isStable, m, hi, tol).second;
+        band.diverges_at = bisect([&](double x) { return kind(x) != Verdict::Kind::UNSTABLE; }, lo, m, tol).first;
+        done = true;
+      }
+    }
+    if (!done)
+    {
+      band.diverges_at = lo;
+      band.converges_at = hi;
+    }
+  }
+  RateInterval in;
+  in.lower = band.converges_at;
+  in.upper = 1.0;
+  out.stable.push_back(in);
+}
+
+/// The stable set along a rate in [0, 1] by a scan of `points` + 1 grid points and bisection at
+/// each change of verdict.
+std::vector<RateInterval> scanStable(const KindAt& kind, int points, double tol)
+{
+  const auto isStable = [&](double x) { return kind(x) == Verdict::Kind::STABLE; };
+  std::vector<bool> st(points + 1);
+  for (int k = 0; k <= points; ++k)
+    st[k] = isStable(static_cast<double>(k) / points);
+  std::vector<RateInterval> out;
+  for (int k = 0; k <= points; ++k)
+  {
+    const double x = static_cast<double>(k) / points;
+    if (st[k] && (k == 0 || !st[k - 1]))
+    {
+      RateInterval in;
+      in.lower = k == 0 ? 0.0 : bisect(isStable, static_cast<double>(k - 1) / points, x, tol).second;
+      out.push_back(in);
+    }
+    if (st[k] && (k == points || !st[k + 1]))
+      out.back().upper =
+          k == points ? 1.0
+                      : bisect([&](double y) { return !isStable(y); }, x, static_cast<double>(k + 1) / points, tol).first;
+  }
+  return out;
+}
+
+/// Distance from value to the nearest edge of the stable set (edges at 0 or 1 where the set
+/// reaches the end of [0, 1] do not count): positive inside an interval, negative outside.
+double intervalMargin(const std::vector<RateInterval>& stable, double value)
+{
+  if (stable.empty() || !std::isfinite(value))
+    return std::numeric_limits<double>::quiet_NaN();
+  for (const RateInterval& in : stable)
+    if (value >= in.lower && value <= in.upper)
+    {
+      double m = std::numeric_limits<double>::infinity();
+      if (in.lower > 0.0)
+        m = std::min(m, value - in.lower);
+      if (in.upper < 1.0)
+        m = std::min(m, in.upper - value);
+      return std::isinf(m) ? value : m;
+    }
+  double d = std::numeric_limits<double>::infinity();
+  for (const RateInterval& in : stable)
+    d = std::min(d, std::min(std::abs(value - in.lower), std::abs(value - in.upper)));
+  return -d;
+}
+
+std::string intervals(const std::vector<RateInterval>& stable)
+{
+  std::string out;
+  for (const RateInterval& in : stable)
+    out += (out.empty() ? "" : ", ") + std::string("[") + num(in.lower) + ", " + num(in.upper) + "]";
+  return out.empty() ? "none" : out;
+}
+
+/// The rate sensor i needs in the set of all sensors, the others' links fixed.
+SensorMargin sensorMargin(const Context& ctx, const SetData& all, int i)
+{
+  const AnalysisOptions& opt = *ctx.options;
+  SensorMargin m;
+  const LinkModel& own = ctx.links[i];
+  std::function<LinkModel(double)> make;
+  if (own.kind == LinkModel::Kind::IID)
+  {
+    m.quantity = "arrival rate";
+    m.value = own.arrival;
+    make = [](double x) { return LinkModel::iid(x); };
+  }
+  else if (own.onOff())
+  {
+    m.quantity = "recovery rate";
+    m.value = own.r;
+    const double p = own.p;
+    make = [p](double x) { return LinkModel::gilbertElliott(p, x); };
+  }
+  else
+  {
+    m.note = "not applicable: a hidden Gilbert-Elliott chain (loss_good > 0 or loss_bad < 1): the recovery rate "
+             "does not determine its loss persistence";
+    return m;
+  }
+  const KindAt kind = [&](double x) {
+    std::vector<LinkModel> links = ctx.links;
+    links[i] = make(x);
+    return setVerdict(ctx, all, links).kind;
+  };
+  const Verdict now = setVerdict(ctx, all, ctx.links);
+  if (now.kind == Verdict::Kind::NOT_APPLICABLE)
+  {
+    m.quantity.clear();
+    m.note = "not applicable: " + now.reason;
+    return m;
+  }
+  const bool exact = exactAvailable(all);
+  const double tol = exact ? opt.exact_tolerance : opt.bisection_tolerance;
+  const std::string how = exact ? "Theorem 14" : "the verdict (necessary condition and MARE)";
+  if (own.kind == LinkModel::Kind::GILBERT_ELLIOTT && latticeOrderAboveOne(all, i) && !all.stable_A)
+  {
+    m.half_line = false;
+    m.scan_points = opt.scan_points;
+    m.stable = scanStable(kind, opt.scan_points, tol);
+    m.margin = intervalMargin(m.stable, m.value);
+    m.note = "p = " + num(own.p) + ", others fixed; a lattice block of order > 1 makes the stable set not a "
+             "half-line: stable for r in " + intervals(m.stable) + " (scan of " + std::to_string(opt.scan_points) +
+             " steps, bisection at each change, " + how + ")";
+    return m;
+  }
+  halfLine(kind, tol, m);
+  if (std::isfinite(m.band.converges_at))
+  {
+    m.margin = m.value - m.band.converges_at;
+    m.note = "others fixed; by bisection on " + how +
+             (own.kind == LinkModel::Kind::GILBERT_ELLIOTT ? " with p = " + num(own.p) : std::string());
+    if (m.band.undecided_band)
+      m.note += std::isnan(m.band.diverges_at)
+                    ? "; undecided below " + num(m.band.converges_at) + " (no rate of this sensor is unstable)"
+                    : "; undecided between " + num(m.band.diverges_at) + " and " + num(m.band.converges_at);
+  }
+  else
+  {
+    m.note = std::string("others fixed; ") +
+             (std::isnan(m.band.diverges_at) ? "not stable even at rate 1 (undecided there)"
+                                             : "unstable even at rate 1: this sensor cannot make the set stable");
+  }
+  return m;
+}
+
+}  // namespace stability_internal
+
+using namespace stability_internal;
+
+std::vector<SensorMargin> sensorMargins(const Model& model, const std::vector<LinkModel>& links,
+                                        const AnalysisOptions& options)
+{
+  if (links.size() != model.sensors.size())
+    throw std::invalid_argument("sensorMargins: " + std::to_string(links.size()) + " links for " +
+                                std::to_string(model.sensors.size()) + " sensors");
+  Context ctx = modelContext(model, options);
+  ctx.links = links;
+  std::vector<int> every;
+  for (std::size_t i = 0; i < model.sensors.size(); ++i)
+    every.push_back(static_cast<int>(i));
+  const SetData all = makeSet(ctx, every);
+  std::vector<SensorMargin> out;
+  for (std::size_t i = 0; i < model.sensors.size(); ++i)
+    out.push_back(sensorMargin(ctx, all, static_cast<int>(i)));
+  return out;
+}
+
+}  // namespace networked_estimation

@@ -1,0 +1,79 @@
+// The verdict of a set of sensors for given links (docs/stability.md 2.1), shared by the report
+// (stability_report.cpp), the per-sensor margins (sensor_margins.cpp) and stabilityVerdict. Private
+// to the core.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "networked_estimation/stability/stability.hpp"
+
+namespace networked_estimation
+{
+namespace stability_internal
+{
+
+/// A number with 6 significant digits.
+std::string num(double v);
+
+struct Context
+{
+  const Model* model = nullptr;
+  Eigen::MatrixXd Qn;                  ///< B Q B'
+  std::vector<Eigen::MatrixXd> H;      ///< whitened, all sensors
+  double rho = 0.0;
+  bool excited = true;                 ///< unstable modes controllable from the noise
+  bool has_channel = false;            ///< some sensor has a channel
+  std::vector<LinkModel> links;        ///< per sensor (lossless: i.i.d. with arrival 1)
+  std::vector<bool> lossless;
+  const AnalysisOptions* options = nullptr;
+};
+
+bool sameLink(const LinkModel& a, const LinkModel& b);
+
+/// What the verdict of a set needs besides the links.
+struct SetData
+{
+  std::vector<int> set;
+  std::vector<Eigen::MatrixXd> H;
+  Eigen::MatrixXd Hs;
+  bool stable_A = false;
+  bool detectable = true;
+  std::vector<BlockStructure> blocks;
+  Schedule schedule;  ///< the model's schedule restricted to the set (kind NONE: none)
+};
+
+SetData makeSet(const Context& ctx, const std::vector<int>& set);
+
+/// The verdict of docs/stability.md 2.1 (steps 2-8) for the set with these links (one per member).
+Verdict setVerdict(const Context& ctx, const SetData& d, const std::vector<LinkModel>& links);
+
+/// Every block of the set has Theorem 14's Phi.
+bool exactAvailable(const SetData& d);
+
+/// Some lattice block of order > 1 is seen by member j of the set (j < 0: by any member): along a
+/// Markov recovery rate the stable set need not be a half-line.
+bool latticeOrderAboveOne(const SetData& d, int j);
+
+/// The model's quantities every verdict uses (links are filled in by the caller).
+Context modelContext(const Model& model, const AnalysisOptions& options);
+
+// Searches along one rate in [0, 1] (sensor_margins.cpp).
+using KindAt = std::function<Verdict::Kind(double)>;
+/// The stable set along a rate in [0, 1] known to be an upper half-line.
+void halfLine(const KindAt& kind, double tol, SensorMargin& out);
+/// The stable set along a rate in [0, 1] by a scan of `points` + 1 grid points and bisection at
+/// each change of verdict.
+std::vector<RateInterval> scanStable(const KindAt& kind, int points, double tol);
+/// Distance from value to the nearest edge of the stable set (edges at 0 or 1 where the set
+/// reaches the end of [0, 1] do not count): positive inside an interval, negative outside.
+double intervalMargin(const std::vector<RateInterval>& stable, double value);
+/// "[a, b], [c, d]" or "none".
+std::string intervals(const std::vector<RateInterval>& stable);
+/// The rate sensor i needs in the set of all sensors, the others' links fixed.
+SensorMargin sensorMargin(const Context& ctx, const SetData& all, int i);
+
+}  // namespace stability_internal
+}  // namespace networked_estimation
