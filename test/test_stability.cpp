@@ -180,11 +180,17 @@ TEST(Stability, T7JordanBlock)
   EXPECT_NEAR(mahlerUpperBound(mahlerMeasure(A)), 0.517747, 1e-6);
   EXPECT_EQ(mareAt(A, C, 0.515), MareResult::Status::DIVERGED);
   EXPECT_EQ(mareAt(A, C, 0.52), MareResult::Status::CONVERGED);
-  // c = [0 1] sees the block without observing it: no exact rate, "not applicable".
+  // c = [0 1] sees the block without observing it: its kernel lattice (docs/stability.md 3.5c) holds
+  // the whole block and span(e1), the unobservable subspace of (A, c), on which no packet informs:
+  // Phi = 1 at every rate, so the block is unbounded at every rate (exact rate inf).
   const auto bad = analyseBlocks(A, {mat(1, 2, {0, 1})});
-  EXPECT_EQ(bad[0].method, BlockStructure::Method::UNAVAILABLE);
-  EXPECT_TRUE(std::isnan(exactCriticalArrivalRate(bad)));
-  EXPECT_EQ(marelliTest(bad, {LinkModel::iid(0.5)}).kind, Verdict::Kind::NOT_APPLICABLE);
+  EXPECT_EQ(bad[0].method, BlockStructure::Method::LATTICE);
+  ASSERT_EQ(bad[0].seen.size(), 2u);
+  EXPECT_TRUE(bad[0].seen[0][0][0]);
+  EXPECT_FALSE(bad[0].seen[1][0][0]);
+  EXPECT_TRUE(std::isinf(exactCriticalArrivalRate(bad)));
+  EXPECT_EQ(blockPhi(bad[0], {LinkModel::iid(0.5)}), 1.0);
+  EXPECT_EQ(marelliTest(bad, {LinkModel::iid(0.5)}).kind, Verdict::Kind::UNSTABLE);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -336,18 +342,28 @@ TEST(Stability, VerdictReasons)
   const Verdict u = analyzeStability(simpleModel(A, C), &edge).model.verdict;
   EXPECT_EQ(u.kind, Verdict::Kind::UNDECIDED);
   EXPECT_NE(u.reason.find("Remark 15"), std::string::npos);
-  // UNDECIDED between the lower bound and the MARE: non-diagonalizable block with several
-  // eigenvalues of common order, rate between the bounds.
+  // A non-diagonalizable block with several eigenvalues of common order (Jordan blocks at 1.5 and
+  // -1.5, order 2): Theorem 14 with the kernel lattice of docs/stability.md 3.5c. The packets of one
+  // phase, once enough have arrived, reveal half of the block (x1 + x3 and x2 - x4 at even steps), so
+  // Phi = (1 - lambda)^{1/2} and the exact rate is 1 - 1/2.25^2 = 0.802469.
   const MatrixXd J = mat(4, 4, {1.5, 1, 0, 0, 0, 1.5, 0, 0, 0, 0, -1.5, 1, 0, 0, 0, -1.5});
   const MatrixXd CJ = mat(1, 4, {1, 0, 1, 0});
   const ChannelSettings between = bernoulli(1 - 0.7);  // lower bound 1 - 1/2.25 = 0.556
   const StabilityReport rj = analyzeStability(simpleModel(J, CJ), &between);
-  EXPECT_TRUE(std::isnan(rj.model.exact_rate));
-  EXPECT_EQ(rj.model.verdict.kind, Verdict::Kind::UNDECIDED) << rj.model.verdict.reason;
-  EXPECT_NE(rj.model.verdict.reason.find("MARE"), std::string::npos);
+  EXPECT_NEAR(rj.model.exact_rate, 1.0 - 1.0 / (2.25 * 2.25), 1e-12);
+  EXPECT_EQ(rj.model.verdict.kind, Verdict::Kind::UNSTABLE) << rj.model.verdict.reason;
+  EXPECT_NEAR(rj.model.verdict.numbers.at("max |alpha|^2 Phi"), 2.25 * std::sqrt(0.3), 1e-9);
+  EXPECT_EQ(stabilityVerdict(simpleModel(J, CJ), {0}, {LinkModel::iid(0.85)}).kind, Verdict::Kind::STABLE);
+  // UNDECIDED between the lower bound and the MARE when Theorem 14 is not computed (the lattice
+  // above the cap): the verdict falls back on the necessary condition and the MARE.
+  AnalysisOptions capped;
+  capped.lattice_cap = 1;
+  const Verdict uj = stabilityVerdict(simpleModel(J, CJ), {0}, {LinkModel::iid(0.7)}, capped);
+  EXPECT_EQ(uj.kind, Verdict::Kind::UNDECIDED) << uj.reason;
+  EXPECT_NE(uj.reason.find("MARE"), std::string::npos);
+  EXPECT_NE(uj.reason.find("lattice larger than 1"), std::string::npos);
   // ... and below the lower bound: unstable by Yang's Theorem 1.
-  const ChannelSettings low = bernoulli(1 - 0.5);
-  const Verdict lj = analyzeStability(simpleModel(J, CJ), &low).model.verdict;
+  const Verdict lj = stabilityVerdict(simpleModel(J, CJ), {0}, {LinkModel::iid(0.5)}, capped);
   EXPECT_EQ(lj.kind, Verdict::Kind::UNSTABLE);
   EXPECT_NE(lj.reason.find("Theorem 1"), std::string::npos);
   // NOT_APPLICABLE: noise does not excite the unstable mode.
@@ -357,11 +373,20 @@ TEST(Stability, VerdictReasons)
   const Verdict na = analyzeStability(m, &good).model.verdict;
   EXPECT_EQ(na.kind, Verdict::Kind::NOT_APPLICABLE);
   EXPECT_NE(na.reason.find("controllable"), std::string::npos);
-  // NOT_APPLICABLE without a channel; UNSTABLE for an undetectable mode.
+  // NOT_APPLICABLE without a channel.
   EXPECT_EQ(analyzeStability(simpleModel(A, C), nullptr).model.verdict.kind, Verdict::Kind::NOT_APPLICABLE);
-  const Verdict ud = analyzeStability(simpleModel(A, mat(1, 2, {0, 1})), &good).model.verdict;
-  EXPECT_EQ(ud.kind, Verdict::Kind::UNSTABLE);
-  EXPECT_NE(ud.reason.find("not observable"), std::string::npos);
+  // A mode that no sensor observes even without losses (c = [0 1] misses the 1.3): it grows
+  // whatever the links do and is reported apart (dead-reckoned); the verdict concerns the observed
+  // mode 0.5, which is stable at every rate (docs/stability.md 2.2).
+  const StabilityReport ur = analyzeStability(simpleModel(A, mat(1, 2, {0, 1})), &good);
+  EXPECT_FALSE(ur.detectable);
+  EXPECT_NE(ur.dead_reckoned.find("(1.3)"), std::string::npos) << ur.dead_reckoned;
+  EXPECT_NE(ur.dead_reckoned.find("states 0 "), std::string::npos) << ur.dead_reckoned;
+  EXPECT_EQ(ur.model.dead_reckoned, ur.dead_reckoned);
+  EXPECT_EQ(ur.model.verdict.kind, Verdict::Kind::STABLE) << ur.model.verdict.reason;
+  EXPECT_NE(ur.model.verdict.reason.find("observed modes"), std::string::npos);
+  EXPECT_NE(ur.model.verdict.reason.find("dead-reckoned"), std::string::npos);
+  EXPECT_TRUE(analyzeStability(simpleModel(A, C), &good).dead_reckoned.empty());
   EXPECT_EQ(toString(Verdict::Kind::NOT_APPLICABLE), "not applicable");
 }
 
@@ -956,4 +981,188 @@ TEST(StabilityDesign, ClosedForms)
   sched.schedule.kind = Schedule::Kind::PERIODIC;
   sched.schedule.pattern = {{true, false}, {false, true}};
   EXPECT_NE(designLinks(sched, DesignCost::TOTAL_RATE).note.find("schedule"), std::string::npos);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Blocks that are not diagonalizable (docs/stability.md 3.5c): the kernel lattice of the unipotent
+// part, checked exhaustively against the rank of the rows a window of packets actually delivers.
+
+namespace
+{
+
+/// Rank of the rows H_j A^t (t = time in the window) of the received (sensor, time) pairs,
+/// restricted to nothing (the whole state: these systems are one block).
+int receivedRank(const MatrixXd& A, const std::vector<MatrixXd>& H, const std::vector<std::vector<bool>>& got)
+{
+  const int n = static_cast<int>(A.rows());
+  MatrixXd rows(0, n);
+  MatrixXd At = MatrixXd::Identity(n, n);
+  for (std::size_t t = 0; t < got.size(); ++t)
+  {
+    for (std::size_t j = 0; j < H.size(); ++j)
+      if (got[t][j])
+      {
+        rows.conservativeResize(rows.rows() + H[j].rows(), n);
+        rows.bottomRows(H[j].rows()) = H[j] * At;
+      }
+    At = A * At;
+  }
+  return rows.rows() == 0 ? 0 : numericalRank(rows.cast<std::complex<double>>(), 1e-9);
+}
+
+}  // namespace
+
+// For every arrival pattern of a window of T steps (every subset of the (sensor, time) pairs), with
+// N the block's order and n_k its dimension:
+//  - lower bound: if, for some lattice element K, no (sensor, phase) pair that informs on K
+//    delivered anything, the window leaves the block unobservable;
+//  - upper bound: if the window leaves the block unobservable, then for some lattice element K,
+//    every (sensor, phase) pair that informs on K delivered fewer than n_k packets.
+// Together they give Phi = max over K of prod_j rho(prod_s D_js P_j)^{1/N} (docs/stability.md 3.5c).
+// Systems: a Jordan pair at +-1.5 (order 2) with c = [1 0 1 0]; a constant-velocity block with a
+// position and a velocity sensor; a constant-acceleration block with a velocity sensor; and a
+// Jordan block of size 2 beside a 1-D block at the same eigenvalue with a sensor on each.
+TEST(StabilityJordan, LatticePredictsEveryWindow)
+{
+  struct System
+  {
+    const char* name;
+    MatrixXd A;
+    std::vector<MatrixXd> H;
+    int T;
+  };
+  const std::vector<System> systems = {
+      {"jordan pair", mat(4, 4, {1.5, 1, 0, 0, 0, 1.5, 0, 0, 0, 0, -1.5, 1, 0, 0, 0, -1.5}), {mat(1, 4, {1, 0, 1, 0})}, 12},
+      {"constant velocity", mat(2, 2, {1, 0.1, 0, 1}), {mat(1, 2, {1, 0}), mat(1, 2, {0, 1})}, 7},
+      {"constant acceleration", mat(3, 3, {1, 0.1, 0.005, 0, 1, 0.1, 0, 0, 1}), {mat(1, 3, {0, 1, 0}), mat(1, 3, {1, 0, 0})}, 6},
+      {"jordan beside 1-D", mat(3, 3, {1.2, 1, 0, 0, 1.2, 0, 0, 0, 1.2}), {mat(1, 3, {0, 1, 1}), mat(1, 3, {1, 0, 0})}, 6}};
+  for (const System& sys : systems)
+  {
+    const auto blocks = analyseBlocks(sys.A, sys.H);
+    ASSERT_EQ(blocks.size(), 1u) << sys.name;
+    const BlockStructure& b = blocks[0];
+    ASSERT_NE(b.method, BlockStructure::Method::UNAVAILABLE) << sys.name;
+    const int n = static_cast<int>(sys.A.rows());
+    const int N = b.block.order;
+    const std::size_t S = sys.H.size();
+    const int pairs = sys.T * static_cast<int>(S);
+    int unobservable = 0;
+    for (long mask = 0; mask < (1L << pairs); ++mask)
+    {
+      std::vector<std::vector<bool>> got(sys.T, std::vector<bool>(S));
+      std::vector<std::vector<int>> count(S, std::vector<int>(N, 0));  // packets per (sensor, phase)
+      for (int t = 0; t < sys.T; ++t)
+        for (std::size_t j = 0; j < S; ++j)
+        {
+          got[t][j] = (mask >> (t * static_cast<int>(S) + static_cast<int>(j))) & 1L;
+          count[j][t % N] += got[t][j] ? 1 : 0;
+        }
+      const bool unobs = receivedRank(sys.A, sys.H, got) < n;
+      bool silent = false, few = false;
+      for (const auto& seen : b.seen)
+      {
+        bool all_silent = true, all_few = true;
+        for (std::size_t j = 0; j < S; ++j)
+          for (int s = 0; s < N; ++s)
+            if (seen[j][s])
+            {
+              all_silent = all_silent && count[j][s] == 0;
+              all_few = all_few && count[j][s] < n;
+            }
+        silent = silent || all_silent;
+        few = few || all_few;
+      }
+      if (silent)
+        ASSERT_TRUE(unobs) << sys.name << ": mask " << mask << " silences a lattice element but is observable";
+      if (unobs)
+        ASSERT_TRUE(few) << sys.name << ": mask " << mask << " is unobservable with every element informed";
+      unobservable += unobs ? 1 : 0;
+    }
+    EXPECT_GT(unobservable, 0) << sys.name;
+  }
+}
+
+// The lattices themselves, and Phi: the Jordan pair needs both phases (Phi = (1 - l)^{1/2}); the
+// constant-velocity block with a velocity sensor has the position direction as an element that only
+// the position sensor informs on (Phi = its loss persistence, the velocity sensor cannot help).
+TEST(StabilityJordan, PhiOfJordanStructures)
+{
+  const auto pair = analyseBlocks(mat(4, 4, {1.5, 1, 0, 0, 0, 1.5, 0, 0, 0, 0, -1.5, 1, 0, 0, 0, -1.5}),
+                                  {mat(1, 4, {1, 0, 1, 0})});
+  ASSERT_EQ(pair.size(), 1u);
+  EXPECT_EQ(pair[0].method, BlockStructure::Method::LATTICE);
+  EXPECT_EQ(pair[0].block.order, 2);
+  EXPECT_EQ(pair[0].seen.size(), 3u);  // the block and the two halves each phase leaves unobservable
+  EXPECT_NEAR(blockPhi(pair[0], {LinkModel::iid(0.6)}), std::sqrt(0.4), 1e-12);
+  const auto cv = analyseBlocks(mat(2, 2, {1, 0.1, 0, 1}), {mat(1, 2, {1, 0}), mat(1, 2, {0, 1})});
+  ASSERT_EQ(cv.size(), 1u);
+  EXPECT_EQ(cv[0].seen.size(), 2u);
+  EXPECT_NEAR(blockPhi(cv[0], {LinkModel::iid(0.3), LinkModel::iid(0.9)}), 0.7, 1e-12);
+  EXPECT_NEAR(blockPhi(cv[0], {LinkModel::iid(0.3), LinkModel::iid(0.0)}), 0.7, 1e-12);
+  EXPECT_EQ(blockPhi(cv[0], {LinkModel::iid(0.0), LinkModel::iid(1.0)}), 1.0);
+  EXPECT_TRUE(blockGrowth(cv[0], {LinkModel::iid(0.0), LinkModel::iid(1.0)}).one);
+  EXPECT_FALSE(blockGrowth(cv[0], {LinkModel::iid(1e-9), LinkModel::iid(0.0)}).one);
+  // A Gilbert-Elliott link that never leaves its bad state (r = 0, every packet lost there) keeps
+  // Phi at exactly 1; any r > 0 brings it below 1.
+  EXPECT_TRUE(blockGrowth(cv[0], {LinkModel::gilbertElliott(0.1, 0.0), LinkModel::iid(1.0)}).one);
+  EXPECT_FALSE(blockGrowth(cv[0], {LinkModel::gilbertElliott(0.1, 1e-6), LinkModel::iid(1.0)}).one);
+}
+
+// On the unit circle the verdict is exact (docs/stability.md 3.5d): a constant-velocity model with a
+// position sensor and a velocity sensor is stable at every positive position rate, whatever the
+// velocity link does, and unstable at rate 0; the position sensor "needs > 0" and the velocity
+// sensor needs nothing. With only velocity sensors the positions are dead-reckoned: reported apart,
+// and the verdict about the links is stable.
+TEST(StabilityJordan, ConstantVelocityVerdictsAndMargins)
+{
+  const Model m = multiModel(mat(2, 2, {1, 0.1, 0, 1}), {mat(1, 2, {1, 0}), mat(1, 2, {0, 1})});
+  for (double pos : {1e-6, 0.01, 0.5, 1.0})
+    for (double vel : {0.0, 0.3, 1.0})
+      EXPECT_EQ(stabilityVerdict(m, {0, 1}, {LinkModel::iid(pos), LinkModel::iid(vel)}).kind, Verdict::Kind::STABLE)
+          << pos << " " << vel;
+  const Verdict lost = stabilityVerdict(m, {0, 1}, {LinkModel::iid(0.0), LinkModel::iid(1.0)});
+  EXPECT_EQ(lost.kind, Verdict::Kind::UNSTABLE);
+  EXPECT_NE(lost.reason.find("Phi = 1"), std::string::npos) << lost.reason;
+  EXPECT_EQ(stabilityVerdict(m, {0, 1}, {LinkModel::gilbertElliott(0.2, 0.0), LinkModel::iid(1.0)}).kind,
+            Verdict::Kind::UNSTABLE);
+  const std::vector<SensorMargin> margins = sensorMargins(m, {LinkModel::iid(0.2), LinkModel::iid(0.7)});
+  ASSERT_EQ(margins.size(), 2u);
+  EXPECT_TRUE(margins[0].any_positive) << margins[0].note;
+  EXPECT_EQ(margins[0].band.converges_at, 0.0);
+  EXPECT_DOUBLE_EQ(margins[0].margin, 0.2);
+  EXPECT_FALSE(margins[1].any_positive);
+  EXPECT_EQ(margins[1].band.converges_at, 0.0) << margins[1].note;
+  EXPECT_NE(margins[1].note.find("cover"), std::string::npos);
+  const StabilityReport rep = analyzeStability(m, iidLinks({0.2, 0.7}));
+  EXPECT_EQ(rep.model.exact_rate, 0.0);
+  EXPECT_EQ(rep.model.verdict.kind, Verdict::Kind::STABLE);
+  EXPECT_TRUE(rep.links[0].margin.any_positive);
+  // Velocity only: the position is dead-reckoned (grows regardless of the links).
+  const Model vel = multiModel(mat(2, 2, {1, 0.1, 0, 1}), {mat(1, 2, {0, 1})});
+  const StabilityReport rv = analyzeStability(vel, iidLinks({0.5}));
+  EXPECT_FALSE(rv.dead_reckoned.empty());
+  EXPECT_NE(rv.dead_reckoned.find("states 0 "), std::string::npos) << rv.dead_reckoned;
+  EXPECT_EQ(rv.model.verdict.kind, Verdict::Kind::STABLE) << rv.model.verdict.reason;
+  EXPECT_EQ(SetVerdicts(vel, {0}).deadReckoned(), rv.dead_reckoned);
+}
+
+// SetVerdicts computes the model's part once: the same verdicts and margins as the free functions.
+TEST(StabilityJordan, SetVerdictsAgreeWithFreeFunctions)
+{
+  const Model m = multiModel(mat(3, 3, {1.2, 1, 0, 0, 1.2, 0, 0, 0, 0.5}),
+                             {mat(1, 3, {1, 0, 1}), mat(1, 3, {0, 1, 0})});
+  const SetVerdicts sv(m, {0, 1});
+  EXPECT_TRUE(sv.exact());
+  for (double a : {0.1, 0.3, 0.5})
+    for (double b : {0.0, 0.4, 0.9})
+    {
+      const std::vector<LinkModel> links = {LinkModel::iid(a), LinkModel::iid(b)};
+      EXPECT_EQ(sv.verdict(links).reason, stabilityVerdict(m, {0, 1}, links).reason);
+      const auto m1 = sv.margins(links), m2 = sensorMargins(m, links);
+      for (std::size_t i = 0; i < 2; ++i)
+        EXPECT_EQ(m1[i].note, m2[i].note);
+    }
+  EXPECT_THROW(sv.verdict({LinkModel::iid(0.5)}), std::invalid_argument);
+  EXPECT_THROW(SetVerdicts(m, {0, 2}), std::invalid_argument);
+  EXPECT_THROW(SetVerdicts(m, {0}).margins({LinkModel::iid(0.5)}), std::invalid_argument);
 }

@@ -429,3 +429,73 @@ TEST(StabilityMonteCarlo, ScheduledExampleThroughTheSimulator)
       EXPECT_LT(ratio, at_one);
   }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Modes on the unit circle and Jordan structure (docs/stability.md 3.5c, 3.5d)
+
+// A constant-velocity model (x = [position, velocity], T = 0.1, Q = I), a position sensor on a
+// slow link and a velocity sensor that always arrives. Theorem 14 on the unit circle: bounded at
+// every positive position rate, unbounded at rate 0 (the position is then dead-reckoned from the
+// velocity, whose error keeps adding up).
+//  - At rate 0.05 the position error is reset on average every 20 steps and the covariance's
+//    dependence on the start decays like 0.95^k: by k = 400 E[tr P_k] is at its stationary value,
+//    so E[tr P_800] / E[tr P_400] = 1 up to sampling noise. tr P_k over the runs has a standard
+//    deviation of the order of its mean (it grows with the time since the last fix, a geometric
+//    variable); with 4000 runs the relative standard error of each mean is about 1/sqrt(4000) =
+//    1.6 %, so the ratio is within 5 % of 1 (more than 2 standard errors of the ratio) and we
+//    require < 1.1.
+//  - At rate 0 P_k is deterministic (the velocity always arrives, the position never) and its
+//    position variance grows linearly: the integrated velocity error plus the position noise of Q,
+//    at least 1 per step. So tr P_800 - tr P_400 >= 400, and the ratio is about 2; we require > 1.8.
+TEST(StabilityMonteCarlo, ConstantVelocityNeedsAnyPositivePositionRate)
+{
+  const Model m = multiModel(mat(2, 2, {1, 0.1, 0, 1}), {mat(1, 2, {1, 0}), mat(1, 2, {0, 1})});
+  EXPECT_EQ(stabilityVerdict(m, {0, 1}, {LinkModel::iid(0.05), LinkModel::iid(1.0)}).kind, Verdict::Kind::STABLE);
+  EXPECT_EQ(stabilityVerdict(m, {0, 1}, {LinkModel::iid(0.0), LinkModel::iid(1.0)}).kind, Verdict::Kind::UNSTABLE);
+  EXPECT_TRUE(sensorMargins(m, {LinkModel::iid(0.05), LinkModel::iid(1.0)})[0].any_positive);
+  const std::vector<double> slow = meanTrace(m, iidChannels({0.05, 1.0}), 4000, 800, 31);
+  const std::vector<double> none = meanTrace(m, iidChannels({0.0, 1.0}), 1, 800, 31);
+  const double r_slow = slow[799] / slow[399], r_none = none[799] / none[399];
+  std::printf("constant velocity: E[tr P_800] / E[tr P_400] = %.4f at position rate 0.05, %.4f at rate 0 (tr P_800 "
+              "= %.1f)\n",
+              r_slow, r_none, none[799]);
+  EXPECT_LT(r_slow, 1.1);
+  EXPECT_GT(r_none, 1.8);
+  EXPECT_GE(none[799] - none[399], 400.0);
+}
+
+// A Jordan block at 1.2 with sensor 1 c = [1 0] (observes the block from two packets) and sensor 2
+// c = [0 1] (sees the block but not its eigenvector: it never bounds the first coordinate). The
+// kernel lattice holds span(e1), which only sensor 1 informs on, so Phi = 1 - lambda_1 whatever
+// sensor 2 does, and sensor 1 needs 1 - 1/1.44 = 0.305556 (before, "neither Proposition 24 nor
+// Corollary 26 applies" left this undecided). Sensor 1 is put at 1 - lambda_1 = f / 1.44 with
+// f = 1.3 (below) and 0.7 (above), sensor 2 at 0.9. The burst model of PerSensorBoundaryTwoSystems
+// with g = f, plus the Jordan block's polynomial factor (a burst of j steps inflates P by about
+// j^2 1.44^j): above the boundary the partial sums of j^2 0.7^j are 31.8 at j = 10 and 43.0 at
+// j = 20 (a factor 1.35, and they converge), so E[tr P_20] / E[tr P_10] stays below 1.909 (its
+// value for g = 1 without the factor); below it the terms grow like j^2 1.3^j and the ratio
+// exceeds it (the partial sums grow by a factor of about 25). With 20000 runs the bursts
+// that matter are seen >= 1000 times (probability (1.3/1.44)^20 >= 0.12 at f = 1.3).
+TEST(StabilityMonteCarlo, JordanBlockSeenWithoutItsEigenvector)
+{
+  const Model m = multiModel(mat(2, 2, {1.2, 1, 0, 1.2}), {mat(1, 2, {1, 0}), mat(1, 2, {0, 1})});
+  const StabilityReport rep = analyzeStability(m, iidLinks({0.5, 0.9}));
+  const SensorMargin& mg = rep.links[0].margin;
+  ASSERT_TRUE(mg.half_line);
+  EXPECT_NEAR(mg.band.converges_at, 1.0 - 1.0 / 1.44, 1e-6) << mg.note;
+  const int k1 = 10, k2 = 20, runs = 20000;
+  for (double f : {1.3, 0.7})
+  {
+    const double lambda1 = 1.0 - f / 1.44;
+    const Verdict v = stabilityVerdict(m, {0, 1}, {LinkModel::iid(lambda1), LinkModel::iid(0.9)});
+    EXPECT_EQ(v.kind, f > 1.0 ? Verdict::Kind::UNSTABLE : Verdict::Kind::STABLE) << v.reason;
+    const std::vector<double> mean = meanTrace(m, iidChannels({lambda1, 0.9}), runs, k2, 4242);
+    const double ratio = mean[k2 - 1] / mean[k1 - 1];
+    std::printf("Jordan block, sensor 1 at %.4f (f = %.1f): E[tr P_%d] / E[tr P_%d] = %.3f\n", lambda1, f, k2, k1,
+                ratio);
+    if (f > 1.0)
+      EXPECT_GT(ratio, burstRatio(1.0, k1, k2));
+    else
+      EXPECT_LT(ratio, burstRatio(1.0, k1, k2));
+  }
+}

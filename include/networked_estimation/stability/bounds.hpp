@@ -1,6 +1,6 @@
-// Yang et al.'s bounds for multi-sensor Kalman filtering with intermittent measurements (docs/
-// stability.md 3.1-3.3, 3.8): the necessary lower bound, capacities, the closed-form bound, the
-// lower-bound recursions, and the MARE upper bound with its certificate and bisection. ROS-free.
+// Yang et al.'s bounds for multi-sensor Kalman filtering with intermittent measurements
+// (docs/stability.md 3.1-3.3, 3.8): the necessary lower bound, capacities, the closed-form bound,
+// the lower-bound recursions, and the MARE upper bound with its certificate and bisection. ROS-free.
 #pragma once
 
 #include <Eigen/Dense>

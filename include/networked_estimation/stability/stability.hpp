@@ -19,6 +19,7 @@
 
 #include <Eigen/Dense>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -55,6 +56,10 @@ struct RateAnalysis
 {
   std::string name;
   std::vector<int> sensors;  ///< indices into Model::sensors
+  /// Modes with |lambda| >= 1 that this set does not observe even when every message arrives: they
+  /// grow whatever the links do (docs/stability.md 2.2), so everything below, thresholds and
+  /// verdict, concerns the other (observed) modes. Empty when there are none.
+  std::string dead_reckoned;
   // i.i.d. arrivals at a common rate lambda on every sensor of the set
   double lower_bound = 0.0;  ///< necessary: 1 - rho^{-2/N} (Yang Theorem 1 / Sinopoli)
   double closed_form_upper = std::numeric_limits<double>::quiet_NaN();  ///< N = 1: 1 - 1/M^2; N > 1: Yang Thm 5 common rate
@@ -104,6 +109,9 @@ struct SensorMargin
   /// half_line: value - converges_at. Otherwise the distance from value to the nearest edge of the
   /// stable set: positive inside a stable interval, negative outside.
   double margin = std::numeric_limits<double>::quiet_NaN();
+  /// Stable at every positive rate and unstable at 0 (a mode on the unit circle that only this link
+  /// covers): "needs > 0". The band is then [0, 0] and the margin the rate itself.
+  bool any_positive = false;
 };
 
 /// One sensor's link and what it needs.
@@ -130,6 +138,10 @@ struct StabilityReport
   Verdict strong_observability;   ///< of (A, C) (all sensors stacked)
   bool noise_excites_unstable_modes = true;  ///< PBH: (A, B Q^1/2) controllable on every |lambda| >= 1
   bool detectable = true;                    ///< PBH: (C, A) observable on every |lambda| >= 1
+  /// The modes with |lambda| >= 1 that no sensor observes even when every message arrives (not
+  /// detectable): they grow whatever the links do, and the link verdicts, thresholds, capacities and
+  /// MARE concern the observed modes (docs/stability.md 2.2). Empty when there are none.
+  std::string dead_reckoned;
   bool has_channel = false;       ///< some sensor has a channel
   bool uniform_links = true;      ///< every sensor has the same link (then `link` is that link)
   LinkModel link;                 ///< the channel of every sensor (uniform_links), else of sensor 0
@@ -156,9 +168,13 @@ struct StabilityReport
 struct AnalysisOptions
 {
   bool per_sensor = true;  ///< each sensor alone (StabilityReport::sensors) and each sensor's margin
+  /// Fall back on the MARE upper bound when Theorem 14 cannot decide (off: such a verdict is
+  /// undecided at once; the live diagnostic, which evaluates every second, turns it off).
+  bool use_mare = true;
   double bisection_tolerance = 1e-4;  ///< MARE bisections (and margins decided by the MARE)
   double exact_tolerance = 1e-7;      ///< margins and intervals decided by Theorem 14
   int scan_points = 200;              ///< scan of a rate whose stable set is not a half-line
+  std::size_t lattice_cap = 512;      ///< kernel lattices larger than this are not computed (UNAVAILABLE)
   MareOptions mare;
   StabilityTolerances tol;
 };
@@ -177,6 +193,32 @@ StabilityReport analyzeStability(const Model& model, const ChannelSettings* sens
 /// sensors' links fixed (the report's per-sensor margins, computed the same way).
 std::vector<SensorMargin> sensorMargins(const Model& model, const std::vector<LinkModel>& links,
                                         const AnalysisOptions& options = {});
+
+/// The verdicts of one set of the model's sensors (indices into Model::sensors) for any links, with
+/// what depends on the model alone (its observed part, the blocks and their kernel lattices)
+/// computed once at construction: the live diagnostic evaluates it for new link estimates every
+/// second. Copies share that state.
+class SetVerdicts
+{
+public:
+  SetVerdicts(const Model& model, const std::vector<int>& set, const AnalysisOptions& options = {});
+  /// stabilityVerdict(model, set, links, options), links one per member of the set.
+  Verdict verdict(const std::vector<LinkModel>& links) const;
+  /// sensorMargins(model, links, options); the set must be every sensor of the model.
+  std::vector<SensorMargin> margins(const std::vector<LinkModel>& links) const;
+  /// The modes with |lambda| >= 1 that the set does not observe even when every message arrives
+  /// (they grow whatever the links do; docs/stability.md 2.2), described; empty when there are none.
+  const std::string& deadReckoned() const;
+  /// Theorem 14 decides every block (no fallback on the bounds is needed).
+  bool exact() const;
+  /// The FMO blocks with |alpha| >= 1 of the observed modes, with their kernel lattices (for the
+  /// whitened sensors of the set).
+  const std::vector<BlockStructure>& blocks() const;
+
+private:
+  struct Impl;
+  std::shared_ptr<const Impl> impl_;
+};
 
 /// The verdict of docs/stability.md 2.1 for the model's sensors `set` with links (one per sensor of
 /// the set): the function that analyzeStability and the per-sensor margins use.

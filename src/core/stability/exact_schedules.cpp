@@ -12,7 +12,7 @@
 namespace networked_estimation
 {
 
-using stability_internal::spectralRadiusSmall;
+using stability_internal::linkGrowth;
 
 namespace
 {
@@ -28,12 +28,9 @@ long gcdLong(long a, long b)
   return a;
 }
 
-/// seen(e, j, s): does sensor j give information on lattice element e at shift s (s < order)?
-/// A single-eigenvalue block is one element, seen at every shift by its relevant sensors.
+/// seen(e, j, s): does sensor j give information on lattice element e at shift s (any s >= 0)?
 bool seenAt(const BlockStructure& block, std::size_t e, std::size_t j, int s)
 {
-  if (block.method == BlockStructure::Method::SINGLE_EIGENVALUE)
-    return block.relevant[j];
   return block.seen[e][j][static_cast<std::size_t>(s % block.block.order)];
 }
 
@@ -42,23 +39,31 @@ bool seenAt(const BlockStructure& block, std::size_t e, std::size_t j, int s)
 double blockPhiScheduled(const BlockStructure& block, const std::vector<LinkModel>& links, const Schedule& schedule,
                          std::string* why, std::size_t max_states)
 {
-  if (!schedule.active())
-    return blockPhi(block, links);
+  return blockGrowth(block, links, &schedule, why, max_states).phi;
+}
+
+BlockGrowth blockGrowth(const BlockStructure& block, const std::vector<LinkModel>& links, const Schedule* schedule,
+                        std::string* why, std::size_t max_states)
+{
+  if (!schedule || !schedule->active())
+    return blockGrowth(block, links);
+  BlockGrowth best;
   if (block.method == BlockStructure::Method::UNAVAILABLE)
-    return std::numeric_limits<double>::quiet_NaN();
-  const bool single = block.method == BlockStructure::Method::SINGLE_EIGENVALUE;
-  const int N = single ? 1 : block.block.order;
-  const std::size_t elements = single ? 1 : block.seen.size();
+    return best;
+  best.phi = 0.0;
+  const int N = block.block.order;
+  const std::size_t elements = block.seen.size();
   const std::size_t S = links.size();
-  double best = 0.0;
-  if (schedule.kind == Schedule::Kind::PERIODIC)
+  if (schedule->kind == Schedule::Kind::PERIODIC)
   {
-    const long tau = static_cast<long>(schedule.pattern.size());
+    const long tau = static_cast<long>(schedule->pattern.size());
     const long M = N / gcdLong(N, tau) * tau;
     for (long t0 = 0; t0 < tau; ++t0)
       for (std::size_t e = 0; e < elements; ++e)
       {
-        double phi = 1.0;
+        BlockGrowth element;
+        element.phi = 1.0;
+        element.one = true;
         for (std::size_t j = 0; j < S; ++j)
         {
           const Eigen::MatrixXd P = links[j].transition();
@@ -67,19 +72,22 @@ double blockPhiScheduled(const BlockStructure& block, const std::vector<LinkMode
           Eigen::MatrixXd prod = Eigen::MatrixXd::Identity(P.rows(), P.cols());
           for (long s = 0; s < M; ++s)
           {
-            const bool on = schedule.pattern[static_cast<std::size_t>((t0 + s) % tau)][j];
+            const bool on = schedule->pattern[static_cast<std::size_t>((t0 + s) % tau)][j];
             const Eigen::VectorXd& d = on && seenAt(block, e, j, static_cast<int>(s % N)) ? loss : ones;
             prod = prod * d.asDiagonal() * P;
           }
-          phi *= std::pow(spectralRadiusSmall(prod), 1.0 / static_cast<double>(M));
+          const BlockGrowth g = linkGrowth(prod, 1.0 / static_cast<double>(M));
+          element.phi *= g.phi;
+          element.one = element.one && g.one;
         }
-        best = std::max(best, phi);
+        best.phi = std::max(best.phi, element.phi);
+        best.one = best.one || element.one;
       }
     return best;
   }
   // RANDOM: the joint chain (schedule state, link states), states enumerated with the schedule
   // state slowest and link j's state at stride prod_{i > j} |states_i|.
-  const Eigen::Index K = schedule.transition.rows();
+  const Eigen::Index K = schedule->transition.rows();
   std::vector<Eigen::Index> sizes(S);
   std::size_t total = static_cast<std::size_t>(K);
   for (std::size_t j = 0; j < S; ++j)
@@ -92,9 +100,10 @@ double blockPhiScheduled(const BlockStructure& block, const std::vector<LinkMode
     if (why)
       *why = "the random schedule's joint chain (schedule state x link states) has " + std::to_string(total) +
              " states, more than " + std::to_string(max_states);
-    return std::numeric_limits<double>::quiet_NaN();
+    best.phi = std::numeric_limits<double>::quiet_NaN();
+    return best;
   }
-  Eigen::MatrixXd T = schedule.transition;
+  Eigen::MatrixXd T = schedule->transition;
   for (std::size_t j = 0; j < S; ++j)
   {
     const Eigen::MatrixXd P = links[j].transition();
@@ -121,7 +130,7 @@ double blockPhiScheduled(const BlockStructure& block, const std::vector<LinkMode
           state[j] = rest % sizes[j];
           rest /= sizes[j];
         }
-        const std::vector<bool>& on = schedule.subsets[static_cast<std::size_t>(rest)];
+        const std::vector<bool>& on = schedule->subsets[static_cast<std::size_t>(rest)];
         double p_none = 1.0;
         for (std::size_t j = 0; j < S; ++j)
           if (on[j] && seenAt(block, e, j, s))
@@ -130,7 +139,9 @@ double blockPhiScheduled(const BlockStructure& block, const std::vector<LinkMode
       }
       prod = prod * d.asDiagonal() * T;
     }
-    best = std::max(best, std::pow(spectralRadiusSmall(prod), 1.0 / N));
+    const BlockGrowth g = linkGrowth(prod, 1.0 / N);
+    best.phi = std::max(best.phi, g.phi);
+    best.one = best.one || g.one;
   }
   return best;
 }

@@ -42,10 +42,12 @@ LinkDesign designLinks(const Model& model, DesignCost cost, double growth_cap)
     out.note = "not applicable: more than 12 sensors (the vertex enumeration is exponential)";
     return out;
   }
-  std::vector<Eigen::MatrixXd> C;
-  for (const Sensor& s : model.sensors)
-    C.push_back(model.C.middleRows(s.offset, s.size));
-  const std::vector<BlockStructure> blocks = analyseBlocks(model.A, C);
+  // The blocks of the modes the sensors observe (dead-reckoned modes grow whatever the links do).
+  std::vector<int> all;
+  for (std::size_t j = 0; j < S; ++j)
+    all.push_back(static_cast<int>(j));
+  const SetVerdicts verdicts(model, all);
+  const std::vector<BlockStructure>& blocks = verdicts.blocks();
   Polyhedron poly;
   for (const BlockStructure& b : blocks)
   {
@@ -55,22 +57,15 @@ LinkDesign designLinks(const Model& model, DesignCost cost, double growth_cap)
       return out;
     }
     const double rhs = 2.0 * std::log(b.block.modulus) - std::log(growth_cap);
-    const bool single = b.method == BlockStructure::Method::SINGLE_EIGENVALUE;
-    const std::size_t elements = single ? 1 : b.seen.size();
-    for (std::size_t e = 0; e < elements; ++e)
+    for (std::size_t e = 0; e < b.seen.size(); ++e)
     {
       Eigen::VectorXd w = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(S));
       for (std::size_t j = 0; j < S; ++j)
       {
-        if (single)
-          w[static_cast<Eigen::Index>(j)] = b.relevant[j] ? 1.0 : 0.0;
-        else
-        {
-          int n = 0;
-          for (int s = 0; s < b.block.order; ++s)
-            n += b.seen[e][j][static_cast<std::size_t>(s)] ? 1 : 0;
-          w[static_cast<Eigen::Index>(j)] = static_cast<double>(n) / b.block.order;
-        }
+        int n = 0;
+        for (int s = 0; s < b.block.order; ++s)
+          n += b.seen[e][j][static_cast<std::size_t>(s)] ? 1 : 0;
+        w[static_cast<Eigen::Index>(j)] = static_cast<double>(n) / b.block.order;
       }
       if (w.isZero())
       {
@@ -166,10 +161,7 @@ LinkDesign designLinks(const Model& model, DesignCost cost, double growth_cap)
     links.push_back(LinkModel::iid(out.rates[j]));
   }
   out.cost_value = best;
-  std::vector<int> all;
-  for (std::size_t j = 0; j < S; ++j)
-    all.push_back(static_cast<int>(j));
-  out.check = stabilityVerdict(model, all, links);
+  out.check = verdicts.verdict(links);
   // Each sensor alone (the others lossless): the least u_j with the others at u = inf, i.e. the
   // rows that this sensor must satisfy by itself are those no other sensor enters.
   out.alone.assign(S, 0.0);
@@ -189,6 +181,8 @@ LinkDesign designLinks(const Model& model, DesignCost cost, double growth_cap)
   }
   out.note = "exact: vertex enumeration of the stable set of Theorem 14 (" + std::to_string(out.vertices) +
              " vertices), i.i.d. links, |alpha_k|^2 Phi_k <= " + std::to_string(growth_cap).substr(0, 4);
+  if (!verdicts.deadReckoned().empty())
+    out.note += "; dead-reckoned: " + verdicts.deadReckoned();
   return out;
 }
 

@@ -37,8 +37,20 @@ void halfLine(const KindAt& kind, double tol, SensorMargin& out)
   }
   const Verdict::Kind k0 = kind(0.0);
   ++band.evaluations;
+  // Unstable at 0 and stable just above it: a mode on the unit circle that only this rate covers
+  // (docs/stability.md 3.5d): every positive rate is stable.
+  const double tiny = 1e-12;
+  const bool positive = k0 == Verdict::Kind::UNSTABLE && kind(tiny) == Verdict::Kind::STABLE;
+  if (k0 == Verdict::Kind::UNSTABLE)
+    ++band.evaluations;
   if (k0 == Verdict::Kind::STABLE)
   {
+    band.converges_at = 0.0;
+  }
+  else if (positive)
+  {
+    out.any_positive = true;
+    band.diverges_at = 0.0;
     band.converges_at = 0.0;
   }
   else if (k0 == Verdict::Kind::UNDECIDED)
@@ -135,12 +147,11 @@ std::string intervals(const std::vector<RateInterval>& stable)
   return out.empty() ? "none" : out;
 }
 
-/// The rate sensor i needs in the set of all sensors, the others' links fixed.
-SensorMargin sensorMargin(const Context& ctx, const SetData& all, int i)
+SensorMargin sensorMargin(const Context& ctx, const SetData& all, const std::vector<LinkModel>& links, int i)
 {
   const AnalysisOptions& opt = *ctx.options;
   SensorMargin m;
-  const LinkModel& own = ctx.links[i];
+  const LinkModel& own = links[i];
   std::function<LinkModel(double)> make;
   if (own.kind == LinkModel::Kind::IID)
   {
@@ -162,11 +173,11 @@ SensorMargin sensorMargin(const Context& ctx, const SetData& all, int i)
     return m;
   }
   const KindAt kind = [&](double x) {
-    std::vector<LinkModel> links = ctx.links;
-    links[i] = make(x);
-    return setVerdict(ctx, all, links).kind;
+    std::vector<LinkModel> at = links;
+    at[i] = make(x);
+    return linkVerdict(ctx, all, at).kind;
   };
-  const Verdict now = setVerdict(ctx, all, ctx.links);
+  const Verdict now = linkVerdict(ctx, all, links);
   if (now.kind == Verdict::Kind::NOT_APPLICABLE)
   {
     m.quantity.clear();
@@ -188,7 +199,18 @@ SensorMargin sensorMargin(const Context& ctx, const SetData& all, int i)
     return m;
   }
   halfLine(kind, tol, m);
-  if (std::isfinite(m.band.converges_at))
+  if (m.any_positive)
+  {
+    m.margin = m.value;
+    m.note = "others fixed; any positive rate: a mode on the unit circle that only this sensor's link covers, "
+             "unbounded at rate 0 (Theorem 14, docs/stability.md 3.5d)";
+  }
+  else if (m.band.converges_at == 0.0)
+  {
+    m.margin = m.value;
+    m.note = "others fixed; bounded even at rate 0: the other sensors cover every mode this one sees";
+  }
+  else if (std::isfinite(m.band.converges_at))
   {
     m.margin = m.value - m.band.converges_at;
     m.note = "others fixed; by bisection on " + how +
@@ -214,19 +236,10 @@ using namespace stability_internal;
 std::vector<SensorMargin> sensorMargins(const Model& model, const std::vector<LinkModel>& links,
                                         const AnalysisOptions& options)
 {
-  if (links.size() != model.sensors.size())
-    throw std::invalid_argument("sensorMargins: " + std::to_string(links.size()) + " links for " +
-                                std::to_string(model.sensors.size()) + " sensors");
-  Context ctx = modelContext(model, options);
-  ctx.links = links;
   std::vector<int> every;
   for (std::size_t i = 0; i < model.sensors.size(); ++i)
     every.push_back(static_cast<int>(i));
-  const SetData all = makeSet(ctx, every);
-  std::vector<SensorMargin> out;
-  for (std::size_t i = 0; i < model.sensors.size(); ++i)
-    out.push_back(sensorMargin(ctx, all, static_cast<int>(i)));
-  return out;
+  return SetVerdicts(model, every, options).margins(links);
 }
 
 }  // namespace networked_estimation

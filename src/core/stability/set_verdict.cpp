@@ -2,7 +2,11 @@
 #include "set_verdict.hpp"
 
 #include <cmath>
+#include <memory>
 #include <sstream>
+#include <stdexcept>
+
+#include "stability_internal.hpp"
 
 namespace networked_estimation
 {
@@ -26,6 +30,8 @@ std::vector<Eigen::MatrixXd> whitenedSensors(const Model& model)
 namespace stability_internal
 {
 
+using stability_internal::nullSpaceReal;
+
 std::string num(double v)
 {
   std::ostringstream os;
@@ -43,54 +49,144 @@ bool sameLink(const LinkModel& a, const LinkModel& b)
   return a.p == b.p && a.r == b.r && a.loss_bad == b.loss_bad && a.loss_good == b.loss_good;
 }
 
+namespace
+{
+
+/// Orthonormal basis of the largest A-invariant subspace inside span(B) (orthonormal columns):
+/// with B = ker H this is the unobservable subspace of (A, H).
+Eigen::MatrixXd invariantInside(Eigen::MatrixXd B, const Eigen::MatrixXd& A)
+{
+  const Eigen::Index n = A.rows();
+  while (B.cols() > 0)
+  {
+    const Eigen::MatrixXd off = (Eigen::MatrixXd::Identity(n, n) - B * B.transpose()) * A * B;
+    const Eigen::MatrixXd z = nullSpaceReal(off, 1e-9 * std::max(1.0, A.norm()));
+    if (z.cols() == B.cols())
+      break;
+    B = B * z;
+  }
+  return B;
+}
+
+/// "0, 2" of the states that make up span(B) (diagonal of the projection above 1 %).
+std::string statesOf(const Eigen::MatrixXd& B)
+{
+  std::string out;
+  const Eigen::VectorXd weight = (B * B.transpose()).diagonal();
+  for (Eigen::Index i = 0; i < weight.size(); ++i)
+    if (weight[i] > 0.01)
+      out += (out.empty() ? "" : ", ") + std::to_string(i);
+  return out;
+}
+
+}  // namespace
+
 SetData makeSet(const Context& ctx, const std::vector<int>& set)
 {
+  const Model& model = *ctx.model;
   SetData d;
   d.set = set;
+  d.A = model.A;
+  d.Qn = ctx.Qn;
+  d.rho = ctx.rho;
+  d.excited = ctx.excited;
   int rows = 0;
   for (int i : set)
   {
     d.H.push_back(ctx.H[i]);
     rows += static_cast<int>(ctx.H[i].rows());
   }
-  d.Hs.resize(rows, ctx.model->n());
+  d.Hs.resize(rows, model.n());
   int r0 = 0;
   for (const auto& h : d.H)
   {
     d.Hs.middleRows(r0, h.rows()) = h;
     r0 += static_cast<int>(h.rows());
   }
-  d.stable_A = ctx.rho < 1.0;
-  d.detectable = modesObservable(ctx.model->A, d.Hs, 1.0, 1e-9);
-  d.blocks = analyseBlocks(ctx.model->A, d.H, ctx.options->tol);
-  if (ctx.model->schedule.active())
-    d.schedule = restrictSchedule(ctx.model->schedule, set);
+  d.detectable = modesObservable(model.A, d.Hs, 1.0, 1e-9);
+  if (!d.detectable)
+  {
+    // Modes with |lambda| >= 1 that the set does not observe even when every message arrives grow
+    // whatever the links do (dead reckoning): they are reported apart, and the verdict concerns the
+    // rest, the quotient of the state by the unobservable subspace N (docs/stability.md 2.2). N is
+    // A-invariant, so in an orthonormal basis [U_o U_n] with U_n spanning N the observed coordinates
+    // z = U_o' x evolve on their own: z' = (U_o' A U_o) z + U_o' B w, y_i = H_i U_o z + v_i.
+    const Eigen::MatrixXd Un = invariantInside(nullSpaceReal(d.Hs, 1e-9), model.A);
+    Eigen::MatrixXd basis(model.n(), model.n());
+    basis << Un, nullSpaceReal(Un.transpose(), 1e-9);
+    const Eigen::MatrixXd Uo = basis.rightCols(model.n() - Un.cols());
+    const Eigen::MatrixXd An = Un.transpose() * model.A * Un;
+    const Eigen::VectorXcd ev = eigenvalues(An);
+    std::ostringstream os;
+    int growing = 0;
+    os << "(";
+    for (Eigen::Index i = 0; i < ev.size(); ++i)
+      if (std::abs(ev[i]) >= 1.0 - ctx.options->tol.modulus)
+      {
+        os << (growing ? ", " : "") << num(ev[i].real());
+        if (ev[i].imag() != 0.0)
+          os << (ev[i].imag() > 0 ? "+" : "-") << num(std::abs(ev[i].imag())) << "i";
+        ++growing;
+      }
+    os << ")";
+    d.dead_reckoned = std::to_string(growing) + " mode(s) with |lambda| >= 1 " + os.str() + " of states " +
+                      statesOf(Un) + " that no sensor observes even when every message arrives: grow regardless "
+                                     "of the links";
+    d.unobserved = static_cast<int>(Un.cols());
+    d.observed_basis = Uo;
+    d.A = Uo.transpose() * model.A * Uo;
+    d.Qn = Uo.transpose() * ctx.Qn * Uo;
+    d.Qn = 0.5 * (d.Qn + d.Qn.transpose());
+    for (auto& h : d.H)
+      h = h * Uo;
+    d.Hs = d.Hs * Uo;
+    d.rho = spectralRadius(d.A);
+    d.excited = modesControllable(d.A, Uo.transpose() * ctx.G, 1.0, 1e-9);
+    d.detectable = true;
+  }
+  d.stable_A = d.rho < 1.0;
+  d.blocks = analyseBlocks(d.A, d.H, ctx.options->tol, ctx.options->lattice_cap);
+  if (model.schedule.active())
+    d.schedule = restrictSchedule(model.schedule, set);
   return d;
 }
 
 /// The verdict of docs/stability.md 2.1 (steps 2-8) for the set with these links (one per member).
 Verdict setVerdict(const Context& ctx, const SetData& d, const std::vector<LinkModel>& links)
 {
+  Verdict v = linkVerdict(ctx, d, links);
+  if (!d.dead_reckoned.empty())
+  {
+    v.reason += "; dead-reckoned: " + d.dead_reckoned;
+    v.numbers["dead-reckoned dimension"] = d.unobserved;
+  }
+  return v;
+}
+
+Verdict linkVerdict(const Context& ctx, const SetData& d, const std::vector<LinkModel>& links)
+{
   const AnalysisOptions& opt = *ctx.options;
   Verdict v;
-  v.numbers["rho(A)"] = ctx.rho;
+  v.numbers["rho(A)"] = d.rho;
+  const std::string observed = d.dead_reckoned.empty() ? "A" : "A on the observed modes";
+  if (d.A.rows() == 0)
+  {
+    v.kind = Verdict::Kind::STABLE;
+    v.reason = "the sensors observe no mode: the links have nothing to lose";
+    return v;
+  }
   if (d.stable_A)
   {
     v.kind = Verdict::Kind::STABLE;
-    v.reason = "A is stable (rho(A) = " + num(ctx.rho) + " < 1): the expected error covariance is bounded at every rate";
+    v.reason = observed + " is stable (rho(A) = " + num(d.rho) + " < 1): the expected error covariance" +
+               (d.dead_reckoned.empty() ? "" : " of the observed modes") + " is bounded at every rate";
     return v;
   }
-  if (!ctx.excited)
+  if (!d.excited)
   {
     v.kind = Verdict::Kind::NOT_APPLICABLE;
     v.reason = "(A, B Q^1/2) has an uncontrollable mode with |lambda| >= 1; the critical-rate results assume "
                "(A, Q^1/2) controllable";
-    return v;
-  }
-  if (!d.detectable)
-  {
-    v.kind = Verdict::Kind::UNSTABLE;
-    v.reason = "a mode with |lambda| >= 1 is not observable from the sensors: unbounded at every rate";
     return v;
   }
   const Verdict exact = marelliTest(d.blocks, links, opt.tol, &d.schedule);
@@ -114,7 +210,7 @@ Verdict setVerdict(const Context& ctx, const SetData& d, const std::vector<LinkM
     if (l.kind == LinkModel::Kind::GILBERT_ELLIOTT)
       markov = true, all_iid = false;
   }
-  const double necessary = ctx.rho * ctx.rho * persistence;
+  const double necessary = d.rho * d.rho * persistence;
   v.numbers["rho^2 prod persistence"] = necessary;
   if (markov ? necessary > 1.0 + opt.tol.decision : necessary >= 1.0 - opt.tol.decision)
   {
@@ -124,12 +220,19 @@ Verdict setVerdict(const Context& ctx, const SetData& d, const std::vector<LinkM
                "; " + exact.reason;
     return v;
   }
+  if (all_iid && !opt.use_mare)
+  {
+    v.kind = Verdict::Kind::UNDECIDED;
+    v.reason = "above the necessary lower bound; the MARE upper bound is not tried here (analyze tries it); " +
+               exact.reason;
+    return v;
+  }
   if (all_iid)
   {
     std::vector<double> rates;
     for (const LinkModel& l : links)
       rates.push_back(l.arrival);
-    const Mare mare(ctx.model->A, ctx.Qn, d.H, rates);
+    const Mare mare(d.A, d.Qn, d.H, rates);
     const MareResult mr = solveMare(mare, opt.mare, true);
     v.numbers["MARE iterations"] = mr.iterations;
     v.numbers["MARE certificate rho(T)"] = mr.certificate;
@@ -180,8 +283,8 @@ Context modelContext(const Model& model, const AnalysisOptions& options)
   ctx.Qn = 0.5 * (ctx.Qn + ctx.Qn.transpose());
   ctx.H = whitenedSensors(model);
   ctx.rho = spectralRadius(model.A);
-  const Eigen::MatrixXd G = model.B * Eigen::LLT<Eigen::MatrixXd>(model.Q).matrixL().toDenseMatrix();
-  ctx.excited = modesControllable(model.A, G, 1.0, 1e-9);
+  ctx.G = model.B * Eigen::LLT<Eigen::MatrixXd>(model.Q).matrixL().toDenseMatrix();
+  ctx.excited = modesControllable(model.A, ctx.G, 1.0, 1e-9);
   return ctx;
 }
 
@@ -189,11 +292,69 @@ Context modelContext(const Model& model, const AnalysisOptions& options)
 
 using namespace stability_internal;
 
+struct SetVerdicts::Impl
+{
+  Model model;
+  AnalysisOptions options;
+  Context ctx;
+  SetData data;
+};
+
+SetVerdicts::SetVerdicts(const Model& model, const std::vector<int>& set, const AnalysisOptions& options)
+{
+  for (int i : set)
+    if (i < 0 || i >= static_cast<int>(model.sensors.size()))
+      throw std::invalid_argument("SetVerdicts: sensor index " + std::to_string(i) + " out of range (" +
+                                  std::to_string(model.sensors.size()) + " sensors)");
+  auto impl = std::make_shared<Impl>();
+  impl->model = model;
+  impl->options = options;
+  impl->ctx = modelContext(impl->model, impl->options);
+  impl->data = makeSet(impl->ctx, set);
+  impl_ = impl;
+}
+
+Verdict SetVerdicts::verdict(const std::vector<LinkModel>& links) const
+{
+  if (links.size() != impl_->data.set.size())
+    throw std::invalid_argument("SetVerdicts: " + std::to_string(links.size()) + " links for a set of " +
+                                std::to_string(impl_->data.set.size()) + " sensors");
+  return setVerdict(impl_->ctx, impl_->data, links);
+}
+
+std::vector<SensorMargin> SetVerdicts::margins(const std::vector<LinkModel>& links) const
+{
+  const std::size_t S = impl_->model.sensors.size();
+  if (impl_->data.set.size() != S)
+    throw std::invalid_argument("SetVerdicts::margins: the set must be every sensor of the model");
+  if (links.size() != S)
+    throw std::invalid_argument("sensorMargins: " + std::to_string(links.size()) + " links for " +
+                                std::to_string(S) + " sensors");
+  std::vector<SensorMargin> out;
+  for (std::size_t i = 0; i < S; ++i)
+    out.push_back(sensorMargin(impl_->ctx, impl_->data, links, static_cast<int>(i)));
+  return out;
+}
+
+const std::string& SetVerdicts::deadReckoned() const
+{
+  return impl_->data.dead_reckoned;
+}
+
+bool SetVerdicts::exact() const
+{
+  return exactAvailable(impl_->data);
+}
+
+const std::vector<BlockStructure>& SetVerdicts::blocks() const
+{
+  return impl_->data.blocks;
+}
+
 Verdict stabilityVerdict(const Model& model, const std::vector<int>& set, const std::vector<LinkModel>& links,
                          const AnalysisOptions& options)
 {
-  const Context ctx = modelContext(model, options);
-  return setVerdict(ctx, makeSet(ctx, set), links);
+  return SetVerdicts(model, set, options).verdict(links);
 }
 
 }  // namespace networked_estimation

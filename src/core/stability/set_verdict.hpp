@@ -22,6 +22,7 @@ struct Context
 {
   const Model* model = nullptr;
   Eigen::MatrixXd Qn;                  ///< B Q B'
+  Eigen::MatrixXd G;                   ///< B Q^1/2
   std::vector<Eigen::MatrixXd> H;      ///< whitened, all sensors
   double rho = 0.0;
   bool excited = true;                 ///< unstable modes controllable from the noise
@@ -37,18 +38,31 @@ bool sameLink(const LinkModel& a, const LinkModel& b);
 struct SetData
 {
   std::vector<int> set;
+  /// The part of the model the set observes: the model itself when every mode with |lambda| >= 1
+  /// is observed (detectable), else its quotient by the unobservable subspace (docs/stability.md
+  /// 2.2), in the coordinates z = observed_basis' x.
+  Eigen::MatrixXd A, Qn;
   std::vector<Eigen::MatrixXd> H;
   Eigen::MatrixXd Hs;
+  double rho = 0.0;
+  bool excited = true;  ///< the noise excites every mode of A with |lambda| >= 1
   bool stable_A = false;
-  bool detectable = true;
+  bool detectable = true;  ///< of the model itself (false: the quotient above is used)
+  int unobserved = 0;      ///< dimension of the unobservable subspace removed
+  Eigen::MatrixXd observed_basis;  ///< n x n_o, empty when nothing was removed
+  /// The modes with |lambda| >= 1 that no sensor of the set observes, described ("" when none).
+  std::string dead_reckoned;
   std::vector<BlockStructure> blocks;
   Schedule schedule;  ///< the model's schedule restricted to the set (kind NONE: none)
 };
 
 SetData makeSet(const Context& ctx, const std::vector<int>& set);
 
-/// The verdict of docs/stability.md 2.1 (steps 2-8) for the set with these links (one per member).
+/// The verdict of docs/stability.md 2.1 (steps 2-8) for the set with these links (one per member),
+/// with the dead-reckoned modes named in its reason.
 Verdict setVerdict(const Context& ctx, const SetData& d, const std::vector<LinkModel>& links);
+/// The same without the dead-reckoning note: the verdict on the modes the set observes.
+Verdict linkVerdict(const Context& ctx, const SetData& d, const std::vector<LinkModel>& links);
 
 /// Every block of the set has Theorem 14's Phi.
 bool exactAvailable(const SetData& d);
@@ -72,8 +86,9 @@ std::vector<RateInterval> scanStable(const KindAt& kind, int points, double tol)
 double intervalMargin(const std::vector<RateInterval>& stable, double value);
 /// "[a, b], [c, d]" or "none".
 std::string intervals(const std::vector<RateInterval>& stable);
-/// The rate sensor i needs in the set of all sensors, the others' links fixed.
-SensorMargin sensorMargin(const Context& ctx, const SetData& all, int i);
+/// The rate sensor i needs in the set of all sensors, the others' links (links, one per sensor)
+/// fixed.
+SensorMargin sensorMargin(const Context& ctx, const SetData& all, const std::vector<LinkModel>& links, int i);
 
 }  // namespace stability_internal
 }  // namespace networked_estimation

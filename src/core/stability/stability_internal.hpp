@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "networked_estimation/stability/exact_test.hpp"
+
 namespace networked_estimation
 {
 namespace stability_internal
@@ -52,6 +54,10 @@ inline double spectralRadiusSmall(const Eigen::MatrixXd& M)
     return std::abs(M(0, 0));
   return Eigen::EigenSolver<Eigen::MatrixXd>(M, false).eigenvalues().cwiseAbs().maxCoeff();
 }
+
+/// The growth of one link's operator over a window (product of D_s P), to the power `exponent`, and
+/// whether its spectral radius is exactly 1 (exact_test.cpp).
+BlockGrowth linkGrowth(const Eigen::MatrixXd& product, double exponent);
 
 }  // namespace stability_internal
 }  // namespace networked_estimation

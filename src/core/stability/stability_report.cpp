@@ -55,7 +55,7 @@ RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const s
   const SetData d = makeSet(ctx, set);
   const std::vector<Eigen::MatrixXd>& H = d.H;
   const bool stable_A = d.stable_A;
-  const bool detectable = d.detectable;
+  ra.dead_reckoned = d.dead_reckoned;
   std::vector<LinkModel> links;
   for (int i : set)
     links.push_back(ctx.links[i]);
@@ -71,11 +71,12 @@ RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const s
   }
   else
   {
-    ra.lower_bound = sinopoliLowerBound(ctx.rho, N);
+    ra.lower_bound = sinopoliLowerBound(d.rho, N);
     ra.recovery_lower_bound = ra.lower_bound;  // rho^2 (1 - r)^N >= 1: all sensors lost (same formula)
     ra.exact_rate = exactCriticalArrivalRate(ra.blocks);
     if (stable_A)
-      ra.exact_method = "A is stable: bounded at every rate";
+      ra.exact_method = d.dead_reckoned.empty() ? "A is stable: bounded at every rate"
+                                                : "A is stable on the observed modes: bounded at every rate";
     else if (std::isnan(ra.exact_rate))
     {
       for (const BlockStructure& b : ra.blocks)
@@ -84,6 +85,14 @@ RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const s
     }
     else if (std::isinf(ra.exact_rate))
       ra.exact_method = "an eigenvalue with |lambda| >= 1 is seen by no sensor of the set: unbounded at every rate";
+    else if (ra.exact_rate == 0.0)
+    {
+      ra.exact_method = "Theorem 14 of Marelli et al. with every block on the unit circle: any positive rate is "
+                        "stable, rate 0 is not (docs/stability.md 3.5d):";
+      for (const BlockStructure& b : ra.blocks)
+        ra.exact_method += " " + b.reason + ";";
+      ra.exact_method.pop_back();
+    }
     else
     {
       ra.exact_method = "Theorem 14 of Marelli et al.:";
@@ -91,16 +100,16 @@ RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const s
         ra.exact_method += " " + b.reason + ";";
       ra.exact_method.pop_back();
     }
-    const EntropySplit split = entropySplit(model.A, H);
+    const EntropySplit split = entropySplit(d.A, H);
     ra.closed_form_upper = stable_A ? 0.0 : split.common_rate;
 
     if (stable_A)
     {
       ra.mare.converges_at = 0.0;
     }
-    else if (detectable && ctx.excited)
+    else if (d.excited)
     {
-      ra.mare = mareCriticalRate(model.A, ctx.Qn, H, ra.lower_bound, 1.0, opt.bisection_tolerance, opt.mare);
+      ra.mare = mareCriticalRate(d.A, d.Qn, H, ra.lower_bound, 1.0, opt.bisection_tolerance, opt.mare);
     }
 
     // Markov threshold on a common recovery rate. It depends on the failure rate p only through
@@ -160,21 +169,21 @@ RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const s
     {
       ra.aoe_theorem5.kind = Verdict::Kind::NOT_APPLICABLE;
       ra.aoe_theorem5.reason = "no channel given";
-      ra.aoe_theorem5.numbers["p_t"] = aoeRecoveryThreshold(ctx.rho);
+      ra.aoe_theorem5.numbers["p_t"] = aoeRecoveryThreshold(d.rho);
     }
     else if (N != 1)
     {
       ra.aoe_theorem5.kind = Verdict::Kind::NOT_APPLICABLE;
       ra.aoe_theorem5.reason =
           std::to_string(N) + " sensors on independent links; Lin et al.'s Theorem 5 covers one packet";
-      ra.aoe_theorem5.numbers["p_t"] = aoeRecoveryThreshold(ctx.rho);
+      ra.aoe_theorem5.numbers["p_t"] = aoeRecoveryThreshold(d.rho);
     }
     else if (link.kind == LinkModel::Kind::GILBERT_ELLIOTT && !link.onOff())
     {
       ra.aoe_theorem5.kind = Verdict::Kind::NOT_APPLICABLE;
       ra.aoe_theorem5.reason = "the arrivals of a Gilbert-Elliott chain with loss_good > 0 or loss_bad < 1 are not "
                                "the two-state Markov chain of Lin et al.";
-      ra.aoe_theorem5.numbers["p_t"] = aoeRecoveryThreshold(ctx.rho);
+      ra.aoe_theorem5.numbers["p_t"] = aoeRecoveryThreshold(d.rho);
     }
     else
     {
@@ -182,7 +191,8 @@ RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const s
       const double rec = link.kind == LinkModel::Kind::IID ? link.arrival : link.r;
       const double fail = link.kind == LinkModel::Kind::IID ? 1.0 - link.arrival : link.p;
       const Sensor& s = model.sensors[set[0]];
-      ra.aoe_theorem5 = aoeTheorem5(model.A, model.C.middleRows(s.offset, s.size), ctx.Qn,
+      const Eigen::MatrixXd Cs = model.C.middleRows(s.offset, s.size);
+      ra.aoe_theorem5 = aoeTheorem5(d.A, d.observed_basis.size() ? Eigen::MatrixXd(Cs * d.observed_basis) : Cs, d.Qn,
                                     model.R.block(s.offset, s.offset, s.size, s.size), rec, fail, opt.tol);
     }
   }
@@ -267,8 +277,10 @@ std::string capacityNote(const StabilityReport& rep, bool any_markov)
   return out;
 }
 
-/// Yang et al.'s MARE at the report's rate vector (i.i.d. links only).
-void mareAtRates(const Context& ctx, const std::vector<double>& rates, bool any_markov, StabilityReport& rep)
+/// Yang et al.'s MARE at the report's rate vector (i.i.d. links only), on the modes every sensor
+/// together observes (`all`).
+void mareAtRates(const Context& ctx, const SetData& all, const std::vector<double>& rates, bool any_markov,
+                 StabilityReport& rep)
 {
   if (any_markov)
   {
@@ -280,12 +292,12 @@ void mareAtRates(const Context& ctx, const std::vector<double>& rates, bool any_
     rep.mare_at_rates = "not applicable: a sensor schedule (the MARE bound assumes every sensor transmits at every step)";
     return;
   }
-  if (!ctx.excited)
+  if (!all.excited)
   {
     rep.mare_at_rates = "not applicable: the noise does not excite every unstable mode";
     return;
   }
-  const Mare mare(ctx.model->A, ctx.Qn, ctx.H, rates);
+  const Mare mare(all.A, all.Qn, all.H, rates);
   const MareResult mr = solveMare(mare, ctx.options->mare, true);
   rep.mare_at_rates_certificate = mr.certificate;
   if (mr.status == MareResult::Status::CONVERGED)
@@ -347,6 +359,11 @@ StabilityReport analyzeStability(const Model& model, const std::vector<std::opti
     rep.uniform_links = rep.uniform_links && sameLink(ctx.links[i], ctx.links[0]);
     any_markov = any_markov || ctx.links[i].kind == LinkModel::Kind::GILBERT_ELLIOTT;
   }
+  std::vector<int> all;
+  for (std::size_t i = 0; i < model.sensors.size(); ++i)
+    all.push_back(static_cast<int>(i));
+  const SetData all_set = makeSet(ctx, all);
+  rep.dead_reckoned = all_set.dead_reckoned;
   if (ctx.has_channel)
   {
     rep.has_channel = true;
@@ -360,17 +377,14 @@ StabilityReport analyzeStability(const Model& model, const std::vector<std::opti
       rates.push_back(ctx.links[i].arrivalRate());
       rows.push_back(model.sensors[i].size);
     }
-    rep.capacity = transmissionCapacity(model.A, rates, rows);
+    rep.capacity = transmissionCapacity(all_set.A, rates, rows);
     rep.capacity_note = capacityNote(rep, any_markov);
     if (model.schedule.active())
       rep.capacity_note += "; it ignores the sensor schedule";
-    mareAtRates(ctx, rates, any_markov, rep);
+    mareAtRates(ctx, all_set, rates, any_markov, rep);
   }
-  rep.entropy_split = entropySplit(model.A, ctx.H);
+  rep.entropy_split = entropySplit(all_set.A, all_set.H);
 
-  std::vector<int> all;
-  for (std::size_t i = 0; i < model.sensors.size(); ++i)
-    all.push_back(static_cast<int>(i));
   // The sets are independent (analyseSet reads ctx only): the per-sensor analyses run in parallel
   // with the model's, a thread each (the MARE bisections dominate for unstable models).
   std::vector<std::future<RateAnalysis>> per_sensor;
@@ -387,12 +401,12 @@ StabilityReport analyzeStability(const Model& model, const std::vector<std::opti
 
   if (ctx.has_channel)
   {
-    const SetData all_set = makeSet(ctx, all);
     std::vector<std::future<SensorMargin>> margins;
     if (options.per_sensor)
       for (std::size_t i = 0; i < S; ++i)
-        margins.push_back(std::async(i + 1 == S ? std::launch::deferred : std::launch::async,
-                                     [&ctx, &all_set, i] { return sensorMargin(ctx, all_set, static_cast<int>(i)); }));
+        margins.push_back(std::async(i + 1 == S ? std::launch::deferred : std::launch::async, [&ctx, &all_set, i] {
+          return sensorMargin(ctx, all_set, ctx.links, static_cast<int>(i));
+        }));
     for (std::size_t i = 0; i < S; ++i)
     {
       SensorLinkReport lr;
