@@ -6,8 +6,12 @@
 //                           per-sensor verdicts and margins included: the work of
 //                           `analyze --model M --channel s1=A.yaml --channel s2=B.yaml ...`
 //   analyze_common/n/S      the same with one i.i.d. channel for every sensor
-//   live_evaluate/n/S       LiveStability::evaluate on a full window (i.i.d. and Markov modes):
+//   live_evaluate/n/S/M/C   LiveStability::evaluate on a full window (M: i.i.d. 0 or Markov 1;
+//                           C: cache off 0, a second with new data, or on 1, a second without):
 //                           what the Estimator nodelet spends at most once a second
+//   live_second/n/S/M/F     the same after F new steps (cache on: a second of an F Hz stream)
+//   live_model/NAME/MODE    from scratch, on each model given with --model FILE; live_model_second
+//                           after 50 new steps
 //
 // Models: random, reproducible (fixed seed): A = V diag(eigenvalues) V^-1 with three unstable real
 // modes (1.05..1.4), the rest stable; sensor j sees a random row (two rows for every third
@@ -16,6 +20,7 @@
 #include <benchmark/benchmark.h>
 
 #include <Eigen/Dense>
+#include <cstdio>
 #include <optional>
 #include <string>
 #include <vector>
@@ -119,20 +124,23 @@ void analyzeCommon(benchmark::State& state)
   }
 }
 
-void liveEvaluate(benchmark::State& state)
+/// One evaluation of the live diagnostic on a full window of i.i.d. arrivals (sensor j at
+/// 0.7 + 0.1 j / S). cache off: everything from scratch (the first evaluation of a full window);
+/// on: nothing new since the last evaluation (a second without input); `fresh` > 0: that many new
+/// steps before each evaluation, cache on (a second of a stream at that rate; the steps themselves
+/// are not timed).
+void liveOn(benchmark::State& state, const Model& m, bool markov, bool cache, int fresh = 0)
 {
-  const int n = static_cast<int>(state.range(0)), S = static_cast<int>(state.range(1));
-  const bool markov = state.range(2) != 0;
-  const Model m = randomUnstableModel(n, S, 7);
+  const int n = m.n(), S = static_cast<int>(m.sensors.size());
   EstimatorSettings settings;
   settings.algorithm = Algorithm::KFIO;
   LiveStabilityOptions o;
   o.markov = markov;
+  o.cache = cache;
   LiveStability live(m, settings, o);
   Rng rng(3);
   const Eigen::MatrixXd P = Eigen::MatrixXd::Identity(n, n);
-  for (std::size_t k = 0; k < o.window; ++k)
-  {
+  const auto step = [&] {
     std::vector<bool> arrived(S);
     bool any = false;
     for (int j = 0; j < S; ++j)
@@ -141,13 +149,36 @@ void liveEvaluate(benchmark::State& state)
       any = any || arrived[j];
     }
     live.add(arrived, any, P, false);
-  }
+  };
+  for (std::size_t k = 0; k < o.window; ++k)
+    step();
+  live.evaluate();
   for (auto _ : state)
   {
+    if (fresh > 0)
+    {
+      state.PauseTiming();
+      for (int k = 0; k < fresh; ++k)
+        step();
+      state.ResumeTiming();
+    }
     const LiveStabilityReport rep = live.evaluate();
     benchmark::DoNotOptimize(rep.values.size());
   }
-  state.SetLabel(markov ? "markov" : "iid");
+  state.SetLabel(std::string(markov ? "markov" : "iid") +
+                 (fresh > 0 ? ", " + std::to_string(fresh) + " new steps" : cache ? ", cached" : "") + ": " + m.name);
+}
+
+void liveSecond(benchmark::State& state)
+{
+  const int n = static_cast<int>(state.range(0)), S = static_cast<int>(state.range(1));
+  liveOn(state, randomUnstableModel(n, S, 7), state.range(2) != 0, true, static_cast<int>(state.range(3)));
+}
+
+void liveEvaluate(benchmark::State& state)
+{
+  const int n = static_cast<int>(state.range(0)), S = static_cast<int>(state.range(1));
+  liveOn(state, randomUnstableModel(n, S, 7), state.range(2) != 0, state.range(3) != 0);
 }
 
 }  // namespace
@@ -174,10 +205,52 @@ int main(int argc, char** argv)
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
   benchmark::RegisterBenchmark("live_evaluate", liveEvaluate)
-      ->Args({6, 3, 0})
-      ->Args({6, 3, 1})
+      ->Args({6, 3, 0, 0})
+      ->Args({6, 3, 1, 0})
+      ->Args({15, 4, 0, 0})
+      ->Args({15, 4, 1, 0})
+      ->Args({15, 4, 0, 1})
       ->Unit(benchmark::kMicrosecond)
       ->UseRealTime();
+  benchmark::RegisterBenchmark("live_second", liveSecond)
+      ->Args({6, 3, 0, 50})
+      ->Args({15, 4, 0, 50})
+      ->Args({15, 4, 1, 50})
+      ->Args({15, 4, 0, 200})
+      ->Unit(benchmark::kMicrosecond)
+      ->UseRealTime();
+  // --model FILE (repeatable): the live evaluation on that model, i.i.d. and Markov, from scratch,
+  // and after a second of a 50 Hz stream.
+  static std::vector<Model> models;
+  for (int i = 1; i + 1 < cargc; ++i)
+    if (std::string(cargs[i]) == "--model")
+    {
+      try
+      {
+        models.push_back(loadModel(cargs[i + 1]));
+      }
+      catch (const std::exception& e)
+      {
+        std::fprintf(stderr, "bench_stability: %s\n", e.what());
+        return 2;
+      }
+      for (int j = i; j + 2 <= cargc; ++j)
+        cargs[j] = cargs[j + 2];
+      cargc -= 2;
+      --i;
+    }
+  for (const Model& m : models)
+    for (int markov = 0; markov <= 1; ++markov)
+    {
+      benchmark::RegisterBenchmark(("live_model/" + m.name + (markov ? "/markov" : "/iid")).c_str(),
+                                   [&m, markov](benchmark::State& st) { liveOn(st, m, markov != 0, false); })
+          ->Unit(benchmark::kMicrosecond)
+          ->UseRealTime();
+      benchmark::RegisterBenchmark(("live_model_second/" + m.name + (markov ? "/markov" : "/iid")).c_str(),
+                                   [&m, markov](benchmark::State& st) { liveOn(st, m, markov != 0, true, 50); })
+          ->Unit(benchmark::kMicrosecond)
+          ->UseRealTime();
+    }
   benchmark::Initialize(&cargc, cargs.data());
   if (benchmark::ReportUnrecognizedArguments(cargc, cargs.data()))
     return 1;

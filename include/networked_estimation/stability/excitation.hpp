@@ -75,6 +75,27 @@ ExcitationReport ganLiuMarkov(const Eigen::MatrixXd& A, const Eigen::MatrixXd& c
 ExcitationReport ganLiuTrace(const Eigen::MatrixXd& A, const Eigen::MatrixXd& c, double R,
                              const std::vector<bool>& arrivals, int h, int p_max = 4);
 
+/// ganLiuTrace block by block, for a caller that keeps the blocks it has done (the live diagnostic
+/// computes each block of its sliding window once): the Gram terms and ||A|| are computed once.
+class GanLiuBlocks
+{
+public:
+  /// Throws std::invalid_argument on inputs ganLiuTrace refuses.
+  GanLiuBlocks(const Eigen::MatrixXd& A, const Eigen::MatrixXd& c, double R, int h, int p_max = 4);
+  int h() const { return h_; }
+  /// lambda_m of the block of h samples arrivals[first], ..., arrivals[first + h - 1].
+  double block(const std::vector<bool>& arrivals, std::size_t first) const;
+  /// The report for the blocks' lambda_m (at least one): ganLiuTrace's for the same blocks.
+  ExcitationReport report(const std::vector<double>& lambdas) const;
+
+private:
+  Eigen::MatrixXd A_;
+  double R_ = 1.0;
+  int h_ = 1, p_max_ = 4;
+  std::vector<Eigen::MatrixXd> terms_;
+  double norm_A_ = 0.0;
+};
+
 /// Theorem 1, checked along one run: with P'_k the filter's prediction covariances (P'_0 first,
 /// k = 0..K) and the arrivals gamma_1..gamma_K, every block m >= 1 must satisfy
 ///   T_{m+1} <= (1 - a_{m+1}) ||A||^(2h) T_m + b_A.

@@ -2,7 +2,8 @@
 // sequence, not "some sensor arrived"), each link estimated from its own sequence with 95 %
 // intervals (i.i.d.: the arrival rate; Markov: the failure rate p and the recovery rate r, nothing
 // assumed), and the joint verdict from the estimated links through the same core test as analyze
-// (stabilityVerdict). The interval ends give a pessimistic and an optimistic set of links:
+// (SetVerdicts, built once with the monitor: the model's part of the test is not redone). The
+// interval ends give a pessimistic and an optimistic set of links:
 //   OK     the pessimistic links are stable (every link at the bad end of its interval),
 //   ERROR  even the optimistic links are unstable,
 //   WARN   otherwise (the intervals straddle the boundary, undecided, or too few samples).
@@ -56,17 +57,19 @@ public:
   const LinkMonitor& sensor(std::size_t s) const { return monitors_[s]; }
   bool markov() const { return markov_; }
 
-  /// The estimates and the joint verdict now (three calls of stabilityVerdict).
+  /// The estimates and the joint verdict now (three verdicts of the same SetVerdicts).
   JointLinkStatus evaluate() const;
+  /// The verdicts of the model's sensors (every one), shared with copies of the monitor.
+  const SetVerdicts& verdicts() const { return verdicts_; }
 
 private:
   const Model& model_;
+  SetVerdicts verdicts_;
   bool markov_;
   std::size_t min_samples_;
   std::vector<LinkMonitor> monitors_;
   std::vector<char> skipped_;  ///< per sensor: steps were skipped since its last due sample
   std::vector<bool> all_due_;
-  std::vector<int> all_;
 };
 
 }  // namespace networked_estimation

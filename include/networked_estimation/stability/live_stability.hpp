@@ -8,6 +8,9 @@
 #include <Eigen/Dense>
 
 #include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <utility>
@@ -28,6 +31,10 @@ struct LiveStabilityOptions
   bool markov = false;  ///< estimate on/off Gilbert-Elliott links (p, r) instead of i.i.d. rates
   std::size_t min_samples = 100;
   bool late_data_dropped = true;  ///< Theorem 1 is checked only on the sequence the filter ran
+  /// Reuse the last evaluation while nothing it depends on changed: the whole report when no step was
+  /// added since, the verdicts and margins when the estimated links are the same (off: every
+  /// evaluation from scratch, for benchmarks).
+  bool cache = true;
 };
 
 struct LiveStabilityReport
@@ -51,10 +58,13 @@ public:
            bool restarted);
   /// Time went back: start over.
   void clear();
-  /// The status and its key-values (three joint stability tests and the Gan-Liu evidence).
+  /// The status and its key-values (three joint stability tests and the Gan-Liu evidence). What
+  /// depends on the model alone was computed at construction; with options.cache, an evaluation
+  /// with nothing new since the last one (of this object or a copy) costs a copy of the report.
   LiveStabilityReport evaluate() const;
 
 private:
+  struct Cache;
   Eigen::MatrixXd predictedFromPrior() const;
   void addTheorem1(bool gamma, const Eigen::MatrixXd& P, bool restarted);
 
@@ -65,6 +75,12 @@ private:
   std::optional<LinkThresholds> thresholds_;  ///< a single i.i.d. sensor: its critical rates
   std::optional<Theorem1Monitor> theorem1_;
   std::string theorem1_note_;
+  std::uint64_t generation_ = 0;   ///< steps added and clears so far: the windows' version
+  std::uint64_t epoch_ = 0;        ///< clears so far (sample counts restart)
+  std::vector<std::uint64_t> samples_;  ///< per sensor: samples entered in its window since the last clear
+  /// Per scalar sensor: Gan and Liu's blocks (null for other sensors).
+  std::vector<std::shared_ptr<const GanLiuBlocks>> gan_liu_;
+  std::shared_ptr<Cache> cache_;   ///< the last evaluation, shared with copies
 };
 
 }  // namespace networked_estimation

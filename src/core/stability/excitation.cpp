@@ -51,10 +51,11 @@ void checkInputs(const Eigen::MatrixXd& A, const Eigen::MatrixXd& c, double R, i
 }
 
 /// Fills the verdict and A3 of a report whose lambda, lambda_block, h are set.
-void conclude(ExcitationReport& rep, const Eigen::MatrixXd& A, double R, int p_max)
+/// Fills the verdict and A3 of a report whose lambda, lambda_block, h are set; norm_A = ||A||.
+void conclude(ExcitationReport& rep, const Eigen::MatrixXd& A, double R, int p_max, double norm_A)
 {
   const int n = static_cast<int>(A.rows());
-  rep.norm_A = spectralNorm(A);
+  rep.norm_A = norm_A;
   rep.a3 = ganLiuA3(rep.norm_A, rep.lambda, n, rep.h, R, p_max);
   Verdict& v = rep.verdict;
   v.numbers["lambda"] = rep.lambda;
@@ -140,7 +141,7 @@ ExcitationReport ganLiuIid(const Eigen::MatrixXd& A, const Eigen::MatrixXd& c, d
   rep.h = h;
   rep.lambda_block = blockExcitation(A, c, std::vector<double>(h, arrival));
   rep.lambda = 1.0 - rep.lambda_block;  // a constant lambda_m: S^0 rate 1 - lambda_m (Remark 1)
-  conclude(rep, A, R, p_max);
+  conclude(rep, A, R, p_max, spectralNorm(A));
   return rep;
 }
 
@@ -174,37 +175,61 @@ ExcitationReport ganLiuMarkov(const Eigen::MatrixXd& A, const Eigen::MatrixXd& c
   rep.h = h;
   rep.lambda_block = f.minCoeff();
   rep.lambda = M.eigenvalues().cwiseAbs().maxCoeff();
-  conclude(rep, A, R, p_max);
+  conclude(rep, A, R, p_max, spectralNorm(A));
+  return rep;
+}
+
+GanLiuBlocks::GanLiuBlocks(const Eigen::MatrixXd& A, const Eigen::MatrixXd& c, double R, int h, int p_max)
+  : A_(A), R_(R), h_(h), p_max_(p_max)
+{
+  checkInputs(A, c, R, h);
+  terms_ = gramTerms(A, c, h);
+  norm_A_ = spectralNorm(A);
+}
+
+double GanLiuBlocks::block(const std::vector<bool>& arrivals, std::size_t first) const
+{
+  if (first + static_cast<std::size_t>(h_) > arrivals.size())
+    throw std::invalid_argument("Gan-Liu: a block of h = " + std::to_string(h_) + " from sample " +
+                                std::to_string(first) + " of " + std::to_string(arrivals.size()));
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(A_.rows(), A_.cols());
+  for (int j = 0; j < h_; ++j)
+    if (arrivals[first + static_cast<std::size_t>(j)])
+      G += terms_[static_cast<std::size_t>(j)];
+  return std::max(0.0, minEigenvalue(G)) / (1.0 + h_);
+}
+
+ExcitationReport GanLiuBlocks::report(const std::vector<double>& lambdas) const
+{
+  if (lambdas.empty())
+    throw std::invalid_argument("Gan-Liu: no block");
+  double log_sum = 0.0, smallest = 1.0;
+  for (double lm : lambdas)
+  {
+    smallest = std::min(smallest, lm);
+    log_sum += std::log1p(-lm);  // 1 - lm >= 1 / (1 + h) > 0
+  }
+  ExcitationReport rep;
+  rep.h = h_;
+  rep.lambda_block = smallest;
+  rep.lambda = std::exp(log_sum / static_cast<double>(lambdas.size()));
+  rep.verdict.numbers["blocks"] = static_cast<double>(lambdas.size());
+  conclude(rep, A_, R_, p_max_, norm_A_);
   return rep;
 }
 
 ExcitationReport ganLiuTrace(const Eigen::MatrixXd& A, const Eigen::MatrixXd& c, double R,
                              const std::vector<bool>& arrivals, int h, int p_max)
 {
-  checkInputs(A, c, R, h);
-  const std::size_t blocks = arrivals.size() / static_cast<std::size_t>(h);
-  if (blocks == 0)
+  const GanLiuBlocks blocks(A, c, R, h, p_max);
+  const std::size_t count = arrivals.size() / static_cast<std::size_t>(h);
+  if (count == 0)
     throw std::invalid_argument("Gan-Liu: the trace has " + std::to_string(arrivals.size()) +
                                 " samples, fewer than one block of h = " + std::to_string(h));
-  const std::vector<Eigen::MatrixXd> terms = gramTerms(A, c, h);
-  double log_sum = 0.0, smallest = 1.0;
-  for (std::size_t m = 0; m < blocks; ++m)
-  {
-    Eigen::MatrixXd G = Eigen::MatrixXd::Zero(A.rows(), A.cols());
-    for (int j = 0; j < h; ++j)
-      if (arrivals[m * h + j])
-        G += terms[j];
-    const double lm = std::max(0.0, minEigenvalue(G)) / (1.0 + h);
-    smallest = std::min(smallest, lm);
-    log_sum += std::log1p(-lm);  // 1 - lm >= 1 / (1 + h) > 0
-  }
-  ExcitationReport rep;
-  rep.h = h;
-  rep.lambda_block = smallest;
-  rep.lambda = std::exp(log_sum / static_cast<double>(blocks));
-  rep.verdict.numbers["blocks"] = static_cast<double>(blocks);
-  conclude(rep, A, R, p_max);
-  return rep;
+  std::vector<double> lambdas;
+  for (std::size_t m = 0; m < count; ++m)
+    lambdas.push_back(blocks.block(arrivals, m * static_cast<std::size_t>(h)));
+  return blocks.report(lambdas);
 }
 
 Theorem1Monitor::Theorem1Monitor(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, const Eigen::MatrixXd& c,

@@ -36,13 +36,35 @@ std::string rates(const std::vector<SensorLinkEstimate>& sensors, bool markov)
 
 }  // namespace
 
+namespace
+{
+
+/// The live verdicts: no per-set analyses, and no MARE fallback (evaluated every second; where
+/// Theorem 14 cannot decide, the verdict is undecided and analyze says more).
+AnalysisOptions liveOptions()
+{
+  AnalysisOptions o;
+  o.per_sensor = false;
+  o.use_mare = false;
+  return o;
+}
+
+std::vector<int> everySensor(const Model& model)
+{
+  std::vector<int> all;
+  for (std::size_t s = 0; s < model.sensors.size(); ++s)
+    all.push_back(static_cast<int>(s));
+  return all;
+}
+
+}  // namespace
+
 JointLinkMonitor::JointLinkMonitor(const Model& model, std::size_t window, bool markov, std::size_t min_samples)
-  : model_(model), markov_(markov), min_samples_(min_samples)
+  : model_(model), verdicts_(model, everySensor(model), liveOptions()), markov_(markov), min_samples_(min_samples)
 {
   for (std::size_t s = 0; s < model.sensors.size(); ++s)
   {
     monitors_.emplace_back(window);
-    all_.push_back(static_cast<int>(s));
   }
   skipped_.assign(monitors_.size(), 0);
   all_due_.assign(monitors_.size(), true);
@@ -122,11 +144,9 @@ JointLinkStatus JointLinkMonitor::evaluate() const
     }
     out.sensors.push_back(e);
   }
-  AnalysisOptions options;
-  options.per_sensor = false;
-  out.pessimistic = stabilityVerdict(model_, all_, out.pessimistic_links, options);
-  out.optimistic = stabilityVerdict(model_, all_, out.optimistic_links, options);
-  out.point = stabilityVerdict(model_, all_, out.point_links, options);
+  out.pessimistic = verdicts_.verdict(out.pessimistic_links);
+  out.optimistic = verdicts_.verdict(out.optimistic_links);
+  out.point = verdicts_.verdict(out.point_links);
 
   std::ostringstream os;
   const std::string what = markov_ ? "links (p, r)" : "arrival rates";

@@ -1,8 +1,10 @@
 // The live link stability diagnostic (live_stability.hpp).
 #include "networked_estimation/stability/live_stability.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <stdexcept>
 
 #include "networked_estimation/stability/stability.hpp"
@@ -26,7 +28,8 @@ std::string rate(const RateEstimate& e, const char* unit)
   return buf;
 }
 
-/// "arrival rate >= 0.111 (now 0.5)", the stable intervals, or why there is no such rate.
+/// "arrival rate >= 0.111 (now 0.5)", "> 0" (any positive rate), "any" (the others cover its
+/// modes), the stable intervals, or why there is no such rate.
 std::string describeNeed(const SensorMargin& m)
 {
   if (m.quantity.empty())
@@ -36,7 +39,12 @@ std::string describeNeed(const SensorMargin& m)
   {
     if (!std::isfinite(m.band.converges_at))
       return out + ": " + m.note;
-    out += " >= " + number(m.band.converges_at);
+    if (m.any_positive)
+      out += " > 0 (any positive rate; unbounded at 0)";
+    else if (m.band.converges_at == 0.0)
+      out += ": any, the other sensors cover its modes";
+    else
+      out += " >= " + number(m.band.converges_at);
   }
   else
   {
@@ -58,11 +66,50 @@ bool everySensorEstimated(const JointLinkStatus& js)
   return !js.sensors.empty();
 }
 
+bool sameLinks(const std::vector<LinkModel>& a, const std::vector<LinkModel>& b)
+{
+  if (a.size() != b.size())
+    return false;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (a[i].kind != b[i].kind || a[i].arrival != b[i].arrival || a[i].p != b[i].p || a[i].r != b[i].r ||
+        a[i].loss_bad != b[i].loss_bad || a[i].loss_good != b[i].loss_good)
+      return false;
+  return true;
+}
+
 }  // namespace
 
-LiveStability::LiveStability(const Model& model, const EstimatorSettings& settings, const LiveStabilityOptions& options)
-  : model_(&model), options_(options), joint_(model, options.window, options.markov, options.min_samples)
+/// The last evaluation: the whole report for a window version, and the per-sensor margins for a
+/// set of estimated links (the verdicts themselves are cheap once the model's part is done).
+struct LiveStability::Cache
 {
+  std::mutex mutex;
+  bool has_report = false;
+  std::uint64_t generation = 0;
+  LiveStabilityReport report;
+  bool has_margins = false;
+  std::vector<LinkModel> margin_links;
+  std::vector<SensorMargin> margins;
+  std::uint64_t epoch = 0;
+  std::vector<std::map<std::uint64_t, double>> gan_liu;  ///< per sensor: lambda_m by block index
+};
+
+LiveStability::LiveStability(const Model& model, const EstimatorSettings& settings, const LiveStabilityOptions& options)
+  : model_(&model),
+    options_(options),
+    joint_(model, options.window, options.markov, options.min_samples),
+    cache_(std::make_shared<Cache>())
+{
+  cache_->gan_liu.resize(model.sensors.size());
+  samples_.assign(model.sensors.size(), 0);
+  gan_liu_.resize(model.sensors.size());
+  for (std::size_t si = 0; si < model.sensors.size(); ++si)
+  {
+    const Sensor& sensor = model.sensors[si];
+    if (sensor.size == 1)
+      gan_liu_[si] = std::make_shared<const GanLiuBlocks>(model.A, model.C.middleRows(sensor.offset, 1),
+                                                          model.R(sensor.offset, sensor.offset), model.n(), 2);
+  }
   Qn_ = model.B * model.Q * model.B.transpose();
   if (!options.markov && model.sensors.size() == 1)
   {
@@ -99,6 +146,9 @@ Eigen::MatrixXd LiveStability::predictedFromPrior() const
 
 void LiveStability::add(const std::vector<bool>& arrived, bool gamma, const Eigen::MatrixXd& P, bool restarted)
 {
+  ++generation_;
+  for (std::uint64_t& count : samples_)
+    ++count;
   joint_.add(arrived);
   addTheorem1(gamma, P, restarted);
 }
@@ -106,7 +156,10 @@ void LiveStability::add(const std::vector<bool>& arrived, bool gamma, const Eige
 void LiveStability::add(const std::vector<bool>& arrived, const std::vector<bool>& due, bool gamma,
                         const Eigen::MatrixXd& P, bool restarted)
 {
+  ++generation_;
   joint_.add(arrived, due);
+  for (std::size_t si = 0; si < samples_.size(); ++si)
+    samples_[si] += due[si] ? 1 : 0;
   addTheorem1(gamma, P, restarted);
 }
 
@@ -122,6 +175,9 @@ void LiveStability::addTheorem1(bool gamma, const Eigen::MatrixXd& P, bool resta
 
 void LiveStability::clear()
 {
+  ++generation_;
+  ++epoch_;
+  std::fill(samples_.begin(), samples_.end(), 0);
   joint_.clear();
   if (theorem1_)
     theorem1_->start(predictedFromPrior());
@@ -129,6 +185,13 @@ void LiveStability::clear()
 
 LiveStabilityReport LiveStability::evaluate() const
 {
+  std::unique_lock<std::mutex> lock(cache_->mutex, std::defer_lock);
+  if (options_.cache)
+  {
+    lock.lock();
+    if (cache_->has_report && cache_->generation == generation_)
+      return cache_->report;
+  }
   LiveStabilityReport out;
   const JointLinkStatus js = joint_.evaluate();
   out.status = js.status;
@@ -151,13 +214,26 @@ LiveStabilityReport LiveStability::evaluate() const
   // as analyze's per-sensor margins).
   if (everySensorEstimated(js))
   {
-    AnalysisOptions margin_options;
-    margin_options.per_sensor = false;
-    const std::vector<SensorMargin> margins = sensorMargins(*model_, js.point_links, margin_options);
-    for (std::size_t i = 0; i < margins.size(); ++i)
-      add(js.sensors[i].sensor + " needs", describeNeed(margins[i]));
+    std::vector<SensorMargin> fresh;
+    const std::vector<SensorMargin>* margins = &fresh;
+    if (!options_.cache)
+      fresh = joint_.verdicts().margins(js.point_links);
+    else
+    {
+      if (!cache_->has_margins || !sameLinks(cache_->margin_links, js.point_links))
+      {
+        cache_->margins = joint_.verdicts().margins(js.point_links);
+        cache_->margin_links = js.point_links;
+        cache_->has_margins = true;
+      }
+      margins = &cache_->margins;
+    }
+    for (std::size_t i = 0; i < margins->size(); ++i)
+      add(js.sensors[i].sensor + " needs", describeNeed((*margins)[i]));
   }
   add("verdict at the estimates", toString(js.point.kind) + ": " + js.point.reason);
+  if (!joint_.verdicts().deadReckoned().empty())
+    add("dead-reckoned", joint_.verdicts().deadReckoned());
   add("verdict at the low ends", toString(js.pessimistic.kind));
   add("verdict at the high ends", toString(js.optimistic.kind));
   if (thresholds_ && !js.sensors.empty())
@@ -173,16 +249,40 @@ LiveStabilityReport LiveStability::evaluate() const
     add("margin", number(r.value - thresholds_->sufficient));
   }
   // Gan and Liu: evidence for any loss pattern (no i.i.d. or Markov assumption) from each scalar
-  // sensor's window; A3 is very conservative, so a failure is no evidence of instability.
+  // sensor's window; A3 is very conservative, so a failure is no evidence of instability. The
+  // blocks are aligned on the sensor's sample count, so a block keeps its place as the window
+  // slides and is computed once (the cache keeps it while it is in the window).
   const Model& m = *model_;
+  if (options_.cache && cache_->epoch != epoch_)
+  {
+    for (auto& blocks : cache_->gan_liu)
+      blocks.clear();
+    cache_->epoch = epoch_;
+  }
   for (std::size_t si = 0; si < m.sensors.size(); ++si)
   {
     const Sensor& sensor = m.sensors[si];
-    const std::vector<bool> window = joint_.sensor(si).window();
-    if (sensor.size != 1 || window.size() < static_cast<std::size_t>(m.n()))
+    if (!gan_liu_[si])
       continue;
-    const ExcitationReport gl =
-        ganLiuTrace(m.A, m.C.middleRows(sensor.offset, 1), m.R(sensor.offset, sensor.offset), window, m.n(), 2);
+    const GanLiuBlocks& gb = *gan_liu_[si];
+    const std::vector<bool> window = joint_.sensor(si).window();
+    const std::uint64_t h = static_cast<std::uint64_t>(gb.h());
+    const std::uint64_t start = samples_[si] - window.size();  // the window's first sample
+    const std::uint64_t first = (start + h - 1) / h, end = samples_[si] / h;  // whole blocks [first, end)
+    if (first >= end)
+      continue;
+    std::map<std::uint64_t, double> fresh;
+    std::map<std::uint64_t, double>& known = options_.cache ? cache_->gan_liu[si] : fresh;
+    known.erase(known.begin(), known.lower_bound(first));
+    std::vector<double> lambdas;
+    for (std::uint64_t b = first; b < end; ++b)
+    {
+      auto it = known.find(b);
+      if (it == known.end())
+        it = known.emplace(b, gb.block(window, static_cast<std::size_t>(b * h - start))).first;
+      lambdas.push_back(it->second);
+    }
+    const ExcitationReport gl = gb.report(lambdas);
     add(sensor.name + " Gan-Liu excitation", "lambda " + number(gl.lambda) + " (h = " + std::to_string(gl.h) +
                                                  ", smallest block " + number(gl.lambda_block) + ")");
     add(sensor.name + " Gan-Liu A3 (printed / proof)", "p = 1: " + number(gl.a3[0].printed) + " / " +
@@ -206,6 +306,12 @@ LiveStabilityReport LiveStability::evaluate() const
   else
   {
     add("Gan-Liu Theorem 1 (runtime invariant)", theorem1_note_);
+  }
+  if (options_.cache)
+  {
+    cache_->report = out;
+    cache_->generation = generation_;
+    cache_->has_report = true;
   }
   return out;
 }
