@@ -972,10 +972,13 @@ TEST(StabilityDesign, ClosedForms)
   const double near = designLinks(t3, DesignCost::TOTAL_RATE, 0.9999).rates[0];
   EXPECT_GT(near, 15.0 / 16.0);
   EXPECT_LT(near, 15.0 / 16.0 + 1e-4);
-  // Not applicable: a schedule, an invisible unstable mode, a bad cap.
-  EXPECT_NE(designLinks(simpleModel(mat(2, 2, {2, 0, 0, 3}), mat(1, 2, {1, 0})), DesignCost::TOTAL_RATE).note.find(
-                "seen by no sensor"),
-            std::string::npos);
+  // An unstable mode no sensor observes (3 here) is dead-reckoned: named in the note, and the
+  // design concerns the observed mode 2 (rate 1 - g/4).
+  const LinkDesign dr = designLinks(simpleModel(mat(2, 2, {2, 0, 0, 3}), mat(1, 2, {1, 0})), DesignCost::TOTAL_RATE, g);
+  EXPECT_TRUE(dr.applicable);
+  EXPECT_NEAR(dr.rates[0], 1 - g / 4, 1e-9);
+  EXPECT_NE(dr.note.find("dead-reckoned: 1 mode(s) with |lambda| >= 1 (3)"), std::string::npos) << dr.note;
+  // Not applicable: a schedule, a bad cap.
   EXPECT_FALSE(designLinks(t5, DesignCost::TOTAL_RATE, 1.0).applicable);
   Model sched = t5;
   sched.schedule.kind = Schedule::Kind::PERIODIC;

@@ -67,12 +67,6 @@ LinkDesign designLinks(const Model& model, DesignCost cost, double growth_cap)
           n += b.seen[e][j][static_cast<std::size_t>(s)] ? 1 : 0;
         w[static_cast<Eigen::Index>(j)] = static_cast<double>(n) / b.block.order;
       }
-      if (w.isZero())
-      {
-        out.note = "not applicable: an unstable mode (|alpha| = " + std::to_string(b.block.modulus) +
-                   ") is seen by no sensor: no rates keep E[P] bounded";
-        return out;
-      }
       poly.w.push_back(w);
       poly.b.push_back(rhs);
     }
