@@ -165,6 +165,12 @@ JsonDocument::JsonDocument(const std::string& text, const std::string& path) : p
     throw InputError(path + ": " + lineColumn(text, at) + ": " + problem +
                      (at >= text.size() ? " (the file ends early: truncated?)" : ""));
   }
+  catch (const nlohmann::json::exception& e)  // a number beyond the doubles: where the parser stopped
+  {
+    const std::streamoff pos = in.rdbuf()->pubseekoff(0, std::ios_base::cur, std::ios_base::in);
+    const std::size_t at = pos > 0 ? std::min(static_cast<std::size_t>(pos) - 1, text.size()) : 0;
+    throw InputError(path + ": " + lineColumn(text, at) + ": " + syntaxProblem(e.what()));
+  }
 }
 
 std::string JsonDocument::where(const std::string& field) const
