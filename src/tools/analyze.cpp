@@ -20,6 +20,13 @@ using namespace networked_estimation;
 namespace
 {
 
+/// A critical rate of +infinity: no rate keeps E[P] bounded (JSON has no number for it: null, and
+/// the set says unbounded_at_every_rate).
+bool noRate(double v)
+{
+  return std::isinf(v) && v > 0.0;
+}
+
 void jverdict(JsonWriter& w, const Verdict& v)
 {
   w.beginObject().member("kind", toString(v.kind)).member("reason", v.reason).key("numbers").beginObject();
@@ -69,6 +76,7 @@ void jset(JsonWriter& w, const RateAnalysis& r)
   w.member("mare_diverges_at", r.mare.diverges_at).member("mare_converges_at", r.mare.converges_at);
   w.member("mare_undecided_band", r.mare.undecided_band);
   w.member("exact_rate", r.exact_rate).member("exact_method", r.exact_method);
+  w.member("unbounded_at_every_rate", noRate(r.exact_rate));
   w.member("recovery_lower_bound", r.recovery_lower_bound).member("recovery_exact", r.recovery_exact);
   w.member("recovery_note", r.recovery_note).key("recovery_stable_intervals");
   jintervals(w, r.recovery_stable);
@@ -96,6 +104,7 @@ struct TraceEvidence
 std::vector<TraceEvidence> traceEvidence(const Model& model, const std::vector<std::string>& specs, int h)
 {
   std::vector<TraceEvidence> out;
+  std::vector<std::string> given(model.sensors.size());  // per sensor: the --trace that gave its arrivals
   for (const std::string& spec : specs)
   {
     const ArrivalTrace trace = readArrivalTrace(spec, model);
@@ -104,6 +113,10 @@ std::vector<TraceEvidence> traceEvidence(const Model& model, const std::vector<s
       if (trace.arrivals[s].empty())
         continue;
       const Sensor& sensor = model.sensors[s];
+      if (!given[s].empty())
+        throw cli::UsageError("option '--trace': sensor '" + sensor.name + "' has two traces (--trace " + given[s] +
+                              " and --trace " + spec + "); give one per sensor");
+      given[s] = spec;
       TraceEvidence e;
       e.sensor = sensor.name;
       e.samples = trace.arrivals[s].size();
@@ -205,10 +218,18 @@ std::string txt(double v)
 {
   if (std::isnan(v))
     return "n/a";
+  if (std::isinf(v))
+    return v > 0.0 ? "unbounded" : "-unbounded";
   std::ostringstream os;
   os.precision(6);
   os << v;
   return os.str();
+}
+
+/// A critical rate, +infinity in words.
+std::string rate(double v)
+{
+  return noRate(v) ? "none (unbounded at every rate)" : txt(v);
 }
 
 std::string intervals(const std::vector<RateInterval>& v)
@@ -222,17 +243,17 @@ std::string intervals(const std::vector<RateInterval>& v)
 void printSet(std::ostream& os, const RateAnalysis& r)
 {
   os << "[" << r.name << "]\n";
-  os << "  lower bound (necessary)         " << txt(r.lower_bound) << "\n";
-  os << "  MARE upper bound                diverges at " << txt(r.mare.diverges_at) << ", converges at "
-     << txt(r.mare.converges_at) << (r.mare.undecided_band ? " (undecided band between)" : "") << "\n";
-  os << "  closed-form upper bound         " << txt(r.closed_form_upper) << "\n";
-  os << "  exact critical arrival rate     " << txt(r.exact_rate) << "  (" << r.exact_method << ")\n";
+  os << "  lower bound (necessary)         " << rate(r.lower_bound) << "\n";
+  os << "  MARE upper bound                diverges at " << rate(r.mare.diverges_at) << ", converges at "
+     << rate(r.mare.converges_at) << (r.mare.undecided_band ? " (undecided band between)" : "") << "\n";
+  os << "  closed-form upper bound         " << rate(r.closed_form_upper) << "\n";
+  os << "  exact critical arrival rate     " << rate(r.exact_rate) << "  (" << r.exact_method << ")\n";
   os << "  Markov: critical recovery rate  ";
   if (!r.recovery_stable.empty())
     os << "none (not a half-line): stable for r in " << intervals(r.recovery_stable);
   else
-    os << txt(r.recovery_exact);
-  os << " (necessary " << txt(r.recovery_lower_bound) << "; " << r.recovery_note << ")\n";
+    os << rate(r.recovery_exact);
+  os << " (necessary " << rate(r.recovery_lower_bound) << "; " << r.recovery_note << ")\n";
   os << "  Lin et al.'s Theorem 5          " << describe(r.aoe_theorem5) << "\n";
   os << "  verdict                         " << describe(r.verdict) << "\n";
   if (r.margin_quantity.rfind("per-sensor", 0) == 0)
@@ -241,6 +262,8 @@ void printSet(std::ostream& os, const RateAnalysis& r)
     os << "  margin                          " << r.margin_quantity << " " << txt(r.channel_value) << ", stable for "
        << intervals(r.stable_intervals) << ": distance to the nearest edge " << txt(r.margin)
        << (r.margin > 0 ? " (inside)" : " (outside)") << "\n";
+  else if (noRate(r.sufficient_threshold))
+    os << "  margin                          none: no " << r.margin_quantity << " keeps E[P] bounded\n";
   else
     os << "  margin                          " << r.margin_quantity << " " << txt(r.channel_value) << " - critical "
        << txt(r.sufficient_threshold) << " = " << txt(r.margin) << "\n";
@@ -261,12 +284,42 @@ void printLinks(std::ostream& os, const StabilityReport& rep)
     else if (std::isnan(m.band.converges_at))
       os << m.quantity << " " << txt(m.value) << ", no stable rate: " << m.note << "\n";
     else
-      os << m.quantity << " " << txt(m.value) << ", needs " << txt(m.band.converges_at) << " (diverges at "
-         << txt(m.band.diverges_at) << ", converges at " << txt(m.band.converges_at)
+      os << m.quantity << " " << txt(m.value) << ", needs " << rate(m.band.converges_at) << " (diverges at "
+         << rate(m.band.diverges_at) << ", converges at " << rate(m.band.converges_at)
          << (m.band.undecided_band ? ", undecided band between" : "") << "), margin " << txt(m.margin) << "\n    ("
          << m.note << ")\n";
     os << "    Markov threshold: " << l.markov_note << "\n";
   }
+}
+
+/// analyze --design's JSON: the model, the cost and cap, and per sensor its least-cost rate and
+/// its least rate alone.
+std::string designJson(const Model& model, const LinkDesign& d, const std::string& cost)
+{
+  JsonWriter w;
+  w.beginObject();
+  w.br(2).member("model", model.name);
+  w.br(2).key("design").beginObject().member("cost", cost).member("growth_cap", d.growth_cap);
+  w.member("applicable", d.applicable).member("note", d.note);
+  if (d.applicable)
+  {
+    w.member("cost_value", d.cost_value).key("verdict");
+    jverdict(w, d.check);
+    w.member("vertices", d.vertices);
+  }
+  w.key("sensors").beginArray();
+  for (std::size_t j = 0; j < model.sensors.size(); ++j)
+  {
+    w.br(4).beginObject().member("name", model.sensors[j].name);
+    if (d.applicable)
+      w.member("arrival_rate", d.rates[j]).member("alone", d.alone[j]);
+    w.endObject();
+  }
+  if (!model.sensors.empty())
+    w.br(2);
+  w.endArray().endObject();
+  w.br(0).endObject();
+  return w.text() + "\n";
 }
 
 int printDesign(const Model& model, const cli::CommandLine& cl)
@@ -280,6 +333,11 @@ int printDesign(const Model& model, const cli::CommandLine& cl)
   if (end == gtext.c_str() || *end != '\0' || !(g > 0.0 && g < 1.0))
     throw cli::UsageError("--growth-cap: expected a number in (0, 1), found '" + gtext + "'");
   const LinkDesign d = designLinks(model, c == "capacity" ? DesignCost::CAPACITY : DesignCost::TOTAL_RATE, g);
+  if (cl.has("json"))
+  {
+    std::cout << designJson(model, d, c);
+    return 0;
+  }
   std::cout << "link design for model " << model.name << " (i.i.d. links; cost: "
             << (c == "capacity" ? "sum of -ln(1 - rate)" : "sum of the arrival rates") << ")\n";
   if (!d.applicable)
@@ -290,8 +348,8 @@ int printDesign(const Model& model, const cli::CommandLine& cl)
   std::cout << "  " << d.note << "\n";
   std::cout << "  least-cost rates (cost " << txt(d.cost_value) << "), verdict " << describe(d.check) << ":\n";
   for (std::size_t j = 0; j < model.sensors.size(); ++j)
-    std::cout << "    " << model.sensors[j].name << ": arrival rate " << txt(d.rates[j])
-              << " (alone, the others lossless: " << txt(d.alone[j]) << ")\n";
+    std::cout << "    " << model.sensors[j].name << ": arrival rate " << rate(d.rates[j])
+              << " (alone, the others lossless: " << rate(d.alone[j]) << ")\n";
   std::cout << "  For a Gilbert-Elliott link give it with --channel NAME=FILE (without --design): the per-sensor\n"
                "  margins then give the least recovery rate at its failure rate p, the other links fixed.\n";
   return 0;
@@ -330,6 +388,17 @@ int main(int argc, char** argv)
                       });
   return cli::runTool(cl, argc, argv, [&]() -> int {
     const Model model = loadModel(cl.get("model"));
+    if (cl.has("design"))
+    {
+      for (const char* o : {"channel", "estimator", "trace", "block"})
+        if (cl.has(o))
+          throw cli::UsageError(std::string("option '--") + o +
+                                "' is not for --design (the design chooses i.i.d. links for every sensor: analyze "
+                                "the links it gives without --design)");
+      return printDesign(model, cl);
+    }
+    if (cl.has("growth-cap"))
+      throw cli::UsageError("--growth-cap is only for --design");
     const SensorLinks links = resolveSensorLinks(model, cl.getAll("channel"));
     EstimatorSettings est;
     const bool has_est = cl.has("estimator");
@@ -337,10 +406,6 @@ int main(int argc, char** argv)
       est = loadEstimatorSettings(cl.get("estimator"));
     const int h = static_cast<int>(cl.getLong("block", model.n(), 1, 10000));
     const std::vector<TraceEvidence> traces = traceEvidence(model, cl.getAll("trace"), h);
-    if (cl.has("design"))
-      return printDesign(model, cl);
-    if (cl.has("growth-cap"))
-      throw cli::UsageError("--growth-cap is only for --design");
     const StabilityReport rep = analyzeStability(model, links.link, has_est ? &est : nullptr);
     if (cl.has("json"))
     {
