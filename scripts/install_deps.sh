@@ -7,7 +7,7 @@ PACKAGES=(
   libtf2-ros-dev libtf2-eigen-dev libdiagnostic-updater-dev libtopic-tools-dev
   libgeometry-msgs-dev libsensor-msgs-dev libnav-msgs-dev libros-rosgraph-msgs-dev libtf2-dev
   libgeographiclib-dev libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
-  libyaml-cpp-dev libeigen3-dev libgtest-dev googletest libbenchmark-dev
+  libyaml-cpp-dev libeigen3-dev nlohmann-json3-dev libgtest-dev googletest libbenchmark-dev
   python3-matplotlib python3-numpy catkin-lint
 )
 missing=()

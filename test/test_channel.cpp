@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "networked_estimation/channel/channel.hpp"
+#include "networked_estimation/channel/channel_deliveries.hpp"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/config/channel_settings.hpp"
 
@@ -800,4 +801,47 @@ TEST(LossyChannel, RejectsInvalidInput)
   EXPECT_THROW(ch.offer(0, std::nan("")), ne::InputError);
   EXPECT_EQ(ch.counters().received, 0u);
   EXPECT_EQ(ne::toString(ne::ChannelOutcome::DROPPED_QUEUE), "dropped_queue");
+}
+
+// ChannelDeliveries: the payloads come out as the engine's deliveries, in its order, a duplicate's
+// twice, a lost message's never, and none is held after its last delivery.
+TEST(ChannelDeliveries, PayloadsFollowTheEnginesDeliveries)
+{
+  ne::ChannelSettings s = base(808);
+  s.loss = 0.3;
+  s.duplicate = 0.2;
+  s.delay = 0.05;
+  s.jitter = 0.04;
+  s.reorder = true;
+  ne::LossyChannel engine(s), reference(s);
+  ne::ChannelDeliveries<int> deliveries(engine);
+  std::vector<int> out;
+  std::vector<std::uint64_t> expected;
+  std::vector<ne::Delivery> due;
+  long dropped = 0, duplicated = 0;
+  for (int i = 0; i < 2000; ++i)
+  {
+    const double t = 0.01 * i;
+    const ne::ChannelRecord rec = deliveries.offer(t, 1000 + i);  // payload: 1000 + seq
+    EXPECT_EQ(rec.seq, static_cast<std::uint64_t>(i));
+    reference.offer(static_cast<std::uint64_t>(i), t);
+    dropped += rec.outcome != ne::ChannelOutcome::DELIVERED;
+    duplicated += rec.duplicated;
+    deliveries.popDue(t, out);
+    reference.popDue(t, due);
+    for (const ne::Delivery& d : due)
+      expected.push_back(d.seq);
+  }
+  EXPECT_GT(deliveries.held(), 0u);  // delayed ones still in flight
+  deliveries.popDue(1e9, out);
+  reference.popDue(1e9, due);
+  for (const ne::Delivery& d : due)
+    expected.push_back(d.seq);
+  EXPECT_EQ(deliveries.held(), 0u);
+  ASSERT_EQ(out.size(), expected.size());
+  for (std::size_t k = 0; k < out.size(); ++k)
+    ASSERT_EQ(out[k], 1000 + static_cast<int>(expected[k])) << k;
+  EXPECT_EQ(static_cast<long>(out.size()), 2000 - dropped + duplicated);
+  EXPECT_GT(dropped, 0);
+  EXPECT_GT(duplicated, 0);
 }

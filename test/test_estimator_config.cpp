@@ -353,3 +353,52 @@ TEST_F(EstimatorConfig, RobotTemplateParses)
   EXPECT_EQ(c.online.rate_ratio, (std::vector<double>{1.0, 2.0, 10.0}));
   EXPECT_EQ(c.state_map.yaw_rate, 5);
 }
+
+// The `sensors` block, table-driven: each malformed value (empty, repeated, out of range, wrong
+// type, unknown name, conflicting keys) is refused with the exact message, naming the key as the
+// parameter file spells it (sensors.<name>.<key>).
+TEST_F(EstimatorConfig, SensorsBlockMalformedValues)
+{
+  const std::vector<std::pair<std::string, std::string>> table = {
+      {"{sensors: {b: {topic: ''}}}",
+       "/est parameters: sensors.b.topic: expected a topic name, found an empty string"},
+      {"{sensors: {b: {topic: [a, b]}}}",
+       "/est parameters: sensors.b: topic: expected a string, found '[a, b]'"},
+      {"{sensors: {b: {type: ''}}}",
+       "/est parameters: sensors.b.type: unknown type '' (types: networked_estimation/Measurement, nav_msgs/Odometry, geometry_msgs/PoseWithCovarianceStamped, geometry_msgs/PoseStamped, geometry_msgs/PointStamped, geometry_msgs/TwistWithCovarianceStamped, geometry_msgs/TwistStamped, sensor_msgs/Imu, sensor_msgs/NavSatFix, sensor_msgs/Range, std_msgs/Float64, geometry_msgs/Twist, std_msgs/Float64MultiArray)"},
+      {"{sensors: {b: {type: [x]}}}",
+       "/est parameters: sensors.b: type: expected a string, found '[x]'"},
+      {"{sensors: {b: {type: sensor_msgs/Range, fields: []}}}",
+       "/est parameters: sensors.b.fields: expected a list of sensor_msgs/Range fields, one per row of sensor 'b'"},
+      {"{sensors: {b: {type: sensor_msgs/Range, fields: [range, range]}}}",
+       "/est parameters: sensors.b.fields: expected 1 fields (one per row of sensor 'b'), found 2"},
+      {"{sensors: {b: {type: sensor_msgs/Range, fields: range}}}",
+       "/est parameters: sensors.b.fields: expected a list of sensor_msgs/Range fields, one per row of sensor 'b'"},
+      {"{sensors: {b: {rate: fast}}}",
+       "/est parameters: sensors.b: rate: expected a number, found 'fast'"},
+      {"{sensors: {b: {rate: -5}}}",
+       "/est parameters: sensors.b: rate: expected a number in [0, 1e+09], found -5"},
+      {"{sensors: {b: {rate: .nan}}}",
+       "/est parameters: sensors.b: rate: expected a number in [0, 1e+09], found nan"},
+      {"{sensors: {b: {rejection_threshold: many}}}",
+       "/est parameters: sensors.b: rejection_threshold: expected a number, found 'many'"},
+      {"{sensors: {b: {rejection_threshold: -1}}}",
+       "/est parameters: sensors.b: rejection_threshold: expected a number in [0, inf], found -1"},
+      {"{sensors: {b: {covariance: ''}}}",
+       "/est parameters: sensors.b: covariance: expected model | message, found ''"},
+      {"{sensors: {b: {covariance: [model]}}}",
+       "/est parameters: sensors.b: covariance: expected a string, found '[model]'"},
+      {"{sensors: {'': {}}}",
+       "/est parameters: sensors.: '' is not a sensor of the model (sensors: a, b)"},
+      {"{sensors: {c: {topic: /c}}}",
+       "/est parameters: sensors.c: 'c' is not a sensor of the model (sensors: a, b)"},
+      {"{sensors: 3}",
+       "/est parameters: sensors: expected a map from sensor names to input settings"},
+      {"{sensors: {b: 3}}",
+       "/est parameters: sensors.b: expected a map (keys: topic, type, fields, rate)"},
+      {"{sensors: {b: {type: sensor_msgs/Range, fields: [range], covariance: message, rate: 10}}}",
+       "/est parameters: sensors.b.covariance: message: sensor_msgs/Range has no covariance of 'range' (use covariance: model)"},
+  };
+  for (const auto& row : table)
+    EXPECT_EQ(error(row.first, planar_), row.second) << row.first;
+}

@@ -356,12 +356,12 @@ made_refused() {  # NAME PATTERN ARGS...
 }
 CV=(--motion constant_velocity --rate 20 --accel-density 0.25 --sensor gnss:position:1)
 made_refused "unknown option" "error: unknown option '--bogus'" "${CV[@]}" --dims 2 --bogus 1
-made_refused "--dims 4" "error: kinematic model 'kinematic': dims: expected 1, 2 or 3, found 4" "${CV[@]}" --dims 4
+made_refused "--dims 4" "error: kinematic model 'kinematic': --dims: expected 1, 2 or 3, found 4" "${CV[@]}" --dims 4
 made_refused "--rate 0" "rate: expected a finite number of Hz > 0, found 0" --motion constant_velocity --dims 2 \
   --rate 0 --accel-density 0.25 --sensor gnss:position:1
 made_refused "bad --sensor" "option '--sensor': expected NAME:QUANTITY:SIGMA, found 'gnss:position'" \
   --motion constant_velocity --dims 2 --rate 20 --accel-density 0.25 --sensor gnss:position
-made_refused "unknown quantity" "sensors\[1\].quantity: expected position or velocity for a constant_velocity model" \
+made_refused "unknown quantity" "kinematic model 'kinematic': --sensor 'odom:speed:1' quantity: expected position or velocity for a constant_velocity model" \
   "${CV[@]}" --dims 2 --sensor odom:speed:1
 made_refused "--jerk-density on constant_velocity" "option '--jerk-density' is not for a constant_velocity model" \
   "${CV[@]}" --dims 2 --jerk-density 1

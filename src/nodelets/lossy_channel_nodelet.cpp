@@ -20,134 +20,24 @@
 #include <limits>
 #include <mutex>
 #include <sstream>
-#include <unordered_map>
 
 #include "networked_estimation/channel/channel.hpp"
+#include "networked_estimation/channel/channel_deliveries.hpp"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/stability/link_monitor.hpp"
 #include "networked_estimation/ChannelEvent.h"
-#include "networked_estimation/ControlInput.h"
 #include "networked_estimation/LossyChannelConfig.h"
-#include "networked_estimation/Estimate.h"
-#include "networked_estimation/Measurement.h"
-#include "networked_estimation/PlantState.h"
-#include <geometry_msgs/PointStamped.h>
-#include <geometry_msgs/PoseStamped.h>
-#include <geometry_msgs/PoseWithCovarianceStamped.h>
-#include <geometry_msgs/Twist.h>
-#include <geometry_msgs/TwistStamped.h>
-#include <geometry_msgs/TwistWithCovarianceStamped.h>
-#include <nav_msgs/Odometry.h>
-#include <sensor_msgs/Imu.h>
-#include <sensor_msgs/NavSatFix.h>
-#include <sensor_msgs/Range.h>
-#include <std_msgs/Float64.h>
-#include <std_msgs/Float64MultiArray.h>
 #include "networked_estimation/SetParameters.h"
 #include "load_failure.hpp"
 #include "param_yaml.hpp"
 #include "dispatch_thread.hpp"
+#include "channel_message_types.hpp"
+#include "lossy_channel_config.hpp"
 
 namespace networked_estimation
 {
 
-namespace
-{
-
-/// header.stamp of a serialized message whose type starts with a std_msgs/Header
-/// (uint32 seq, then time stamp); zero otherwise.
-ros::Time inputStamp(const topic_tools::ShapeShifter& msg, bool has_header)
-{
-  if (!has_header || msg.size() < 12)
-    return ros::Time();
-  std::vector<uint8_t> buf(msg.size());
-  ros::serialization::OStream out(buf.data(), static_cast<uint32_t>(buf.size()));
-  msg.write(out);
-  uint32_t sec, nsec;
-  std::memcpy(&sec, buf.data() + 4, 4);
-  std::memcpy(&nsec, buf.data() + 8, 4);
-  return ros::Time(sec, nsec);
-}
-
-/// Whether the first field of a message definition (after comments and blank lines) is a Header.
-bool startsWithHeader(const std::string& definition)
-{
-  std::istringstream in(definition);
-  std::string line;
-  while (std::getline(in, line))
-  {
-    const auto first = line.find_first_not_of(" \t");
-    if (first == std::string::npos || line[first] == '#')
-      continue;
-    return line.compare(first, 14, "Header header ") == 0 || line.compare(first, 13, "Header header") == 0 ||
-           line.compare(first, 22, "std_msgs/Header header") == 0;
-  }
-  return false;
-}
-
-template <class M>
-struct TypeTag
-{
-  using type = M;
-};
-
-/// Calls f(TypeTag<M>{}) for the message class M named by ~type; false for a type not in the list.
-template <class F>
-bool withKnownType(const std::string& type, F&& f)
-{
-  if (type == "networked_estimation/Measurement")
-    f(TypeTag<Measurement>{});
-  else if (type == "networked_estimation/ControlInput")
-    f(TypeTag<ControlInput>{});
-  else if (type == "networked_estimation/PlantState")
-    f(TypeTag<PlantState>{});
-  else if (type == "networked_estimation/Estimate")
-    f(TypeTag<Estimate>{});
-  else if (type == "sensor_msgs/Range")
-    f(TypeTag<sensor_msgs::Range>{});
-  else if (type == "sensor_msgs/Imu")
-    f(TypeTag<sensor_msgs::Imu>{});
-  else if (type == "geometry_msgs/PointStamped")
-    f(TypeTag<geometry_msgs::PointStamped>{});
-  else if (type == "geometry_msgs/PoseStamped")
-    f(TypeTag<geometry_msgs::PoseStamped>{});
-  else if (type == "geometry_msgs/PoseWithCovarianceStamped")
-    f(TypeTag<geometry_msgs::PoseWithCovarianceStamped>{});
-  else if (type == "geometry_msgs/TwistStamped")
-    f(TypeTag<geometry_msgs::TwistStamped>{});
-  else if (type == "geometry_msgs/TwistWithCovarianceStamped")
-    f(TypeTag<geometry_msgs::TwistWithCovarianceStamped>{});
-  else if (type == "geometry_msgs/Twist")
-    f(TypeTag<geometry_msgs::Twist>{});
-  else if (type == "nav_msgs/Odometry")
-    f(TypeTag<nav_msgs::Odometry>{});
-  else if (type == "sensor_msgs/NavSatFix")
-    f(TypeTag<sensor_msgs::NavSatFix>{});
-  else if (type == "std_msgs/Float64")
-    f(TypeTag<std_msgs::Float64>{});
-  else if (type == "std_msgs/Float64MultiArray")
-    f(TypeTag<std_msgs::Float64MultiArray>{});
-  else
-    return false;
-  return true;
-}
-
-/// header.stamp of a typed message; zero for a type without a Header.
-template <class M>
-ros::Time stampOf(const M& m)
-{
-  if constexpr (ros::message_traits::HasHeader<M>::value)
-    return m.header.stamp;
-  else
-    return ros::Time();
-}
-
-const char* kKnownTypes =
-    "networked_estimation/{Measurement, ControlInput, PlantState, Estimate}, nav_msgs/Odometry, "
-    "sensor_msgs/{Range, Imu, NavSatFix}, geometry_msgs/{PointStamped, PoseStamped, PoseWithCovarianceStamped, "
-    "TwistStamped, TwistWithCovarianceStamped, Twist}, std_msgs/{Float64, Float64MultiArray}";
-
-}  // namespace
+using namespace channel_types;
 
 class LossyChannelNodelet : public nodelet::Nodelet
 {
@@ -179,6 +69,7 @@ private:
     }
     pnh.param("queue_size", queue_size_, 1000);
     channel_ = std::make_unique<LossyChannel>(settings_);
+    deliveries_ = std::make_unique<ChannelDeliveries<boost::shared_ptr<const void>>>(*channel_);
     t0_ = ros::Time::now();
     events_pub_ = pnh.advertise<ChannelEvent>("events", 1000);
     set_srv_ = pnh.advertiseService("set_parameters", &LossyChannelNodelet::setParameters, this);
@@ -269,12 +160,9 @@ private:
   {
     const double t = now();
     std::unique_lock<std::mutex> lock(mutex_);
-    const std::uint64_t seq = next_seq_++;
-    const ChannelRecord rec = channel_->offer(seq, t);
+    const ChannelRecord rec = deliveries_->offer(t, msg);
     monitor_.add(rec.outcome == ChannelOutcome::DELIVERED);
-    if (rec.outcome == ChannelOutcome::DELIVERED)
-      in_flight_[seq] = {msg, rec.duplicated ? 2 : 1};
-    publishDue(t);
+    deliveries_->popDue(t, outbox_);
     // Called in a publisher's thread (DirectQueue), nothing else wakes the dispatch thread: tell it
     // when the next delivery is due before the time it waits for.
     const bool wake = !dispatch_.inThisThread() && channel_->nextDue() < armed_due_;
@@ -298,21 +186,6 @@ private:
     m.delay = e.delay;
     m.sampled_delay = e.sampled_delay;
     return m;
-  }
-
-  /// Moves every delivery due at t to the outbox, in the engine's order (mutex held).
-  void publishDue(double t)
-  {
-    channel_->popDue(t, due_);
-    for (const Delivery& d : due_)
-    {
-      auto it = in_flight_.find(d.seq);
-      if (it == in_flight_.end())
-        continue;
-      outbox_.push_back(it->second.msg);
-      if (--it->second.remaining == 0)
-        in_flight_.erase(it);
-    }
   }
 
   /// Publishes the outbox in order, without holding mutex_ (`in` is a DirectQueue: an in-process
@@ -359,52 +232,10 @@ private:
       if (wait > 0.0)  // wall-clock wait; under sim time the clock may run at another rate: re-check often
         return ros::Time::isSimTime() ? std::min(wait, 0.0005) : wait;
       armed_due_ = -std::numeric_limits<double>::infinity();  // runs again at once
-      publishDue(now());
+      deliveries_->popDue(now(), outbox_);
     }
     flush();
     return 0.0;
-  }
-
-  /// The settings as the dynamic_reconfigure config (the other model's keys at their defaults).
-  static LossyChannelConfig toConfig(const ChannelSettings& s)
-  {
-    LossyChannelConfig c = LossyChannelConfig::__getDefault__();
-    const YAML::Node y = toYaml(s);
-    c.model = y["model"].as<std::string>();
-    for (auto& kv : {std::make_pair("loss", &c.loss), std::make_pair("p", &c.p), std::make_pair("r", &c.r),
-                     std::make_pair("loss_bad", &c.loss_bad), std::make_pair("loss_good", &c.loss_good)})
-      if (y[kv.first])
-        *kv.second = y[kv.first].as<double>();
-    c.delay = s.delay;
-    c.jitter = s.jitter;
-    c.distribution = y["distribution"] ? y["distribution"].as<std::string>() : c.distribution;
-    c.reorder = s.reorder;
-    c.duplicate = s.duplicate;
-    c.queue_limit = static_cast<int>(s.queue_limit);
-    return c;
-  }
-
-  /// The config's keys that apply to its model, as a YAML map for mergeChannelSettings.
-  static YAML::Node toChanges(const LossyChannelConfig& c)
-  {
-    YAML::Node y(YAML::NodeType::Map);
-    y["model"] = c.model;
-    if (c.model == "bernoulli")
-      y["loss"] = c.loss;
-    else
-    {
-      y["p"] = c.p;
-      y["r"] = c.r;
-      y["loss_bad"] = c.loss_bad;
-      y["loss_good"] = c.loss_good;
-    }
-    y["delay"] = c.delay;
-    y["jitter"] = c.jitter;
-    y["distribution"] = c.distribution;
-    y["reorder"] = c.reorder;
-    y["duplicate"] = c.duplicate;
-    y["queue_limit"] = c.queue_limit;
-    return y;
   }
 
   /// dynamic_reconfigure in ~reconfigure (its values are written back as parameters there, not
@@ -512,14 +343,10 @@ private:
     stat.add("settings", describe());
   }
 
-  struct Held
-  {
-    boost::shared_ptr<const void> msg;  ///< a ShapeShifter, or the ~type message class
-    int remaining;
-  };
-
   ChannelSettings settings_;
   std::unique_ptr<LossyChannel> channel_;
+  /// The messages in flight: a ShapeShifter, or the ~type message class (mutex_).
+  std::unique_ptr<ChannelDeliveries<boost::shared_ptr<const void>>> deliveries_;
   int queue_size_ = 1000;
   std::string type_;
   /// Publishes a held message on `out` (its class: ShapeShifter, or ~type's).
@@ -543,9 +370,6 @@ private:
 
   bool advertised_ = false;
   bool has_header_ = false;
-  std::uint64_t next_seq_ = 0;
-  std::unordered_map<std::uint64_t, Held> in_flight_;
-  std::vector<Delivery> due_;
 };
 
 }  // namespace networked_estimation

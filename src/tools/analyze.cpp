@@ -20,78 +20,75 @@ using namespace networked_estimation;
 namespace
 {
 
-std::string jnum(double v)
+/// A critical rate of +infinity: no rate keeps E[P] bounded (JSON has no number for it: null, and
+/// the set says unbounded_at_every_rate).
+bool noRate(double v)
 {
-  if (!std::isfinite(v))
-    return "null";
-  std::ostringstream os;
-  os.precision(17);
-  os << v;
-  return os.str();
+  return std::isinf(v) && v > 0.0;
 }
 
-std::string jverdict(const Verdict& v)
+void jverdict(JsonWriter& w, const Verdict& v)
 {
-  std::string out =
-      "{\"kind\": " + jsonString(toString(v.kind)) + ", \"reason\": " + jsonString(v.reason) + ", \"numbers\": {";
-  bool first = true;
+  w.beginObject().member("kind", toString(v.kind)).member("reason", v.reason).key("numbers").beginObject();
   for (const auto& kv : v.numbers)
-  {
-    out += (first ? "" : ", ") + jsonString(kv.first) + ": " + jnum(kv.second);
-    first = false;
-  }
-  return out + "}}";
+    w.member(kv.first, kv.second);
+  w.endObject().endObject();
 }
 
-std::string jintervals(const std::vector<RateInterval>& v)
+void jintervals(JsonWriter& w, const std::vector<RateInterval>& v)
 {
-  std::string out = "[";
-  for (std::size_t i = 0; i < v.size(); ++i)
-    out += (i ? ", " : "") + std::string("[") + jnum(v[i].lower) + ", " + jnum(v[i].upper) + "]";
-  return out + "]";
+  w.beginArray();
+  for (const RateInterval& in : v)
+    w.beginArray().value(in.lower).value(in.upper).endArray();
+  w.endArray();
 }
 
-std::string jlink(const SensorLinkReport& l, const std::string& origin)
+void jlink(JsonWriter& w, const SensorLinkReport& l, const std::string& origin)
 {
-  std::ostringstream os;
   const SensorMargin& m = l.margin;
-  os << "{\"sensor\": " << jsonString(l.sensor) << ", \"origin\": " << jsonString(origin) << ", \"kind\": "
-     << jsonString(l.lossless ? "lossless" : l.link.kind == LinkModel::Kind::IID ? "bernoulli" : "gilbert_elliott")
-     << ", \"arrival_rate\": " << jnum(l.arrival_rate) << ", \"recovery_rate\": " << jnum(l.recovery_rate);
+  w.beginObject().member("sensor", l.sensor).member("origin", origin);
+  w.member("kind", l.lossless ? "lossless" : l.link.kind == LinkModel::Kind::IID ? "bernoulli" : "gilbert_elliott");
+  w.member("arrival_rate", l.arrival_rate).member("recovery_rate", l.recovery_rate);
   if (l.link.kind == LinkModel::Kind::GILBERT_ELLIOTT)
-    os << ", \"p\": " << jnum(l.link.p) << ", \"r\": " << jnum(l.link.r);
+    w.member("p", l.link.p).member("r", l.link.r);
   else
-    os << ", \"p\": null, \"r\": null";
-  os << ", \"on_off\": " << (l.link.onOff() ? "true" : "false") << ", \"capacity\": " << jnum(l.capacity)
-     << ", \"margin\": {\"quantity\": " << (m.quantity.empty() ? "null" : jsonString(m.quantity))
-     << ", \"value\": " << jnum(m.value) << ", \"half_line\": " << (m.half_line ? "true" : "false")
-     << ", \"diverges_at\": " << jnum(m.band.diverges_at) << ", \"converges_at\": " << jnum(m.band.converges_at)
-     << ", \"undecided_band\": " << (m.band.undecided_band ? "true" : "false")
-     << ", \"stable_intervals\": " << jintervals(m.stable) << ", \"scan_points\": " << m.scan_points
-     << ", \"margin\": " << jnum(m.margin) << ", \"note\": " << jsonString(m.note) << "}"
-     << ", \"markov_threshold\": " << jsonString(l.markov_note) << "}";
-  return os.str();
+    w.key("p").null().key("r").null();
+  w.member("on_off", l.link.onOff()).member("capacity", l.capacity);
+  w.key("margin").beginObject().key("quantity");
+  if (m.quantity.empty())
+    w.null();
+  else
+    w.value(m.quantity);
+  w.member("value", m.value).member("half_line", m.half_line).member("diverges_at", m.band.diverges_at);
+  w.member("converges_at", m.band.converges_at).member("undecided_band", m.band.undecided_band);
+  w.key("stable_intervals");
+  jintervals(w, m.stable);
+  w.member("scan_points", m.scan_points).member("margin", m.margin).member("note", m.note).endObject();
+  w.member("markov_threshold", l.markov_note).endObject();
 }
 
-std::string jset(const RateAnalysis& r)
+void jset(JsonWriter& w, const RateAnalysis& r)
 {
-  std::ostringstream os;
-  os << "{\"name\": " << jsonString(r.name) << ", \"sensors\": [";
-  for (std::size_t i = 0; i < r.sensors.size(); ++i)
-    os << (i ? ", " : "") << r.sensors[i];
-  os << "], \"lower_bound\": " << jnum(r.lower_bound) << ", \"closed_form_upper\": " << jnum(r.closed_form_upper)
-     << ", \"mare_diverges_at\": " << jnum(r.mare.diverges_at) << ", \"mare_converges_at\": " << jnum(r.mare.converges_at)
-     << ", \"mare_undecided_band\": " << (r.mare.undecided_band ? "true" : "false")
-     << ", \"exact_rate\": " << jnum(r.exact_rate) << ", \"exact_method\": " << jsonString(r.exact_method)
-     << ", \"recovery_lower_bound\": " << jnum(r.recovery_lower_bound) << ", \"recovery_exact\": " << jnum(r.recovery_exact)
-     << ", \"recovery_note\": " << jsonString(r.recovery_note)
-     << ", \"recovery_stable_intervals\": " << jintervals(r.recovery_stable)
-     << ", \"aoe_theorem5\": " << jverdict(r.aoe_theorem5) << ", \"verdict\": " << jverdict(r.verdict)
-     << ", \"margin_quantity\": " << jsonString(r.margin_quantity) << ", \"channel_value\": " << jnum(r.channel_value)
-     << ", \"necessary_threshold\": " << jnum(r.necessary_threshold)
-     << ", \"sufficient_threshold\": " << jnum(r.sufficient_threshold) << ", \"margin\": " << jnum(r.margin)
-     << ", \"stable_intervals\": " << jintervals(r.stable_intervals) << "}";
-  return os.str();
+  w.beginObject().member("name", r.name).key("sensors").beginArray();
+  for (int s : r.sensors)
+    w.value(s);
+  w.endArray().member("lower_bound", r.lower_bound).member("closed_form_upper", r.closed_form_upper);
+  w.member("mare_diverges_at", r.mare.diverges_at).member("mare_converges_at", r.mare.converges_at);
+  w.member("mare_undecided_band", r.mare.undecided_band);
+  w.member("exact_rate", r.exact_rate).member("exact_method", r.exact_method);
+  w.member("unbounded_at_every_rate", noRate(r.exact_rate));
+  w.member("recovery_lower_bound", r.recovery_lower_bound).member("recovery_exact", r.recovery_exact);
+  w.member("recovery_note", r.recovery_note).key("recovery_stable_intervals");
+  jintervals(w, r.recovery_stable);
+  w.key("aoe_theorem5");
+  jverdict(w, r.aoe_theorem5);
+  w.key("verdict");
+  jverdict(w, r.verdict);
+  w.member("margin_quantity", r.margin_quantity).member("channel_value", r.channel_value);
+  w.member("necessary_threshold", r.necessary_threshold).member("sufficient_threshold", r.sufficient_threshold);
+  w.member("margin", r.margin).key("stable_intervals");
+  jintervals(w, r.stable_intervals);
+  w.endObject();
 }
 
 /// Gan and Liu's evidence for one sensor's recorded arrivals (a scalar output only).
@@ -107,6 +104,7 @@ struct TraceEvidence
 std::vector<TraceEvidence> traceEvidence(const Model& model, const std::vector<std::string>& specs, int h)
 {
   std::vector<TraceEvidence> out;
+  std::vector<std::string> given(model.sensors.size());  // per sensor: the --trace that gave its arrivals
   for (const std::string& spec : specs)
   {
     const ArrivalTrace trace = readArrivalTrace(spec, model);
@@ -115,6 +113,10 @@ std::vector<TraceEvidence> traceEvidence(const Model& model, const std::vector<s
       if (trace.arrivals[s].empty())
         continue;
       const Sensor& sensor = model.sensors[s];
+      if (!given[s].empty())
+        throw cli::UsageError("option '--trace': sensor '" + sensor.name + "' has two traces (--trace " + given[s] +
+                              " and --trace " + spec + "); give one per sensor");
+      given[s] = spec;
       TraceEvidence e;
       e.sensor = sensor.name;
       e.samples = trace.arrivals[s].size();
@@ -136,70 +138,98 @@ std::vector<TraceEvidence> traceEvidence(const Model& model, const std::vector<s
   return out;
 }
 
-std::string jtrace(const TraceEvidence& e)
+void jtrace(JsonWriter& w, const TraceEvidence& e)
 {
-  std::ostringstream os;
-  os << "{\"sensor\": " << jsonString(e.sensor) << ", \"samples\": " << e.samples;
+  w.beginObject().member("sensor", e.sensor).member("samples", e.samples);
   if (!e.applicable)
-    return os.str() + ", \"verdict\": {\"kind\": \"not_applicable\", \"reason\": " + jsonString(e.reason) + "}}";
+  {
+    w.key("verdict").beginObject().member("kind", "not_applicable").member("reason", e.reason).endObject();
+    w.endObject();
+    return;
+  }
   const ExcitationReport& r = e.report;
-  os << ", \"h\": " << r.h << ", \"lambda_block_min\": " << jnum(r.lambda_block) << ", \"lambda\": " << jnum(r.lambda)
-     << ", \"norm_A\": " << jnum(r.norm_A) << ", \"a3\": [";
-  for (std::size_t i = 0; i < r.a3.size(); ++i)
-    os << (i ? ", " : "") << "{\"p\": " << r.a3[i].p << ", \"printed\": " << jnum(r.a3[i].printed)
-       << ", \"proof\": " << jnum(r.a3[i].proof) << ", \"holds\": " << (r.a3[i].holds() ? "true" : "false") << "}";
-  os << "], \"verdict\": " << jverdict(r.verdict) << ", \"caveat\": " << jsonString(ExcitationReport::caveat()) << "}";
-  return os.str();
+  w.member("h", r.h).member("lambda_block_min", r.lambda_block).member("lambda", r.lambda).member("norm_A", r.norm_A);
+  w.key("a3").beginArray();
+  for (const ExcitationA3& a : r.a3)
+    w.beginObject().member("p", a.p).member("printed", a.printed).member("proof", a.proof).member("holds", a.holds()).endObject();
+  w.endArray().key("verdict");
+  jverdict(w, r.verdict);
+  w.member("caveat", ExcitationReport::caveat()).endObject();
 }
 
 std::string json(const StabilityReport& rep, const SensorLinks& sl, const std::vector<TraceEvidence>& traces)
 {
-  std::ostringstream os;
-  os << "{\n  \"model\": " << jsonString(rep.model_name) << ",\n  \"eigenvalues\": [";
+  JsonWriter w;
+  w.beginObject();
+  w.br(2).member("model", rep.model_name);
+  w.br(2).key("eigenvalues").beginArray();
   for (int i = 0; i < rep.eigenvalues.size(); ++i)
-    os << (i ? ", " : "") << "{\"re\": " << jnum(rep.eigenvalues[i].real()) << ", \"im\": " << jnum(rep.eigenvalues[i].imag())
-       << "}";
-  os << "],\n  \"spectral_radius\": " << jnum(rep.spectral_radius) << ",\n  \"mahler_measure\": " << jnum(rep.mahler_measure)
-     << ",\n  \"entropy\": " << jnum(rep.entropy) << ",\n  \"diagonalizable\": " << (rep.diagonalizable ? "true" : "false")
-     << ",\n  \"strong_observability\": " << jverdict(rep.strong_observability)
-     << ",\n  \"noise_excites_unstable_modes\": " << (rep.noise_excites_unstable_modes ? "true" : "false")
-     << ",\n  \"detectable\": " << (rep.detectable ? "true" : "false") << ",\n  \"channel\": ";
+    w.beginObject().member("re", rep.eigenvalues[i].real()).member("im", rep.eigenvalues[i].imag()).endObject();
+  w.endArray();
+  w.br(2).member("spectral_radius", rep.spectral_radius);
+  w.br(2).member("mahler_measure", rep.mahler_measure);
+  w.br(2).member("entropy", rep.entropy);
+  w.br(2).member("diagonalizable", rep.diagonalizable);
+  w.br(2).key("strong_observability");
+  jverdict(w, rep.strong_observability);
+  w.br(2).member("noise_excites_unstable_modes", rep.noise_excites_unstable_modes);
+  w.br(2).member("detectable", rep.detectable);
+  w.br(2).key("channel");
   if (rep.has_channel)
-    os << "{\"kind\": " << jsonString(rep.link.kind == LinkModel::Kind::IID ? "bernoulli" : "gilbert_elliott")
-       << ", \"arrival_rate\": " << jnum(rep.arrival_rate) << ", \"recovery_rate\": " << jnum(rep.recovery_rate)
-       << ", \"on_off\": " << (rep.link.onOff() ? "true" : "false") << ", \"capacity\": " << jnum(rep.capacity.total)
-       << ", \"capacity_lower\": " << jnum(rep.capacity.lower) << ", \"capacity_upper\": " << jnum(rep.capacity.upper)
-       << ", \"capacity_note\": " << jsonString(rep.capacity_note)
-       << ", \"mare_at_rates\": " << jsonString(rep.mare_at_rates)
-       << ", \"mare_at_rates_trace\": " << jnum(rep.mare_at_rates_trace)
-       << ", \"mare_at_rates_certificate\": " << jnum(rep.mare_at_rates_certificate)
-       << ", \"uniform\": " << (rep.uniform_links ? "true" : "false") << "}";
+  {
+    w.beginObject().member("kind", rep.link.kind == LinkModel::Kind::IID ? "bernoulli" : "gilbert_elliott");
+    w.member("arrival_rate", rep.arrival_rate).member("recovery_rate", rep.recovery_rate);
+    w.member("on_off", rep.link.onOff()).member("capacity", rep.capacity.total);
+    w.member("capacity_lower", rep.capacity.lower).member("capacity_upper", rep.capacity.upper);
+    w.member("capacity_note", rep.capacity_note).member("mare_at_rates", rep.mare_at_rates);
+    w.member("mare_at_rates_trace", rep.mare_at_rates_trace);
+    w.member("mare_at_rates_certificate", rep.mare_at_rates_certificate);
+    w.member("uniform", rep.uniform_links).endObject();
+  }
   else
-    os << "null";
-  os << ",\n  \"links\": [";
+    w.null();
+  w.br(2).key("links").beginArray();
   for (std::size_t i = 0; i < rep.links.size(); ++i)
-    os << (i ? ",\n    " : "\n    ") << jlink(rep.links[i], i < sl.origin.size() ? sl.origin[i] : "");
-  os << (rep.links.empty() ? "]" : "\n  ]");
-  os << ",\n  \"estimator\": " << jsonString(rep.estimator)
-     << ",\n  \"estimator_note\": " << jsonString(rep.estimator_note)
-     << ",\n  \"rseio\": " << jverdict(rep.rseio) << ",\n  \"all_sensors\": " << jset(rep.model) << ",\n  \"sensors\": [";
-  for (std::size_t i = 0; i < rep.sensors.size(); ++i)
-    os << (i ? ",\n    " : "\n    ") << jset(rep.sensors[i]);
-  os << "\n  ],\n  \"gan_liu\": [";
-  for (std::size_t i = 0; i < traces.size(); ++i)
-    os << (i ? ",\n    " : "\n    ") << jtrace(traces[i]);
-  os << (traces.empty() ? "]" : "\n  ]") << "\n}\n";
-  return os.str();
+    jlink(w.br(4), rep.links[i], i < sl.origin.size() ? sl.origin[i] : "");
+  if (!rep.links.empty())
+    w.br(2);
+  w.endArray();
+  w.br(2).member("estimator", rep.estimator);
+  w.br(2).member("estimator_note", rep.estimator_note);
+  w.br(2).key("rseio");
+  jverdict(w, rep.rseio);
+  w.br(2).key("all_sensors");
+  jset(w, rep.model);
+  w.br(2).key("sensors").beginArray();
+  for (const RateAnalysis& r : rep.sensors)
+    jset(w.br(4), r);
+  w.br(2).endArray();
+  w.br(2).key("gan_liu").beginArray();
+  for (const TraceEvidence& e : traces)
+    jtrace(w.br(4), e);
+  if (!traces.empty())
+    w.br(2);
+  w.endArray();
+  w.br(0).endObject();
+  return w.text() + "\n";
 }
 
 std::string txt(double v)
 {
   if (std::isnan(v))
     return "n/a";
+  if (std::isinf(v))
+    return v > 0.0 ? "unbounded" : "-unbounded";
   std::ostringstream os;
   os.precision(6);
   os << v;
   return os.str();
+}
+
+/// A critical rate, +infinity in words.
+std::string rate(double v)
+{
+  return noRate(v) ? "none (unbounded at every rate)" : txt(v);
 }
 
 std::string intervals(const std::vector<RateInterval>& v)
@@ -213,17 +243,17 @@ std::string intervals(const std::vector<RateInterval>& v)
 void printSet(std::ostream& os, const RateAnalysis& r)
 {
   os << "[" << r.name << "]\n";
-  os << "  lower bound (necessary)         " << txt(r.lower_bound) << "\n";
-  os << "  MARE upper bound                diverges at " << txt(r.mare.diverges_at) << ", converges at "
-     << txt(r.mare.converges_at) << (r.mare.undecided_band ? " (undecided band between)" : "") << "\n";
-  os << "  closed-form upper bound         " << txt(r.closed_form_upper) << "\n";
-  os << "  exact critical arrival rate     " << txt(r.exact_rate) << "  (" << r.exact_method << ")\n";
+  os << "  lower bound (necessary)         " << rate(r.lower_bound) << "\n";
+  os << "  MARE upper bound                diverges at " << rate(r.mare.diverges_at) << ", converges at "
+     << rate(r.mare.converges_at) << (r.mare.undecided_band ? " (undecided band between)" : "") << "\n";
+  os << "  closed-form upper bound         " << rate(r.closed_form_upper) << "\n";
+  os << "  exact critical arrival rate     " << rate(r.exact_rate) << "  (" << r.exact_method << ")\n";
   os << "  Markov: critical recovery rate  ";
   if (!r.recovery_stable.empty())
     os << "none (not a half-line): stable for r in " << intervals(r.recovery_stable);
   else
-    os << txt(r.recovery_exact);
-  os << " (necessary " << txt(r.recovery_lower_bound) << "; " << r.recovery_note << ")\n";
+    os << rate(r.recovery_exact);
+  os << " (necessary " << rate(r.recovery_lower_bound) << "; " << r.recovery_note << ")\n";
   os << "  Lin et al.'s Theorem 5          " << describe(r.aoe_theorem5) << "\n";
   os << "  verdict                         " << describe(r.verdict) << "\n";
   if (r.margin_quantity.rfind("per-sensor", 0) == 0)
@@ -232,6 +262,8 @@ void printSet(std::ostream& os, const RateAnalysis& r)
     os << "  margin                          " << r.margin_quantity << " " << txt(r.channel_value) << ", stable for "
        << intervals(r.stable_intervals) << ": distance to the nearest edge " << txt(r.margin)
        << (r.margin > 0 ? " (inside)" : " (outside)") << "\n";
+  else if (noRate(r.sufficient_threshold))
+    os << "  margin                          none: no " << r.margin_quantity << " keeps E[P] bounded\n";
   else
     os << "  margin                          " << r.margin_quantity << " " << txt(r.channel_value) << " - critical "
        << txt(r.sufficient_threshold) << " = " << txt(r.margin) << "\n";
@@ -252,12 +284,42 @@ void printLinks(std::ostream& os, const StabilityReport& rep)
     else if (std::isnan(m.band.converges_at))
       os << m.quantity << " " << txt(m.value) << ", no stable rate: " << m.note << "\n";
     else
-      os << m.quantity << " " << txt(m.value) << ", needs " << txt(m.band.converges_at) << " (diverges at "
-         << txt(m.band.diverges_at) << ", converges at " << txt(m.band.converges_at)
+      os << m.quantity << " " << txt(m.value) << ", needs " << rate(m.band.converges_at) << " (diverges at "
+         << rate(m.band.diverges_at) << ", converges at " << rate(m.band.converges_at)
          << (m.band.undecided_band ? ", undecided band between" : "") << "), margin " << txt(m.margin) << "\n    ("
          << m.note << ")\n";
     os << "    Markov threshold: " << l.markov_note << "\n";
   }
+}
+
+/// analyze --design's JSON: the model, the cost and cap, and per sensor its least-cost rate and
+/// its least rate alone.
+std::string designJson(const Model& model, const LinkDesign& d, const std::string& cost)
+{
+  JsonWriter w;
+  w.beginObject();
+  w.br(2).member("model", model.name);
+  w.br(2).key("design").beginObject().member("cost", cost).member("growth_cap", d.growth_cap);
+  w.member("applicable", d.applicable).member("note", d.note);
+  if (d.applicable)
+  {
+    w.member("cost_value", d.cost_value).key("verdict");
+    jverdict(w, d.check);
+    w.member("vertices", d.vertices);
+  }
+  w.key("sensors").beginArray();
+  for (std::size_t j = 0; j < model.sensors.size(); ++j)
+  {
+    w.br(4).beginObject().member("name", model.sensors[j].name);
+    if (d.applicable)
+      w.member("arrival_rate", d.rates[j]).member("alone", d.alone[j]);
+    w.endObject();
+  }
+  if (!model.sensors.empty())
+    w.br(2);
+  w.endArray().endObject();
+  w.br(0).endObject();
+  return w.text() + "\n";
 }
 
 int printDesign(const Model& model, const cli::CommandLine& cl)
@@ -271,6 +333,11 @@ int printDesign(const Model& model, const cli::CommandLine& cl)
   if (end == gtext.c_str() || *end != '\0' || !(g > 0.0 && g < 1.0))
     throw cli::UsageError("--growth-cap: expected a number in (0, 1), found '" + gtext + "'");
   const LinkDesign d = designLinks(model, c == "capacity" ? DesignCost::CAPACITY : DesignCost::TOTAL_RATE, g);
+  if (cl.has("json"))
+  {
+    std::cout << designJson(model, d, c);
+    return 0;
+  }
   std::cout << "link design for model " << model.name << " (i.i.d. links; cost: "
             << (c == "capacity" ? "sum of -ln(1 - rate)" : "sum of the arrival rates") << ")\n";
   if (!d.applicable)
@@ -281,8 +348,8 @@ int printDesign(const Model& model, const cli::CommandLine& cl)
   std::cout << "  " << d.note << "\n";
   std::cout << "  least-cost rates (cost " << txt(d.cost_value) << "), verdict " << describe(d.check) << ":\n";
   for (std::size_t j = 0; j < model.sensors.size(); ++j)
-    std::cout << "    " << model.sensors[j].name << ": arrival rate " << txt(d.rates[j])
-              << " (alone, the others lossless: " << txt(d.alone[j]) << ")\n";
+    std::cout << "    " << model.sensors[j].name << ": arrival rate " << rate(d.rates[j])
+              << " (alone, the others lossless: " << rate(d.alone[j]) << ")\n";
   std::cout << "  For a Gilbert-Elliott link give it with --channel NAME=FILE (without --design): the per-sensor\n"
                "  margins then give the least recovery rate at its failure rate p, the other links fixed.\n";
   return 0;
@@ -321,6 +388,17 @@ int main(int argc, char** argv)
                       });
   return cli::runTool(cl, argc, argv, [&]() -> int {
     const Model model = loadModel(cl.get("model"));
+    if (cl.has("design"))
+    {
+      for (const char* o : {"channel", "estimator", "trace", "block"})
+        if (cl.has(o))
+          throw cli::UsageError(std::string("option '--") + o +
+                                "' is not for --design (the design chooses i.i.d. links for every sensor: analyze "
+                                "the links it gives without --design)");
+      return printDesign(model, cl);
+    }
+    if (cl.has("growth-cap"))
+      throw cli::UsageError("--growth-cap is only for --design");
     const SensorLinks links = resolveSensorLinks(model, cl.getAll("channel"));
     EstimatorSettings est;
     const bool has_est = cl.has("estimator");
@@ -328,10 +406,6 @@ int main(int argc, char** argv)
       est = loadEstimatorSettings(cl.get("estimator"));
     const int h = static_cast<int>(cl.getLong("block", model.n(), 1, 10000));
     const std::vector<TraceEvidence> traces = traceEvidence(model, cl.getAll("trace"), h);
-    if (cl.has("design"))
-      return printDesign(model, cl);
-    if (cl.has("growth-cap"))
-      throw cli::UsageError("--growth-cap is only for --design");
     const StabilityReport rep = analyzeStability(model, links.link, has_est ? &est : nullptr);
     if (cl.has("json"))
     {

@@ -2,6 +2,7 @@
 // and optional ones, repeatable ones, value-less switches, `--help`; unknown flags are rejected.
 // runTool() maps the package's errors to exit codes:
 //   0 success, 2 bad arguments or bad files (ConfigError, InputError), 3 divergence, 1 anything else.
+// A tool with a --json switch, run with it, prints its errors as JSON too: {"error": "..."} on stderr.
 #pragma once
 
 #include <algorithm>
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include "networked_estimation/common/error.hpp"
+#include "networked_estimation/io/json_writer.hpp"
 
 namespace networked_estimation
 {
@@ -84,6 +86,8 @@ public:
           throw UsageError("option '--" + key + "' needs a value (" + opt->value_name + ")");
         value = argv[++i];
       }
+      if (opt->value_name == "FILE" && value.empty())
+        throw UsageError("option '--" + key + "': expected a file name, found ''");
       std::vector<std::string>& slot = values_[key];
       if (!slot.empty() && !opt->repeatable)
         throw UsageError("option '--" + key + "' given more than once");
@@ -166,6 +170,18 @@ public:
 
   const std::string& program() const { return program_; }
 
+  /// Whether the tool has a --json switch and argv gives it (looked up in argv itself, so that an
+  /// error in the rest of the command line is reported as JSON too).
+  bool jsonRequested(int argc, char** argv) const
+  {
+    if (!find("json"))
+      return false;
+    for (int i = 1; i < argc; ++i)
+      if (std::string(argv[i]) == "--json")
+        return true;
+    return false;
+  }
+
 private:
   const Option* find(const std::string& name) const
   {
@@ -180,11 +196,21 @@ private:
   std::map<std::string, std::vector<std::string>> values_;
 };
 
+/// The text of an error on stderr: "error: MESSAGE" (with the usage after a usage error), or with
+/// --json {"error": "MESSAGE"}.
+inline std::string errorText(const CommandLine& cl, bool json, const std::string& message, bool usage)
+{
+  if (json)
+    return JsonWriter().beginObject().member("error", message).endObject().text() + "\n";
+  return "error: " + message + "\n" + (usage ? "\n" + cl.usage() : std::string());
+}
+
 /// Parses the command line and runs body() (which returns the exit code), mapping exceptions to
 /// messages on stderr and exit codes. --help prints the usage and returns 0.
 template <class F>
 int runTool(CommandLine& cl, int argc, char** argv, F&& body)
 {
+  const bool json = cl.jsonRequested(argc, argv);
   try
   {
     if (!cl.parse(argc, argv))
@@ -193,27 +219,27 @@ int runTool(CommandLine& cl, int argc, char** argv, F&& body)
   }
   catch (const UsageError& e)
   {
-    std::cerr << "error: " << e.what() << "\n\n" << cl.usage();
+    std::cerr << errorText(cl, json, e.what(), true);
     return 2;
   }
   catch (const ConfigError& e)
   {
-    std::cerr << "error: " << e.what() << "\n";
+    std::cerr << errorText(cl, json, e.what(), false);
     return 2;
   }
   catch (const InputError& e)
   {
-    std::cerr << "error: " << e.what() << "\n";
+    std::cerr << errorText(cl, json, e.what(), false);
     return 2;
   }
   catch (const DivergenceError& e)
   {
-    std::cerr << "error: " << e.what() << "\n";
+    std::cerr << errorText(cl, json, e.what(), false);
     return 3;
   }
   catch (const std::exception& e)
   {
-    std::cerr << "error: " << cl.program() << ": " << e.what() << "\n";
+    std::cerr << errorText(cl, json, cl.program() + ": " + e.what(), false);
     return 1;
   }
 }

@@ -51,6 +51,22 @@ KinematicSensor parseSensor(const std::string& text)
   return KinematicSensor{parts[0], parts[1], parseNumber(parts[2], "option '--sensor' '" + text + "': SIGMA")};
 }
 
+/// The option a key of makeKinematicModel's messages comes from, as the user typed it:
+/// "sensors[1].sigma" -> "--sensor 'imu:acceleration:0' sigma", "dims" -> "--dims".
+std::string optionOf(const std::string& key, const std::vector<std::string>& sensor_args)
+{
+  const std::string prefix = "sensors[";
+  if (key.compare(0, prefix.size(), prefix) == 0)
+  {
+    const std::string::size_type close = key.find(']');
+    const std::size_t i = static_cast<std::size_t>(std::strtoul(key.c_str() + prefix.size(), nullptr, 10));
+    const std::string field = close == std::string::npos || close + 2 > key.size() ? "" : key.substr(close + 2);
+    return "--sensor '" + (i < sensor_args.size() ? sensor_args[i] : std::string()) + "'" +
+           (field.empty() ? "" : " " + field);
+  }
+  return "--" + std::string(key == "sensors" ? "sensor" : key);
+}
+
 /// The command line as one shell line (arguments with special characters single-quoted).
 std::string commandLine(int argc, char** argv)
 {
@@ -115,8 +131,10 @@ int main(int argc, char** argv)
     if (order == 2 && cl.has("p0-acceleration"))
       throw cli::UsageError("option '--p0-acceleration' is only for a constant_acceleration model");
 
-    for (const std::string& s : cl.getAll("sensor"))
+    const std::vector<std::string> sensor_args = cl.getAll("sensor");
+    for (const std::string& s : sensor_args)
       spec.sensors.push_back(parseSensor(s));
+    spec.key_name = [&sensor_args](const std::string& key) { return optionOf(key, sensor_args); };
     if (cl.has("x0"))
     {
       const std::vector<std::string> values = split(cl.get("x0"), ',');

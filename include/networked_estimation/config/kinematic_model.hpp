@@ -17,6 +17,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,9 @@ struct KinematicSpec
   double p0_position = 1.0;              ///< P0 = diag of these variances (m^2, m^2/s^2, m^2/s^4)
   double p0_velocity = 1.0;
   double p0_acceleration = 1.0;          ///< constant_acceleration only
+  /// How a message names a key ("dims", "sensors[1].sigma", ...): make_model names the option the
+  /// user typed. Empty: the key itself.
+  std::function<std::string(const std::string& key)> key_name;
 };
 
 /// Order of the motion: 2 (position, velocity) or 3 (and acceleration). Throws ConfigError for an
@@ -59,7 +63,8 @@ std::string densityKey(const std::string& motion);
 std::vector<std::string> kinematicStateNames(int order, int dims);
 
 /// Builds and validates (validateModel) the model. Throws ConfigError naming the option (motion,
-/// dims, rate, accel-density / jerk-density, sensors[i].name / .quantity / .sigma, x0, p0-*) and the
+/// dims, rate, accel-density / jerk-density, sensors[i].name / .quantity / .sigma, x0, p0-*, each
+/// through spec.key_name when given) and the
 /// value found versus the one expected. Every rate is accepted (the model checks' definiteness test
 /// is scale-aware, and Q scaled to unit diagonal does not depend on the rate) until Q's entries,
 /// q T^5 (q T^3) to q T, leave the normal doubles (for q = 1 a rate above about 1.9e61 Hz, 2.5e102

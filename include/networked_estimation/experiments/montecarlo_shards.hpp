@@ -39,7 +39,10 @@ struct ShardFile
   std::vector<CallBlocks> calls;  ///< per runMonteCarlo call of the experiment, in call order
 };
 
-/// Parses "K/N" (decimal, 1 <= K <= N <= 1000000). False when the text is not of that form.
+/// The most shards an experiment may be split into.
+constexpr int kMaxShards = 1000000;
+
+/// Parses "K/N" (decimal, 1 <= K <= N <= kMaxShards). False when the text is not of that form.
 bool parseShardSpec(const std::string& text, int& index, int& count);
 
 /// The input files of an experiment with the hashes of their contents (none but for custom).
@@ -53,10 +56,11 @@ ShardFile runShard(const MonteCarloConfig& config, int index, int count, Progres
 
 /// "NAME.shard-K-of-N.json".
 std::string shardFileName(const std::string& experiment, int index, int count);
-/// The shard file's text (doubles with %.17g, which round-trips; non-finite ones as strings).
+/// The shard file's text (JSON through nlohmann/json: each double as the shortest number that reads
+/// back to the same bits, the non-finite ones as the strings "nan", "-nan", "inf", "-inf").
 std::string shardJson(const ShardFile& shard);
 /// Parses and checks a shard file's text. Throws InputError naming `path` and the problem (with
-/// the line and column of a syntax error).
+/// the line and column of a syntax error, the line and the field of a wrong value).
 ShardFile parseShard(const std::string& text, const std::string& path);
 /// Reads and parses a shard file. Throws InputError naming the file.
 ShardFile readShard(const std::string& path);

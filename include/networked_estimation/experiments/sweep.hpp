@@ -23,6 +23,8 @@ namespace networked_estimation
 {
 
 /// One axis of a sweep.
+class JsonWriter;
+
 struct SweepAxis
 {
   std::string arg;     ///< the --axis argument as given
@@ -110,7 +112,7 @@ struct SweepResult
 
 /// `point,i1,i2,<axis 1>,<axis 2>,estimator,n,diverged,floored,trP_mean,...,verdict` rows.
 std::string sweepCsv(const SweepResult& sweep);
-/// The "sweep" member of DIR/sweep.json (an object, indented by `indent`).
-std::string sweepJson(const SweepResult& sweep, const std::string& indent);
+/// Writes the "sweep" member of DIR/sweep.json (an object, its lines indented by `indent` spaces).
+void writeSweepJson(JsonWriter& w, const SweepResult& sweep, int indent);
 
 }  // namespace networked_estimation

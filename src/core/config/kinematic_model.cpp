@@ -115,9 +115,10 @@ std::vector<std::string> kinematicStateNames(int order, int dims)
 Model makeKinematicModel(const KinematicSpec& spec)
 {
   const std::string source = "kinematic model " + quoted(spec.name);
-  const auto fail = [&source](const std::string& key, const std::string& problem)
+  const auto name = [&spec](const std::string& key) { return spec.key_name ? spec.key_name(key) : key; };
+  const auto fail = [&source, &name](const std::string& key, const std::string& problem)
   {
-    throw ConfigError(message(source, 0, key, problem));
+    throw ConfigError(message(source, 0, name(key), problem));
   };
 
   const int order = orderOf(spec.motion);
@@ -204,7 +205,7 @@ Model makeKinematicModel(const KinematicSpec& spec)
       if (spec.sensors[k].name == in.name)
       {
         fail(key + ".name", "duplicate sensor name " + quoted(in.name) + " (also " +
-                                indexKey("sensors", k) + ".name)");
+                                name(indexKey("sensors", k) + ".name") + ")");
       }
     }
     const int which = quantityIndex(in.quantity, order);

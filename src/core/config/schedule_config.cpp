@@ -129,6 +129,16 @@ Eigen::VectorXd stationary(const Eigen::MatrixXd& T)
   return Eigen::VectorXd::Constant(K, std::nan(""));
 }
 
+/// Whether no set names a sensor.
+bool noneScheduled(const std::vector<std::vector<bool>>& sets)
+{
+  for (const std::vector<bool>& set : sets)
+    for (bool on : set)
+      if (on)
+        return false;
+  return true;
+}
+
 }  // namespace
 
 Schedule parseSchedule(const Reader& in, const YAML::Node& node, const std::vector<Sensor>& sensors)
@@ -151,6 +161,10 @@ Schedule parseSchedule(const Reader& in, const YAML::Node& node, const std::vect
     sch.kind = Schedule::Kind::PERIODIC;
     for (std::size_t t = 0; t < p.size(); ++t)
       sch.pattern.push_back(parseSet(in, p[t], indexKey("schedule.pattern", t), sensors));
+    if (noneScheduled(sch.pattern))
+      in.fail(p, "schedule.pattern",
+              "no step schedules a sensor (every step is []): the estimator would never receive a measurement; "
+              "name at least one sensor in some step");
   }
   else
   {
@@ -161,6 +175,10 @@ Schedule parseSchedule(const Reader& in, const YAML::Node& node, const std::vect
     sch.kind = Schedule::Kind::RANDOM;
     for (std::size_t i = 0; i < s.size(); ++i)
       sch.subsets.push_back(parseSet(in, s[i], indexKey("schedule.subsets", i), sensors));
+    if (noneScheduled(sch.subsets))
+      in.fail(s, "schedule.subsets",
+              "every subset is []: the estimator would never receive a measurement; name at least one sensor in "
+              "some subset");
     const int K = static_cast<int>(s.size());
     const bool probs = static_cast<bool>(node["probabilities"]), trans = static_cast<bool>(node["transition"]);
     if (probs == trans)

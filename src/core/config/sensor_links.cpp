@@ -76,6 +76,8 @@ SensorLinks resolveSensorLinks(const Model& model, const std::vector<std::string
       if (eq != std::string::npos)
         throw ConfigError("--channel '" + arg + "': expected FILE or NAME=FILE with NAME a sensor of model '" +
                           model.name + "' (" + sensorList(model) + ")");
+      if (file.empty())
+        throw ConfigError("--channel '': expected FILE or NAME=FILE, found nothing");
       if (links.common)
         throw ConfigError("--channel: more than one channel for every sensor ('" + common_file + "' and '" + file +
                           "'); give the others as NAME=FILE");

@@ -249,48 +249,42 @@ std::string sweepCsv(const SweepResult& sw)
   return os.str();
 }
 
-std::string sweepJson(const SweepResult& sw, const std::string& in)
+void writeSweepJson(JsonWriter& w, const SweepResult& sw, int in)
 {
-  std::ostringstream os;
-  os << "{\n" << in << "  \"axes\": [";
-  for (std::size_t i = 0; i < sw.axes.size(); ++i)
+  w.beginObject();
+  w.br(in + 2).key("axes").beginArray();
+  for (const SweepAxis& a : sw.axes)
   {
-    const SweepAxis& a = sw.axes[i];
-    os << (i ? ",\n" : "\n") << in << "    {\"name\": " << jsonString(a.name()) << ", \"sensor\": " << jsonString(a.sensor)
-       << ", \"param\": " << jsonString(a.param) << ", \"arg\": " << jsonString(a.arg) << ", \"lo\": " << mc::fmt(a.lo)
-       << ", \"hi\": " << mc::fmt(a.hi) << ", \"count\": " << a.count << ", \"values\": [";
-    for (std::size_t k = 0; k < a.values.size(); ++k)
-      os << (k ? ", " : "") << mc::fmt(a.values[k]);
-    os << "]}";
+    w.br(in + 4).beginObject().member("name", a.name()).member("sensor", a.sensor).member("param", a.param);
+    w.member("arg", a.arg).member("lo", mc::rounded(a.lo)).member("hi", mc::rounded(a.hi)).member("count", a.count);
+    w.key("values").beginArray();
+    for (double v : a.values)
+      w.value(mc::rounded(v));
+    w.endArray().endObject();
   }
-  os << "\n" << in << "  ],\n";
-  os << in << "  \"estimators\": [";
-  for (std::size_t j = 0; j < sw.estimators.size(); ++j)
-    os << (j ? ", " : "") << jsonString(sw.estimators[j]);
-  os << "],\n";
-  os << in << "  \"points\": " << sw.points << ",\n";
+  w.br(in + 2).endArray();
+  w.br(in + 2).member("estimators", sw.estimators);
+  w.br(in + 2).member("points", sw.points);
   long incomplete = 0;
   for (const SweepCell& c : sw.cells)
     incomplete += (c.diverged > 0 || c.floored > 0) ? 1 : 0;
-  os << in << "  \"incomplete_cells\": " << incomplete << ",\n";
-  os << in << "  \"verdicts\": [";
-  for (std::size_t p = 0; p < sw.analysis.verdicts.size(); ++p)
-    os << (p ? ", " : "") << jsonString(sw.analysis.verdicts[p]);
-  os << "],\n";
+  w.br(in + 2).member("incomplete_cells", incomplete);
+  w.br(in + 2).member("verdicts", sw.analysis.verdicts);
   const SweepAxis& last = sw.axes.back();
-  os << in << "  \"critical\": {\"axis\": " << jsonString(last.name())
-     << ", \"along\": " << (sw.axes.size() > 1 ? jsonString(sw.axes[0].name()) : std::string("null"))
-     << ", \"curve\": [";
-  for (std::size_t i = 0; i < sw.analysis.critical.size(); ++i)
+  w.br(in + 2).key("critical").beginObject().member("axis", last.name()).key("along");
+  if (sw.axes.size() > 1)
+    w.value(sw.axes[0].name());
+  else
+    w.null();
+  w.key("curve").beginArray();
+  for (const SweepAnalysis::Critical& c : sw.analysis.critical)
   {
-    const SweepAnalysis::Critical& c = sw.analysis.critical[i];
-    os << (i ? ",\n" : "\n") << in << "    {\"at\": " << num(c.at, "null")
-       << ", \"diverges_at\": " << num(c.diverges_at, "null") << ", \"converges_at\": " << num(c.converges_at, "null")
-       << ", \"undecided_band\": " << (c.undecided_band ? "true" : "false")
-       << ", \"half_line\": " << (c.half_line ? "true" : "false") << ", \"note\": " << jsonString(c.note) << "}";
+    w.br(in + 4).beginObject().member("at", mc::rounded(c.at)).member("diverges_at", mc::rounded(c.diverges_at));
+    w.member("converges_at", mc::rounded(c.converges_at)).member("undecided_band", c.undecided_band);
+    w.member("half_line", c.half_line).member("note", c.note).endObject();
   }
-  os << "\n" << in << "  ]}\n" << in << "}";
-  return os.str();
+  w.br(in + 2).endArray().endObject();
+  w.br(in).endObject();
 }
 
 namespace mc

@@ -334,20 +334,15 @@ std::string csvField(const std::string& s)
   return out + "\"";
 }
 
-/// A JSON number (null for NaN / infinity, which JSON cannot represent).
-std::string jsonNumber(double v)
+/// A list of strings, one a line, indented by `indent` (or [] when empty).
+void writeLines(JsonWriter& w, const std::vector<std::string>& v, int indent)
 {
-  return std::isfinite(v) ? mc::fmt(v) : "null";
-}
-
-std::string jsonStrings(const std::vector<std::string>& v, const std::string& indent)
-{
-  if (v.empty())
-    return "[]";
-  std::string out = "[\n";
-  for (std::size_t i = 0; i < v.size(); ++i)
-    out += indent + "  " + jsonString(v[i]) + (i + 1 < v.size() ? ",\n" : "\n");
-  return out + indent + "]";
+  w.beginArray();
+  for (const std::string& s : v)
+    w.br(indent + 2).value(s);
+  if (!v.empty())
+    w.br(indent);
+  w.endArray();
 }
 
 }  // namespace
@@ -368,43 +363,51 @@ std::string experimentCsv(const ExperimentResult& result)
 
 std::string experimentJson(const ExperimentResult& r)
 {
-  std::ostringstream os;
-  os << "{\n";
-  os << "  \"experiment\": " << jsonString(r.experiment) << ",\n";
-  os << "  \"runs\": " << r.runs << ",\n";
-  os << "  \"steps\": " << r.steps << ",\n";
-  os << "  \"seed\": " << r.seed << ",\n";
-  os << "  \"threads\": " << r.threads << ",\n";
-  os << "  \"wall_seconds\": " << jsonNumber(r.wall_seconds) << ",\n";
-  os << "  \"x_label\": " << jsonString(r.x_label) << ",\n";
-  os << "  \"y_label\": " << jsonString(r.y_label) << ",\n";
-  os << "  \"log_x\": " << (r.log_x ? "true" : "false") << ",\n";
-  os << "  \"log_y\": " << (r.log_y ? "true" : "false") << ",\n";
-  os << "  \"assumptions\": " << jsonStrings(r.assumptions, "  ") << ",\n";
-  os << "  \"cases\": [";
-  for (std::size_t c = 0; c < r.cases.size(); ++c)
+  JsonWriter w;
+  w.beginObject();
+  w.br(2).member("experiment", r.experiment);
+  w.br(2).member("runs", r.runs);
+  w.br(2).member("steps", r.steps);
+  w.br(2).member("seed", r.seed);
+  w.br(2).member("threads", r.threads);
+  w.br(2).member("wall_seconds", mc::rounded(r.wall_seconds));
+  w.br(2).member("x_label", r.x_label);
+  w.br(2).member("y_label", r.y_label);
+  w.br(2).member("log_x", r.log_x);
+  w.br(2).member("log_y", r.log_y);
+  w.br(2).key("assumptions");
+  writeLines(w, r.assumptions, 2);
+  w.br(2).key("cases").beginArray();
+  for (const CaseResult& cr : r.cases)
   {
-    const CaseResult& cr = r.cases[c];
-    os << (c ? ",\n" : "\n") << "    {\n";
-    os << "      \"name\": " << jsonString(cr.name) << ",\n";
-    os << "      \"title\": " << jsonString(cr.title) << ",\n";
-    os << "      \"series\": [";
-    for (std::size_t s = 0; s < cr.series.size(); ++s)
+    w.br(4).beginObject();
+    w.br(6).member("name", cr.name);
+    w.br(6).member("title", cr.title);
+    w.br(6).key("series").beginArray();
+    for (const SeriesResult& sr : cr.series)
     {
-      const SeriesResult& sr = cr.series[s];
-      os << (s ? ",\n" : "\n") << "        {\"name\": " << jsonString(sr.name)
-         << ", \"time_average\": " << jsonNumber(sr.time_average) << ", \"final\": " << jsonNumber(sr.final_value)
-         << ", \"window\": [" << jsonNumber(sr.window0) << ", " << jsonNumber(sr.window1) << "]"
-         << (sr.bound ? ", \"bound\": true}" : "}");
+      w.br(8).beginObject().member("name", sr.name);
+      w.member("time_average", mc::rounded(sr.time_average)).member("final", mc::rounded(sr.final_value));
+      w.key("window").beginArray().value(mc::rounded(sr.window0)).value(mc::rounded(sr.window1)).endArray();
+      if (sr.bound)
+        w.member("bound", true);
+      w.endObject();
     }
-    os << "\n      ]\n    }";
+    w.br(6).endArray();
+    w.br(4).endObject();
   }
-  os << (r.cases.empty() ? "],\n" : "\n  ],\n");
+  if (!r.cases.empty())
+    w.br(2);
+  w.endArray();
   if (r.sweep)
-    os << "  \"sweep\": " << sweepJson(*r.sweep, "  ") << ",\n";
-  os << "  \"notes\": " << jsonStrings(r.notes, "  ") << "\n";
-  os << "}\n";
-  return os.str();
+  {
+    w.br(2).key("sweep");
+    writeSweepJson(w, *r.sweep, 2);
+  }
+  w.br(2).key("notes");
+  writeLines(w, r.notes, 2);
+  w.br(0).endObject();
+  return w.text() + "\n";
 }
 
 std::string samplesCsv(const ExperimentResult& r)

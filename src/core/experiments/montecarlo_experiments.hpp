@@ -2,7 +2,9 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -70,6 +72,12 @@ inline std::string fmt(double v)
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.10g", v);
   return buf;
+}
+
+/// `v` rounded to the digits fmt() prints: the value the JSON outputs hold, as the CSV ones.
+inline double rounded(double v)
+{
+  return std::isfinite(v) ? std::strtod(fmt(v).c_str(), nullptr) : v;
 }
 
 /// 1..steps as doubles.

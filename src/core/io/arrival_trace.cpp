@@ -87,9 +87,13 @@ ArrivalTrace readArrivalTrace(const std::string& spec, const Model& model)
     if (index == model.sensors.size())
       throw ConfigError("--trace " + spec + ": '" + name + "' is not a sensor of model '" + model.name +
                         "' (its sensors: " + names + ")");
+    if (trace.path.empty())
+      throw ConfigError("--trace " + spec + ": no file after '" + name + "='");
     trace.arrivals[index] = readEvents(trace.path, name);
     return trace;
   }
+  if (spec.empty())
+    throw ConfigError("--trace '': expected FILE or NAME=FILE, found nothing");
   trace.path = spec;
   const ReplayInput input = readReplayInput(spec, model);
   for (const ReplayRow& row : input.rows)
