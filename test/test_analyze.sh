@@ -194,5 +194,54 @@ grep -q "replay.csv" "$TMP/err" || { echo "FAIL: the message does not name the f
 check "--trace on a two-row sensor" 0 "$BIN" --model "$SRC/config/models/tracking_2d.yaml" --trace gnss="$TMP/events.csv"
 grep -q "not applicable: Gan and Liu treat a scalar output" "$TMP/out" || { echo "FAIL: two-row sensor"; cat "$TMP/out"; fail=1; }
 
+# Robot models (constant velocity, a Jordan block at 1 per axis): every model in config/models/ gets
+# a decided verdict on every example channel (no "undecided"), and a constant-velocity model from
+# make_model with a position and a velocity sensor says the position sensor needs any positive
+# rate and the velocity sensor none; with the velocity sensor alone the positions are dead-reckoned.
+for m in "$SRC"/config/models/*.yaml; do
+  for c in "$SRC"/config/channels/*.yaml; do
+    "$BIN" --model "$m" --channel "$c" --json 2>/dev/null | python3 -c '
+import json, sys
+d = json.load(sys.stdin)
+for s in [d["all_sensors"]] + d["sensors"]:
+    if s["verdict"]["kind"] == "undecided":
+        print("FAIL: undecided verdict for", sys.argv[1], sys.argv[2], s["name"], s["verdict"]["reason"])
+        sys.exit(1)
+' "$(basename "$m")" "$(basename "$c")" || fail=1
+  done
+done
+cat >"$TMP/cv.yaml" <<'YAML'
+name: cv_1d
+period: 0.1
+A: [[1, 0.1], [0, 1]]
+Q: [[0.01, 0], [0, 0.1]]
+sensors:
+  - {name: gnss, C: [[1, 0]], R: [[1]]}
+  - {name: odom, C: [[0, 1]], R: [[0.01]]}
+x0: [0, 0]
+P0: [[1, 0], [0, 1]]
+YAML
+check "constant velocity, slow position link" 0 "$BIN" --model "$TMP/cv.yaml" --channel gnss="$SRC/config/channels/bernoulli_0.2.yaml" \
+  --channel odom="$SRC/config/channels/gilbert_elliott_bursty.yaml" --json
+python3 - "$TMP/out" <<'PY' || fail=1
+import json, sys
+d = json.load(open(sys.argv[1]))
+gnss, odom = d["links"][0]["margin"], d["links"][1]["margin"]
+ok = d["all_sensors"]["verdict"]["kind"] == "stable" and d["all_sensors"]["exact_rate"] == 0
+ok = ok and gnss["any_positive"] and gnss["converges_at"] == 0 and gnss["diverges_at"] == 0
+ok = ok and not odom["any_positive"] and odom["converges_at"] == 0 and d["dead_reckoned"] == ""
+ok = ok and d["sensors"][1]["dead_reckoned"].startswith("1 mode(s) with |lambda| >= 1 (1) of states 0 ")
+if not ok:
+    print("FAIL: constant velocity margins", d["links"], d["sensors"][1]["dead_reckoned"])
+    sys.exit(1)
+PY
+check "constant velocity text" 0 "$BIN" --model "$TMP/cv.yaml" --channel gnss="$SRC/config/channels/bernoulli_0.2.yaml"
+grep -q "gnss: arrival rate 0.8, needs > 0 (any positive rate; unbounded at 0)" "$TMP/out" || { echo "FAIL: needs > 0"; cat "$TMP/out"; fail=1; }
+grep -q "odom: arrival rate 1, needs 0 (bounded even without it)" "$TMP/out" || { echo "FAIL: needs 0"; cat "$TMP/out"; fail=1; }
+sed 's/  - {name: gnss, C: \[\[1, 0\]\], R: \[\[1\]\]}//' "$TMP/cv.yaml" >"$TMP/cv_vel.yaml"
+check "velocity only: dead-reckoned position" 0 "$BIN" --model "$TMP/cv_vel.yaml" --channel "$SRC/config/channels/bernoulli_0.2.yaml"
+grep -q "^dead-reckoned: 1 mode(s) with |lambda| >= 1 (1) of states 0 " "$TMP/out" || { echo "FAIL: dead-reckoned line"; cat "$TMP/out"; fail=1; }
+grep -q "verdict                         stable" "$TMP/out" || { echo "FAIL: velocity-only verdict"; cat "$TMP/out"; fail=1; }
+
 if [ $fail = 0 ]; then echo "test_analyze: all passed"; fi
 exit $fail

@@ -61,6 +61,7 @@ void jlink(JsonWriter& w, const SensorLinkReport& l, const std::string& origin)
     w.value(m.quantity);
   w.member("value", m.value).member("half_line", m.half_line).member("diverges_at", m.band.diverges_at);
   w.member("converges_at", m.band.converges_at).member("undecided_band", m.band.undecided_band);
+  w.member("any_positive", m.any_positive);
   w.key("stable_intervals");
   jintervals(w, m.stable);
   w.member("scan_points", m.scan_points).member("margin", m.margin).member("note", m.note).endObject();
@@ -77,6 +78,7 @@ void jset(JsonWriter& w, const RateAnalysis& r)
   w.member("mare_undecided_band", r.mare.undecided_band);
   w.member("exact_rate", r.exact_rate).member("exact_method", r.exact_method);
   w.member("unbounded_at_every_rate", noRate(r.exact_rate));
+  w.member("dead_reckoned", r.dead_reckoned);
   w.member("recovery_lower_bound", r.recovery_lower_bound).member("recovery_exact", r.recovery_exact);
   w.member("recovery_note", r.recovery_note).key("recovery_stable_intervals");
   jintervals(w, r.recovery_stable);
@@ -174,6 +176,7 @@ std::string json(const StabilityReport& rep, const SensorLinks& sl, const std::v
   jverdict(w, rep.strong_observability);
   w.br(2).member("noise_excites_unstable_modes", rep.noise_excites_unstable_modes);
   w.br(2).member("detectable", rep.detectable);
+  w.br(2).member("dead_reckoned", rep.dead_reckoned);
   w.br(2).key("channel");
   if (rep.has_channel)
   {
@@ -283,6 +286,12 @@ void printLinks(std::ostream& os, const StabilityReport& rep)
          << txt(m.margin) << "\n    (" << m.note << ")\n";
     else if (std::isnan(m.band.converges_at))
       os << m.quantity << " " << txt(m.value) << ", no stable rate: " << m.note << "\n";
+    else if (m.any_positive)
+      os << m.quantity << " " << txt(m.value) << ", needs > 0 (any positive rate; unbounded at 0), margin "
+         << txt(m.margin) << "\n    (" << m.note << ")\n";
+    else if (m.band.converges_at == 0.0)
+      os << m.quantity << " " << txt(m.value) << ", needs 0 (bounded even without it), margin " << txt(m.margin)
+         << "\n    (" << m.note << ")\n";
     else
       os << m.quantity << " " << txt(m.value) << ", needs " << rate(m.band.converges_at) << " (diverges at "
          << rate(m.band.diverges_at) << ", converges at " << rate(m.band.converges_at)
@@ -424,6 +433,9 @@ int main(int argc, char** argv)
     std::cout << "\nrho(A) = " << txt(rep.spectral_radius) << ", M(A) = " << txt(rep.mahler_measure)
               << ", diagonalizable: " << (rep.diagonalizable ? "yes" : "no") << "\n";
     std::cout << "strong observability: " << describe(rep.strong_observability) << "\n";
+    if (!rep.dead_reckoned.empty())
+      std::cout << "dead-reckoned: " << rep.dead_reckoned
+                << " (the verdicts, thresholds and capacities below concern the observed modes)\n";
     if (model.schedule.active())
     {
       std::vector<std::string> names;
