@@ -10,6 +10,7 @@
 #include "networked_estimation/stability/link_monitor.hpp"
 #include "networked_estimation/common/random.hpp"
 #include "networked_estimation/config/channel_settings.hpp"
+#include "networked_estimation/config/kinematic_model.hpp"
 #include "test_support.hpp"
 
 #include <optional>
@@ -366,4 +367,85 @@ TEST(LiveStability, MarkovKeysPerSensor)
   EXPECT_NE(valueOf(r, "b recovery rate r"), "<missing>");
   EXPECT_EQ(valueOf(r, "critical (necessary)"), "<missing>");
   EXPECT_EQ(r.status.level, joint.evaluate().status.level);
+}
+
+// A robot's constant-velocity model (make_model: 2-D, 50 Hz, a position and a velocity sensor):
+// with both links delivering everything the status is OK (the bad end of each interval is below 1,
+// and on the unit circle any positive rate is stable), the position sensor needs any positive rate
+// and the velocity sensor none; a position link that delivered nothing in the window is unstable at
+// the estimate but WARN, not ERROR (its rate's interval reaches above 0, where any rate is stable). With the
+// velocity sensor alone the positions are dead-reckoned: named, and the links are OK.
+TEST(LiveStability, ConstantVelocityRobot)
+{
+  KinematicSpec spec;
+  spec.motion = "constant_velocity";
+  spec.dims = 2;
+  spec.rate = 50.0;
+  spec.density = 0.25;
+  spec.sensors = {{"gnss", "position", 1.0}, {"odom", "velocity", 0.1}};
+  const Model m = makeKinematicModel(spec);
+  EstimatorSettings kfio;
+  LiveStabilityOptions o;
+  o.window = 1000;
+  LiveStability live(m, kfio, o);
+  for (int k = 0; k < 1000; ++k)
+    live.add({true, true}, true, m.P0, false);
+  const LiveStabilityReport r = live.evaluate();
+  EXPECT_EQ(r.status.level, LinkStatus::Level::OK) << r.status.message;
+  EXPECT_EQ(valueOf(r, "gnss needs").rfind("arrival rate > 0 (any positive rate", 0), 0u) << valueOf(r, "gnss needs");
+  EXPECT_EQ(valueOf(r, "odom needs").rfind("arrival rate: any", 0), 0u) << valueOf(r, "odom needs");
+  EXPECT_EQ(valueOf(r, "dead-reckoned"), "<missing>");
+
+  LiveStability lost(m, kfio, o);
+  for (int k = 0; k < 1000; ++k)
+    lost.add({false, true}, true, m.P0, false);
+  const LiveStabilityReport rl = lost.evaluate();
+  EXPECT_EQ(rl.status.level, LinkStatus::Level::WARN) << rl.status.message;
+  EXPECT_NE(rl.status.message.find("at the estimates unstable"), std::string::npos) << rl.status.message;
+
+  KinematicSpec vel = spec;
+  vel.sensors = {{"odom", "velocity", 0.1}};
+  const Model mv = makeKinematicModel(vel);
+  LiveStability odom_only(mv, kfio, o);
+  for (int k = 0; k < 1000; ++k)
+    odom_only.add({k % 10 != 0}, k % 10 != 0, mv.P0, false);
+  const LiveStabilityReport rv = odom_only.evaluate();
+  EXPECT_EQ(rv.status.level, LinkStatus::Level::OK) << rv.status.message;
+  EXPECT_NE(valueOf(rv, "dead-reckoned").find("states 0, 1 "), std::string::npos) << valueOf(rv, "dead-reckoned");
+}
+
+// The cache: an evaluation with no step since the last one returns the same report (also through
+// a copy, as the nodelet evaluates snapshots), and a new step is seen.
+TEST(LiveStability, CacheFollowsTheWindows)
+{
+  const Model m = scalarTwoSensors(1.5);
+  EstimatorSettings kfio;
+  LiveStabilityOptions o;
+  o.window = 200;
+  o.min_samples = 10;
+  LiveStability live(m, kfio, o);
+  for (int k = 0; k < 200; ++k)
+    live.add({true, k % 2 == 0}, true, Eigen::MatrixXd::Identity(1, 1), false);
+  const LiveStabilityReport first = live.evaluate();
+  const LiveStability snapshot(live);
+  const LiveStabilityReport again = snapshot.evaluate();
+  ASSERT_EQ(first.values.size(), again.values.size());
+  for (std::size_t i = 0; i < first.values.size(); ++i)
+    EXPECT_EQ(first.values[i], again.values[i]);
+  for (int k = 0; k < 200; ++k)
+    live.add({false, false}, false, Eigen::MatrixXd::Identity(1, 1), false);
+  const LiveStabilityReport later = live.evaluate();
+  EXPECT_NE(valueOf(later, "a arrival rate"), valueOf(first, "a arrival rate"));
+  EXPECT_EQ(later.status.level, LinkStatus::Level::ERROR) << later.status.message;
+  LiveStabilityOptions no_cache = o;
+  no_cache.cache = false;
+  LiveStability fresh(m, kfio, no_cache);
+  for (int k = 0; k < 200; ++k)
+    fresh.add({true, k % 2 == 0}, true, Eigen::MatrixXd::Identity(1, 1), false);
+  for (int k = 0; k < 200; ++k)
+    fresh.add({false, false}, false, Eigen::MatrixXd::Identity(1, 1), false);
+  const LiveStabilityReport fr = fresh.evaluate();
+  ASSERT_EQ(fr.values.size(), later.values.size());
+  for (std::size_t i = 0; i < fr.values.size(); ++i)
+    EXPECT_EQ(fr.values[i], later.values[i]);
 }
