@@ -227,18 +227,25 @@ refuse "--accel-density on constant_acceleration" "option '--accel-density' is n
   --sensor gps:position:1 --output "$OUT/m.yaml"
 
 # --- what replaced an inf or a text answer -------------------------------------------------------------
-# each sensor of the scheduled example alone sees half the modes: no rate keeps E[P] bounded
-run_rc rc "$BIN/analyze" --model "$F/sched.yaml" --channel "$F/b.yaml"
-check "analyze: a schedule's per-sensor critical rate of +infinity is written in words, never inf" \
-  bash -c "[ $rc = 0 ] && grep -qF 'exact critical arrival rate     none (unbounded at every rate)' '$WORK/out.txt' &&
+# the scheduled example with s1's link too poor: s2 sees none of s1's modes, so no rate of s2's link
+# keeps E[P] bounded (its needed rate is +infinity), and each sensor alone leaves the other's modes
+# dead-reckoned
+cp "$ROOT/config/channels/bernoulli_0.7.yaml" "$F/b07.yaml"
+run_rc rc "$BIN/analyze" --model "$F/sched.yaml" --channel "s1=$F/b07.yaml" --channel "s2=$F/b.yaml"
+check "analyze: a per-sensor needed rate of +infinity is written in words, never inf" \
+  bash -c "[ $rc = 0 ] && grep -qF 's2: arrival rate 0.8, no stable rate: others fixed; unstable even at rate 1' '$WORK/out.txt' &&
     ! grep -qwE 'inf|nan' '$WORK/out.txt'"
-run_rc rc "$BIN/analyze" --model "$F/sched.yaml" --channel "$F/b.yaml" --json
-check "analyze --json: that rate is null with unbounded_at_every_rate" /usr/bin/python3 -c '
+run_rc rc "$BIN/analyze" --model "$F/sched.yaml" --channel "s1=$F/b07.yaml" --channel "s2=$F/b.yaml" --json
+check "analyze --json: that rate is null, no stable interval; each sensor alone reports its dead-reckoned modes" \
+  /usr/bin/python3 -c '
 import json, sys
 d = json.load(open(sys.argv[1]))
+m = {l["sensor"]: l["margin"] for l in d["links"]}
 s = d["sensors"]
-sys.exit(0 if [x["exact_rate"] for x in s] == [None, None] and all(x["unbounded_at_every_rate"] for x in s)
-         and d["all_sensors"]["unbounded_at_every_rate"] is False else 1)' "$WORK/out.txt"
+sys.exit(0 if m["s2"]["converges_at"] is None and m["s2"]["margin"] is None and m["s2"]["stable_intervals"] == []
+         and m["s1"]["converges_at"] is not None and m["s1"]["margin"] < 0
+         and all(x["dead_reckoned"] and not x["unbounded_at_every_rate"] for x in s)
+         and not d["all_sensors"]["dead_reckoned"] else 1)' "$WORK/out.txt"
 run_rc rc "$BIN/analyze" --model "$ROOT/config/models/unstable_two_links.yaml" --design total_rate --json
 check "analyze --design --json prints JSON: the design's rates per sensor" /usr/bin/python3 -c '
 import json, sys
