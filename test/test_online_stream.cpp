@@ -153,10 +153,15 @@ TEST(Timeline, NoSingleMessageAnchorsOrMovesIt)
   a = t.admit(1005.0, 5, 1000.09);
   EXPECT_EQ(a.verdict, V::RESTART);
   EXPECT_TRUE(has(a.reason, "the 5th such message in a row")) << a.reason;
-  // Stamp-only: a message before the anchor once a step was taken is not a contradiction.
+  // Stamp-only: a message well before an anchor that is not ahead of ROS time is no contradiction
+  // (the anchor was a plausible, older message); before one ahead of ROS time it is, even when a
+  // step was taken on the anchor (a single sensor's message completes its step at once).
   t.anchor(1, 1000.0);
   t.stepped();
   EXPECT_EQ(t.admit(998.5, -1, 1000.1).verdict, V::ACCEPT);
+  t.anchor(1, 1005.0);
+  t.stepped();
+  EXPECT_EQ(t.admit(1000.02, -1, 1000.03).verdict, V::RESTART);
 }
 
 // Catching up is bounded: a next deadline more than max_stamp_behind behind ROS time is stale (the

@@ -23,6 +23,9 @@ struct SensorSink
   std::function<void(const std::string& why)> bad;
   /// covariance: message, and the message said it has none: the model's R is used (counted).
   std::function<void(const std::string& why)> fallback;
+  /// The message has no estimate of a selected field (sensor_msgs/Imu: a covariance block whose
+  /// element 0 is -1): nothing of it is fused, the sensor is not due at its step (not a loss).
+  std::function<void(const ros::Time& stamp, const std::string& why)> disabled;
   /// NavSatFix only: a fix became the datum.
   std::function<void(const LocalEnu& datum)> datum;
   /// The model's frames and the tf2 lookup (frame_transforms.hpp); no lookup: frames are not used.
@@ -46,6 +49,14 @@ inline void deliver(const SensorInput& in, const MessageView& v, const ros::Time
   const std::size_t n = in.fields.size();
   std::vector<double> y(n), R(n * n);
   std::string why;
+  if (disabledBlock(in.type, v, in.fields, why))
+  {
+    if (sink.disabled)
+      sink.disabled(stamp, why);
+    else
+      sink.bad(why);
+    return;
+  }
   if (!readFields(v, in.fields, y.data(), why))
   {
     sink.bad(why);
@@ -63,6 +74,7 @@ inline void deliver(const SensorInput& in, const MessageView& v, const ros::Time
           sink.fallback(why);
         break;
       case CovarianceRead::BAD:
+      case CovarianceRead::DISABLED:  // caught by disabledBlock above
         sink.bad(why);
         return;
     }

@@ -5,8 +5,8 @@
 // hand); a message for it that arrives later is late. So a message is late exactly when its delay
 // d = (ROS time at receipt) - stamp_k reaches the budget. Each sensor keeps the delays of its last
 // kWindow messages; with an adaptive budget the budget is the largest over the sensors of their
-// kQuantile delay plus a margin (half a model period plus a quarter of that delay: room for the
-// scatter beyond the quantile), kept within [min, max]. The quantile never takes the single largest
+// kQuantile delay plus a margin (half a model period plus half that delay: room for the scatter
+// beyond the quantile, as a loaded machine's scheduling adds it), kept within [min, max]. The quantile never takes the single largest
 // delay of a window (for fewer than 100 messages it is the second largest), so one stray message
 // cannot move the budget. For the first kStartup seconds after start() (the timeline's start), a
 // sensor not heard from yet counts with the maximum: the first steps wait for every sensor's first

@@ -7,8 +7,8 @@
 //   than max_ahead seconds ahead of ROS time or more than max_behind behind it is refused (the
 //   caller counts it), so a sensor with a broken clock never becomes the timeline;
 // - the first plausible message anchors the timeline provisionally. While nothing confirms it, a
-//   message that contradicts it (named step whose stamp is more than kAgree off the grid; a stamp
-//   more than kAgree before the anchor while no step was taken on it) restarts the timeline on
+//   message that contradicts it (a named step whose stamp is more than kAgree off the grid; a stamp
+//   more than kAgree before an anchor that lies ahead of ROS time) restarts the timeline on
 //   itself. Once confirmed, a message whose stamp does not fit its named step is refused, and only
 //   kMisfitsToRestart of them in a row restart it (the stream itself jumped);
 // - ROS time going back (a looped bag) restarts it (the caller's time-jump reset), and so does a

@@ -101,7 +101,7 @@ void LatencyBudget::update()
   double need = options_.min;
   for (const PerSensor& s : sensors_)
     if (std::isfinite(s.quantile))
-      need = std::max(need, s.quantile + 0.5 * options_.period + 0.25 * std::max(0.0, s.quantile));
+      need = std::max(need, s.quantile + 0.5 * options_.period + 0.5 * std::max(0.0, s.quantile));
     else if (starting_)
       need = options_.max;  // not heard from yet
   budget_ = std::min(std::max(need, options_.min), options_.max);

@@ -84,12 +84,14 @@ Timeline::Admission Timeline::admit(double stamp, long step, double now)
   }
   if (stamp < anchor_stamp_ - kAgree)
   {
-    if (!confirmed_ && !stepped_)
+    // The anchor is contradicted when nothing confirmed it and it lies ahead of ROS time (without a
+    // clock: when no step was taken on it yet).
+    if (!confirmed_ && (now > 0.0 ? anchor_stamp_ > now + kAgree : !stepped_))
     {
       a.verdict = Verdict::RESTART;
       a.reason = "stamp " + seconds(stamp) + " is " + seconds(anchor_stamp_ - stamp) + " s before the stamp " +
-                 seconds(anchor_stamp_) + " that anchored the timeline, on which no step was taken yet: the "
-                 "timeline restarts on this message";
+                 seconds(anchor_stamp_) + " that anchored the timeline ahead of ROS time, and nothing confirmed "
+                 "that anchor: the timeline restarts on this message";
     }
     return a;
   }
