@@ -383,6 +383,7 @@ TEST_F(EstimatorConfig, RobotTemplateParses)
   EXPECT_EQ(c.inputs[2].type, ne::InputType::NAVSATFIX);
   EXPECT_EQ(c.online.rate_ratio, (std::vector<double>{1.0, 2.0, 10.0}));
   EXPECT_EQ(c.state_map.yaw_rate, 5);
+  EXPECT_TRUE(c.runtime.adaptive_latency);  // latency_budget: auto
 }
 
 // The runtime settings (dynamic_reconfigure) get the load's checks, as a whole: NaN, out of range,

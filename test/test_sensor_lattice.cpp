@@ -186,3 +186,16 @@ TEST(SensorLattice, NamedStepsAreKeptAndAPhaseChangeIsRelearnt)
   EXPECT_FALSE(l.locked());
   EXPECT_FALSE(l.due(53));
 }
+
+// A configured rate within 2 % of a whole fraction of the model's counts as that fraction (the
+// stability analysis' sensor schedule needs whole ratios): 9.996 Hz in a 30 Hz model is every 3rd
+// step; 30 Hz in a 50 Hz model (5/3) is not whole, and stays as it is.
+TEST(SensorLattice, NearlyWholeRatiosAreWhole)
+{
+  EXPECT_EQ(ne::SensorLattice::whole(3.0013), 3.0);
+  EXPECT_EQ(ne::SensorLattice::whole(30.0 / 9.996), 3.0);
+  EXPECT_EQ(ne::SensorLattice::whole(24.6), 25.0);
+  EXPECT_EQ(ne::SensorLattice::whole(5.0 / 3.0), 5.0 / 3.0);
+  EXPECT_EQ(ne::SensorLattice::whole(2.5), 2.5);
+  EXPECT_EQ(ne::SensorLattice::whole(1.0), 1.0);
+}

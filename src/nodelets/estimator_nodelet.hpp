@@ -101,22 +101,25 @@ private:
 
   // --- inputs (the dispatch thread) ---------------------------------------------------------------
 
-  void onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m);
+  /// `receipt`: the ROS time roscpp received the message at (its lateness is judged by it).
+  void onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m, const ros::Time& receipt);
 
-  void measurement(std::size_t sensor, const Measurement::ConstPtr& m);
+  void measurement(std::size_t sensor, const Measurement::ConstPtr& m, const ros::Time& receipt);
 
   /// covariance: message, and a message without one: counted, warned about (throttled).
   void covarianceFallback(const std::string& why);
   /// A message without an estimate of the sensor's fields (Imu covariance -1): not fused, counted.
-  void onDisabled(std::size_t sensor, const ros::Time& stamp, const std::string& why);
+  void onDisabled(std::size_t sensor, const ros::Time& stamp, const ros::Time& receipt, const std::string& why);
 
   /// k < 0: the step comes from the stamp (the sensor's own sample steps). Estimates are published
   /// with the mutex held, so that they leave in step order whichever thread takes the step
   /// (publish only queues the message; it never calls back into us).
-  void offer(std::size_t sensor, long k, double stamp, const double* y, std::size_t size, const double* R = nullptr);
+  void offer(std::size_t sensor, long k, double stamp, const ros::Time& receipt, const double* y, std::size_t size,
+             const double* R = nullptr);
 
-  /// ROS time, wall time and the measured rate of ROS time (mutex held).
-  Clocks clocks() const;
+  /// ROS time (or the receipt time of the message at hand), wall time and the measured rate of ROS
+  /// time (mutex held).
+  Clocks clocks(const ros::Time& receipt = ros::Time()) const;
   /// Logs a refused input, naming it (throttled).
   void warnRejected(const char* what, const OfferResult& r);
 
@@ -219,6 +222,7 @@ private:
   /// Sim time: sim seconds per wall second, measured by the deadline loop (sim_ref_/wall_ref_).
   double clock_rate_ = 1.0, sim_ref_ = 0.0, wall_ref_ = 0.0;
   double last_trace_ = 0.0;
+  int deferred_ = 0;  ///< deadline work deferred for queued messages, in a row
   std::uint64_t rejected_topic_ = 0, last_processed_ = 0, covariance_fallbacks_ = 0;
   ros::WallTime last_diag_;
 };

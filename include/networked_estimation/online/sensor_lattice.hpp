@@ -12,7 +12,7 @@
 //
 // The step of a sample is its lattice point's step, not the nearest step to its own stamp: a
 // sensor whose stamps sit near the middle between two steps, with jitter, always lands on the same
-// one of them (no duplicate in one step and hole in the next). With a whole r (within 1 %) the
+// one of them (no duplicate in one step and hole in the next). With a whole r (within 2 %) the
 // lattice steps are exactly r apart; a drift moves them by one step only when the lattice has moved
 // more than half a step plus 0.15 spacing away from them (hysteresis), so a sensor's due steps stay
 // regular. The sensor
@@ -32,7 +32,10 @@ public:
   /// Tolerated distance of a sample from its lattice point, in spacings.
   static constexpr double kJitterTolerance = 0.35;
   /// A ratio within this fraction of a whole number counts as that whole number.
-  static constexpr double kWholeTolerance = 0.01;
+  static constexpr double kWholeTolerance = 0.02;
+  /// `ratio` as the whole number it counts as, or unchanged (for the stability analysis' sensor
+  /// schedule, which needs whole ratios: a 9.996 Hz sensor in a 30 Hz model samples every 3 steps).
+  static double whole(double ratio);
   /// Warn when the learnt rate differs from the configured one by more than this fraction.
   static constexpr double kRateMismatch = 0.05;
 

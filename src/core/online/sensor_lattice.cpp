@@ -28,11 +28,17 @@ constexpr double kSpacingBound = 0.25;
 
 }  // namespace
 
+double SensorLattice::whole(double ratio)
+{
+  const double q = std::round(ratio);
+  return q >= 1.0 && std::fabs(ratio - q) <= kWholeTolerance * ratio ? q : ratio;
+}
+
 SensorLattice::SensorLattice(double ratio) : ratio_(ratio), rho_(ratio)
 {
-  const long q = std::lround(ratio);
-  if (q >= 1 && std::fabs(ratio - static_cast<double>(q)) <= kWholeTolerance * ratio)
-    whole_ = q;
+  const double q = whole(ratio);
+  if (q == std::round(q))
+    whole_ = std::lround(q);
 }
 
 SensorLattice::Fit SensorLattice::fit(double position, long given) const
