@@ -88,7 +88,15 @@ TEST_F(EstimatorConfig, Defaults)
   EXPECT_EQ(c.settings.algorithm, ne::Algorithm::KFIO);
   EXPECT_EQ(c.model.name, "s");
   EXPECT_DOUBLE_EQ(c.period, 0.02);
-  EXPECT_DOUBLE_EQ(c.latency_budget, 0.01);
+  // latency_budget: auto, within [half a period, 1 s]; stamps within 10 s ahead of ROS time and
+  // 1 s + 100 periods behind it.
+  EXPECT_TRUE(c.runtime.adaptive_latency);
+  EXPECT_DOUBLE_EQ(c.runtime.latency_budget_min, 0.01);
+  EXPECT_DOUBLE_EQ(c.runtime.latency_budget_max, 1.0);
+  EXPECT_DOUBLE_EQ(c.timeline.max_ahead, 10.0);
+  EXPECT_DOUBLE_EQ(c.timeline.max_behind, 3.0);
+  EXPECT_DOUBLE_EQ(c.timeline.period, 0.02);
+  EXPECT_EQ(c.runtime.late_policy, "drop");
   EXPECT_EQ(c.online.late_policy, ne::LatePolicy::DROP);
   EXPECT_EQ(c.online.history_length, 100u);
   EXPECT_EQ(c.online.max_future_steps, 1000);
@@ -98,7 +106,7 @@ TEST_F(EstimatorConfig, Defaults)
   EXPECT_EQ(c.child_frame_id, "kfio_estimate");
   EXPECT_EQ(c.position_indices, std::vector<int>{0});  // n = 1
   EXPECT_TRUE(c.publish_tf);
-  EXPECT_TRUE(std::isinf(c.trace_bound));
+  EXPECT_TRUE(std::isinf(c.runtime.trace_bound));
   EXPECT_FALSE(c.markov_link);
   EXPECT_EQ(c.stability_window, 1000u);
   EXPECT_EQ(c.stability_min_samples, 100u);
@@ -111,12 +119,22 @@ TEST_F(EstimatorConfig, EveryKeyIsRead)
       "{algorithm: rseio, mu: 0.8, period: 0.05, latency_budget: 0.2, late_policy: rewind, history_length: 20, "
       "max_future_steps: 50, max_past_steps: 300, input_type: point, frame_id: odom, child_frame_id: est, "
       "position_indices: [1, 0], publish_tf: false, trace_bound: 12.5, queue_size: 10, link_model: markov, "
-      "stability_window: 400, stability_min_samples: 40, diagnostic_period: 2.0}",
+      "stability_window: 400, stability_min_samples: 40, diagnostic_period: 2.0, latency_budget_min: 0.02, "
+      "latency_budget_max: 0.5, max_stamp_ahead: 4, max_stamp_behind: 6}",
       planar_);
   EXPECT_EQ(c.settings.algorithm, ne::Algorithm::RSEIO);
   EXPECT_DOUBLE_EQ(c.settings.mu, 0.8);
   EXPECT_DOUBLE_EQ(c.period, 0.05);
-  EXPECT_DOUBLE_EQ(c.latency_budget, 0.2);
+  EXPECT_FALSE(c.runtime.adaptive_latency);
+  EXPECT_DOUBLE_EQ(c.runtime.latency_budget, 0.2);
+  EXPECT_DOUBLE_EQ(c.runtime.latency_budget_min, 0.02);
+  EXPECT_DOUBLE_EQ(c.runtime.latency_budget_max, 0.5);
+  EXPECT_DOUBLE_EQ(c.timeline.max_ahead, 4.0);
+  EXPECT_DOUBLE_EQ(c.timeline.max_behind, 6.0);
+  // Without max_stamp_behind: the fixed budget + history_length periods.
+  EXPECT_DOUBLE_EQ(parse("{latency_budget: 0.2, history_length: 20, period: 0.05}", planar_).timeline.max_behind,
+                   0.2 + 20 * 0.05);
+  EXPECT_TRUE(parse("{latency_budget: auto}").runtime.adaptive_latency);
   EXPECT_EQ(c.online.late_policy, ne::LatePolicy::REWIND);
   EXPECT_EQ(c.online.history_length, 20u);
   EXPECT_EQ(c.online.max_future_steps, 50);
@@ -126,7 +144,7 @@ TEST_F(EstimatorConfig, EveryKeyIsRead)
   EXPECT_EQ(c.child_frame_id, "est");
   EXPECT_EQ(c.position_indices, (std::vector<int>{1, 0}));
   EXPECT_FALSE(c.publish_tf);
-  EXPECT_DOUBLE_EQ(c.trace_bound, 12.5);
+  EXPECT_DOUBLE_EQ(c.runtime.trace_bound, 12.5);
   EXPECT_EQ(c.queue_size, 10u);
   EXPECT_TRUE(c.markov_link);
   EXPECT_EQ(c.stability_window, 400u);
@@ -165,8 +183,17 @@ TEST_F(EstimatorConfig, RefusalsNameTheKey)
   EXPECT_TRUE(has(error("{algorithm: ack_kf}"), "ack_kf needs nu_k"));
   EXPECT_TRUE(has(error("{algorithm: aoe}", control_), "control_link"));
   EXPECT_TRUE(has(error("", no_period_), "period: the model"));
-  EXPECT_TRUE(has(error("{latency_budget: -0.1}"), "latency_budget: expected a number in [0, 3600], found -0.1"));
-  EXPECT_TRUE(has(error("{latency_budget: soon}"), "latency_budget: expected a number, found 'soon'"));
+  EXPECT_TRUE(has(error("{latency_budget: -0.1}"), "latency_budget: expected a number of seconds >= 0, found -0.1"));
+  EXPECT_TRUE(has(error("{latency_budget: soon}"), "latency_budget: expected auto or a number of seconds, found 'soon'"));
+  EXPECT_TRUE(has(error("{latency_budget: .nan}"), "latency_budget: expected a number of seconds >= 0, found nan"));
+  EXPECT_TRUE(has(error("{latency_budget: 21}"), "latency_budget: expected below max_future_steps x period = 20 s"));
+  EXPECT_TRUE(has(error("{latency_budget: 2, max_stamp_behind: 1}"), "latency_budget: expected at most "
+                                                                        "max_stamp_behind = 1 s"));
+  EXPECT_TRUE(has(error("{latency_budget_min: 0.5, latency_budget_max: 0.2}"),
+                  "latency_budget_min: expected at most latency_budget_max = 0.2 s, found 0.5"));
+  EXPECT_TRUE(has(error("{latency_budget_max: 0}"), "latency_budget_max: expected a number of seconds > 0, found 0"));
+  EXPECT_TRUE(has(error("{max_stamp_ahead: 0}"), "max_stamp_ahead: expected a number of seconds > 0"));
+  EXPECT_TRUE(has(error("{max_stamp_behind: -1}"), "max_stamp_behind: expected a number in [0, 1e+09], found -1"));
   EXPECT_TRUE(has(error("{history_length: 0}"), "history_length"));
   EXPECT_TRUE(has(error("{history_length: 500, max_past_steps: 100}"), "max_past_steps"));
   EXPECT_TRUE(has(error("{max_future_steps: 0}"), "max_future_steps"));
@@ -182,6 +209,10 @@ TEST_F(EstimatorConfig, RefusalsNameTheKey)
   EXPECT_TRUE(has(error("{link_model: bursty}"), "link_model: expected iid | markov, found 'bursty'"));
   EXPECT_TRUE(has(error("{stability_window: 50, stability_min_samples: 60}"), "stability_min_samples"));
   EXPECT_TRUE(has(error("{frame_id: [a, b]}"), "frame_id: expected a string"));
+  for (const char* key : {"frame_id", "child_frame_id", "world_frame", "base_link_frame", "odom_frame"})
+    EXPECT_TRUE(has(error(std::string("{") + key + ": ''}"), std::string(key) + ": expected a frame name, found an "
+                                                                                    "empty string"))
+        << key;
   // Every message names where the parameters came from.
   EXPECT_TRUE(has(error("{queue_size: 0}"), "/est parameters: "));
 }
@@ -352,6 +383,62 @@ TEST_F(EstimatorConfig, RobotTemplateParses)
   EXPECT_EQ(c.inputs[2].type, ne::InputType::NAVSATFIX);
   EXPECT_EQ(c.online.rate_ratio, (std::vector<double>{1.0, 2.0, 10.0}));
   EXPECT_EQ(c.state_map.yaw_rate, 5);
+  EXPECT_TRUE(c.runtime.adaptive_latency);  // latency_budget: auto
+}
+
+// The runtime settings (dynamic_reconfigure) get the load's checks, as a whole: NaN, out of range,
+// an unknown late_policy and inconsistent combinations are refused naming the key; nothing is
+// clamped (a negative budget is an error, not 0).
+TEST(RuntimeSettings, ValidatedAsAWhole)
+{
+  ne::RuntimeLimits limits;
+  limits.period = 0.02;
+  limits.max_future_steps = 1000;
+  limits.max_stamp_behind = 3.0;
+  auto refusal = [&](const ne::RuntimeSettings& s) {
+    try
+    {
+      ne::validateRuntimeSettings(s, limits, "reconfigure");
+    }
+    catch (const ne::ConfigError& e)
+    {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  ne::RuntimeSettings ok;
+  ok.latency_budget_min = 0.01;
+  EXPECT_EQ(refusal(ok), "");
+  EXPECT_EQ(ne::describe(ok), "latency_budget auto in [0.01, 1] s, late_policy drop, trace_bound inf");
+  ne::RuntimeSettings s = ok;
+  s.latency_budget = std::nan("");
+  EXPECT_EQ(refusal(s), "reconfigure: latency_budget: expected a number of seconds >= 0, found nan");
+  s = ok;
+  s.adaptive_latency = false;
+  s.latency_budget = -0.5;
+  EXPECT_EQ(refusal(s), "reconfigure: latency_budget: expected a number of seconds >= 0, found -0.5");
+  s.latency_budget = 3.5;
+  EXPECT_EQ(refusal(s), "reconfigure: latency_budget: expected at most max_stamp_behind = 3 s (messages it waits for "
+                        "would be refused as too old), found 3.5");
+  s.latency_budget = 0.25;
+  EXPECT_EQ(refusal(s), "");
+  EXPECT_EQ(ne::describe(s), "latency_budget 0.25 s, late_policy drop, trace_bound inf");
+  s = ok;
+  s.late_policy = "later";
+  EXPECT_EQ(refusal(s), "reconfigure: late_policy: expected drop or rewind, found 'later'");
+  s = ok;
+  s.trace_bound = std::nan("");
+  EXPECT_EQ(refusal(s), "reconfigure: trace_bound: expected a number >= 0 (inf: no bound), found nan");
+  s = ok;
+  s.latency_budget_min = 0.5;
+  s.latency_budget_max = 0.4;
+  EXPECT_EQ(refusal(s), "reconfigure: latency_budget_min: expected at most latency_budget_max = 0.4 s, found 0.5");
+  s.latency_budget_max = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(refusal(s), "reconfigure: latency_budget_max: expected a number of seconds > 0, found inf");
+  limits.max_stamp_behind = 100.0;
+  s.latency_budget_max = 25.0;
+  EXPECT_EQ(refusal(s), "reconfigure: latency_budget_max: expected below max_future_steps x period = 20 s (messages "
+                        "for the steps it waits on would be refused as far future), found 25");
 }
 
 // The `sensors` block, table-driven: each malformed value (empty, repeated, out of range, wrong

@@ -436,12 +436,49 @@ TEST(TfOutput, NeverASecondParentForBaseLink)
   const tf2::Transform back = ne::mapToOdom(map_base, odom_base) * odom_base;
   EXPECT_NEAR((back.getOrigin() - map_base.getOrigin()).length(), 0.0, 1e-12);
   EXPECT_NEAR(back.getRotation().angleShortestPath(map_base.getRotation()), 0.0, 1e-7);
-  std::string parent, who;
-  ne::parentOf("base_link: {parent: 'odom', broadcaster: '/wheels', rate: 10.0}\n", "base_link", parent, who);
-  EXPECT_EQ(parent, "odom");
-  EXPECT_EQ(who, "/wheels");
-  ne::parentOf("[] not a map", "base_link", parent, who);
-  EXPECT_EQ(parent, "");
+}
+
+// The Estimator's own transforms come back on /tf without a publisher's name (in-process): it knows
+// them by what it sent, so base_link's parent from another publisher is told apart from its own,
+// whatever their names; another's parent counts for 10 s (a static one for good).
+TEST(TfOutput, OwnTransformsAreRecognised)
+{
+  ne::OwnTransforms own;
+  ne::ForeignParent foreign;
+  geometry_msgs::TransformStamped t;
+  t.header.frame_id = "odom";
+  t.child_frame_id = "base_link";
+  t.transform.rotation.w = 1.0;
+  for (int k = 1; k <= 300; ++k)
+  {
+    t.header.stamp.fromSec(100.0 + 0.05 * k);
+    t.transform.translation.x = 0.01 * k;
+    own.sent(t);
+    foreign.saw(t, "base_link", own, "unknown_publisher", 1.0 + 0.05 * k, false);
+  }
+  EXPECT_EQ(foreign.at(20.0), "");  // only our own so far
+  EXPECT_TRUE(own.ours(t));
+  // Another publisher's odom -> base_link at one of our stamps but another value: not ours.
+  geometry_msgs::TransformStamped wheels = t;
+  wheels.transform.translation.x += 0.3;
+  EXPECT_FALSE(own.ours(wheels));
+  foreign.saw(wheels, "base_link", own, "/wheel_odometry", 20.0, false);
+  EXPECT_EQ(foreign.at(25.0), "odom");
+  EXPECT_EQ(foreign.publisher, "/wheel_odometry");
+  EXPECT_EQ(foreign.at(30.5), "");  // 10 s without another one
+  // Transforms of other frames do not count; an in-process publisher is named as such.
+  geometry_msgs::TransformStamped other = wheels;
+  other.child_frame_id = "laser";
+  foreign.saw(other, "base_link", own, "/x", 40.0, false);
+  EXPECT_EQ(foreign.at(40.0), "");
+  wheels.header.frame_id = "base_footprint";
+  foreign.saw(wheels, "base_link", own, "unknown_publisher", 41.0, true);
+  EXPECT_EQ(foreign.at(1e9), "base_footprint");
+  EXPECT_EQ(foreign.publisher, "another publisher in this process");
+  // The oldest of more than 200 sent transforms is forgotten.
+  t.header.stamp.fromSec(100.05);
+  t.transform.translation.x = 0.01;
+  EXPECT_FALSE(own.ours(t));
 }
 
 // covariance: message. R of the selected fields from the message's blocks (fields of different
@@ -483,13 +520,30 @@ TEST(SensorAdapters, MessageCovariances)
   EXPECT_NEAR(R2[0], 2.0, 1e-12);   // var x' = var y
   EXPECT_NEAR(R2[3], 1.0, 1e-12);   // var y' = var x
   EXPECT_NEAR(R2[1], -0.5, 1e-12);  // cov(x', y') = -cov(x, y)
-  // IMU: a leading -1 means unknown.
+  // IMU: a leading -1 means "no estimate": the block is disabled (disabledBlock), for every
+  // covariance mode, and only for the fields of that block.
   sensor_msgs::Imu imu;
   imu.orientation.w = 1.0;
   imu.angular_velocity_covariance[0] = -1.0;
   const std::vector<ne::InputField> gz = {ne::inputFieldFromString(ne::InputType::IMU, "angular_velocity.z", "k")};
-  EXPECT_EQ(ne::readCovariance(ne::InputType::IMU, ne::view(imu), gz, R, why), ne::CovarianceRead::FALLBACK);
-  EXPECT_NE(why.find("covariance unknown (a leading -1)"), std::string::npos) << why;
+  EXPECT_EQ(ne::readCovariance(ne::InputType::IMU, ne::view(imu), gz, R, why), ne::CovarianceRead::DISABLED);
+  EXPECT_NE(why.find("angular_velocity.z: the message has no estimate of it"), std::string::npos) << why;
+  EXPECT_TRUE(ne::disabledBlock(ne::InputType::IMU, ne::view(imu), gz, why));
+  const std::vector<ne::InputField> yaw = {ne::inputFieldFromString(ne::InputType::IMU, "orientation.yaw", "k"),
+                                           ne::inputFieldFromString(ne::InputType::IMU, "linear_acceleration.x", "k")};
+  EXPECT_FALSE(ne::disabledBlock(ne::InputType::IMU, ne::view(imu), yaw, why));
+  imu.orientation_covariance[0] = -1.0;  // an IMU without an orientation estimate
+  imu.orientation = geometry_msgs::Quaternion();  // often all zeros then: never read
+  EXPECT_TRUE(ne::disabledBlock(ne::InputType::IMU, ne::view(imu), yaw, why));
+  EXPECT_NE(why.find("orientation.yaw: the message has no estimate of it"), std::string::npos) << why;
+  imu.orientation_covariance[0] = 0.0;
+  imu.linear_acceleration_covariance[0] = -1.0;
+  EXPECT_TRUE(ne::disabledBlock(ne::InputType::IMU, ne::view(imu), yaw, why));
+  EXPECT_NE(why.find("linear_acceleration.x"), std::string::npos) << why;
+  // Other types have no such convention: an Odometry covariance starting with -1 is just bad.
+  EXPECT_FALSE(ne::disabledBlock(ne::InputType::ODOMETRY, ne::view(nav_msgs::Odometry()),
+                                 {ne::inputFieldFromString(ne::InputType::ODOMETRY, "pose.pose.position.x", "k")}, why));
+  imu.orientation.w = 1.0;
   imu.angular_velocity_covariance = {};  // all zeros: unknown too
   EXPECT_EQ(ne::readCovariance(ne::InputType::IMU, ne::view(imu), gz, R, why), ne::CovarianceRead::FALLBACK);
   EXPECT_EQ(why, "covariance all zeros");

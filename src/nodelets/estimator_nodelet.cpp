@@ -26,7 +26,7 @@ void EstimatorNodelet::onInit()
   trace_pub_ = nh.advertise<std_msgs::Float64>("covariance_trace", 1000);
   pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 100);
   odom_pub_ = nh.advertise<nav_msgs::Odometry>("odometry/filtered", 100);
-  const Model& model = online_->model();
+  const Model& model = stream_->online().model();
   if (!datum_.empty() || std::any_of(inputs_.begin(), inputs_.end(), [](const SensorInput& in) {
         return in.type == InputType::NAVSATFIX;
       }))
@@ -36,18 +36,21 @@ void EstimatorNodelet::onInit()
     const SensorInput& in = inputs_[i];
     if (in.type == InputType::MEASUREMENT)
     {
-      subs_.push_back(in_nh.subscribe<Measurement>(
-          in.topic, queue_size_, [this, i](const Measurement::ConstPtr& m) { onMeasurement(i, m); },
-          ros::VoidConstPtr(), hints()));
+      subs_.push_back(subscribeEvents<Measurement>(in_nh, in.topic, queue_size_,
+                                                   [this, i](const ros::MessageEvent<Measurement const>& e) {
+                                                     onMeasurement(i, e.getConstMessage(), e.getReceiptTime());
+                                                   }));
       continue;
     }
     SensorSink sink;
-    sink.ok = [this, i](const ros::Time& stamp, const double* y, std::size_t n, const double* R) {
-      onForeign(i, stamp, y, n, R);
-    };
+    sink.ok = [this, i](const ros::Time& stamp, const ros::Time& receipt, const double* y, std::size_t n,
+                        const double* R) { offer(i, -1, stamp.toSec(), receipt, y, n, R); };
     const std::string who = "sensor '" + model.sensors[i].name + "' (" + toString(in.type) + " on " + in.topic + ")";
     sink.bad = [this, who](const std::string& why) { reject(who + ": " + why); };
     sink.fallback = [this, who](const std::string& why) { covarianceFallback(who + ": " + why); };
+    sink.disabled = [this, i](const ros::Time& stamp, const ros::Time& receipt, const std::string& why) {
+      onDisabled(i, stamp, receipt, why);
+    };
     sink.datum = [this](const LocalEnu& d) { publishDatum(d); };
     sink.frames = frames();
     subs_.push_back(subscribeSensor(in_nh, in, queue_size_, sink, datum_));
@@ -62,7 +65,7 @@ void EstimatorNodelet::onInit()
   else if (model.hasControl())
   {
     SensorSink sink;
-    sink.ok = [this](const ros::Time& stamp, const double* u, std::size_t n, const double*) {
+    sink.ok = [this](const ros::Time& stamp, const ros::Time&, const double* u, std::size_t n, const double*) {
       onHeldCommand(stamp, u, n);
     };
     const std::string who = "command (" + toString(command_.type) + " on " + command_.topic + ")";
@@ -81,7 +84,18 @@ void EstimatorNodelet::onInit()
   if (publish_tf_)
   {
     if (child_frame_id_ == base_link_frame_)
+    {
       frames();  // listen to tf from the start: base_link's parent decides what we publish
+      // With the message event (a plain callback would lose the publisher's name).
+      for (const bool static_tf : {false, true})
+      {
+        ros::SubscribeOptions o;
+        o.initByFullCallbackType<const ros::MessageEvent<tf2_msgs::TFMessage const>&>(
+            static_tf ? "/tf_static" : "/tf", 100,
+            [this, static_tf](const ros::MessageEvent<tf2_msgs::TFMessage const>& e) { onTf(e, static_tf); });
+        (static_tf ? tf_static_sub_ : tf_sub_) = nh.subscribe(o);
+      }
+    }
     tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
     tf_timer_ = nh.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { tfTimer(); });
   }
@@ -91,9 +105,8 @@ void EstimatorNodelet::onInit()
   for (std::size_t i = 0; i < inputs_.size(); ++i)
     inputs += (i ? ", " : "") + model.sensors[i].name + " (" + toString(inputs_[i].type) + " on " +
               nh.resolveName(inputs_[i].topic) + ")";
-  NODELET_INFO("Estimator %s on '%s' (n = %d): period %g s, latency_budget %g s, late_policy %s; inputs: %s",
-               toString(settings_.algorithm).c_str(), model.name.c_str(), model.n(), clock_.period(), clock_.budget(),
-               toString(online_->options().late_policy).c_str(), inputs.c_str());
+  NODELET_INFO("Estimator %s on '%s' (n = %d): period %g s, %s; inputs: %s", toString(settings_.algorithm).c_str(),
+               model.name.c_str(), model.n(), limits_.period, describe(stream_->runtime()).c_str(), inputs.c_str());
 }
 
 void EstimatorNodelet::startReconfigure(ros::NodeHandle& pnh)
@@ -102,23 +115,46 @@ void EstimatorNodelet::startReconfigure(ros::NodeHandle& pnh)
   // parameters of the nodelet's next load.
   reconfigure_ = std::make_unique<dynamic_reconfigure::Server<EstimatorConfig>>(
       reconfigure_mutex_, ros::NodeHandle(pnh, "reconfigure"));
-  EstimatorConfig now;
-  now.latency_budget = clock_.budget();
-  now.late_policy = toString(online_->options().late_policy);
-  now.trace_bound = std::min(trace_bound_, 1e300);
+  const RuntimeSettings& r = stream_->runtime();
+  shown_.adaptive_latency = r.adaptive_latency;
+  shown_.latency_budget = r.adaptive_latency ? stream_->budget() : r.latency_budget;
+  shown_.latency_budget_min = r.latency_budget_min;
+  shown_.latency_budget_max = r.latency_budget_max;
+  shown_.late_policy = r.late_policy;
+  shown_.trace_bound = std::min(r.trace_bound, 1e300);
   reconfigure_->setCallback([this](EstimatorConfig& c, uint32_t) {
-    if (!reconfigure_ready_)
-      return;
-    std::lock_guard<std::mutex> lock(mutex_);
-    clock_.setBudget(c.latency_budget);
-    online_->setLatePolicy(latePolicyFromString(c.late_policy, "reconfigure"));
-    trace_bound_ = c.trace_bound >= 1e300 ? std::numeric_limits<double>::infinity() : c.trace_bound;
-    NODELET_INFO("Estimator reconfigured: latency_budget %g s, late_policy %s, trace_bound %g", c.latency_budget,
-                 c.late_policy.c_str(), trace_bound_);
-    dispatch_.wake();  // the deadlines moved
+    if (reconfigure_ready_)
+      reconfigure(c);
   });
   reconfigure_ready_ = true;
-  reconfigure_->updateConfig(now);
+  reconfigure_->updateConfig(shown_);
+}
+
+void EstimatorNodelet::reconfigure(EstimatorConfig& c)
+{
+  RuntimeSettings r;
+  r.adaptive_latency = c.adaptive_latency;
+  r.latency_budget = c.latency_budget;
+  r.latency_budget_min = c.latency_budget_min;
+  r.latency_budget_max = c.latency_budget_max;
+  r.late_policy = c.late_policy;
+  r.trace_bound = c.trace_bound >= 1e300 ? std::numeric_limits<double>::infinity() : c.trace_bound;
+  std::lock_guard<std::mutex> lock(mutex_);
+  try
+  {
+    validateRuntimeSettings(r, limits_, "reconfigure");
+  }
+  catch (const ConfigError& e)
+  {
+    NODELET_ERROR("Estimator: change refused: %s; the settings stay %s", e.what(), describe(stream_->runtime()).c_str());
+    c = shown_;  // the server shows these back
+    return;
+  }
+  stream_->setRuntime(r);
+  trace_bound_ = r.trace_bound;
+  shown_ = c;
+  NODELET_INFO("Estimator reconfigured: %s", describe(r).c_str());
+  dispatch_.wake();  // the deadlines moved
 }
 
 const Frames& EstimatorNodelet::frames()
@@ -167,10 +203,17 @@ void EstimatorNodelet::configure(ros::NodeHandle& pnh)
   child_frame_id_ = c.child_frame_id;
   positions_ = c.position_indices;
   publish_tf_ = c.publish_tf;
-  trace_bound_ = c.trace_bound;
+  trace_bound_ = c.runtime.trace_bound;
   queue_size_ = static_cast<uint32_t>(c.queue_size);
-  online_ = std::make_unique<OnlineEstimator>(c.model, settings_, c.online);
-  clock_ = StepClock(c.period, c.latency_budget);
+  stream_ = std::make_unique<OnlineStream>(c.model, settings_, c.online, c.timeline, c.runtime);
+  stream_->after_step = [this](long k) { publishLocked(stepLocked(k)); };
+  stream_->on_restart = [this](const std::string& why) {
+    live_->clear();
+    NODELET_WARN("Estimator %s: %s", toString(settings_.algorithm).c_str(), why.c_str());
+  };
+  limits_.period = c.period;
+  limits_.max_future_steps = c.online.max_future_steps;
+  limits_.max_stamp_behind = c.timeline.max_behind;
   // Live stability (stability/live_stability.hpp): one window per sensor and the joint verdict
   // of the same core test as `analyze`, the critical rates of a single i.i.d. sensor, and Gan
   // and Liu's evidence.
@@ -181,17 +224,20 @@ void EstimatorNodelet::configure(ros::NodeHandle& pnh)
   live.late_data_dropped = c.online.late_policy == LatePolicy::DROP;
   // Sensors at their own rates: the verdicts see each sensor only at its own steps.
   std::string rates_note;
-  stability_model_ = withSensorRates(online_->model(), c.online.rate_ratio, &rates_note);
+  std::vector<double> ratios;
+  for (double r : c.online.rate_ratio)
+    ratios.push_back(SensorLattice::whole(r));  // a 9.996 Hz sensor in a 30 Hz model: every 3rd step
+  stability_model_ = withSensorRates(c.model, ratios, &rates_note);
   if (!rates_note.empty())
     NODELET_WARN("Estimator: %s", rates_note.c_str());
   live_ = std::make_unique<LiveStability>(stability_model_, settings_, live);
 }
 
-void EstimatorNodelet::onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m)
+void EstimatorNodelet::onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m, const ros::Time& receipt)
 {
   try
   {
-    measurement(sensor, m);
+    measurement(sensor, m, receipt);
   }
   catch (const std::exception& e)
   {
@@ -199,9 +245,9 @@ void EstimatorNodelet::onMeasurement(std::size_t sensor, const Measurement::Cons
   }
 }
 
-void EstimatorNodelet::measurement(std::size_t sensor, const Measurement::ConstPtr& m)
+void EstimatorNodelet::measurement(std::size_t sensor, const Measurement::ConstPtr& m, const ros::Time& receipt)
 {
-  const std::string& expected = online_->model().sensors[sensor].name;
+  const std::string& expected = stream_->online().model().sensors[sensor].name;
   if (!m->sensor.empty() && m->sensor != expected)
   {
     reject("sensor: expected '" + expected + "', found '" + m->sensor + "'");
@@ -213,13 +259,7 @@ void EstimatorNodelet::measurement(std::size_t sensor, const Measurement::ConstP
     reject("step " + std::to_string(m->step) + " out of range");
     return;
   }
-  offer(sensor, static_cast<long>(m->step), t, m->y.data(), m->y.size(), true);
-}
-
-void EstimatorNodelet::onForeign(std::size_t sensor, const ros::Time& stamp, const double* y, std::size_t size,
-                                 const double* R)
-{
-  offer(sensor, -1, stamp.toSec(), y, size, false, R);
+  offer(sensor, static_cast<long>(m->step), t, receipt, m->y.data(), m->y.size());
 }
 
 void EstimatorNodelet::covarianceFallback(const std::string& why)
@@ -230,61 +270,55 @@ void EstimatorNodelet::covarianceFallback(const std::string& why)
                         why.c_str(), static_cast<unsigned long>(covariance_fallbacks_));
 }
 
-void EstimatorNodelet::offer(std::size_t sensor, long k, double stamp, const double* y, std::size_t size, bool has_step,
-                             const double* R)
+void EstimatorNodelet::onDisabled(std::size_t sensor, const ros::Time& stamp, const ros::Time& receipt,
+                                  const std::string& why)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!clock_.anchored() && !anchorLocked(has_step ? k : 1, stamp))
-    return;
-  if (!has_step)
-  {
-    k = clock_.stepAt(stamp);
-    // How far stamps sit from the step grid (diagnostics).
-    const double off = std::fabs(stamp - clock_.stamp(k));
-    offset_sum_ += off;
-    offset_max_ = std::max(offset_max_, off);
-    ++offset_count_;
-  }
-  // Steps whose deadline has passed are taken first (their wait may not have timed out yet): what
-  // arrives after a deadline is late, exactly, whichever callback notices first.
-  catchUp(ros::Time::now().toSec());
-  const OfferResult r = online_->offerMeasurement(k, sensor, y, size, R);
+  const OfferResult r = stream_->disabled(sensor, stamp.toSec(), -1, clocks(receipt));
   if (r.offer == Offer::REJECTED)
-    NODELET_WARN_THROTTLE(1.0, "Estimator %s: measurement rejected: %s (%lu rejected so far)",
-                          toString(settings_.algorithm).c_str(), r.reason.c_str(), rejectedLocked());
-  drainComplete();
+    warnRejected("measurement", r);
+  else
+    NODELET_WARN_THROTTLE(10.0, "Estimator: sensor '%s': not fused: %s (%lu such messages so far; the sensor is "
+                          "not due at their steps)", stream_->online().model().sensors[sensor].name.c_str(), why.c_str(),
+                          static_cast<unsigned long>(stream_->online().counters().disabled_per_sensor[sensor]));
 }
 
-bool EstimatorNodelet::anchorLocked(long k, double stamp)
+void EstimatorNodelet::offer(std::size_t sensor, long k, double stamp, const ros::Time& receipt, const double* y,
+                             std::size_t size, const double* R)
 {
-  if (k < 1)
-  {
-    rejectLocked("step: expected >= 1, found " + std::to_string(k));
-    return false;
-  }
-  clock_.anchor(k, stamp);
-  // A stream seen from its start is filtered from step 1 (the steps before the first message
-  // are losses); joining a running stream starts at the first step seen.
-  online_->start(k - 1 <= static_cast<long>(online_->options().history_length) ? 1 : k);
-  return true;
+  std::lock_guard<std::mutex> lock(mutex_);
+  const OfferResult r = stream_->measurement(sensor, stamp, k, y, size, R, clocks(receipt));
+  if (r.offer == Offer::REJECTED)
+    warnRejected("measurement", r);
+}
+
+Clocks EstimatorNodelet::clocks(const ros::Time& receipt) const
+{
+  Clocks c;
+  c.ros = receipt.isZero() ? ros::Time::now().toSec() : receipt.toSec();
+  c.wall = ros::WallTime::now().toSec();
+  c.rate = ros::Time::isSimTime() ? clock_rate_ : 1.0;
+  return c;
+}
+
+void EstimatorNodelet::warnRejected(const char* what, const OfferResult& r)
+{
+  NODELET_WARN_THROTTLE(1.0, "Estimator %s: %s rejected: %s (%lu rejected so far)", toString(settings_.algorithm).c_str(),
+                        what, r.reason.c_str(), rejectedLocked());
 }
 
 void EstimatorNodelet::onCommand(const ControlInput::ConstPtr& c)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!online_->started())
-    return;  // the timeline starts with the measurements
   if (c->step > static_cast<std::uint64_t>(std::numeric_limits<long>::max() / 2))
   {
     rejectLocked("command step " + std::to_string(c->step) + " out of range");
     return;
   }
-  catchUp(ros::Time::now().toSec());
-  const OfferResult r = online_->offerCommand(static_cast<long>(c->step), c->u.data(), c->u.size());
+  const OfferResult r =
+      stream_->command(static_cast<long>(c->step), c->header.stamp.toSec(), c->u.data(), c->u.size(), clocks());
   if (r.offer == Offer::REJECTED)
-    NODELET_WARN_THROTTLE(1.0, "Estimator %s: command rejected: %s (%lu rejected so far)",
-                          toString(settings_.algorithm).c_str(), r.reason.c_str(), rejectedLocked());
-  drainComplete();
+    warnRejected("command", r);
 }
 
 void EstimatorNodelet::onSchedule(const ScheduleStep::ConstPtr& sc)
@@ -295,44 +329,18 @@ void EstimatorNodelet::onSchedule(const ScheduleStep::ConstPtr& sc)
     rejectLocked("schedule step " + std::to_string(sc->step) + " out of range");
     return;
   }
-  // The draw of a step leaves before its measurements: it may start the timeline.
-  if (!clock_.anchored() && !anchorLocked(static_cast<long>(sc->step), sc->header.stamp.toSec()))
-    return;
-  catchUp(ros::Time::now().toSec());
   const std::vector<bool> transmitting(sc->transmitting.begin(), sc->transmitting.end());
-  const OfferResult r = online_->offerSchedule(static_cast<long>(sc->step), transmitting);
+  const OfferResult r = stream_->schedule(static_cast<long>(sc->step), sc->header.stamp.toSec(), transmitting, clocks());
   if (r.offer == Offer::REJECTED)
-    NODELET_WARN_THROTTLE(1.0, "Estimator %s: schedule rejected: %s (%lu rejected so far)",
-                          toString(settings_.algorithm).c_str(), r.reason.c_str(), rejectedLocked());
-  drainComplete();
+    warnRejected("schedule", r);
 }
 
 void EstimatorNodelet::onHeldCommand(const ros::Time& stamp, const double* u, std::size_t n)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (held_.size() >= 1000)
-    held_.erase(held_.begin());
-  held_[stamp.toSec()].assign(u, u + n);  // kept before the timeline starts, too
-  if (!online_->started())
-    return;
-  catchUp(ros::Time::now().toSec());
-  const OfferResult r = online_->offerCommand(clock_.stepAt(stamp.toSec()), u, n);
+  const OfferResult r = stream_->heldCommand(stamp.toSec(), u, n, clocks());
   if (r.offer == Offer::REJECTED)
-    NODELET_WARN_THROTTLE(1.0, "Estimator %s: command rejected: %s (%lu rejected so far)",
-                          toString(settings_.algorithm).c_str(), r.reason.c_str(), rejectedLocked());
-  drainComplete();
-}
-
-void EstimatorNodelet::offerHeldCommand(long k)
-{
-  auto latest = held_.end();
-  for (auto it = held_.begin(); it != held_.end() && clock_.stepAt(it->first) <= k; ++it)
-    latest = it;
-  if (latest == held_.end())
-    return;
-  held_.erase(held_.begin(), latest);
-  if (!online_->hasCommand(k))
-    online_->offerCommand(k, latest->second.data(), latest->second.size());
+    warnRejected("command", r);
 }
 
 void EstimatorNodelet::reject(const std::string& why)
@@ -350,37 +358,22 @@ void EstimatorNodelet::rejectLocked(const std::string& why)
 
 unsigned long EstimatorNodelet::rejectedLocked() const
 {
-  return static_cast<unsigned long>(online_->counters().rejected + rejected_topic_);
+  std::uint64_t refused = stream_->refusedOther();
+  for (std::uint64_t n : stream_->refusedPerSensor())
+    refused += n;
+  return static_cast<unsigned long>(stream_->online().counters().rejected + rejected_topic_ + refused);
 }
 
-void EstimatorNodelet::catchUp(double now, int limit)
+Estimate::Ptr EstimatorNodelet::stepLocked(long k)
 {
-  for (int i = 0; i < limit && online_->started() && now >= clock_.deadline(online_->nextStep()); ++i)
-  {
-    publishLocked(stepLocked());
-    drainComplete();
-  }
-}
-
-void EstimatorNodelet::drainComplete()
-{
-  while (online_->nextComplete())
-    publishLocked(stepLocked());
-}
-
-Estimate::Ptr EstimatorNodelet::stepLocked()
-{
-  const long k = online_->nextStep();
-  if (online_->model().hasControl() && command_.type != InputType::CONTROL_INPUT)
-    offerHeldCommand(k);  // zero-order hold
-  online_->process();
-  const Estimator& est = online_->estimator();
+  const OnlineEstimator& online = stream_->online();
+  const Estimator& est = online.estimator();
   Estimate::Ptr e = boost::make_shared<Estimate>();
-  e->header.stamp.fromSec(clock_.stamp(k));
+  e->header.stamp.fromSec(stream_->timeline().clock().stamp(k));
   e->header.frame_id = frame_id_;
   e->step = static_cast<std::uint64_t>(k);
   e->algorithm = toString(settings_.algorithm);
-  e->gamma = online_->lastGamma();
+  e->gamma = online.lastGamma();
   const Eigen::VectorXd& x = est.state();
   const Eigen::MatrixXd& P = est.covariance();
   const int n = static_cast<int>(x.size());
@@ -391,8 +384,8 @@ Estimate::Ptr EstimatorNodelet::stepLocked()
       e->covariance[static_cast<std::size_t>(i) * n + j] = P(i, j);  // row-major (REP-103)
   e->covariance_trace = P.trace();
   e->covariance_is_pseudo = settings_.algorithm == Algorithm::RSEIO;
-  const std::uint64_t resets = online_->counters().divergence_resets;
-  live_->add(online_->lastArrived(), online_->lastDue(), online_->lastGamma(), P, resets != resets_seen_);
+  const std::uint64_t resets = online.counters().divergence_resets;
+  live_->add(online.lastArrived(), online.lastDue(), online.lastGamma(), P, resets != resets_seen_);
   resets_seen_ = resets;
   const double q = est.commandArrivalProbability();
   e->command_arrival_probability = std::isfinite(q) ? q : -1.0;
@@ -403,37 +396,13 @@ Estimate::Ptr EstimatorNodelet::stepLocked()
 double EstimatorNodelet::deadlineWork()
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!online_->started())
+  if (!stream_->online().started())
     return 0.05;
-  const double now = ros::Time::now().toSec();
-  if (now < last_now_ - 0.5 * clock_.period() && now > 0.0)
-  {
-    // The clock went back (a bag looped, a simulator restarted): start over cleanly.
-    ++time_resets_;
-    NODELET_WARN("Estimator %s: time jumped back by %.3f s: estimator reset, waiting for the stream to restart",
-                 toString(settings_.algorithm).c_str(), last_now_ - now);
-    online_->reset();
-    live_->clear();
-    clock_.clear();
-    last_now_ = -std::numeric_limits<double>::infinity();
-    return 0.0;
-  }
-  last_now_ = now;
-  const double due = clock_.deadline(online_->nextStep());
-  if (now >= due)
-  {
-    catchUp(now);  // at most 1000 steps per lock hold, so that the inputs are not starved
-    return 0.0;
-  }
-  // Wall time: wait until the deadline (a message that completes a step takes it at once, in its
-  // callback, and the wait is then set again for the next step: no wake-up per step). Sim time:
-  // the deadline is sim time away; the wait in wall time is that over the clock's rate, measured
-  // over the last half second (a bag at -r 4 runs 4 sim seconds per second), at least 2 ms (ROS
-  // time moves in /clock ticks) and at most 50 ms (a paused or restarted clock).
-  double wait = std::min(due - now, 0.05);
+  // Sim time: the clock's rate over the last half second (a bag at -r 4 runs 4 sim seconds per
+  // second), for the waits below and the stream's catch-up work bound.
+  const double now = ros::Time::now().toSec(), wall = ros::WallTime::now().toSec();
   if (ros::Time::isSimTime())
   {
-    const double wall = ros::WallTime::now().toSec();
     if (wall_ref_ == 0.0 || now < sim_ref_)  // the first wait, or time went back
     {
       sim_ref_ = now;
@@ -446,9 +415,29 @@ double EstimatorNodelet::deadlineWork()
       sim_ref_ = now;
       wall_ref_ = wall;
     }
-    wait = std::max(0.002, std::min((due - now) / clock_rate_, 0.05));
   }
-  return wait;
+  // Messages already queued first: they came before now, and whether they were in time is decided
+  // by their receipt time, not by when this thread gets to them (a busy machine).
+  if (!dispatch_.queue()->isEmpty() && ++deferred_ <= 10)
+    return 0.0;
+  deferred_ = 0;
+  // Steps whose deadline has passed (at most 1000 per lock hold, so that the inputs are not
+  // starved); time jumps restart the stream.
+  if (stream_->deadlines(clocks()))
+    return 0.0;
+  if (stream_->throttled())
+    return 0.005;  // the catch-up work bound: tokens come back at twice the rate ROS time needs
+  const double due = stream_->nextDeadline();
+  if (!std::isfinite(due))
+    return 0.05;  // restarted: waiting for the stream
+  // Wall time: wait until the deadline (a message that completes a step takes it at once, in its
+  // callback, and the wait is then set again for the next step: no wake-up per step). Sim time:
+  // the deadline is sim time away; the wait in wall time is that over the clock's rate, at least
+  // 2 ms (ROS time moves in /clock ticks) and at most 50 ms (a paused or restarted clock).
+  double wait = std::min(due - now, 0.05);
+  if (ros::Time::isSimTime())
+    wait = std::max(0.002, std::min((due - now) / clock_rate_, 0.05));
+  return std::max(0.0, wait);
 }
 }  // namespace networked_estimation
 

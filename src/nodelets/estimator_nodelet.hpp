@@ -1,17 +1,19 @@
 // Estimator nodelet: one estimator (kf, kfio, rseio, aoe, oe) on a measurement stream
 // (estimator_nodelet.cpp: parameters, inputs and steps; estimator_outputs.cpp: what it publishes).
 //
-// The sample assembly is the core OnlineEstimator: exactly one filter step per sample k, with
-// gamma_k = 1 iff y_k is in hand at the deadline stamp_k + latency_budget. A step is taken as soon
-// as everything it can use has arrived (same result, lowest latency), otherwise at its deadline by
-// the Estimator's own input thread (dispatch_thread.hpp), whose wait for the next message ends at
-// that deadline (in ROS time). The nodelet only translates messages and parameters.
+// The input side is the core OnlineStream (online/online_stream.hpp): which stamps are believed and
+// when the timeline starts and restarts, the latency budget the sensors' delays call for, and the
+// OnlineEstimator's sample assembly: exactly one filter step per sample k, with gamma_k = 1 iff y_k
+// is in hand at the deadline stamp_k + budget. A step is taken as soon as everything it can use has
+// arrived (same result, lowest latency), otherwise at its deadline by the Estimator's own input
+// thread (dispatch_thread.hpp), whose wait for the next message ends at that deadline (in ROS
+// time). The nodelet only translates messages and parameters.
 //
 // Inputs: per sensor of the model, the topic, standard type and fields of its ~sensors block
 // (sensor_subscriptions.hpp; default `measurement` for one sensor or `measurement/<sensor>` of
 // ~input_type: networked_estimation/Measurement, sensor_msgs/Range or geometry_msgs/PointStamped).
-// The step of a message without a step number is the nearest k to its stamp; a sensor slower than
-// the model is due only at its own steps. `command` (ControlInput, the
+// The step of a message without a step number is its sensor's sample step nearest to its stamp
+// (SensorLattice); a sensor slower than the model is due only at its own steps. `command` (ControlInput, the
 // commands before the actuator link) for models with control, and `schedule` (ScheduleStep) for a
 // model with a random sensor schedule (a periodic one is known from k): a sensor that is not
 // scheduled at k is not waited for and not counted as lost.
@@ -46,7 +48,7 @@
 #include "networked_estimation/online/estimator_node_config.hpp"
 #include "networked_estimation/config/rate_schedule.hpp"
 #include "networked_estimation/stability/live_stability.hpp"
-#include "networked_estimation/online/online_estimator.hpp"
+#include "networked_estimation/online/online_stream.hpp"
 #include "networked_estimation/stability/stability.hpp"
 #include "load_failure.hpp"
 #include "param_yaml.hpp"
@@ -54,6 +56,7 @@
 #include "tf_output.hpp"
 #include "sensor_subscriptions.hpp"
 #include "dispatch_thread.hpp"
+#include <tf2_msgs/TFMessage.h>
 
 namespace networked_estimation
 {
@@ -69,6 +72,8 @@ public:
       s.shutdown();
     cmd_sub_.shutdown();
     schedule_sub_.shutdown();
+    tf_sub_.shutdown();
+    tf_static_sub_.shutdown();
   }
 
 private:
@@ -76,9 +81,12 @@ private:
 
   static ros::TransportHints hints() { return ros::TransportHints().tcpNoDelay(); }
 
-  /// dynamic_reconfigure: latency_budget, late_policy, trace_bound (1e300 = no bound). Starts
-  /// from the values in use (the server's first call, with what it read, is not applied).
+  /// dynamic_reconfigure: adaptive_latency, latency_budget, latency_budget_min/_max, late_policy,
+  /// trace_bound (1e300 = no bound). Starts from the values in use (the server's first call, with
+  /// what it read, is not applied). A change is validated as a whole (validateRuntimeSettings):
+  /// refused with the key named, the settings in use kept and shown back.
   void startReconfigure(ros::NodeHandle& pnh);
+  void reconfigure(EstimatorConfig& c);
 
   /// world_frame and base_link_frame, looked up in tf2 at the message's stamp (a missing or
   /// extrapolated transform rejects the message, naming both frames).
@@ -93,23 +101,27 @@ private:
 
   // --- inputs (the dispatch thread) ---------------------------------------------------------------
 
-  void onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m);
+  /// `receipt`: the ROS time roscpp received the message at (its lateness is judged by it).
+  void onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m, const ros::Time& receipt);
 
-  void measurement(std::size_t sensor, const Measurement::ConstPtr& m);
+  void measurement(std::size_t sensor, const Measurement::ConstPtr& m, const ros::Time& receipt);
 
-  void onForeign(std::size_t sensor, const ros::Time& stamp, const double* y, std::size_t size, const double* R);
   /// covariance: message, and a message without one: counted, warned about (throttled).
   void covarianceFallback(const std::string& why);
+  /// A message without an estimate of the sensor's fields (Imu covariance -1): not fused, counted.
+  void onDisabled(std::size_t sensor, const ros::Time& stamp, const ros::Time& receipt, const std::string& why);
 
-  /// k < 0: the step is the nearest one to the stamp (anchored on the first message as k = 1).
-  /// Estimates are published with the mutex held, so that they leave in step order whichever
-  /// thread takes the step (publish only queues the message; it never calls back into us).
-  void offer(std::size_t sensor, long k, double stamp, const double* y, std::size_t size, bool has_step,
+  /// k < 0: the step comes from the stamp (the sensor's own sample steps). Estimates are published
+  /// with the mutex held, so that they leave in step order whichever thread takes the step
+  /// (publish only queues the message; it never calls back into us).
+  void offer(std::size_t sensor, long k, double stamp, const ros::Time& receipt, const double* y, std::size_t size,
              const double* R = nullptr);
 
-  /// Starts the timeline on the first message of the stream, step k stamped `stamp` (mutex held).
-  /// False (rejected) for k < 1.
-  bool anchorLocked(long k, double stamp);
+  /// ROS time (or the receipt time of the message at hand), wall time and the measured rate of ROS
+  /// time (mutex held).
+  Clocks clocks(const ros::Time& receipt = ros::Time()) const;
+  /// Logs a refused input, naming it (throttled).
+  void warnRejected(const char* what, const OfferResult& r);
 
   void onCommand(const ControlInput::ConstPtr& c);
 
@@ -120,10 +132,6 @@ private:
   /// holds /cmd_vel: a step without a command of its own uses the latest earlier one.
   void onHeldCommand(const ros::Time& stamp, const double* u, std::size_t n);
 
-  /// A held command type: offers the latest command of a step <= k for step k when k has none of
-  /// its own (mutex held), and forgets the older ones.
-  void offerHeldCommand(long k);
-
   void reject(const std::string& why);
 
   void rejectLocked(const std::string& why);
@@ -132,14 +140,8 @@ private:
 
   // --- steps -------------------------------------------------------------------------------------
 
-  /// Takes the steps whose deadline is at or before `now` (mutex held), at most `limit`.
-  void catchUp(double now, int limit = 1000);
-
-  /// Takes every step whose inputs are complete (mutex held).
-  void drainComplete();
-
-  /// One filter step (mutex held); returns its message.
-  Estimate::Ptr stepLocked();
+  /// The message of step k, just taken (mutex held).
+  Estimate::Ptr stepLocked(long k);
 
   /// Publishes one step's outputs (mutex held).
   void publishLocked(const Estimate::Ptr& e);
@@ -151,9 +153,12 @@ private:
   /// manager's queue (tf is for viewing; sending it from the thread that takes the steps stalled
   /// the manager's callback queues).
   void tfTimer();
+  /// /tf and /tf_static: base_link's parent from other publishers than ourselves (ForeignParent).
+  void onTf(const ros::MessageEvent<tf2_msgs::TFMessage const>& e, bool static_tf);
 
-  /// Takes the steps whose deadline has passed (in ROS time) and resets on a backwards time jump;
-  /// returns the wall seconds until the next deadline (the dispatch thread's wait).
+  /// Takes the steps whose deadline has passed (in ROS time) and restarts on a time jump (the
+  /// stream's deadlines()); returns the wall seconds until the next deadline (the dispatch
+  /// thread's wait).
   double deadlineWork();
 
   // --- diagnostics -------------------------------------------------------------------------------
@@ -164,20 +169,23 @@ private:
   std::vector<std::string> wrongTypes() const;
 
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  /// Per sensor: messages, losses, delay, disabled samples and rate; WARN for a sensor that lost more
+  /// than 1 % of its messages over the last 10 s (late or refused), or whose stamps do not fit its
+  /// rate (mutex held).
+  void diagnoseSensors(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
   void diagnoseLink(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
   EstimatorSettings settings_;
-  std::unique_ptr<OnlineEstimator> online_;
+  std::unique_ptr<OnlineStream> stream_;
+  RuntimeLimits limits_;
   Model stability_model_;  ///< the model with the sensors' rates as a schedule (live_ reads it)
   std::unique_ptr<LiveStability> live_;
   std::uint64_t resets_seen_ = 0;  ///< divergence resets of the filter already told to live_
 
-  StepClock clock_{1.0, 0.0};
   std::string input_type_, frame_id_, child_frame_id_;
   std::vector<SensorInput> inputs_;
   SensorInput command_;
-  std::map<double, std::vector<double>> held_;  ///< a held command type: commands by stamp (s)
   StateMap state_map_;
   std::string world_frame_, base_link_frame_, odom_frame_;
   std::vector<double> datum_;
@@ -189,15 +197,16 @@ private:
 
   DispatchThread dispatch_;  ///< serves the inputs and the deadlines (before the subscribers: outlives them)
   std::vector<ros::Subscriber> subs_;
-  ros::Subscriber cmd_sub_, schedule_sub_;
+  ros::Subscriber cmd_sub_, schedule_sub_, tf_sub_, tf_static_sub_;
   ros::Publisher estimate_pub_, trace_pub_, pose_pub_, odom_pub_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   Frames frames_;
-  /// base_link's parent in tf and its broadcaster, looked up at most once a second (tfTimer).
-  std::string base_parent_, base_broadcaster_;
-  ros::WallTime base_parent_checked_;
+  /// child_frame_id = base_link_frame: the transforms we sent, and base_link's parent from others.
+  std::mutex tf_mutex_;
+  OwnTransforms own_tf_;
+  ForeignParent foreign_parent_;
   ros::WallTimer tf_timer_;
   Estimate::ConstPtr last_estimate_;
   ros::Time last_tf_;
@@ -207,15 +216,14 @@ private:
   boost::recursive_mutex reconfigure_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<EstimatorConfig>> reconfigure_;
   bool reconfigure_ready_ = false;
+  EstimatorConfig shown_;  ///< the settings in use, as the reconfigure server shows them
 
   std::mutex mutex_;
   /// Sim time: sim seconds per wall second, measured by the deadline loop (sim_ref_/wall_ref_).
   double clock_rate_ = 1.0, sim_ref_ = 0.0, wall_ref_ = 0.0;
-  double last_now_ = -std::numeric_limits<double>::infinity();  ///< ROS time at the last deadline check
   double last_trace_ = 0.0;
-  std::uint64_t rejected_topic_ = 0, time_resets_ = 0, last_processed_ = 0, covariance_fallbacks_ = 0;
-  double offset_sum_ = 0.0, offset_max_ = 0.0;  ///< |stamp - grid| of the messages matched by stamp
-  std::uint64_t offset_count_ = 0;
+  int deferred_ = 0;  ///< deadline work deferred for queued messages, in a row
+  std::uint64_t rejected_topic_ = 0, last_processed_ = 0, covariance_fallbacks_ = 0;
   ros::WallTime last_diag_;
 };
 

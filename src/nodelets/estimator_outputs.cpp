@@ -94,14 +94,14 @@ void EstimatorNodelet::tfTimer()
   }
   // Driving base_link: its pose from ~state_mapping, and never a second parent.
   const Frames& f = frames();  // the tf2 buffer exists from onInit on in this mode
-  const ros::WallTime now = ros::WallTime::now();
-  if (base_parent_checked_.isZero() || (now - base_parent_checked_).toSec() >= 1.0)
+  std::string parent, publisher;
   {
-    parentOf(tf_buffer_->allFramesAsYAML(), base_link_frame_, base_parent_, base_broadcaster_);
-    base_parent_checked_ = now;
+    std::lock_guard<std::mutex> lock(tf_mutex_);
+    parent = foreign_parent_.at(ros::WallTime::now().toSec());
+    publisher = foreign_parent_.publisher;
   }
-  const TfPlan plan = planTf(world_frame_, odom_frame_, base_link_frame_, child_frame_id_, base_parent_,
-                             base_broadcaster_, ros::this_node::getName());
+  const TfPlan plan = planTf(world_frame_, odom_frame_, base_link_frame_, child_frame_id_, parent, publisher,
+                             ros::this_node::getName());
   if (plan.kind == TfPlan::Kind::NONE)
   {
     NODELET_WARN_THROTTLE(10.0, "Estimator: no tf: %s", plan.reason.c_str());
@@ -135,7 +135,19 @@ void EstimatorNodelet::tfTimer()
   t.transform.rotation.y = q.y();
   t.transform.rotation.z = q.z();
   t.transform.rotation.w = q.w();
+  {
+    std::lock_guard<std::mutex> lock(tf_mutex_);
+    own_tf_.sent(t);  // before it can come back on /tf
+  }
   tf_->sendTransform(t);
+}
+
+void EstimatorNodelet::onTf(const ros::MessageEvent<tf2_msgs::TFMessage const>& e, bool static_tf)
+{
+  const double now = ros::WallTime::now().toSec();
+  std::lock_guard<std::mutex> lock(tf_mutex_);
+  for (const geometry_msgs::TransformStamped& t : e.getConstMessage()->transforms)
+    foreign_parent_.saw(t, base_link_frame_, own_tf_, e.getPublisherName(), now, static_tf);
 }
 
 std::vector<std::string> EstimatorNodelet::wrongTypes() const
@@ -151,7 +163,7 @@ std::vector<std::string> EstimatorNodelet::wrongTypes() const
       if (t.name == name && t.datatype != expected)
         out.push_back(who + ": " + name + " is " + t.datatype + ", expected " + expected);
   };
-  const Model& model = online_->model();
+  const Model& model = stream_->online().model();
   for (std::size_t i = 0; i < inputs_.size(); ++i)
     check("sensor '" + model.sensors[i].name + "'", inputs_[i].topic, toString(inputs_[i].type));
   if (model.hasControl())
@@ -165,20 +177,21 @@ void EstimatorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   for (const std::string& w : wrong)
     NODELET_WARN_THROTTLE(10.0, "Estimator: wrong message type on an input topic: %s", w.c_str());
   std::lock_guard<std::mutex> lock(mutex_);
-  const OnlineCounters& c = online_->counters();
+  const OnlineEstimator& online = stream_->online();
+  const OnlineCounters& c = online.counters();
   const ros::WallTime now = ros::WallTime::now();
   const double dt = last_diag_.isZero() ? 0.0 : (now - last_diag_).toSec();
   const double rate = dt > 0.0 ? static_cast<double>(c.processed - last_processed_) / dt : 0.0;
   last_diag_ = now;
   last_processed_ = c.processed;
   const double arrival = c.processed > 0 ? static_cast<double>(c.arrivals) / static_cast<double>(c.processed) : 0.0;
-  if (!online_->started())
+  if (!online.started())
     stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "waiting for measurements");
   else if (!(last_trace_ <= trace_bound_))
     stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "covariance trace %.4g above trace_bound %.4g",
                   last_trace_, trace_bound_);
   else
-    stat.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "step %ld, arrival rate %.3f", online_->nextStep() - 1,
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "step %ld, arrival rate %.3f", online.nextStep() - 1,
                   arrival);
   if (!wrong.empty())
     stat.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN, "wrong message type: %s", wrong.front().c_str());
@@ -191,31 +204,69 @@ void EstimatorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   stat.add("late dropped", c.late_dropped);
   stat.add("late fused", c.late_fused);
   stat.add("duplicates", c.duplicates);
-  stat.add("rejected", c.rejected + rejected_topic_);
+  stat.add("rejected", rejectedLocked());
   stat.add("missing commands", c.missing_commands);
   stat.add("covariance fallbacks", covariance_fallbacks_);
-  if (offset_count_ > 0)
+  if (stream_->offsetCount() > 0)
   {
-    stat.add("stamp offset mean (s)", offset_sum_ / static_cast<double>(offset_count_));
-    stat.add("stamp offset max (s)", offset_max_);
+    stat.add("stamp offset mean (s)", stream_->offsetMean());
+    stat.add("stamp offset max (s)", stream_->offsetMax());
   }
   for (std::size_t i = 0; i < inputs_.size(); ++i)
     if (std::isfinite(inputs_[i].rejection_threshold))
-      stat.add(online_->model().sensors[i].name + " rejected by threshold", c.gated_per_sensor[i]);
+      stat.add(online.model().sensors[i].name + " rejected by threshold", c.gated_per_sensor[i]);
   // "arrival rate" above is gamma's (some sensor arrived); these count only the samples that
   // were due: scheduled, and at a slower sensor's own steps.
   stat.add("due samples", c.due);
   stat.add("due arrival rate", c.due > 0 ? static_cast<double>(c.due_arrived) / static_cast<double>(c.due) : 0.0);
-  if (online_->model().schedule.active())
+  if (online.model().schedule.active())
   {
     stat.add("unscheduled measurements", c.unscheduled);
-    if (online_->model().schedule.kind == Schedule::Kind::RANDOM)
+    if (online.model().schedule.kind == Schedule::Kind::RANDOM)
       stat.add("steps without schedule", c.schedule_missing);
   }
   stat.add("divergence resets", c.divergence_resets);
-  stat.add("time resets", time_resets_);
+  stat.add("time resets", stream_->timeResets());
+  stat.add("timeline restarts", stream_->restarts());
+  stat.add("stamps refused (commands, schedules)", stream_->refusedOther());
+  stat.add("latency budget (s)", stream_->budget());
+  stat.add("latency budget", stream_->runtime().adaptive_latency ? "auto" : "fixed");
+  diagnoseSensors(stat);
   stat.add("covariance trace", last_trace_);
   stat.add("trace bound", trace_bound_);
+}
+
+void EstimatorNodelet::diagnoseSensors(diagnostic_updater::DiagnosticStatusWrapper& stat)
+{
+  const OnlineEstimator& online = stream_->online();
+  const OnlineCounters& c = online.counters();
+  const LatencyBudget& latency = stream_->latency();
+  const double now = ros::Time::now().toSec(), period = limits_.period;
+  for (std::size_t i = 0; i < inputs_.size(); ++i)
+  {
+    const std::string& name = online.model().sensors[i].name;
+    const double delay = latency.delay(i);
+    stat.add(name + " messages", c.received_per_sensor[i] + stream_->refusedPerSensor()[i]);
+    stat.add(name + " late dropped", c.late_dropped_per_sensor[i]);
+    stat.add(name + " stamps refused", stream_->refusedPerSensor()[i]);
+    stat.add(name + " delay p99 (s)", delay);
+    stat.add(name + " rate (Hz)", online.lattice(i).measuredRate(period));
+    if (inputs_[i].type == InputType::IMU)
+      stat.add(name + " without estimate (covariance -1)", c.disabled_per_sensor[i]);
+    const LatencyBudget::Window w = latency.window(i, now);
+    if (w.fraction() > 0.01)
+      stat.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
+                         "sensor '%s': %.1f %% of its messages over the last %d s late or refused (delay p99 %.0f ms, "
+                         "latency budget %.0f ms)",
+                         name.c_str(), 100.0 * w.fraction(), LatencyBudget::kLateSeconds, 1e3 * delay,
+                         1e3 * stream_->budget());
+    std::string why;
+    if (online.lattice(i).mismatch(period, &why))
+    {
+      stat.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN, "sensor '%s': %s", name.c_str(), why.c_str());
+      NODELET_WARN_THROTTLE(30.0, "Estimator: sensor '%s': %s", name.c_str(), why.c_str());
+    }
+  }
 }
 
 void EstimatorNodelet::diagnoseLink(diagnostic_updater::DiagnosticStatusWrapper& stat)

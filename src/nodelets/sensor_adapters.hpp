@@ -201,7 +201,8 @@ enum class CovarianceRead
 {
   OK,        ///< R holds the message's covariance of the fields
   FALLBACK,  ///< the message says it has none (ROS conventions): use the model's R (why says which)
-  BAD        ///< not finite, not symmetric or not positive definite: refuse the message
+  BAD,       ///< not finite, not symmetric or not positive definite: refuse the message
+  DISABLED   ///< an Imu block with a leading -1: the message has no estimate of these fields
 };
 
 /// A message's covariance block `b` (row-major, dim x dim: 6 for pose and twist, 3 otherwise), or
@@ -230,9 +231,32 @@ auto covarianceBlockOf(const V& v, CovarianceBlock b, int& dim) -> decltype(v.po
   return nullptr;
 }
 
+/// sensor_msgs/Imu: "a covariance whose element 0 is -1 means there is no estimate of that data
+/// element: disregard it". True (with `why` naming the first such field and its block) when a
+/// selected field lies in such a block of the message: the sensor's fields are not fused for it.
+inline bool disabledBlock(InputType type, const MessageView& v, const std::vector<InputField>& fields, std::string& why)
+{
+  for (const InputField& f : fields)
+  {
+    const CovarianceSource a = covarianceOf(type, f);
+    if (a.block != CovarianceBlock::ORIENTATION && a.block != CovarianceBlock::ANGULAR &&
+        a.block != CovarianceBlock::ACCELERATION)
+      continue;
+    int dim = 0;
+    const double* c = covarianceBlockOf(v, a.block, dim);
+    if (c && c[0] == -1.0)
+    {
+      why = f.name + ": the message has no estimate of it (its covariance block starts with -1)";
+      return true;
+    }
+  }
+  return false;
+}
+
 /// R (fields x fields, row-major) from the message's covariances of the fields (covarianceOf);
-/// fields of different blocks are uncorrelated. ROS's "unknown" conventions give FALLBACK: a
-/// leading -1 in an Imu block, NavSatFix COVARIANCE_TYPE_UNKNOWN, and all-zero entries.
+/// fields of different blocks are uncorrelated. ROS's "unknown" conventions give FALLBACK
+/// (NavSatFix COVARIANCE_TYPE_UNKNOWN, all-zero entries); a leading -1 in an Imu block gives
+/// DISABLED (disabledBlock).
 inline CovarianceRead readCovariance(InputType type, const MessageView& v, const std::vector<InputField>& fields,
                                      double* R, std::string& why)
 {
@@ -253,8 +277,8 @@ inline CovarianceRead readCovariance(InputType type, const MessageView& v, const
                      a.block == CovarianceBlock::ACCELERATION;
     if (imu && c[0] == -1.0)
     {
-      why = fields[i].name + ": covariance unknown (a leading -1)";
-      return CovarianceRead::FALLBACK;
+      why = fields[i].name + ": the message has no estimate of it (its covariance block starts with -1)";
+      return CovarianceRead::DISABLED;
     }
     if (a.block == CovarianceBlock::POSITION_ENU && v.enu_cov_type == sensor_msgs::NavSatFix::COVARIANCE_TYPE_UNKNOWN)
     {

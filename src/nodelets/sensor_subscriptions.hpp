@@ -1,5 +1,7 @@
 // Subscriptions of the Estimator's per-sensor inputs of standard types (sensor_inputs.hpp): each
-// message's selected fields go to `ok` with the message's stamp, or a reason to `bad`.
+// message's selected fields go to `ok` with the message's stamp and the ROS time roscpp received it
+// at (its receipt time: what decides whether it came before its step's deadline, however long it
+// then waited in a queue), or a reason to `bad`.
 #pragma once
 
 #include <ros/ros.h>
@@ -19,10 +21,15 @@ struct SensorSink
 {
   /// A valid message: its fields, and (covariance: message) their R_k block, row-major, or null for
   /// the model's R.
-  std::function<void(const ros::Time& stamp, const double* y, std::size_t size, const double* R)> ok;
+  std::function<void(const ros::Time& stamp, const ros::Time& receipt, const double* y, std::size_t size,
+                     const double* R)>
+      ok;
   std::function<void(const std::string& why)> bad;
   /// covariance: message, and the message said it has none: the model's R is used (counted).
   std::function<void(const std::string& why)> fallback;
+  /// The message has no estimate of a selected field (sensor_msgs/Imu: a covariance block whose
+  /// element 0 is -1): nothing of it is fused, the sensor is not due at its step (not a loss).
+  std::function<void(const ros::Time& stamp, const ros::Time& receipt, const std::string& why)> disabled;
   /// NavSatFix only: a fix became the datum.
   std::function<void(const LocalEnu& datum)> datum;
   /// The model's frames and the tf2 lookup (frame_transforms.hpp); no lookup: frames are not used.
@@ -30,22 +37,43 @@ struct SensorSink
 };
 
 template <class M>
-ros::Time stampOf(const M& m)
+ros::Time stampOf(const M& m, const ros::Time&)
 {
   return m.header.stamp;
 }
 /// std_msgs/Float64, Float64MultiArray and geometry_msgs/Twist have no header: they are stamped by
 /// their arrival.
-inline ros::Time stampOf(const std_msgs::Float64&) { return ros::Time::now(); }
-inline ros::Time stampOf(const std_msgs::Float64MultiArray&) { return ros::Time::now(); }
-inline ros::Time stampOf(const geometry_msgs::Twist&) { return ros::Time::now(); }
+inline ros::Time stampOf(const std_msgs::Float64&, const ros::Time& receipt) { return receipt; }
+inline ros::Time stampOf(const std_msgs::Float64MultiArray&, const ros::Time& receipt) { return receipt; }
+inline ros::Time stampOf(const geometry_msgs::Twist&, const ros::Time& receipt) { return receipt; }
+
+/// A subscription whose callback gets the message event (publisher, receipt time), on the node
+/// handle's callback queue. (A callback taking a MessageEvent passed to subscribe() directly would
+/// be wrapped as a plain message callback, losing both.)
+template <class M, class F>
+ros::Subscriber subscribeEvents(ros::NodeHandle& nh, const std::string& topic, uint32_t queue, F f)
+{
+  ros::SubscribeOptions o;
+  o.initByFullCallbackType<const ros::MessageEvent<M const>&>(topic, queue, f);
+  o.transport_hints = ros::TransportHints().tcpNoDelay();
+  return nh.subscribe(o);
+}
 
 /// The fields of a message's view (and their covariance with covariance: message) to the sink.
-inline void deliver(const SensorInput& in, const MessageView& v, const ros::Time& stamp, const SensorSink& sink)
+inline void deliver(const SensorInput& in, const MessageView& v, const ros::Time& stamp, const ros::Time& receipt,
+                    const SensorSink& sink)
 {
   const std::size_t n = in.fields.size();
   std::vector<double> y(n), R(n * n);
   std::string why;
+  if (disabledBlock(in.type, v, in.fields, why))
+  {
+    if (sink.disabled)
+      sink.disabled(stamp, receipt, why);
+    else
+      sink.bad(why);
+    return;
+  }
   if (!readFields(v, in.fields, y.data(), why))
   {
     sink.bad(why);
@@ -63,35 +91,33 @@ inline void deliver(const SensorInput& in, const MessageView& v, const ros::Time
           sink.fallback(why);
         break;
       case CovarianceRead::BAD:
+      case CovarianceRead::DISABLED:  // caught by disabledBlock above
         sink.bad(why);
         return;
     }
-  sink.ok(stamp, y.data(), n, own);
+  sink.ok(stamp, receipt, y.data(), n, own);
 }
 
 template <class M>
 ros::Subscriber subscribeFields(ros::NodeHandle& nh, const SensorInput& in, uint32_t queue, const SensorSink& sink)
 {
-  return nh.subscribe<M>(
-      in.topic, queue,
-      [in, sink](const typename M::ConstPtr& m) {
-        std::string why;
-        M local = *m;  // into the model's frames
-        if (!intoFrames(sink.frames, local, why))
-          sink.bad(why);
-        else
-          deliver(in, view(local), stampOf(local), sink);
-      },
-      ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
+  return subscribeEvents<M>(nh, in.topic, queue, [in, sink](const ros::MessageEvent<M const>& e) {
+    std::string why;
+    M local = *e.getConstMessage();  // into the model's frames
+    if (!intoFrames(sink.frames, local, why))
+      sink.bad(why);
+    else
+      deliver(in, view(local), stampOf(local, e.getReceiptTime()), e.getReceiptTime(), sink);
+  });
 }
 
 inline ros::Subscriber subscribeNavSatFix(ros::NodeHandle& nh, const SensorInput& in, uint32_t queue,
                                           const SensorSink& sink, const std::vector<double>& datum)
 {
   auto enu = std::make_shared<NavSatFixEnu>(datum);
-  return nh.subscribe<sensor_msgs::NavSatFix>(
-      in.topic, queue,
-      [in, sink, enu](const sensor_msgs::NavSatFix::ConstPtr& m) {
+  return subscribeEvents<sensor_msgs::NavSatFix>(
+      nh, in.topic, queue, [in, sink, enu](const ros::MessageEvent<sensor_msgs::NavSatFix const>& e) {
+        const sensor_msgs::NavSatFix::ConstPtr m = e.getConstMessage();
         Eigen::Vector3d local;
         std::string why;
         bool new_datum = false;
@@ -106,9 +132,8 @@ inline ros::Subscriber subscribeNavSatFix(ros::NodeHandle& nh, const SensorInput
         v.enu = &local;
         v.enu_cov = m->position_covariance.data();  // ENU already (sensor_msgs/NavSatFix)
         v.enu_cov_type = m->position_covariance_type;
-        deliver(in, v, m->header.stamp, sink);
-      },
-      ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
+        deliver(in, v, m->header.stamp, e.getReceiptTime(), sink);
+      });
 }
 
 /// A subscription of any type but networked_estimation/Measurement and ControlInput (which carry

@@ -8,6 +8,8 @@
 
 #include "networked_estimation/config/model.hpp"
 #include "networked_estimation/online/online_estimator.hpp"
+#include "networked_estimation/online/runtime_settings.hpp"
+#include "networked_estimation/online/timeline.hpp"
 #include "networked_estimation/config/estimator_settings.hpp"
 #include "networked_estimation/online/sensor_inputs.hpp"
 
@@ -33,7 +35,11 @@ struct EstimatorNodeConfig
   EstimatorSettings settings;      ///< algorithm, mu, control_link, max_components
   OnlineOptions online;            ///< late_policy, history_length, max_future_steps, max_past_steps
   double period = 0.0;             ///< default: the model's
-  double latency_budget = 0.0;     ///< default: half a period
+  /// latency_budget (auto by default: adaptive within latency_budget_min = half a period and
+  /// latency_budget_max = min(1 s, max_future_steps periods / 2)), late_policy, trace_bound.
+  RuntimeSettings runtime;
+  /// max_stamp_ahead (10 s), max_stamp_behind (default: the largest budget + history_length periods).
+  TimelineOptions timeline;
   std::string input_type = "measurement";  ///< measurement | range | point (sensors without a block)
   /// Per sensor of the model (model order): its topic, message type, fields and rate, from the
   /// `sensors` block (a sensor without one keeps the input_type topic measurement[/<name>]).
@@ -55,7 +61,6 @@ struct EstimatorNodeConfig
   /// existing odom -> base_link makes the tf map -> odom (robot_localization's scheme).
   std::string odom_frame = "odom";
   StateMap state_map;
-  double trace_bound = 0.0;        ///< default: +inf (no bound)
   std::size_t queue_size = 1000;
   bool markov_link = false;        ///< link_model: markov (recovery rate) instead of iid (arrival rate)
   std::size_t stability_window = 1000;
@@ -63,12 +68,13 @@ struct EstimatorNodeConfig
 };
 
 /// Parses the parameters (README "The ROS graph": model, algorithm, mu, control_link,
-/// max_components, period, latency_budget, late_policy, history_length, max_future_steps,
+/// max_components, period, latency_budget, latency_budget_min, latency_budget_max,
+/// max_stamp_ahead, max_stamp_behind, late_policy, history_length, max_future_steps,
 /// max_past_steps, input_type, frame_id, child_frame_id, position_indices, publish_tf, trace_bound,
 /// queue_size, link_model, stability_window, stability_min_samples, sensors.<name>.{topic, type,
 /// fields, rate}, datum, command.{topic, type, fields}, world_frame, base_link_frame, odom_frame, state_mapping.{x, y, z, yaw, vx, vy, vz, yaw_rate}; diagnostic_period is left to
 /// diagnostic_updater). Throws ConfigError naming `source` and the key, also for an unknown key,
-/// a model file that cannot be read, and ack_kf (the graph does not carry nu_k).
+/// a model file that cannot be read, an empty frame name, and ack_kf (the graph does not carry nu_k).
 EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std::string& source);
 
 }  // namespace networked_estimation

@@ -24,6 +24,7 @@
 #include "networked_estimation/estimators/estimator.hpp"
 #include "networked_estimation/config/model.hpp"
 #include "networked_estimation/config/estimator_settings.hpp"
+#include "networked_estimation/online/sensor_lattice.hpp"
 
 namespace networked_estimation
 {
@@ -49,8 +50,9 @@ struct OnlineOptions
   /// counted as late. At least history_length.
   long max_past_steps = 1000;
   /// Per sensor (model order; empty = all 1): the model's rate over the sensor's nominal rate,
-  /// >= 1. A sensor with a ratio r > 1 is due only every r steps (rounded), on its own phase: the
-  /// step of its latest sample. Before its first sample it is not due.
+  /// >= 1. A sensor with a ratio r > 1 is due only at its own steps, every r steps on its own
+  /// phase, both learnt from its samples (SensorLattice: jitter and dropouts tolerated). Before its
+  /// first sample it is not due.
   std::vector<double> rate_ratio;
   /// Per sensor (empty = none): the largest Mahalanobis distance sqrt(nu' S^-1 nu) of the
   /// sensor's innovation nu = y - C xpred, S = C Ppred C' + R, that is still fused (as
@@ -73,7 +75,8 @@ enum class Offer
   LATE_FUSED,     ///< late, fused by rewinding (REWIND)
   LATE_DROPPED,   ///< late: dropped (DROP, or older than the history with REWIND)
   DUPLICATE,      ///< this sensor's (or command's) data for that step was already in hand: ignored
-  REJECTED        ///< bad input (see reason): wrong size, not finite, unknown sensor, step out of range
+  REJECTED,       ///< bad input (see reason): wrong size, not finite, unknown sensor, step out of range
+  DISABLED        ///< the message says it has no estimate of the sensor's fields: not fused, not due
 };
 
 struct OfferResult
@@ -105,6 +108,9 @@ struct OnlineCounters
   /// Measurements refused by their sensor's rejection_threshold (total, and per sensor).
   std::uint64_t gated = 0;
   std::vector<std::uint64_t> gated_per_sensor;
+  /// Per sensor: its messages that were not rejected, those dropped as late, and those whose
+  /// message disabled the sensor's fields (offerDisabled).
+  std::vector<std::uint64_t> received_per_sensor, late_dropped_per_sensor, disabled_per_sensor;
 };
 
 class OnlineEstimator
@@ -126,6 +132,18 @@ public:
   /// R with this sensor's block replaced and its cross-blocks with other sensors zero.
   OfferResult offerMeasurement(long k, std::size_t sensor, const double* y, std::size_t size,
                                const double* R = nullptr);
+  /// The same for a message without a step number, at step position `position` ((stamp - t0) /
+  /// period): its step is the one the sensor's lattice gives it (stepOf).
+  OfferResult offerSample(double position, std::size_t sensor, const double* y, std::size_t size,
+                          const double* R = nullptr);
+  /// The step a sample of `sensor` at step position `position` belongs to (what offerSample uses).
+  long stepOf(std::size_t sensor, double position) const;
+  /// A message of `sensor` at `position` (or naming step `given` >= 1) that carries no estimate of
+  /// the sensor's fields (sensor_msgs' covariance -1): nothing is fused, the sensor is not due at
+  /// that step (not a loss), and it is counted (disabled_per_sensor). Returns DISABLED or REJECTED.
+  OfferResult offerDisabled(std::size_t sensor, double position, long given = -1);
+  /// The sample lattice learnt for a sensor.
+  const SensorLattice& lattice(std::size_t sensor) const { return lattice_[sensor]; }
   /// Offers the command u_k (p values). Only meaningful for models with control.
   OfferResult offerCommand(long k, const double* u, std::size_t size);
 
@@ -185,6 +203,7 @@ private:
     bool have_schedule = false;
     std::vector<char> own_R;      ///< per sensor: its R_k block was offered (in R)
     std::vector<char> gated;      ///< per sensor: refused by its rejection_threshold when processed
+    std::vector<char> excused;    ///< per sensor: its message disabled its fields (not due here)
     Eigen::MatrixXd R;            ///< m x m, allocated on the first own block
   };
 
@@ -206,6 +225,9 @@ private:
   bool due(const Slot* s, long k, std::size_t sensor) const;
   /// Counts a rejected offer and returns it with its reason.
   OfferResult reject(const std::string& why);
+  /// offerMeasurement / offerSample: `given` >= 1 is the step the message names.
+  OfferResult offerAt(double position, long given, std::size_t sensor, const double* y, std::size_t size,
+                      const double* R);
 
   Model model_;
   EstimatorSettings settings_;
@@ -220,8 +242,7 @@ private:
   int last_sensors_ = 0;
   std::vector<bool> last_arrived_;
   std::vector<bool> last_due_;
-  std::vector<double> ratio_;  ///< per sensor: options_.rate_ratio, or 1
-  std::vector<long> anchor_;   ///< per sensor: step of its latest sample (-1: none yet)
+  std::vector<SensorLattice> lattice_;  ///< per sensor: when it samples (options_.rate_ratio, or 1)
   Sample sample_;
   OnlineCounters counters_;
   std::string last_error_;

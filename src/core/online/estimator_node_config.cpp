@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 #include "networked_estimation/common/error.hpp"
@@ -100,14 +101,39 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   c.period = p.number("period", model.period, 0.0, 3600.0);
   if (!(c.period > 0.0))
     throw ConfigError(source + ": period: the model '" + c.model_file + "' has no period and none was given");
-  c.latency_budget = p.number("latency_budget", 0.5 * c.period, 0.0, 3600.0);
-
-  c.online.late_policy = latePolicyFromString(p.text("late_policy", "drop"), source);
+  RuntimeSettings& rt = c.runtime;
+  rt.late_policy = p.text("late_policy", "drop");
+  c.online.late_policy = latePolicyFromString(rt.late_policy, source);
   c.online.history_length = static_cast<std::size_t>(p.integer("history_length", 100, 1, 100000));
   c.online.max_future_steps = p.integer("max_future_steps", 1000, 1, 1000000);
   c.online.max_past_steps =
       p.integer("max_past_steps", std::max<long>(1000, static_cast<long>(c.online.history_length)), 1, 1000000);
   validateOnlineOptions(c.online, source);
+
+  // latency_budget: auto (adaptive within [min, max]) or a fixed number of seconds.
+  const YAML::Node budget = p.take("latency_budget");
+  if (budget.IsDefined() && !budget.IsNull() && !(budget.IsScalar() && budget.Scalar() == "auto"))
+  {
+    if (!budget.IsScalar() || !YAML::convert<double>::decode(budget, rt.latency_budget))
+      throw ConfigError(source + ": latency_budget: expected auto or a number of seconds, found '" +
+                        (budget.IsScalar() ? budget.Scalar() : std::string("a ") + (budget.IsMap() ? "map" : "list")) +
+                        "'");
+    rt.adaptive_latency = false;
+  }
+  rt.latency_budget_min = p.number("latency_budget_min", 0.5 * c.period, 0.0, 3600.0);
+  rt.latency_budget_max = p.number(
+      "latency_budget_max", std::min(1.0, 0.5 * static_cast<double>(c.online.max_future_steps) * c.period), 0.0, 3600.0);
+  c.timeline.period = c.period;
+  c.timeline.max_ahead = p.number("max_stamp_ahead", 10.0, 0.0, 1e9);
+  if (!(c.timeline.max_ahead > 0.0))
+    throw ConfigError(source + ": max_stamp_ahead: expected a number of seconds > 0, found 0");
+  const double longest = rt.adaptive_latency ? rt.latency_budget_max : rt.latency_budget;
+  c.timeline.max_behind = p.number(
+      "max_stamp_behind",
+      (std::isfinite(longest) ? std::max(0.0, longest) : 0.0) + static_cast<double>(c.online.history_length) * c.period,
+      0.0, 1e9);
+  if (!(c.timeline.max_behind > 0.0))
+    throw ConfigError(source + ": max_stamp_behind: expected a number of seconds > 0, found 0");
 
   c.input_type = p.choice("input_type", "measurement", {"measurement", "range", "point"});
   for (const Sensor& s : model.sensors)
@@ -169,6 +195,14 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   c.world_frame = p.text("world_frame", c.frame_id);
   c.base_link_frame = p.text("base_link_frame", "base_link");
   c.odom_frame = p.text("odom_frame", "odom");
+  const std::pair<const char*, const std::string*> frames[] = {{"frame_id", &c.frame_id},
+                                                                {"child_frame_id", &c.child_frame_id},
+                                                                {"world_frame", &c.world_frame},
+                                                                {"base_link_frame", &c.base_link_frame},
+                                                                {"odom_frame", &c.odom_frame}};
+  for (const auto& f : frames)
+    if (f.second->empty())
+      throw ConfigError(source + ": " + f.first + ": expected a frame name, found an empty string");
   int* slots[3] = {&c.state_map.x, &c.state_map.y, &c.state_map.z};
   for (std::size_t i = 0; i < c.position_indices.size(); ++i)
     *slots[i] = c.position_indices[i];
@@ -197,7 +231,12 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
     q.rejectUnknown();
   }
   const double inf = std::numeric_limits<double>::infinity();
-  c.trace_bound = p.number("trace_bound", inf, 0.0, inf);
+  rt.trace_bound = p.number("trace_bound", inf, 0.0, inf);
+  RuntimeLimits limits;
+  limits.period = c.period;
+  limits.max_future_steps = c.online.max_future_steps;
+  limits.max_stamp_behind = c.timeline.max_behind;
+  validateRuntimeSettings(rt, limits, source);
   c.queue_size = static_cast<std::size_t>(p.integer("queue_size", 1000, 1, 1000000));
   c.markov_link = p.choice("link_model", "iid", {"iid", "markov"}) == "markov";
   const long window = p.integer("stability_window", 1000, 10, 1000000);

@@ -61,8 +61,12 @@ OnlineEstimator::OnlineEstimator(const Model& model, const EstimatorSettings& se
     s.scheduled.assign(model_.sensors.size(), 0);
     s.own_R.assign(model_.sensors.size(), 0);
     s.gated.assign(model_.sensors.size(), 0);
+    s.excused.assign(model_.sensors.size(), 0);
   }
   counters_.gated_per_sensor.assign(model_.sensors.size(), 0);
+  counters_.received_per_sensor.assign(model_.sensors.size(), 0);
+  counters_.late_dropped_per_sensor.assign(model_.sensors.size(), 0);
+  counters_.disabled_per_sensor.assign(model_.sensors.size(), 0);
   if (!options_.rejection_threshold.empty() && options_.rejection_threshold.size() != model_.sensors.size())
     throw ConfigError("online estimator options: rejection_threshold: expected " +
                       std::to_string(model_.sensors.size()) + " values (one per sensor), found " +
@@ -74,8 +78,8 @@ OnlineEstimator::OnlineEstimator(const Model& model, const EstimatorSettings& se
   if (!options_.rate_ratio.empty() && options_.rate_ratio.size() != model_.sensors.size())
     throw ConfigError("online estimator options: rate_ratio: expected " + std::to_string(model_.sensors.size()) +
                       " values (one per sensor), found " + std::to_string(options_.rate_ratio.size()));
-  ratio_ = options_.rate_ratio.empty() ? std::vector<double>(model_.sensors.size(), 1.0) : options_.rate_ratio;
-  anchor_.assign(model_.sensors.size(), -1);
+  for (std::size_t i = 0; i < model_.sensors.size(); ++i)
+    lattice_.emplace_back(options_.rate_ratio.empty() ? 1.0 : options_.rate_ratio[i]);
 }
 
 void OnlineEstimator::start(long first_step)
@@ -97,7 +101,8 @@ void OnlineEstimator::reset()
   next_ = 1;
   checkpoint_k_ = 0;
   started_ = false;
-  std::fill(anchor_.begin(), anchor_.end(), -1);
+  for (SensorLattice& l : lattice_)
+    l.reset();
   last_gamma_ = false;
   last_sensors_ = 0;
 }
@@ -117,6 +122,7 @@ OnlineEstimator::Slot* OnlineEstimator::slotFor(long k)
     std::fill(s.have.begin(), s.have.end(), 0);
     std::fill(s.own_R.begin(), s.own_R.end(), 0);
     std::fill(s.gated.begin(), s.gated.end(), 0);
+    std::fill(s.excused.begin(), s.excused.end(), 0);
     s.have_u = false;
     s.have_schedule = false;
   }
@@ -125,17 +131,10 @@ OnlineEstimator::Slot* OnlineEstimator::slotFor(long k)
 
 bool OnlineEstimator::due(const Slot* s, long k, std::size_t sensor) const
 {
-  if (ratio_[sensor] > 1.0)
-  {
-    // Due at anchor + round(j r) for integers j (either side of the latest sample's step).
-    const long a = anchor_[sensor];
-    if (a < 0)
-      return false;
-    const double r = ratio_[sensor];
-    const long j = std::lround(static_cast<double>(k - a) / r);
-    if (a + std::lround(static_cast<double>(j) * r) != k)
-      return false;
-  }
+  if (s && s->k == k && s->excused[sensor])
+    return false;  // its message said it has no estimate
+  if (!lattice_[sensor].due(k))
+    return false;
   const Schedule& sch = model_.schedule;
   switch (sch.kind)
   {
@@ -203,6 +202,43 @@ void OnlineEstimator::storeR(Slot& s, std::size_t sensor, const double* R)
 OfferResult OnlineEstimator::offerMeasurement(long k, std::size_t sensor, const double* y, std::size_t size,
                                               const double* R)
 {
+  return offerAt(static_cast<double>(k), k, sensor, y, size, R);
+}
+
+OfferResult OnlineEstimator::offerSample(double position, std::size_t sensor, const double* y, std::size_t size,
+                                         const double* R)
+{
+  return offerAt(position, -1, sensor, y, size, R);
+}
+
+long OnlineEstimator::stepOf(std::size_t sensor, double position) const
+{
+  return lattice_.at(sensor).fit(position).step;
+}
+
+OfferResult OnlineEstimator::offerDisabled(std::size_t sensor, double position, long given)
+{
+  if (sensor >= model_.sensors.size())
+    return reject("sensor index " + std::to_string(sensor) + " out of range (model has " +
+                  std::to_string(model_.sensors.size()) + " sensors)");
+  if (!std::isfinite(position))
+    return reject("the step position of sensor '" + model_.sensors[sensor].name + "' is not finite");
+  const SensorLattice::Fit f = lattice_[sensor].fit(position, given);
+  OfferResult r = checkStep(f.step);
+  if (r.offer == Offer::REJECTED)
+    return reject(r.reason);
+  lattice_[sensor].learn(position, f);
+  ++counters_.received_per_sensor[sensor];
+  ++counters_.disabled_per_sensor[sensor];
+  if (f.step >= next_)
+    slotFor(f.step)->excused[sensor] = 1;
+  r.offer = Offer::DISABLED;
+  return r;
+}
+
+OfferResult OnlineEstimator::offerAt(double position, long given, std::size_t sensor, const double* y,
+                                     std::size_t size, const double* R)
+{
   OfferResult r;
   if (sensor >= model_.sensors.size())
     return reject("sensor index " + std::to_string(sensor) + " out of range (model has " +
@@ -214,9 +250,15 @@ OfferResult OnlineEstimator::offerMeasurement(long k, std::size_t sensor, const 
   for (std::size_t i = 0; i < size; ++i)
     if (!std::isfinite(y[i]))
       return reject("y[" + std::to_string(i) + "] of sensor '" + sn.name + "' is not finite");
+  if (!std::isfinite(position))
+    return reject("the step position of sensor '" + sn.name + "' is not finite");
+  const SensorLattice::Fit f = lattice_[sensor].fit(position, given);
+  const long k = f.step;
   r = checkStep(k);
   if (r.offer == Offer::REJECTED)
     return reject(r.reason);
+  lattice_[sensor].learn(position, f);
+  ++counters_.received_per_sensor[sensor];
   if (k < next_)
   {
     const bool rewindable = options_.late_policy == LatePolicy::REWIND && k > checkpoint_k_;
@@ -230,6 +272,7 @@ OfferResult OnlineEstimator::offerMeasurement(long k, std::size_t sensor, const 
     if (!rewindable)
     {
       ++counters_.late_dropped;
+      ++counters_.late_dropped_per_sensor[sensor];
       r.offer = Offer::LATE_DROPPED;
       // Remember it for duplicate detection while its step is still held (never claim a slot:
       // it may belong to a future step by now).
@@ -257,8 +300,6 @@ OfferResult OnlineEstimator::offerMeasurement(long k, std::size_t sensor, const 
   s->y.segment(sn.offset, sn.size) = Eigen::Map<const Eigen::VectorXd>(y, sn.size);
   storeR(*s, sensor, R);
   ++counters_.accepted;
-  if (k > anchor_[sensor])
-    anchor_[sensor] = k;  // a slower sensor's phase follows its latest sample
   if (model_.schedule.active() && !due(s, k, sensor))
     ++counters_.unscheduled;
   r.offer = Offer::ACCEPTED;
@@ -439,13 +480,13 @@ bool OnlineEstimator::nextComplete() const
     return false;
   for (std::size_t i = 0; i < s.have.size(); ++i)
   {
-    if (s.have[i])
+    if (s.have[i] || s.excused[i])
       continue;
     if (due(&s, next_, i))
       return false;
     // A slower sensor before its first sample: its phase is unknown, any step may be its own, so
     // the step waits for it up to the deadline (without counting it as due there).
-    if (ratio_[i] > 1.0 && anchor_[i] < 0)
+    if (lattice_[i].configured() > 1.0 && !lattice_[i].locked())
       return false;
   }
   return true;

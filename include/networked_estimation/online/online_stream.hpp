@@ -1,0 +1,119 @@
+// The Estimator's input side as one ROS-free object: messages in (with their stamps and the ROS
+// time they arrived at), filter steps out. It joins
+// - the Timeline: which stamps are believed, the anchor, restarts on time jumps, the catch-up
+//   work bound (timeline.hpp);
+// - the LatencyBudget: each sensor's delays, the deadline they call for, losses to lateness
+//   (latency_budget.hpp);
+// - the OnlineEstimator: slots, due sensors (SensorLattice), late policies (online_estimator.hpp).
+// The nodelet translates messages, calls in here under its lock, and publishes each step from the
+// after_step hook.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "networked_estimation/online/latency_budget.hpp"
+#include "networked_estimation/online/online_estimator.hpp"
+#include "networked_estimation/online/runtime_settings.hpp"
+#include "networked_estimation/online/timeline.hpp"
+
+namespace networked_estimation
+{
+
+/// The clocks at a call: ROS time and wall time (s), and how fast ROS time runs (sim time: a bag
+/// played at -r 4 runs at 4; wall time: 1).
+struct Clocks
+{
+  double ros = 0.0;
+  double wall = 0.0;
+  double rate = 1.0;
+};
+
+class OnlineStream
+{
+public:
+  /// Throws ConfigError (as OnlineEstimator). `runtime` must be valid (validateRuntimeSettings).
+  OnlineStream(const Model& model, const EstimatorSettings& settings, const OnlineOptions& online,
+               const TimelineOptions& timeline, const RuntimeSettings& runtime);
+
+  /// Called after each step k is taken (estimator() holds x_{k|k}): publish it.
+  std::function<void(long k)> after_step;
+  /// Called when everything starts over (why: a time jump, a contradicted anchor).
+  std::function<void(const std::string& why)> on_restart;
+
+  /// A sensor's message stamped `stamp` (s) naming step `step` (>= 1; -1: none, its step then
+  /// comes from its stamp). Refused stamps come back REJECTED with the reason.
+  OfferResult measurement(std::size_t sensor, double stamp, long step, const double* y, std::size_t size,
+                          const double* R, const Clocks& now);
+  /// A sensor's message that disabled the sensor's fields (sensor_msgs' covariance -1).
+  OfferResult disabled(std::size_t sensor, double stamp, long step, const Clocks& now);
+  /// A command naming its step (ControlInput). Ignored (ACCEPTED) before the timeline starts.
+  OfferResult command(long step, double stamp, const double* u, std::size_t size, const Clocks& now);
+  /// A command of a type without a step (a Twist on /cmd_vel): its step is the nearest one to its
+  /// stamp, and it holds until the next one (a step without a command of its own uses the latest
+  /// earlier one), as a robot base holds /cmd_vel.
+  OfferResult heldCommand(double stamp, const double* u, std::size_t size, const Clocks& now);
+  /// A random schedule's draw for a step (it may start the timeline, as a measurement).
+  OfferResult schedule(long step, double stamp, const std::vector<bool>& transmitting, const Clocks& now);
+
+  /// Takes the steps whose deadline has passed (within the work bound), and starts over when ROS
+  /// time went back or jumped forward past max_stamp_behind. Returns true when steps are still due
+  /// (the caller comes back at once, after letting the inputs in).
+  bool deadlines(const Clocks& now);
+  /// The ROS time of the next deadline (+inf before the timeline starts).
+  double nextDeadline() const;
+  /// Whether the work bound held back a due step at the last deadlines() call.
+  bool throttled() const { return throttled_; }
+
+  /// New runtime settings (validated by the caller): budget, late policy.
+  void setRuntime(const RuntimeSettings& runtime);
+  const RuntimeSettings& runtime() const { return runtime_; }
+
+  const OnlineEstimator& online() const { return *online_; }
+  const Timeline& timeline() const { return timeline_; }
+  const LatencyBudget& latency() const { return latency_; }
+  double budget() const { return timeline_.clock().budget(); }
+
+  /// Per sensor: messages refused for their stamp (Timeline). Timeline restarts (a contradicted
+  /// anchor), time resets (ROS time back, or forward past max_stamp_behind), and messages refused
+  /// for their stamp that belong to no sensor (commands, schedules).
+  const std::vector<std::uint64_t>& refusedPerSensor() const { return refused_; }
+  std::uint64_t restarts() const { return restarts_; }
+  std::uint64_t timeResets() const { return time_resets_; }
+  std::uint64_t refusedOther() const { return refused_other_; }
+  /// |stamp - its step's grid time| of the messages placed by their stamp: mean, max, count.
+  double offsetMean() const { return offset_count_ ? offset_sum_ / static_cast<double>(offset_count_) : 0.0; }
+  double offsetMax() const { return offset_max_; }
+  std::uint64_t offsetCount() const { return offset_count_; }
+
+private:
+  /// The timeline's verdict on a message (sensor: its index, or npos); anchors or restarts as it
+  /// says. False: refused (counted), with the reason in `refusal`.
+  bool admit(std::size_t sensor, double stamp, long step, const Clocks& now, OfferResult& refusal);
+  void restart(const std::string& why);
+  void catchUp(const Clocks& now);
+  void drainComplete();
+  void step();
+  void offerHeld(long k);
+  /// The step of a sensor's message and its delay recorded (the budget follows).
+  long place(std::size_t sensor, double stamp, long step, const Clocks& now, double& position);
+
+  std::unique_ptr<OnlineEstimator> online_;
+  Timeline timeline_;
+  LatencyBudget latency_;
+  RuntimeSettings runtime_;
+  std::map<double, std::vector<double>> held_;  ///< held command type: commands by stamp (s)
+  double last_now_ = -std::numeric_limits<double>::infinity();
+  bool throttled_ = false;
+  std::vector<std::uint64_t> refused_;
+  std::uint64_t restarts_ = 0, time_resets_ = 0, refused_other_ = 0;
+  double offset_sum_ = 0.0, offset_max_ = 0.0;
+  std::uint64_t offset_count_ = 0;
+};
+
+}  // namespace networked_estimation

@@ -1,0 +1,292 @@
+// The Estimator's input side: timeline, latency budget and sample assembly (online_stream.hpp).
+#include "networked_estimation/online/online_stream.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace networked_estimation
+{
+namespace
+{
+
+constexpr long kStepsPerCall = 1000;  ///< steps taken per call at most (the inputs are not starved)
+
+std::string seconds(double s)
+{
+  std::ostringstream o;
+  o.precision(6);
+  o << s;
+  return o.str();
+}
+
+}  // namespace
+
+OnlineStream::OnlineStream(const Model& model, const EstimatorSettings& settings, const OnlineOptions& online,
+                           const TimelineOptions& timeline, const RuntimeSettings& runtime)
+  : online_(std::make_unique<OnlineEstimator>(model, settings, online)),
+    timeline_(timeline, 0.0),
+    latency_(model.sensors.size(), latencyOptions(runtime, timeline.period)),
+    runtime_(runtime)
+{
+  timeline_.clock().setBudget(latency_.budget());
+  refused_.assign(model.sensors.size(), 0);
+}
+
+bool OnlineStream::admit(std::size_t sensor, double stamp, long step, const Clocks& now, OfferResult& refusal)
+{
+  const Timeline::Admission a = timeline_.admit(stamp, step, now.ros);
+  std::string why = a.reason;
+  if (a.verdict == Timeline::Verdict::ACCEPT)
+    return true;
+  if (a.verdict != Timeline::Verdict::REFUSE && step == 0)
+    why = "step: expected >= 1, found 0";  // cannot anchor
+  else if (a.verdict != Timeline::Verdict::REFUSE)
+  {
+    if (a.verdict == Timeline::Verdict::RESTART)
+    {
+      ++restarts_;
+      restart(why);
+    }
+    const long k = step >= 1 ? step : 1;
+    timeline_.anchor(k, stamp);
+    latency_.start(now.ros);
+    // A stream seen from its start is filtered from step 1 (the steps before the first message
+    // are losses); joining a running stream starts at the first step seen.
+    online_->start(k - 1 <= static_cast<long>(online_->options().history_length) ? 1 : k);
+    return true;
+  }
+  if (sensor < refused_.size())
+  {
+    ++refused_[sensor];
+    latency_.refused(sensor, now.ros);
+  }
+  else
+    ++refused_other_;
+  refusal.offer = Offer::REJECTED;
+  refusal.reason = why;
+  return false;
+}
+
+void OnlineStream::restart(const std::string& why)
+{
+  online_->reset();
+  timeline_.clear();
+  latency_.clear();
+  timeline_.clock().setBudget(latency_.budget());
+  last_now_ = -std::numeric_limits<double>::infinity();
+  if (on_restart)
+    on_restart(why);
+}
+
+long OnlineStream::place(std::size_t sensor, double stamp, long step, const Clocks& now, double& position)
+{
+  position = step >= 1 ? static_cast<double>(step) : timeline_.position(stamp);
+  const long k = step >= 1 ? step : online_->stepOf(sensor, position);
+  const double grid = timeline_.clock().stamp(k);
+  if (step < 1)
+  {
+    const double off = std::fabs(stamp - grid);
+    offset_sum_ += off;
+    offset_max_ = std::max(offset_max_, off);
+    ++offset_count_;
+  }
+  if (now.ros > 0.0)
+  {
+    latency_.at(now.ros);
+    latency_.arrived(sensor, now.ros - grid, now.ros);
+    timeline_.clock().setBudget(latency_.budget());
+  }
+  return k;
+}
+
+OfferResult OnlineStream::measurement(std::size_t sensor, double stamp, long step, const double* y, std::size_t size,
+                                      const double* R, const Clocks& now)
+{
+  OfferResult r;
+  if (sensor >= refused_.size())
+  {
+    r.offer = Offer::REJECTED;
+    r.reason = "sensor index " + std::to_string(sensor) + " out of range";
+    return r;
+  }
+  if (!admit(sensor, stamp, step, now, r))
+    return r;
+  double position = 0.0;
+  place(sensor, stamp, step, now, position);
+  // Steps whose deadline has passed are taken first (their wait may not have timed out yet): what
+  // arrives after a deadline is late, exactly, whichever callback notices first.
+  catchUp(now);
+  r = step >= 1 ? online_->offerMeasurement(step, sensor, y, size, R)
+                : online_->offerSample(position, sensor, y, size, R);
+  if (r.offer == Offer::LATE_DROPPED)
+    latency_.lost(sensor, now.ros);
+  drainComplete();
+  return r;
+}
+
+OfferResult OnlineStream::disabled(std::size_t sensor, double stamp, long step, const Clocks& now)
+{
+  OfferResult r;
+  if (sensor >= refused_.size())
+  {
+    r.offer = Offer::REJECTED;
+    r.reason = "sensor index " + std::to_string(sensor) + " out of range";
+    return r;
+  }
+  if (!admit(sensor, stamp, step, now, r))
+    return r;
+  double position = 0.0;
+  place(sensor, stamp, step, now, position);
+  catchUp(now);
+  r = online_->offerDisabled(sensor, position, step >= 1 ? step : -1);
+  drainComplete();
+  return r;
+}
+
+OfferResult OnlineStream::command(long step, double stamp, const double* u, std::size_t size, const Clocks& now)
+{
+  OfferResult r;
+  if (!online_->started())
+    return r;  // the timeline starts with the measurements
+  const Timeline::Admission a = timeline_.plausible(stamp, now.ros);
+  if (a.verdict == Timeline::Verdict::REFUSE)
+  {
+    ++refused_other_;
+    r.offer = Offer::REJECTED;
+    r.reason = "command: " + a.reason;
+    return r;
+  }
+  catchUp(now);
+  r = online_->offerCommand(step, u, size);
+  drainComplete();
+  return r;
+}
+
+OfferResult OnlineStream::heldCommand(double stamp, const double* u, std::size_t size, const Clocks& now)
+{
+  OfferResult r;
+  const Timeline::Admission a = timeline_.plausible(stamp, now.ros);
+  if (a.verdict == Timeline::Verdict::REFUSE)
+  {
+    ++refused_other_;
+    r.offer = Offer::REJECTED;
+    r.reason = "command: " + a.reason;
+    return r;
+  }
+  if (held_.size() >= 1000)
+    held_.erase(held_.begin());
+  held_[stamp].assign(u, u + size);  // kept before the timeline starts, too
+  if (!online_->started())
+    return r;
+  catchUp(now);
+  r = online_->offerCommand(timeline_.clock().stepAt(stamp), u, size);
+  drainComplete();
+  return r;
+}
+
+void OnlineStream::offerHeld(long k)
+{
+  auto latest = held_.end();
+  for (auto it = held_.begin(); it != held_.end() && timeline_.clock().stepAt(it->first) <= k; ++it)
+    latest = it;
+  if (latest == held_.end())
+    return;
+  held_.erase(held_.begin(), latest);
+  if (!online_->hasCommand(k))
+    online_->offerCommand(k, latest->second.data(), latest->second.size());
+}
+
+OfferResult OnlineStream::schedule(long step, double stamp, const std::vector<bool>& transmitting, const Clocks& now)
+{
+  OfferResult r;
+  // The draw of a step leaves before its measurements: it may start the timeline.
+  if (!admit(refused_.size(), stamp, step, now, r))
+    return r;
+  catchUp(now);
+  r = online_->offerSchedule(step, transmitting);
+  drainComplete();
+  return r;
+}
+
+void OnlineStream::step()
+{
+  const long k = online_->nextStep();
+  if (!held_.empty())
+    offerHeld(k);  // zero-order hold
+  online_->process();
+  timeline_.stepped();
+  if (after_step)
+    after_step(k);
+}
+
+void OnlineStream::drainComplete()
+{
+  while (online_->nextComplete())
+    step();
+}
+
+void OnlineStream::catchUp(const Clocks& now)
+{
+  if (!online_->started() || now.ros < nextDeadline())
+    return;
+  const long allowed = std::min(kStepsPerCall, timeline_.allowance(now.wall, now.rate));
+  long taken = 0;
+  while (online_->started() && now.ros >= nextDeadline())
+  {
+    if (taken >= allowed)
+    {
+      throttled_ = true;
+      break;
+    }
+    step();
+    ++taken;
+    drainComplete();
+  }
+  timeline_.spend(taken);
+}
+
+bool OnlineStream::deadlines(const Clocks& now)
+{
+  throttled_ = false;
+  if (!online_->started())
+    return false;
+  const double period = timeline_.options().period;
+  if (now.ros > 0.0 && now.ros < last_now_ - 0.5 * period)
+  {
+    // The clock went back (a bag looped, a simulator restarted): start over cleanly.
+    const double back = last_now_ - now.ros;
+    ++time_resets_;
+    restart("time jumped back by " + seconds(back) + " s: estimator reset, waiting for the stream to restart");
+    return false;
+  }
+  last_now_ = now.ros;
+  latency_.at(now.ros);
+  timeline_.clock().setBudget(latency_.budget());
+  if (timeline_.stale(online_->nextStep(), now.ros))
+  {
+    const double behind = now.ros - nextDeadline();
+    ++time_resets_;
+    restart("ROS time is " + seconds(behind) + " s past the next step's deadline, more than max_stamp_behind " +
+            seconds(timeline_.options().max_behind) + " s (time jumped forward, or the estimator stalled): "
+            "estimator reset, waiting for the stream to restart");
+    return false;
+  }
+  catchUp(now);
+  return !throttled_ && online_->started() && now.ros >= nextDeadline();
+}
+
+double OnlineStream::nextDeadline() const
+{
+  return online_->started() ? timeline_.clock().deadline(online_->nextStep()) : std::numeric_limits<double>::infinity();
+}
+
+void OnlineStream::setRuntime(const RuntimeSettings& runtime)
+{
+  runtime_ = runtime;
+  latency_.setOptions(latencyOptions(runtime, timeline_.options().period));
+  timeline_.clock().setBudget(latency_.budget());
+  online_->setLatePolicy(latePolicyFromString(runtime.late_policy, "runtime settings"));
+}
+
+}  // namespace networked_estimation

@@ -1,0 +1,446 @@
+// rostest: the Estimator on what real robots send (issue "Real robots first").
+//   JackalBag (estimator_real_bag*.test): robot_localization's Jackal bag (test/data/test2.bag:
+//     wheel odometry and an IMU at 50 Hz, stamps as the robot made them) played with --clock at the
+//     test's ~rate into an Estimator configured as the README's robot section; the result is kept
+//     in a BagRun so that more assertions can be added on it.
+//   OwnTfIsKeptAndGivesWay, APoisonedFirstMessage, ReconfigureIsValidated, ImuWithoutEstimate
+//     (estimator_real_inputs.test): tf with child_frame_id base_link, stamps that must not anchor
+//     the timeline, runtime settings checked like the load, and sensor_msgs/Imu's covariance -1.
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <dynamic_reconfigure/Reconfigure.h>
+#include <geometry_msgs/PointStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <rosgraph_msgs/Log.h>
+#include <sensor_msgs/Imu.h>
+#include <tf2_msgs/TFMessage.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "graph_test_support.hpp"
+#include "networked_estimation/Estimate.h"
+#include "networked_estimation/Measurement.h"
+
+namespace ne = networked_estimation;
+using ne::Estimate;
+using ne::Measurement;
+
+namespace
+{
+
+/// Transforms on /tf: when they arrived (wall s), from whom, and their frames and stamps.
+struct TfSeen
+{
+  struct Entry
+  {
+    double wall, stamp;
+    std::string publisher, parent, child;
+  };
+  std::mutex mutex;
+  std::vector<Entry> all;
+  ros::Subscriber sub;
+  explicit TfSeen(ros::NodeHandle& nh)
+  {
+    ros::SubscribeOptions o;  // with the message event: the publisher's name
+    o.initByFullCallbackType<const ros::MessageEvent<tf2_msgs::TFMessage const>&>(
+        "/tf", 10000, [this](const ros::MessageEvent<tf2_msgs::TFMessage const>& e) {
+          std::lock_guard<std::mutex> lock(mutex);
+          for (const auto& t : e.getConstMessage()->transforms)
+            all.push_back({ros::WallTime::now().toSec(), t.header.stamp.toSec(), e.getPublisherName(),
+                           t.header.frame_id, t.child_frame_id});
+        });
+    sub = nh.subscribe(o);
+  }
+  /// "<publisher>: <parent> -> <child> (<count>)" of everything seen (for failure messages).
+  std::string describe()
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    std::map<std::string, int> n;
+    for (const Entry& e : all)
+      ++n[e.publisher + ": " + e.parent + " -> " + e.child];
+    std::string out;
+    for (const auto& kv : n)
+      out += kv.first + " (" + std::to_string(kv.second) + "); ";
+    return out;
+  }
+  /// The entries from `publisher` of parent -> child.
+  std::vector<Entry> from(const std::string& publisher, const std::string& parent, const std::string& child)
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    std::vector<Entry> out;
+    for (const Entry& e : all)
+      if (e.publisher == publisher && e.parent == parent && e.child == child)
+        out.push_back(e);
+    return out;
+  }
+};
+
+std::map<long, Estimate> byStep(Collector<Estimate>& c)
+{
+  std::lock_guard<std::mutex> lock(c.mutex);
+  std::map<long, Estimate> out;
+  for (const Estimate& e : c.msgs)
+    EXPECT_TRUE(out.emplace(static_cast<long>(e.step), e).second) << "step " << e.step << " published twice";
+  return out;
+}
+
+/// What one play of a bag into the Estimator gave.
+struct BagRun
+{
+  std::map<long, Estimate> estimates;
+  std::map<std::string, std::string> diagnostics;  ///< the estimator status's values at the end
+  std::string status;                              ///< and its message
+  std::vector<TfSeen::Entry> tf;                   ///< the Estimator's odom -> base_link
+  double wall = 0.0;                               ///< seconds the play took
+  double value(const std::string& key) const
+  {
+    auto it = diagnostics.find(key);
+    return it == diagnostics.end() ? std::nan("") : std::stod(it->second);
+  }
+};
+
+}  // namespace
+
+// The Jackal bag (61 s: /jackal_velocity_controller/odom 3060 messages, /imu/data 3061, both 50 Hz;
+// the odometry reaches the recorder up to 32 ms after its stamps) played with --clock at ~rate:
+// - an estimate at the model's 50 Hz throughout: every step once, consecutive stamps 20 ms apart,
+//   from the bag's first stamp to within 0.1 s of its last;
+// - every message received (none refused), and fewer than 1 % of each sensor's late-dropped;
+// - the Estimator's tf odom -> base_link (child_frame_id base_link) for the whole bag: its stamps
+//   span at least 30 s of sim time and 95 % of the bag, without a gap above 1 s of sim time (half a
+//   second of wall time at -r 4 and above: room for a busy machine).
+TEST(RealRobotGraph, JackalBag)
+{
+  ros::NodeHandle nh, pnh("~");
+  std::string bag;
+  double rate = 0.0;
+  ASSERT_TRUE(pnh.getParam("bag", bag) && pnh.getParam("rate", rate));
+  const double bag_start = 47.58, bag_end = 108.781;  // the stamps' span (rosbag info)
+  const long odom_sent = 3060, imu_sent = 3061;
+  Collector<Estimate> est(nh, "jackal/estimate");
+  DiagnosticsProbe diag(nh, "jackal/estimator: estimator");
+  TfSeen tf(nh);
+  ASSERT_TRUE(waitFor([&] { return est.sub.getNumPublishers() > 0; }, 20.0));
+  ros::WallDuration(1.0).sleep();
+  const ros::WallTime start = ros::WallTime::now();
+  const std::string cmd = "rosbag play -q --clock -r " + std::to_string(rate) + " '" + bag + "' __name:=jackal_player";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  BagRun run;
+  run.wall = (ros::WallTime::now() - start).toSec();
+  ros::WallDuration(2.5).sleep();  // the last steps and a diagnostics period (1 s, wall)
+  run.estimates = byStep(est);
+  run.diagnostics = diag.snapshot();
+  run.status = diag.lastMessage();
+  run.tf = tf.from(ros::names::resolve("/manager"), "odom", "base_link");
+  std::printf("[ jackal -r %g ] %.1f s; odom %g messages, %g late dropped, delay p99 %g s; imu %g, %g, %g s; "
+              "budget %g s; %zu estimates; %zu transforms\n",
+              rate, run.wall, run.value("odom messages"), run.value("odom late dropped"),
+              run.value("odom delay p99 (s)"), run.value("imu messages"), run.value("imu late dropped"),
+              run.value("imu delay p99 (s)"), run.value("latency budget (s)"), run.estimates.size(), run.tf.size());
+
+  // Estimates at 50 Hz throughout.
+  ASSERT_FALSE(run.estimates.empty());
+  const long first = run.estimates.begin()->first, last = run.estimates.rbegin()->first;
+  EXPECT_EQ(first, 1);
+  EXPECT_EQ(static_cast<long>(run.estimates.size()), last - first + 1) << "a step without an estimate";
+  double prev = -1.0;
+  for (const auto& kv : run.estimates)
+  {
+    const double t = kv.second.header.stamp.toSec();
+    if (prev >= 0.0)
+      ASSERT_NEAR(t - prev, 0.02, 1e-6) << "step " << kv.first;
+    prev = t;
+  }
+  EXPECT_NEAR(run.estimates.begin()->second.header.stamp.toSec(), bag_start, 0.02);
+  EXPECT_GE(prev, bag_end - 0.1);
+
+  // Nothing refused, < 1 % late per sensor.
+  EXPECT_EQ(run.value("odom messages"), odom_sent);
+  EXPECT_EQ(run.value("imu messages"), imu_sent);
+  EXPECT_EQ(run.value("odom stamps refused"), 0.0);
+  EXPECT_EQ(run.value("imu stamps refused"), 0.0);
+  EXPECT_EQ(run.value("rejected"), 0.0);
+  EXPECT_LT(run.value("odom late dropped"), 0.01 * odom_sent);
+  EXPECT_LT(run.value("imu late dropped"), 0.01 * imu_sent);
+  // The sensors' rates from their stamps: the configured 50 Hz, no warning.
+  EXPECT_NEAR(run.value("odom rate (Hz)"), 50.0, 0.5);
+  EXPECT_NEAR(run.value("imu rate (Hz)"), 50.0, 0.5);
+  EXPECT_EQ(run.status.find("stamps say"), std::string::npos) << run.status;
+
+  // tf for the whole bag.
+  ASSERT_FALSE(run.tf.empty()) << "no odom -> base_link from the Estimator; seen: " << tf.describe();
+  double gap = 0.0;
+  for (std::size_t i = 1; i < run.tf.size(); ++i)
+    gap = std::max(gap, run.tf[i].stamp - run.tf[i - 1].stamp);
+  const double span = run.tf.back().stamp - run.tf.front().stamp;
+  EXPECT_GE(span, 30.0);
+  EXPECT_GE(span, 0.95 * (bag_end - bag_start));
+  EXPECT_LE(gap, std::max(1.0, 0.5 * rate));  // the tf timer runs at 20 Hz of wall time: 0.05 s x rate apart
+}
+
+// tf with child_frame_id base_link and world_frame odom: the Estimator keeps publishing odom ->
+// base_link (its own transforms come back on /tf without a publisher's name, and must not be taken
+// for another's), and gives way as soon as another node publishes odom -> base_link.
+TEST(RealRobotGraph, OwnTfIsKeptAndGivesWay)
+{
+  ros::NodeHandle nh;
+  ros::Publisher pub = nh.advertise<Measurement>("own/measurement", 100);
+  Collector<Estimate> est(nh, "own/estimate");
+  TfSeen tf(nh);
+  ASSERT_TRUE(waitFor([&] { return pub.getNumSubscribers() > 0 && est.sub.getNumPublishers() > 0; }, 20.0));
+  const std::string manager = ros::names::resolve("/manager");
+  const ros::Time t0 = ros::Time::now();
+  std::atomic<bool> other{false};
+  tf2_ros::TransformBroadcaster wheels;
+  PeriodicFeeder feeder(0.05, [&](long k) {
+    Measurement m;
+    m.header.stamp = t0 + ros::Duration(0.05 * static_cast<double>(k - 1));
+    m.step = static_cast<std::uint64_t>(k);
+    m.y = {0.1};
+    pub.publish(m);
+    if (other)
+    {
+      geometry_msgs::TransformStamped t;
+      t.header.stamp = ros::Time::now();
+      t.header.frame_id = "odom";
+      t.child_frame_id = "base_link";
+      t.transform.rotation.w = 1.0;
+      wheels.sendTransform(t);
+    }
+  });
+  ros::WallDuration(4.0).sleep();
+  const double alone = ros::WallTime::now().toSec();
+  const std::vector<TfSeen::Entry> own = tf.from(manager, "odom", "base_link");
+  ASSERT_GE(own.size(), 40u) << "odom -> base_link from the Estimator over 4 s at 20 Hz; seen: " << tf.describe();
+  EXPECT_GE(own.back().wall, alone - 0.3) << "the Estimator stopped its own tf";
+  EXPECT_GE(own.back().wall - own.front().wall, 3.0);
+  other = true;
+  ros::WallDuration(3.0).sleep();
+  const std::vector<TfSeen::Entry> after = tf.from(manager, "odom", "base_link");
+  const double given_way = alone + 1.0;
+  for (const TfSeen::Entry& e : after)
+    EXPECT_LT(e.wall, given_way) << "odom -> base_link from the Estimator while another node publishes it";
+}
+
+// A fresh Estimator fed one poisoned first message, then a good stream at 20 Hz stamped with ROS
+// time, publishes present-time estimates within a second: a stamp of 0 and one 1e6 s ahead are
+// refused (counted); one 5 s ahead anchors the timeline only until the good stream contradicts it.
+TEST(RealRobotGraph, APoisonedFirstMessage)
+{
+  ros::NodeHandle nh;
+  const std::vector<std::string> names = {"p_zero", "p_ahead", "p_near"};
+  const std::vector<double> offsets = {std::nan(""), 1e6, 5.0};  // NaN: stamp 0
+  std::vector<ros::Publisher> pubs;
+  std::vector<std::unique_ptr<Collector<Estimate>>> est;
+  std::vector<std::unique_ptr<DiagnosticsProbe>> diag;
+  for (const std::string& n : names)
+  {
+    pubs.push_back(nh.advertise<geometry_msgs::PointStamped>(n + "/measurement", 100));
+    est.push_back(std::make_unique<Collector<Estimate>>(nh, n + "/estimate"));
+    diag.push_back(std::make_unique<DiagnosticsProbe>(nh, n + "/estimator: estimator"));
+  }
+  ASSERT_TRUE(waitFor([&] {
+    for (std::size_t i = 0; i < names.size(); ++i)
+      if (pubs[i].getNumSubscribers() == 0 || est[i]->sub.getNumPublishers() == 0)
+        return false;
+    return true;
+  }, 20.0));
+  for (std::size_t i = 0; i < names.size(); ++i)
+  {
+    geometry_msgs::PointStamped poison;
+    if (!std::isnan(offsets[i]))
+      poison.header.stamp = ros::Time::now() + ros::Duration(offsets[i]);
+    poison.point.x = 1e3;
+    pubs[i].publish(poison);
+  }
+  {
+    PeriodicFeeder feeder(0.05, [&](long) {
+      geometry_msgs::PointStamped m;
+      m.header.stamp = ros::Time::now();
+      m.point.x = 0.1;
+      for (ros::Publisher& p : pubs)
+        p.publish(m);
+    });
+    ros::WallDuration(1.0).sleep();
+    const double now = ros::Time::now().toSec();
+    for (std::size_t i = 0; i < names.size(); ++i)
+    {
+      std::lock_guard<std::mutex> lock(est[i]->mutex);
+      ASSERT_FALSE(est[i]->msgs.empty()) << names[i] << ": no estimate 1 s after the good stream began";
+      EXPECT_NEAR(est[i]->msgs.back().header.stamp.toSec(), now, 0.2) << names[i];
+      EXPECT_LE(est[i]->msgs.size(), 30u) << names[i] << ": more steps than 1 s at 20 Hz (grinding?)";
+    }
+    ros::WallDuration(1.5).sleep();
+  }
+  for (std::size_t i = 0; i < names.size(); ++i)
+  {
+    ASSERT_TRUE(waitFor([&] { return !std::isnan(diag[i]->get("y stamps refused")); }, 5.0)) << names[i];
+    EXPECT_EQ(diag[i]->get("y stamps refused"), i < 2 ? 1.0 : 0.0) << names[i];
+    EXPECT_EQ(diag[i]->get("timeline restarts"), i == 2 ? 1.0 : 0.0) << names[i];
+    EXPECT_EQ(diag[i]->get("late dropped"), 0.0) << names[i];
+  }
+}
+
+// Runtime settings are validated as a whole, like the load: latency_budget NaN or negative,
+// late_policy 'later', trace_bound NaN and latency_budget_min above latency_budget_max are each
+// refused with an error naming the key, and the server shows the settings in use back; a valid
+// change is taken.
+TEST(RealRobotGraph, ReconfigureIsValidated)
+{
+  ros::NodeHandle nh;
+  std::mutex log_mutex;
+  std::vector<std::string> errors;
+  ros::Subscriber logs = nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000, [&](const rosgraph_msgs::Log::ConstPtr& l) {
+    if (l->level == rosgraph_msgs::Log::ERROR)
+    {
+      std::lock_guard<std::mutex> lock(log_mutex);
+      errors.push_back(l->msg);
+    }
+  });
+  ros::ServiceClient dyn = nh.serviceClient<dynamic_reconfigure::Reconfigure>("rc/estimator/reconfigure/set_parameters");
+  ASSERT_TRUE(dyn.waitForExistence(ros::Duration(20.0)));
+  DiagnosticsProbe diag(nh, "rc/estimator: estimator");
+  ros::WallDuration(0.5).sleep();
+  auto call = [&](const std::vector<dynamic_reconfigure::DoubleParameter>& d,
+                  const std::vector<dynamic_reconfigure::StrParameter>& s,
+                  const std::vector<dynamic_reconfigure::BoolParameter>& b) {
+    dynamic_reconfigure::Reconfigure rc;
+    rc.request.config.doubles = d;
+    rc.request.config.strs = s;
+    rc.request.config.bools = b;
+    EXPECT_TRUE(dyn.call(rc));
+    return rc.response.config;
+  };
+  auto dbl = [](const std::string& n, double v) {
+    dynamic_reconfigure::DoubleParameter p;
+    p.name = n;
+    p.value = v;
+    return p;
+  };
+  auto get = [](const dynamic_reconfigure::Config& c, const std::string& n) {
+    for (const auto& p : c.doubles)
+      if (p.name == n)
+        return p.value;
+    return std::nan("");
+  };
+  auto policy = [](const dynamic_reconfigure::Config& c) {
+    for (const auto& p : c.strs)
+      if (p.name == "late_policy")
+        return p.value;
+    return std::string();
+  };
+  dynamic_reconfigure::BoolParameter fixed;
+  fixed.name = "adaptive_latency";
+  fixed.value = false;
+  dynamic_reconfigure::StrParameter later;
+  later.name = "late_policy";
+  later.value = "later";
+  struct Bad
+  {
+    dynamic_reconfigure::Config shown;
+    std::string key;
+  };
+  std::vector<Bad> bad;
+  bad.push_back({call({dbl("latency_budget", std::nan(""))}, {}, {fixed}), "latency_budget: expected a number of seconds >= 0, found nan"});
+  bad.push_back({call({dbl("latency_budget", -0.1)}, {}, {fixed}), "latency_budget: expected a number of seconds >= 0, found -0.1"});
+  bad.push_back({call({}, {later}, {}), "late_policy: expected drop or rewind, found 'later'"});
+  bad.push_back({call({dbl("trace_bound", std::nan(""))}, {}, {}), "trace_bound: expected a number >= 0"});
+  bad.push_back({call({dbl("latency_budget_min", 0.5), dbl("latency_budget_max", 0.2)}, {}, {}),
+                 "latency_budget_min: expected at most latency_budget_max = 0.2 s, found 0.5"});
+  for (const Bad& b : bad)
+  {
+    // Shown back: the settings in use (adaptive, [0.025, 1] s, drop, no bound).
+    EXPECT_EQ(get(b.shown, "latency_budget_min"), 0.025) << b.key;
+    EXPECT_EQ(get(b.shown, "latency_budget_max"), 1.0) << b.key;
+    EXPECT_EQ(policy(b.shown), "drop") << b.key;
+    EXPECT_EQ(get(b.shown, "trace_bound"), 1e300) << b.key;
+    ASSERT_EQ(b.shown.bools.size(), 1u);
+    EXPECT_TRUE(b.shown.bools[0].value) << b.key;
+    EXPECT_TRUE(waitFor([&] {
+      std::lock_guard<std::mutex> lock(log_mutex);
+      return std::any_of(errors.begin(), errors.end(), [&](const std::string& e) {
+        return e.find("change refused: reconfigure: " + b.key) != std::string::npos;
+      });
+    }, 5.0)) << "no error naming " << b.key;
+  }
+  EXPECT_TRUE(waitFor([&] { return diag.text("latency budget") == "auto"; }, 5.0)) << diag.text("latency budget");
+  // A valid change: a fixed budget of 0.2 s and rewind.
+  dynamic_reconfigure::StrParameter rewind;
+  rewind.name = "late_policy";
+  rewind.value = "rewind";
+  const dynamic_reconfigure::Config ok = call({dbl("latency_budget", 0.2)}, {rewind}, {fixed});
+  EXPECT_EQ(get(ok, "latency_budget"), 0.2);
+  EXPECT_EQ(policy(ok), "rewind");
+  ASSERT_TRUE(waitFor([&] { return diag.text("latency budget") == "fixed" && diag.get("latency budget (s)") == 0.2; },
+                      5.0))
+      << diag.text("latency budget") << " " << diag.get("latency budget (s)");
+}
+
+// sensor_msgs/Imu's "no estimate" (covariance element 0 = -1) on the orientation the IMU sensor
+// reads: those messages are not fused, not waited for, and not losses (the sensor is not due at
+// their steps); counted per sensor. The other messages are fused as usual.
+TEST(RealRobotGraph, ImuWithoutEstimate)
+{
+  ros::NodeHandle nh;
+  ros::Publisher imu = nh.advertise<sensor_msgs::Imu>("/imu_in", 100);
+  ros::Publisher odom = nh.advertise<nav_msgs::Odometry>("/odom_in", 100);
+  Collector<Estimate> est(nh, "imu/estimate");
+  DiagnosticsProbe diag(nh, "imu/estimator: estimator");
+  ASSERT_TRUE(waitFor([&] { return imu.getNumSubscribers() > 0 && odom.getNumSubscribers() > 0 &&
+                                   est.sub.getNumPublishers() > 0; }, 20.0));
+  // 20 Hz; the IMU's every 4th of the first 60 messages has no orientation estimate.
+  const long N = 60;
+  std::atomic<long> disabled{0};
+  PeriodicFeeder feeder(0.05, [&](long k) {
+    const ros::Time stamp = ros::Time::now();
+    sensor_msgs::Imu i;
+    i.header.stamp = stamp;
+    if (k % 4 == 0 && k <= N)
+    {
+      i.orientation_covariance[0] = -1.0;  // no orientation estimate: orientation all zeros
+      ++disabled;
+    }
+    else
+      i.orientation.w = 1.0;
+    nav_msgs::Odometry o;
+    o.header.stamp = stamp;
+    o.pose.pose.orientation.w = 1.0;
+    o.pose.pose.position.x = 0.3;
+    imu.publish(i);
+    odom.publish(o);
+  });
+  ASSERT_TRUE(waitFor([&] { return est.size() >= static_cast<std::size_t>(N) + 10; }, 20.0)) << est.size();
+  ASSERT_TRUE(waitFor([&] { return diag.get("a without estimate (covariance -1)") == N / 4; }, 5.0))
+      << diag.get("a without estimate (covariance -1)");
+  const std::map<std::string, std::string> d = diag.snapshot();
+  EXPECT_EQ(disabled, N / 4);
+  EXPECT_EQ(std::stod(d.at("rejected")), 0.0);
+  EXPECT_EQ(std::stod(d.at("late dropped")), 0.0);
+  EXPECT_EQ(std::stod(d.at("due arrival rate")), 1.0);  // the disabled samples are not due: no loss
+  const std::map<long, Estimate> E = byStep(est);
+  for (long k = 1; k <= N; ++k)
+  {
+    ASSERT_TRUE(E.count(k)) << "step " << k;
+    EXPECT_TRUE(E.at(k).gamma) << "step " << k;  // b (odometry) in every step
+  }
+}
+
+int main(int argc, char** argv)
+{
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "real_robot_graph_test");
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  const int r = RUN_ALL_TESTS();
+  spinner.stop();
+  return r;
+}
