@@ -6,7 +6,8 @@
 // a hand-written fixed-size Eigen Kalman filter (n = 2, 4, 8). makeEstimator gives the estimators
 // their fixed-size form at n = 2 and 4 and the dynamic one at n = 8 and 20; each benchmark's label
 // names the form it ran. kf_dynamic, kfio_dynamic, rseio_arrival_dynamic and aoe_dynamic run the
-// dynamic form at n = 2 and 4 for comparison.
+// dynamic form at n = 2 and 4 for comparison. kfio_angle runs kfio on the same plant with state 0 an
+// angle (n = 2, 4, 8): the cost of wrapping the innovation and the state (docs/algorithms.md 2.7).
 //
 // The benchmarks are registered normally, so every --benchmark_* flag works (filter, out, ...).
 // After the run a summary table prints, per algorithm and n, the median and the minimum time per
@@ -45,6 +46,7 @@
 #include "estimators/estimator_factory.hpp"  // private header: makeEstimator with the choice of form
 #include "networked_estimation/estimators/estimator.hpp"
 #include "networked_estimation/config/model.hpp"
+#include "networked_estimation/common/angles.hpp"
 #include "networked_estimation/common/random.hpp"
 #include "networked_estimation/config/estimator_settings.hpp"
 
@@ -95,8 +97,10 @@ Eigen::MatrixXd randomSpd(Rng& rng, int n, double lo, double hi)
 }
 
 /// The benchmark plant: stable A (spectral radius 0.95), m = n/2 rows in one sensor, nw = n,
-/// one uncertain parameter with non-zero dA, dB, dC, and one control input.
-Model benchModel(int n)
+/// one uncertain parameter with non-zero dA, dB, dC, and one control input. `angle`: state 0 is
+/// an angle (docs/algorithms.md 2.7) measured by row 0: column 0 of A is e_0 (a random walk the
+/// others do not feed on), row 0 of C is e_0' and no other row, dA or dC involves state 0.
+Model benchModel(int n, bool angle = false)
 {
   Rng rng(deriveSeed(20240601, static_cast<std::uint64_t>(n)));
   const int m = measurementCount(n);
@@ -121,6 +125,16 @@ Model benchModel(int n)
   u.range = 0.5;
   model.uncertainty.push_back(u);
   model.Bu = randomMatrix(rng, n, 1);
+  if (angle)
+  {
+    model.name += "_angle";
+    model.A.col(0) = Eigen::VectorXd::Unit(n, 0);
+    model.C.col(0).setZero();
+    model.C.row(0) = Eigen::RowVectorXd::Unit(n, 0);
+    model.uncertainty[0].dA.col(0).setZero();
+    model.uncertainty[0].dC.col(0).setZero();
+    model.angles = {0};
+  }
   validateModel(model, model.name);
   return model;
 }
@@ -148,10 +162,18 @@ std::vector<Sample> sampleRing(const Model& model, bool arrival)
       v[i] = rng.normal();
     }
     x = model.A * x + model.Bu * s.u + model.B * (lq.matrixL() * w);
+    for (const int a : model.angles)
+    {
+      x[a] = wrapAngle(x[a]);
+    }
     s.gamma = arrival;
     if (arrival)
     {
       s.y = model.C * x + lr.matrixL() * v;
+      for (const int a : model.angles)
+      {
+        s.y[a] = wrapAngle(s.y[a]);  // row a measures state a (benchModel)
+      }
     }
   }
   return ring;
@@ -325,11 +347,12 @@ struct EstimatorCase
   Algorithm algorithm;
   bool arrival;
   detail::SizeChoice form = detail::SizeChoice::AUTOMATIC;  ///< DYNAMIC: the general form at any size
+  bool angle = false;  ///< state 0 an angle (benchModel)
 };
 
 void benchEstimator(benchmark::State& state, EstimatorCase c)
 {
-  const Model model = benchModel(sizeArg(state));
+  const Model model = benchModel(sizeArg(state), c.angle);
   const std::vector<Sample> ring = sampleRing(model, c.arrival);
   EstimatorSettings settings;
   settings.algorithm = c.algorithm;
@@ -430,6 +453,11 @@ void registerBenchmarks()
   {
     configure(benchmark::RegisterBenchmark(c.first, benchEstimator, c.second), {2, 4});
   }
+  // with an angular state (wrapped innovation and state): the cost of the wrap next to kfio
+  configure(benchmark::RegisterBenchmark(
+                "kfio_angle", benchEstimator,
+                EstimatorCase{Algorithm::KFIO, true, detail::SizeChoice::AUTOMATIC, true}),
+            {2, 4, 8});
 }
 
 // ---------------------------------------------------------------------------------------------
