@@ -32,6 +32,12 @@ protected:
                     "name: p\nperiod: 0.05\nA: [[1, 0], [0, 1]]\nQ: [[1, 0], [0, 1]]\nx0: [0, 0]\nP0: [[1, 0], [0, 1]]\n"
                     "sensors:\n  - {name: a, C: [[1, 0], [0, 1]], R: [[1, 0], [0, 1]]}\n"
                     "  - {name: b, C: [[1, 1]], R: [[2]]}\n");
+    // planar with its second state a yaw (an angle, which a yaw field must feed: docs/formats.md 1.2b)
+    planar_yaw_ = write("planar_yaw.yaml",
+                        "name: p\nperiod: 0.05\nA: [[1, 0], [0, 1]]\nQ: [[1, 0], [0, 1]]\nx0: [0, 0]\nP0: [[1, 0], [0, 1]]\n"
+                        "states: [x, yaw]\nangles: [yaw]\n"
+                        "sensors:\n  - {name: a, C: [[1, 0], [0, 1]], R: [[1, 0], [0, 1]]}\n"
+                        "  - {name: b, C: [[1, 0]], R: [[2]]}\n");
     control_ = write("control.yaml",
                      "name: c\nperiod: 0.01\nA: [[1.1]]\nQ: [[1]]\nC: [[1]]\nR: [[1]]\nx0: [0]\nP0: [[1]]\n"
                      "control: {Bu: [[1]]}\n");
@@ -76,7 +82,7 @@ protected:
     return "";
   }
 
-  std::string dir_, scalar_, planar_, control_, no_period_, wide_;
+  std::string dir_, scalar_, planar_, planar_yaw_, control_, no_period_, wide_;
   std::vector<std::string> files_;
 };
 
@@ -224,7 +230,7 @@ TEST_F(EstimatorConfig, SensorsBlock)
   const ne::EstimatorNodeConfig c = parse(
       "{sensors: {a: {topic: /odom, type: nav_msgs/Odometry, fields: [pose.pose.position.x, "
       "pose.pose.orientation.yaw], rate: 10}}}",
-      planar_);
+      planar_yaw_);
   ASSERT_EQ(c.inputs.size(), 2u);
   EXPECT_EQ(c.inputs[0].topic, "/odom");
   EXPECT_EQ(c.inputs[0].type, ne::InputType::ODOMETRY);

@@ -2,6 +2,7 @@
 // their closed forms and against a numerical integral, the file round trip, every refusal, and a
 // Kalman filter on the generated model that is consistent (NEES) on a simulated robot.
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <cmath>
@@ -449,6 +450,78 @@ TEST(KinematicModel, TheWrittenFileReadsBackBitForBit)
   with_control.Bu = MatrixXd::Ones(4, 1);
   std::ostringstream ignored;
   EXPECT_THROW(writeModelYaml(ignored, with_control, ""), ConfigError);
+}
+
+// --heading: the yaw is one more axis of the same motion, last in each group, with its own density,
+// an angle of the model (written as `angles: [yaw]`), measured by one-row yaw sensors.
+TEST(KinematicModel, HeadingIsAnAxisAndAnAngle)
+{
+  for (const int order : {2, 3})
+  {
+    KinematicSpec s = spec(order == 2 ? "constant_velocity" : "constant_acceleration", 2, 20, 0.5);
+    s.heading_density = 0.03;
+    s.p0_yaw = 0.2;
+    s.p0_yaw_rate = 0.3;
+    s.p0_yaw_acceleration = 0.4;
+    s.sensors = {{"gnss", "position", 2.0}, {"compass", "yaw", 0.05}, {"gyro", "yaw_rate", 0.01}};
+    const Model m = makeKinematicModel(s);
+    SCOPED_TRACE(s.motion);
+    const int D = 3, n = order * D;
+    ASSERT_EQ(m.n(), n);
+    EXPECT_EQ(m.states, order == 2 ? (std::vector<std::string>{"x", "y", "yaw", "vx", "vy", "vyaw"})
+                                   : (std::vector<std::string>{"x", "y", "yaw", "vx", "vy", "vyaw", "ax", "ay",
+                                                               "ayaw"}));
+    EXPECT_EQ(m.angles, (std::vector<int>{2}));
+    MatrixXd A1, Q1, Ah, Qh;
+    closedForm(order, 0.05, 0.5, A1, Q1);
+    closedForm(order, 0.05, 0.03, Ah, Qh);
+    for (int i = 0; i < order; ++i)
+      for (int j = 0; j < order; ++j)
+      {
+        EXPECT_NEAR(m.A(i * D + 2, j * D + 2), Ah(i, j), 1e-15);
+        EXPECT_NEAR(m.Q(i * D + 2, j * D + 2), Qh(i, j), 1e-15 * Qh.cwiseAbs().maxCoeff());
+        EXPECT_NEAR(m.Q(i * D + 0, j * D + 0), Q1(i, j), 1e-15 * Q1.cwiseAbs().maxCoeff());
+        EXPECT_EQ(m.A(i * D + 2, j * D + 0), 0.0);  // the heading is its own axis
+        EXPECT_EQ(m.Q(i * D + 2, j * D + 1), 0.0);
+      }
+    EXPECT_EQ(m.P0(2, 2), 0.2);
+    EXPECT_EQ(m.P0(D + 2, D + 2), 0.3);
+    if (order == 3)
+    {
+      EXPECT_EQ(m.P0(2 * D + 2, 2 * D + 2), 0.4);
+    }
+    ASSERT_EQ(m.sensors.size(), 3u);
+    EXPECT_EQ(m.sensors[1].size, 1);
+    EXPECT_EQ(m.C(2, 2), 1.0);      // compass: the yaw
+    EXPECT_EQ(m.C(3, D + 2), 1.0);  // gyro: the yaw rate
+    EXPECT_EQ(m.R(2, 2), 0.05 * 0.05);
+    EXPECT_EQ(angularRows(m), (std::vector<int>{2}));
+    // written and read back: the same names and angles
+    std::ostringstream text;
+    writeModelYaml(text, m, kinematicModelComment(s));
+    EXPECT_NE(text.str().find("angles: [\"yaw\"]"), std::string::npos) << text.str();
+    EXPECT_NE(text.str().find("# Heading: yaw, an angle in (-pi, pi]"), std::string::npos) << text.str();
+    const Model r = parseModel(YAML::Load(text.str()), "heading.yaml");
+    EXPECT_EQ(r.states, m.states);
+    EXPECT_EQ(r.angles, m.angles);
+    EXPECT_TRUE(bitEqual(r.Q, m.Q));
+  }
+  KinematicSpec s = spec("constant_velocity", 2, 20, 0.5);
+  s.heading_density = 0.1;
+  EXPECT_NE(refusal([s]() mutable { s.dims = 1; return s; }()).find("heading: a heading needs a robot in 2-D or 3-D"),
+            std::string::npos);
+  EXPECT_NE(refusal([s]() mutable { s.heading_density = -1; return s; }())
+                .find("heading: expected a finite spectral density > 0 (rad^2/s^3), found -1"),
+            std::string::npos);
+  EXPECT_NE(refusal([s]() mutable { s.sensors[1].quantity = "yaw_acceleration"; return s; }())
+                .find("(yaw_acceleration needs a constant_acceleration model)"),
+            std::string::npos);
+  EXPECT_NE(refusal([s]() mutable { s.p0_yaw = -1; return s; }()).find("p0-yaw: expected a finite variance >= 0"),
+            std::string::npos);
+  KinematicSpec plain = spec("constant_velocity", 2, 20, 0.5);
+  plain.sensors[1].quantity = "yaw";
+  EXPECT_NE(refusal(plain).find("(yaw needs a heading: --heading)"), std::string::npos);
+  EXPECT_TRUE(makeKinematicModel(spec("constant_velocity", 2, 20, 0.5)).angles.empty());
 }
 
 // A Kalman filter on the generated model, fed the simulation of that same model (x_0 drawn from

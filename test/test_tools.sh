@@ -372,6 +372,40 @@ made_refused "unknown motion" "motion: expected constant_velocity or constant_ac
 made_refused "a rate at which Q underflows" \
   "rate: 1e\+62 Hz with jerk-density 1 gives a constant_acceleration Q whose entries leave the range of double precision" \
   --motion constant_acceleration --dims 3 --rate 1e62 --jerk-density 1 --sensor gnss:position:1
+made_refused "--p0-yaw without --heading" "option '--p0-yaw' is only for a model with --heading" \
+  "${CV[@]}" --dims 2 --p0-yaw 1
+made_refused "--heading 0" "option '--heading': expected a spectral density > 0, found '0'" \
+  "${CV[@]}" --dims 2 --heading 0
+made_refused "a yaw sensor without a heading" "(yaw needs a heading: --heading)" "${CV[@]}" --dims 2 \
+  --sensor compass:yaw:0.05
+# --- a heading: an angle through +-pi, from make_model to score --------------------------------
+# A robot turning at about 1 rad/s (x0's vyaw) passes +-pi every 6 s: 1000 steps at 20 Hz cross it
+# about 8 times. With the model's angles the estimate follows (its mse/trace about 1); scored without
+# --model the same estimate seems off by almost 2 pi at a step where only one of the two has crossed.
+run_rc rc "$BIN/make_model" --motion constant_velocity --dims 2 --rate 20 --accel-density 0.25 --heading 0.01 \
+  --sensor gnss:position:1 --sensor compass:yaw:0.05 --x0 0,0,3,0,0,1 --p0-yaw 0.01 --p0-yaw-rate 0.01 \
+  --name planar_heading --output "$K/heading.yaml"
+check "make_model --heading exits 0" rc_and_grep "$rc" 0 "n = 6, m = 3" "$WORK/out.txt"
+check "make_model --heading writes the angle" grep -q '^angles: \["yaw"\]' "$K/heading.yaml"
+run_rc rc "$BIN/simulate" --model "$K/heading.yaml" --channel "$BERNOULLI" --steps 1000 --seed 5 --out "$K/hsim"
+check "simulate of a heading: exits 0" [ "$rc" = 0 ]
+check "simulate of a heading: the truth's yaw in (-pi, pi] and crossing it" \
+  awk -F, 'NR > 1 { if ($4 <= -3.14159265358979 || $4 > 3.14159265358979) bad = 1; if (NR > 2 && ($4 - p > 3.14 || p - $4 > 3.14)) c++; p = $4 }
+           END { exit !(bad == 0 && c >= 5) }' "$K/hsim/truth.csv"
+run_rc rc "$BIN/replay" --model "$K/heading.yaml" --settings "$EST/kfio.yaml" --input "$K/hsim/input.csv" \
+  --output "$K/hsim/kfio.csv"
+check "replay kfio of a heading: exits 0" [ "$rc" = 0 ]
+run_rc rc "$BIN/score" --truth "$K/hsim/truth.csv" --estimate kfio="$K/hsim/kfio.csv" --model "$K/heading.yaml" --csv
+check "score --model of a heading: consistent (mse/trace < 2)" \
+  awk -F, '$1 == "kfio" { exit !($6 < 2) }' "$WORK/out.txt"
+mse_wrapped=$(awk -F, '$1 == "kfio" { print $4 }' "$WORK/out.txt")
+run_rc rc "$BIN/score" --truth "$K/hsim/truth.csv" --estimate kfio="$K/hsim/kfio.csv" --csv
+# a step where the truth has crossed and the estimate not yet adds about (2 pi)^2 / 1000 = 0.039
+check "score without --model: a crossing counts almost a full turn" \
+  awk -F, -v w="$mse_wrapped" '$1 == "kfio" { exit !($4 > w + 0.03) }' "$WORK/out.txt"
+run_rc rc "$BIN/score" --truth "$K/hsim/truth.csv" --estimate kfio="$K/hsim/kfio.csv" --model "$K/cv.yaml"
+check "score --model of another n: exit 2" rc_and_grep "$rc" 2 "has n = 6 states but the model .*cv.yaml has n = 4" \
+  "$WORK/err.txt"
 run_rc rc "$BIN/make_model" "${CV[@]}" --dims 2 --output "$K/missing_dir/cv.yaml"
 check "make_model to a folder that does not exist: exit 2" rc_and_grep "$rc" 2 "cannot create output file" "$WORK/err.txt"
 run_rc rc "$BIN/make_model" --help

@@ -6,7 +6,8 @@
 // a hand-written fixed-size Eigen Kalman filter (n = 2, 4, 8). makeEstimator gives the estimators
 // their fixed-size form at n = 2 and 4 and the dynamic one at n = 8 and 20; each benchmark's label
 // names the form it ran. kf_dynamic, kfio_dynamic, rseio_arrival_dynamic and aoe_dynamic run the
-// dynamic form at n = 2 and 4 for comparison.
+// dynamic form at n = 2 and 4 for comparison. kfio_angle runs kfio on the same plant with state 0 an
+// angle (n = 2, 4, 8): the cost of wrapping the innovation and the state (docs/algorithms.md 2.7).
 //
 // The benchmarks are registered normally, so every --benchmark_* flag works (filter, out, ...).
 // After the run a summary table prints, per algorithm and n, the median and the minimum time per
@@ -120,11 +121,12 @@ struct EstimatorCase
   Algorithm algorithm;
   bool arrival;
   detail::SizeChoice form = detail::SizeChoice::AUTOMATIC;  ///< DYNAMIC: the general form at any size
+  bool angle = false;  ///< state 0 an angle (benchModel)
 };
 
 void benchEstimator(benchmark::State& state, EstimatorCase c)
 {
-  const Model model = benchModel(sizeArg(state));
+  const Model model = benchModel(sizeArg(state), c.angle);
   const std::vector<Sample> ring = sampleRing(model, c.arrival);
   EstimatorSettings settings;
   settings.algorithm = c.algorithm;
@@ -225,6 +227,11 @@ void registerBenchmarks()
   {
     configure(benchmark::RegisterBenchmark(c.first, benchEstimator, c.second), {2, 4});
   }
+  // with an angular state (wrapped innovation and state): the cost of the wrap next to kfio
+  configure(benchmark::RegisterBenchmark(
+                "kfio_angle", benchEstimator,
+                EstimatorCase{Algorithm::KFIO, true, detail::SizeChoice::AUTOMATIC, true}),
+            {2, 4, 8});
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <vector>
 
+#include "networked_estimation/common/angles.hpp"
 #include "networked_estimation/common/random.hpp"
 #include "networked_estimation/config/model.hpp"
 #include "networked_estimation/estimators/estimator.hpp"
@@ -55,8 +56,10 @@ inline Eigen::MatrixXd randomSpd(Rng& rng, int n, double lo, double hi)
 }
 
 /// The benchmark plant: stable A (spectral radius 0.95), m = n/2 rows in one sensor, nw = n,
-/// one uncertain parameter with non-zero dA, dB, dC, and one control input.
-inline Model benchModel(int n)
+/// one uncertain parameter with non-zero dA, dB, dC, and one control input. `angle`: state 0 is
+/// an angle (docs/algorithms.md 2.7) measured by row 0: column 0 of A is e_0 (a random walk the
+/// others do not feed on), row 0 of C is e_0' and no other row, dA or dC involves state 0.
+inline Model benchModel(int n, bool angle = false)
 {
   Rng rng(deriveSeed(20240601, static_cast<std::uint64_t>(n)));
   const int m = measurementCount(n);
@@ -81,6 +84,16 @@ inline Model benchModel(int n)
   u.range = 0.5;
   model.uncertainty.push_back(u);
   model.Bu = randomMatrix(rng, n, 1);
+  if (angle)
+  {
+    model.name += "_angle";
+    model.A.col(0) = Eigen::VectorXd::Unit(n, 0);
+    model.C.col(0).setZero();
+    model.C.row(0) = Eigen::RowVectorXd::Unit(n, 0);
+    model.uncertainty[0].dA.col(0).setZero();
+    model.uncertainty[0].dC.col(0).setZero();
+    model.angles = {0};
+  }
   validateModel(model, model.name);
   return model;
 }
@@ -108,10 +121,18 @@ inline std::vector<Sample> sampleRing(const Model& model, bool arrival)
       v[i] = rng.normal();
     }
     x = model.A * x + model.Bu * s.u + model.B * (lq.matrixL() * w);
+    for (const int a : model.angles)
+    {
+      x[a] = wrapAngle(x[a]);
+    }
     s.gamma = arrival;
     if (arrival)
     {
       s.y = model.C * x + lr.matrixL() * v;
+      for (const int a : model.angles)
+      {
+        s.y[a] = wrapAngle(s.y[a]);  // row a measures state a (benchModel)
+      }
     }
   }
   return ring;

@@ -5,6 +5,9 @@
 // State order: all positions, then all velocities (then all accelerations), e.g.
 //   2-D constant_velocity      [x, y, vx, vy]
 //   3-D constant_acceleration  [x, y, z, vx, vy, vz, ax, ay, az]
+// With a heading (heading_density > 0; 2-D and 3-D), the yaw is one more axis of the same motion,
+// last in each group, and an angle (the model's `angles`):
+//   2-D constant_velocity      [x, y, yaw, vx, vy, vyaw]
 //
 // With T = 1 / rate, per axis (the axes are independent and alike):
 //   constant_velocity      A = [[1, T], [0, 1]]
@@ -30,8 +33,10 @@ namespace networked_estimation
 struct KinematicSensor
 {
   std::string name;
-  std::string quantity;  ///< "position", "velocity" or "acceleration" (constant_acceleration only)
-  double sigma = 0.0;    ///< standard deviation per axis: m, m/s or m/s^2
+  /// "position", "velocity" or "acceleration" (constant_acceleration only) of every axis; with a
+  /// heading also "yaw", "yaw_rate" or "yaw_acceleration" (constant_acceleration only), one row
+  std::string quantity;
+  double sigma = 0.0;    ///< standard deviation per axis: m, m/s or m/s^2 (rad, rad/s, rad/s^2)
 };
 
 struct KinematicSpec
@@ -50,6 +55,13 @@ struct KinematicSpec
   /// How a message names a key ("dims", "sensors[1].sigma", ...): make_model names the option the
   /// user typed. Empty: the key itself.
   std::function<std::string(const std::string& key)> key_name;
+  /// > 0: the robot has a heading (yaw, an angle) moving like the axes, driven by white angular
+  /// acceleration (constant_velocity, rad^2/s^3) or jerk (constant_acceleration, rad^2/s^5) of this
+  /// spectral density; 0: no heading.
+  double heading_density = 0.0;
+  double p0_yaw = 1.0;                   ///< P0 of the heading and its derivatives: rad^2, (rad/s)^2,
+  double p0_yaw_rate = 1.0;              ///< (rad/s^2)^2 (the last for constant_acceleration only)
+  double p0_yaw_acceleration = 1.0;
 };
 
 /// Order of the motion: 2 (position, velocity) or 3 (and acceleration). Throws ConfigError for an
@@ -59,12 +71,14 @@ int kinematicOrder(const std::string& motion);
 /// The name of the density option of a motion: "accel-density" or "jerk-density".
 std::string densityKey(const std::string& motion);
 
-/// Names of the state entries in order, e.g. {"x", "y", "vx", "vy"}.
-std::vector<std::string> kinematicStateNames(int order, int dims);
+/// Names of the state entries in order, e.g. {"x", "y", "vx", "vy"}; with a heading
+/// {"x", "y", "yaw", "vx", "vy", "vyaw"}.
+std::vector<std::string> kinematicStateNames(int order, int dims, bool heading = false);
 
-/// Builds and validates (validateModel) the model. Throws ConfigError naming the option (motion,
-/// dims, rate, accel-density / jerk-density, sensors[i].name / .quantity / .sigma, x0, p0-*, each
-/// through spec.key_name when given) and the
+/// Builds and validates (validateModel) the model, its states named and the heading (if any) an
+/// angle. Throws ConfigError naming the option (motion, dims, rate, accel-density / jerk-density,
+/// heading, sensors[i].name / .quantity / .sigma, x0, p0-*, each through spec.key_name when given)
+/// and the
 /// value found versus the one expected. Every rate is accepted (the model checks' definiteness test
 /// is scale-aware, and Q scaled to unit diagonal does not depend on the rate) until Q's entries,
 /// q T^5 (q T^3) to q T, leave the normal doubles (for q = 1 a rate above about 1.9e61 Hz, 2.5e102

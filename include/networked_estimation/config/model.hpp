@@ -50,6 +50,11 @@ struct Model
   std::vector<Uncertainty> uncertainty;   ///< n_e entries (may be empty)
   Eigen::MatrixXd Bu;                     ///< n x p control input matrix (p = 0 without control)
   Schedule schedule;                      ///< which sensors transmit at each step (none: all, always)
+  std::vector<std::string> states;        ///< names of the state entries (n of them), or empty
+  /// The angular state components (indices, ascending): an angle lives in (-pi, pi], the
+  /// estimators wrap it after every step and wrap the innovation of every row that measures it
+  /// (angularRows; docs/algorithms.md 2.7, docs/formats.md 1.2b).
+  std::vector<int> angles;
 
   int n() const { return static_cast<int>(A.rows()); }
   int nw() const { return static_cast<int>(B.cols()); }
@@ -70,6 +75,13 @@ Model loadModel(const std::string& path);
 /// The index of the sensor called `name`; throws ConfigError "<key>: '<name>' is not a sensor of the
 /// model (sensors: a, b)" when there is none.
 std::size_t sensorIndex(const Model& model, const std::string& name, const std::string& key);
+
+/// The rows of C that measure an angle, ascending: row i is the unit vector e_j (C(i, j) = 1, every
+/// other entry 0) of an angular state j (model.angles). Their innovations are wrapped.
+std::vector<int> angularRows(const Model& model);
+
+/// The name of state i: model.states[i], or "state <i>" when the model names none.
+std::string stateName(const Model& model, int i);
 
 /// Checks the invariants of an already built Model (dimensions, symmetry, definiteness, finite
 /// values). parseModel calls it; code that builds a Model by hand should too.

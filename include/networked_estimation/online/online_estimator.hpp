@@ -55,7 +55,7 @@ struct OnlineOptions
   /// first sample it is not due.
   std::vector<double> rate_ratio;
   /// Per sensor (empty = none): the largest Mahalanobis distance sqrt(nu' S^-1 nu) of the
-  /// sensor's innovation nu = y - C xpred, S = C Ppred C' + R, that is still fused (as
+  /// sensor's innovation nu = y - C xpred (its angular rows wrapped), S = C Ppred C' + R, that is still fused (as
   /// robot_localization's *_rejection_threshold); +inf = off. xpred = A x + Bu u and Ppred =
   /// A P A' + B Q B' from the estimator's x_{k-1|k-1}, P_{k-1|k-1} (for rseio its pseudo-
   /// covariance, for aoe/oe the mixture's moments, with the command as sent). A measurement beyond
@@ -243,6 +243,7 @@ private:
   std::vector<bool> last_arrived_;
   std::vector<bool> last_due_;
   std::vector<SensorLattice> lattice_;  ///< per sensor: when it samples (options_.rate_ratio, or 1)
+  std::vector<std::vector<int>> angle_rows_;  ///< per sensor: its rows that measure an angle (angularRows)
   Sample sample_;
   OnlineCounters counters_;
   std::string last_error_;

@@ -1,12 +1,15 @@
 // Plant simulator: the linear plant of a Model with parametric uncertainty (fresh eps_j uniform in
 // [-range_j, range_j] at every step), process and measurement noise, and a known control sequence
 // delivered through a lossy actuator link (zero input applied when a command is lost, as in Lin et al.).
+// The model's angular states and the outputs that measure them are wrapped into (-pi, pi] at every
+// step (docs/formats.md 1.2b), as a real plant's heading and its sensors' readings are.
 #pragma once
 
 #include <Eigen/Dense>
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "networked_estimation/channel/loss_model.hpp"
 #include "networked_estimation/config/model.hpp"
@@ -119,6 +122,7 @@ private:
   Eigen::VectorXd eps_;
   Eigen::MatrixXd Ae_, Be_, Ce_;
   Eigen::VectorXd zw_, zv_, w_, xn_;
+  std::vector<int> angle_rows_;  ///< angularRows(model): the outputs wrapped into (-pi, pi]
   // The rounding floor: limit on ||x_k||_inf and the noise standard deviation it derives from.
   double state_limit_ = 0.0, noise_sd_ = 0.0;
   const char* noise_kind_ = "";

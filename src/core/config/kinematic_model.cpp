@@ -20,6 +20,8 @@ const char* const kConstantVelocity = "constant_velocity";
 const char* const kConstantAcceleration = "constant_acceleration";
 const char* const kQuantities[] = {"position", "velocity", "acceleration"};
 const char* const kUnits[] = {"m", "m/s", "m/s^2"};
+const char* const kHeadingQuantities[] = {"yaw", "yaw_rate", "yaw_acceleration"};
+const char* const kHeadingUnits[] = {"rad", "rad/s", "rad/s^2"};
 
 double factorial(int k)
 {
@@ -80,6 +82,21 @@ int quantityIndex(const std::string& quantity, int order)
   return -1;
 }
 
+/// Index of a heading quantity (yaw, yaw_rate, yaw_acceleration) among the first `order`, or -1.
+int headingQuantityIndex(const std::string& quantity, int order)
+{
+  for (int i = 0; i < order; ++i)
+  {
+    if (quantity == kHeadingQuantities[i])
+    {
+      return i;
+    }
+  }
+  return -1;
+}
+
+std::string headingDensityUnits(int order) { return order == 2 ? "rad^2/s^3" : "rad^2/s^5"; }
+
 }  // namespace
 
 int kinematicOrder(const std::string& motion)
@@ -97,7 +114,7 @@ std::string densityKey(const std::string& motion)
   return kinematicOrder(motion) == 2 ? "accel-density" : "jerk-density";
 }
 
-std::vector<std::string> kinematicStateNames(int order, int dims)
+std::vector<std::string> kinematicStateNames(int order, int dims, bool heading)
 {
   const char* const axes[] = {"x", "y", "z"};
   const char* const prefixes[] = {"", "v", "a"};
@@ -107,6 +124,10 @@ std::vector<std::string> kinematicStateNames(int order, int dims)
     for (int a = 0; a < dims; ++a)
     {
       names.push_back(std::string(prefixes[i]) + axes[a]);
+    }
+    if (heading)
+    {
+      names.push_back(std::string(prefixes[i]) + "yaw");
     }
   }
   return names;
@@ -140,49 +161,78 @@ Model makeKinematicModel(const KinematicSpec& spec)
     fail(densityKey(spec.motion), "expected a finite spectral density > 0 (" + q_units +
                                       "), found " + plainNumber(spec.density));
   }
+  const bool heading = spec.heading_density != 0.0;
+  if (heading && (!std::isfinite(spec.heading_density) || !(spec.heading_density > 0.0)))
+  {
+    fail("heading", "expected a finite spectral density > 0 (" + headingDensityUnits(order) +
+                        "), found " + plainNumber(spec.heading_density));
+  }
+  if (heading && spec.dims < 2)
+  {
+    fail("heading", "a heading needs a robot in 2-D or 3-D, found dims 1");
+  }
   const int d = spec.dims;
-  const int n = order * d;
+  const int D = d + (heading ? 1 : 0);  // axes, the heading last
+  const int n = order * D;
   const double T = 1.0 / spec.rate;
 
   Model model;
   model.name = spec.name;
   model.period = T;
-  Eigen::MatrixXd A1, Q1;
+  Eigen::MatrixXd A1, Q1, Ah, Qh;
   axisBlocks(order, T, spec.density, A1, Q1);
+  if (heading)
+  {
+    axisBlocks(order, T, spec.heading_density, Ah, Qh);
+  }
   model.A = Eigen::MatrixXd::Zero(n, n);
   model.Q = Eigen::MatrixXd::Zero(n, n);
   for (int i = 0; i < order; ++i)
   {
     for (int j = 0; j < order; ++j)
     {
-      for (int a = 0; a < d; ++a)
+      for (int a = 0; a < D; ++a)
       {
-        model.A(i * d + a, j * d + a) = A1(i, j);
-        model.Q(i * d + a, j * d + a) = Q1(i, j);
+        const bool yaw = a == d;
+        model.A(i * D + a, j * D + a) = yaw ? Ah(i, j) : A1(i, j);
+        model.Q(i * D + a, j * D + a) = yaw ? Qh(i, j) : Q1(i, j);
       }
     }
   }
   model.B = Eigen::MatrixXd::Identity(n, n);
+  model.states = kinematicStateNames(order, d, heading);
+  if (heading)
+  {
+    model.angles = {d};  // the yaw, first of the heading's entries
+  }
   // Q's correlation matrix (Q scaled to unit diagonal) does not depend on T or q: Q = q S C S with
   // S = diag(T^(r-1/2-i)). The model checks test definiteness on that scaling (yaml_reader.cpp), so
   // Q passes them at every rate; what is refused is a rate (with q) at which Q's entries leave the
   // normal doubles: q T^(2r-1) underflows (above about 1.9e61 Hz for constant acceleration and 2.5e102
   // Hz for constant velocity with q = 1; subnormal entries have lost their precision) or one
   // overflows (rates below about 1e-62 Hz, 1e-103 Hz for constant velocity).
-  const bool normal =
-      Q1.allFinite() && (Q1.array().abs() >= std::numeric_limits<double>::min()).all();
-  const std::string q_problem = normal ? definitenessProblem(Q1, true) : std::string();
-  if (!normal || !q_problem.empty())
+  // Checked per block: the axes' Q (with the density) and the heading's (with its own density).
+  const auto checkBlock = [&](const Eigen::MatrixXd& Qb, const std::string& key, double density)
   {
-    const std::string what =
-        normal ? "that is not positive definite: " + q_problem
-               : "whose entries leave the range of double precision (per axis from q T^" +
-                     std::to_string(2 * order - 1) + " = " + plainNumber(Q1(0, 0)) + " to q T = " +
-                     plainNumber(Q1(order - 1, order - 1)) +
-                     "; normal doubles are 2.2e-308 to 1.8e308 in magnitude)";
-    fail("rate", plainNumber(spec.rate) + " Hz with " + densityKey(spec.motion) + " " +
-                     plainNumber(spec.density) + " gives a " + spec.motion + " Q " + what +
-                     "; use a less extreme rate or density");
+    const bool normal =
+        Qb.allFinite() && (Qb.array().abs() >= std::numeric_limits<double>::min()).all();
+    const std::string q_problem = normal ? definitenessProblem(Qb, true) : std::string();
+    if (!normal || !q_problem.empty())
+    {
+      const std::string what =
+          normal ? "that is not positive definite: " + q_problem
+                 : "whose entries leave the range of double precision (per axis from q T^" +
+                       std::to_string(2 * order - 1) + " = " + plainNumber(Qb(0, 0)) + " to q T = " +
+                       plainNumber(Qb(order - 1, order - 1)) +
+                       "; normal doubles are 2.2e-308 to 1.8e308 in magnitude)";
+      fail("rate", plainNumber(spec.rate) + " Hz with " + key + " " + plainNumber(density) + " gives a " +
+                       spec.motion + " Q " + what + "; use a less extreme rate or density");
+    }
+  };
+  checkBlock(Q1, densityKey(spec.motion), spec.density);
+  if (heading)
+  {
+    checkBlock(Qh, "heading", spec.heading_density);
   }
 
   // Sensors
@@ -190,8 +240,14 @@ Model makeKinematicModel(const KinematicSpec& spec)
   {
     fail("sensors", "expected at least one sensor, found none");
   }
-  model.C = Eigen::MatrixXd::Zero(d * static_cast<int>(spec.sensors.size()), n);
-  model.R = Eigen::MatrixXd::Zero(model.C.rows(), model.C.rows());
+  int m = 0;
+  for (const KinematicSensor& in : spec.sensors)
+  {
+    m += headingQuantityIndex(in.quantity, 3) >= 0 ? 1 : d;
+  }
+  model.C = Eigen::MatrixXd::Zero(m, n);
+  model.R = Eigen::MatrixXd::Zero(m, m);
+  int offset = 0;
   for (std::size_t s = 0; s < spec.sensors.size(); ++s)
   {
     const KinematicSensor& in = spec.sensors[s];
@@ -209,28 +265,43 @@ Model makeKinematicModel(const KinematicSpec& spec)
       }
     }
     const int which = quantityIndex(in.quantity, order);
-    if (which < 0)
+    const int yaw_which = heading ? headingQuantityIndex(in.quantity, order) : -1;
+    if (which < 0 && yaw_which < 0)
     {
-      const std::string expected =
+      std::string expected =
           order == 2 ? "position or velocity" : "position, velocity or acceleration";
-      const std::string note = order == 2 && in.quantity == kQuantities[2]
-                                   ? " (acceleration needs a constant_acceleration model)"
-                                   : "";
+      if (heading)
+      {
+        expected = order == 2 ? "position, velocity, yaw or yaw_rate"
+                              : "position, velocity, acceleration, yaw, yaw_rate or yaw_acceleration";
+      }
+      std::string note;
+      if (order == 2 && (in.quantity == kQuantities[2] || in.quantity == kHeadingQuantities[2]))
+      {
+        note = " (" + in.quantity + " needs a constant_acceleration model)";
+      }
+      else if (!heading && headingQuantityIndex(in.quantity, order) >= 0)
+      {
+        note = " (" + in.quantity + " needs a heading: --heading)";
+      }
       fail(key + ".quantity", "expected " + expected + " for a " + spec.motion + " model" + note +
                                   ", found " + quoted(in.quantity));
     }
     if (!std::isfinite(in.sigma) || !(in.sigma > 0.0))
     {
       fail(key + ".sigma", std::string("expected a finite standard deviation > 0 (") +
-                               kUnits[which] + "), found " + plainNumber(in.sigma));
+                               (which >= 0 ? kUnits[which] : kHeadingUnits[yaw_which]) + "), found " +
+                               plainNumber(in.sigma));
     }
-    const int offset = static_cast<int>(s) * d;
-    for (int a = 0; a < d; ++a)
+    const int rows = which >= 0 ? d : 1;
+    for (int a = 0; a < rows; ++a)
     {
-      model.C(offset + a, which * d + a) = 1.0;
+      const int column = which >= 0 ? which * D + a : yaw_which * D + d;
+      model.C(offset + a, column) = 1.0;
       model.R(offset + a, offset + a) = in.sigma * in.sigma;
     }
-    model.sensors.push_back(Sensor{in.name, offset, d});
+    model.sensors.push_back(Sensor{in.name, offset, rows});
+    offset += rows;
   }
 
   // x0, P0
@@ -241,7 +312,7 @@ Model makeKinematicModel(const KinematicSpec& spec)
   else if (spec.x0.size() != n)
   {
     fail("x0", "expected " + std::to_string(n) + " entries (n = " + std::to_string(n) +
-                   ", the state " + joinList(kinematicStateNames(order, d)) + "), found " +
+                   ", the state " + joinList(model.states) + "), found " +
                    std::to_string(spec.x0.size()));
   }
   else
@@ -250,6 +321,8 @@ Model makeKinematicModel(const KinematicSpec& spec)
   }
   const double variances[] = {spec.p0_position, spec.p0_velocity, spec.p0_acceleration};
   const char* const p0_keys[] = {"p0-position", "p0-velocity", "p0-acceleration"};
+  const double yaw_variances[] = {spec.p0_yaw, spec.p0_yaw_rate, spec.p0_yaw_acceleration};
+  const char* const p0_yaw_keys[] = {"p0-yaw", "p0-yaw-rate", "p0-yaw-acceleration"};
   model.P0 = Eigen::MatrixXd::Zero(n, n);
   for (int i = 0; i < order; ++i)
   {
@@ -258,9 +331,14 @@ Model makeKinematicModel(const KinematicSpec& spec)
       fail(p0_keys[i], std::string("expected a finite variance >= 0 (") + kUnits[i] +
                            " squared), found " + plainNumber(variances[i]));
     }
-    for (int a = 0; a < d; ++a)
+    if (heading && (!std::isfinite(yaw_variances[i]) || yaw_variances[i] < 0.0))
     {
-      model.P0(i * d + a, i * d + a) = variances[i];
+      fail(p0_yaw_keys[i], std::string("expected a finite variance >= 0 (") + kHeadingUnits[i] +
+                               " squared), found " + plainNumber(yaw_variances[i]));
+    }
+    for (int a = 0; a < D; ++a)
+    {
+      model.P0(i * D + a, i * D + a) = a == d ? yaw_variances[i] : variances[i];
     }
   }
   model.Bu = Eigen::MatrixXd::Zero(n, 0);
@@ -288,18 +366,37 @@ std::string kinematicModelComment(const KinematicSpec& spec)
     noise = "jerk";
     q_units = "m^2/s^5";
   }
+  const bool heading = spec.heading_density != 0.0;
+  if (heading)
+  {
+    units += order == 3 ? "; rad, rad/s, rad/s^2" : "; rad, rad/s";
+    order_text += ", the heading last in each group";
+  }
   std::string out = spec.motion + " model in " + std::to_string(spec.dims) + "-D at " +
                     plainNumber(spec.rate) + " Hz (period T = " + plainNumber(T) + " s).\n";
-  out += "State [" + joinList(kinematicStateNames(order, spec.dims)) + "] (" + units + "): " +
+  out += "State [" + joinList(kinematicStateNames(order, spec.dims, heading)) + "] (" + units + "): " +
          order_text + ".\n";
   out += "Process noise: white " + noise + " of spectral density q = " +
          plainNumber(spec.density) + " " + q_units + " on every axis.\n";
+  if (heading)
+  {
+    out += "Heading: yaw, an angle in (-pi, pi] (angles: [yaw]), moving like an axis with white angular " + noise +
+           " of spectral density q = " + plainNumber(spec.heading_density) + " " + headingDensityUnits(order) +
+           ".\n";
+  }
   out += "A = e^{F T}, per axis " + A_text + ".\n";
   out += "Q = integral over [0, T] of e^{F s} G q G' e^{F' s} ds, per axis\n";
   out += "    " + Q_text + "; B = identity.\n";
   for (const KinematicSensor& s : spec.sensors)
   {
     const int which = quantityIndex(s.quantity, order);
+    const int yaw_which = headingQuantityIndex(s.quantity, order);
+    if (yaw_which >= 0 && which < 0)
+    {
+      out += "Sensor " + s.name + ": the heading's " + s.quantity + ", sigma = " + plainNumber(s.sigma) + " " +
+             kHeadingUnits[yaw_which] + " (R = sigma^2).\n";
+      continue;
+    }
     out += "Sensor " + s.name + ": the " + s.quantity + " of every axis, sigma = " +
            plainNumber(s.sigma) + " " + kUnits[which < 0 ? 0 : which] + " (R = sigma^2 I).\n";
   }

@@ -4,6 +4,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -28,13 +29,108 @@ namespace
 // Model
 // ---------------------------------------------------------------------------------------------
 
+/// `states`: n distinct non-empty names.
+std::vector<std::string> parseStateNames(const Reader& in, const YAML::Node& node, int n)
+{
+  if (!node.IsSequence() || static_cast<int>(node.size()) != n)
+  {
+    in.fail(node, "states",
+            "expected a list of " + std::to_string(n) + " state names (" + countText("n", n) + "), found " +
+                (node.IsSequence() ? std::to_string(node.size()) + " names" : describe(node)));
+  }
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < node.size(); ++i)
+  {
+    const std::string key = indexKey("states", i);
+    const std::string name = in.string(node[i], key);
+    if (name.empty())
+    {
+      in.fail(node[i], key, "a state name must not be empty");
+    }
+    if (name.find_first_not_of("0123456789") == std::string::npos)
+    {
+      in.fail(node[i], key, "a state name must not be a number, found '" + name + "' (angles reads a number as an index)");
+    }
+    for (std::size_t k = 0; k < names.size(); ++k)
+    {
+      if (names[k] == name)
+      {
+        in.fail(node[i], key, "duplicate state name '" + name + "' (also " + indexKey("states", k) + ")");
+      }
+    }
+    names.push_back(name);
+  }
+  return names;
+}
+
+/// `angles`: state indices (0-based) or names of `states`, each at most once; returned ascending.
+std::vector<int> parseAngles(const Reader& in, const YAML::Node& node, const std::vector<std::string>& states,
+                             int n)
+{
+  if (!node.IsSequence())
+  {
+    in.fail(node, "angles", "expected a list of state indices or state names, found " + describe(node));
+  }
+  std::vector<int> angles;
+  for (std::size_t i = 0; i < node.size(); ++i)
+  {
+    const std::string key = indexKey("angles", i);
+    const YAML::Node e = node[i];
+    if (!e.IsScalar())
+    {
+      in.fail(e, key, "expected a state index or a state name, found " + describe(e));
+    }
+    const std::string text = e.Scalar();
+    const bool digits = !text.empty() && text.find_first_not_of("0123456789") == std::string::npos;
+    int index = -1;
+    if (digits)
+    {
+      const std::uint64_t v = in.integer(e, key, 0);
+      if (v >= static_cast<std::uint64_t>(n))
+      {
+        in.fail(e, key, "state index " + text + " out of range (" + countText("n", n) + ": 0 to " +
+                            std::to_string(n - 1) + ")");
+      }
+      index = static_cast<int>(v);
+    }
+    else
+    {
+      for (std::size_t k = 0; k < states.size(); ++k)
+      {
+        if (states[k] == text)
+        {
+          index = static_cast<int>(k);
+        }
+      }
+      if (index < 0)
+      {
+        in.fail(e, key,
+                states.empty() ? "'" + text + "' is not a state index, and the model names no states (give an "
+                                 "index from 0, or the key states)"
+                               : "'" + text + "' is not a state (states: " + joinList(states) + ")");
+      }
+    }
+    for (std::size_t k = 0; k < angles.size(); ++k)
+    {
+      if (angles[k] == index)
+      {
+        in.fail(e, key, "state " + std::to_string(index) + " is listed twice (also " + indexKey("angles", k) + ")");
+      }
+    }
+    angles.push_back(index);
+  }
+  std::sort(angles.begin(), angles.end());
+  return angles;
+}
+
 Model parseModelImpl(const YAML::Node& node, const std::string& source)
 {
   const Reader in(source);
   in.requireTopMap(node);
   in.checkKeys(
       node, "",
-      {"name", "period", "A", "B", "Q", "C", "R", "sensors", "x0", "P0", "uncertainty", "control", "schedule"});
+      {"name", "period", "A", "B", "Q", "C", "R", "sensors", "x0", "P0", "uncertainty", "control", "schedule",
+       "states", "angles"});
 
   Model model;
   if (node["name"])
@@ -240,6 +336,16 @@ Model parseModelImpl(const YAML::Node& node, const std::string& source)
     model.schedule = parseSchedule(in, s_node, model.sensors);
   }
 
+  // state names and angles
+  if (const YAML::Node s_node = node["states"])
+  {
+    model.states = parseStateNames(in, s_node, n);
+  }
+  if (const YAML::Node a_node = node["angles"])
+  {
+    model.angles = parseAngles(in, a_node, model.states, n);
+  }
+
   validateModel(model, source);
   return model;
 }
@@ -268,6 +374,106 @@ Model loadModel(const std::string& path)
     model.name = std::filesystem::path(path).stem().string();
   }
   return model;
+}
+
+namespace
+{
+
+/// "state 2 ('yaw')" or "state 2".
+std::string stateLabel(const Model& model, int j)
+{
+  return model.states.empty() ? "state " + std::to_string(j)
+                              : "state " + std::to_string(j) + " ('" + model.states[j] + "')";
+}
+
+/// Whether row i of C is the unit vector e_j.
+bool isUnitRow(const Eigen::MatrixXd& C, Eigen::Index i, int j)
+{
+  for (Eigen::Index c = 0; c < C.cols(); ++c)
+  {
+    if (C(i, c) != (c == j ? 1.0 : 0.0))
+    {
+      return false;
+    }
+  }
+  return true;
+}
+
+/// The linear model must be periodic in an angle j (docs/formats.md 1.2b): adding 2 pi to x_j
+/// changes nothing but x_j, now and at every later step. So column j of A is e_j (the angle keeps
+/// its value and feeds no other state), column j of every dA and dC is zero, and every row of C
+/// that involves x_j measures it alone (a unit row, whose innovation is wrapped).
+template <class Fail>
+void checkAngle(const Model& model, int j, const Fail& fail)
+{
+  const std::string what = stateLabel(model, j);
+  for (Eigen::Index i = 0; i < model.A.rows(); ++i)
+  {
+    if (model.A(i, j) != (i == j ? 1.0 : 0.0))
+    {
+      fail("A", "column " + std::to_string(j) + " must be the unit vector e_" + std::to_string(j) + " because " +
+                    what + " is an angle (an angle keeps its value and feeds no other state linearly; found A(" +
+                    std::to_string(i) + "," + std::to_string(j) + ") = " + formatNumber(model.A(i, j)) + ")");
+    }
+  }
+  for (Eigen::Index i = 0; i < model.C.rows(); ++i)
+  {
+    if (model.C(i, j) != 0.0 && !isUnitRow(model.C, i, j))
+    {
+      std::string row = "row " + std::to_string(i);
+      for (const Sensor& s : model.sensors)
+      {
+        if (i >= s.offset && i < s.offset + s.size)
+        {
+          row = "row " + std::to_string(i - s.offset) + " of sensor '" + s.name + "'";
+        }
+      }
+      fail("C", row + " involves " + what + ", an angle, without measuring it alone (an angle is measured by a row "
+                      "that is the unit vector e_" + std::to_string(j) + ", found C(" + std::to_string(i) + "," +
+                      std::to_string(j) + ") = " + formatNumber(model.C(i, j)) + " in a row that is not)");
+    }
+  }
+  for (std::size_t u = 0; u < model.uncertainty.size(); ++u)
+  {
+    const Uncertainty& e = model.uncertainty[u];
+    const std::string key = indexKey("uncertainty", u);
+    if (e.dA.cols() > j && !e.dA.col(j).isZero(0.0))
+    {
+      fail(key + ".dA", "column " + std::to_string(j) + " must be zero because " + what + " is an angle");
+    }
+    if (e.dC.cols() > j && !e.dC.col(j).isZero(0.0))
+    {
+      fail(key + ".dC", "column " + std::to_string(j) + " must be zero because " + what + " is an angle");
+    }
+  }
+}
+
+}  // namespace
+
+std::vector<int> angularRows(const Model& model)
+{
+  std::vector<int> rows;
+  if (model.angles.empty())
+  {
+    return rows;
+  }
+  for (Eigen::Index i = 0; i < model.C.rows(); ++i)
+  {
+    for (const int j : model.angles)
+    {
+      if (j < model.C.cols() && isUnitRow(model.C, i, j))
+      {
+        rows.push_back(static_cast<int>(i));
+      }
+    }
+  }
+  return rows;
+}
+
+std::string stateName(const Model& model, int i)
+{
+  return i >= 0 && static_cast<std::size_t>(i) < model.states.size() ? model.states[static_cast<std::size_t>(i)]
+                                                                       : "state " + std::to_string(i);
 }
 
 void validateModel(const Model& model, const std::string& source)
@@ -420,6 +626,35 @@ void validateModel(const Model& model, const std::string& source)
     {
       fail(key + ".range", "expected a non-negative number, found " + formatNumber(u.range));
     }
+  }
+
+  // states, angles
+  if (!model.states.empty())
+  {
+    if (static_cast<Eigen::Index>(model.states.size()) != n)
+    {
+      fail("states", "expected " + std::to_string(n) + " names (" + n_text + "), found " +
+                         std::to_string(model.states.size()));
+    }
+    std::set<std::string> state_names;
+    for (std::size_t i = 0; i < model.states.size(); ++i)
+    {
+      if (model.states[i].empty() || !state_names.insert(model.states[i]).second)
+      {
+        fail(indexKey("states", i), "expected a unique non-empty name, found '" + model.states[i] + "'");
+      }
+    }
+  }
+  for (std::size_t a = 0; a < model.angles.size(); ++a)
+  {
+    const int j = model.angles[a];
+    const std::string key = indexKey("angles", a);
+    if (j < 0 || j >= n || (a > 0 && j <= model.angles[a - 1]))
+    {
+      fail(key, "expected distinct state indices in [0, " + std::to_string(n - 1) + "], ascending, found " +
+                    std::to_string(j));
+    }
+    checkAngle(model, j, fail);
   }
 
   // control

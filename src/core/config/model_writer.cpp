@@ -97,6 +97,25 @@ void writeModelYaml(std::ostream& out, const Model& model, const std::string& co
   {
     out << "period: " << plainNumber(model.period) << "\n";
   }
+  if (!model.states.empty())
+  {
+    out << "states: [";
+    for (std::size_t i = 0; i < model.states.size(); ++i)
+    {
+      out << (i ? ", " : "") << yamlString(model.states[i]);
+    }
+    out << "]\n";
+  }
+  if (!model.angles.empty())
+  {
+    out << "angles: [";
+    for (std::size_t i = 0; i < model.angles.size(); ++i)
+    {
+      const int a = model.angles[i];
+      out << (i ? ", " : "") << (model.states.empty() ? std::to_string(a) : yamlString(model.states[a]));
+    }
+    out << "]\n";
+  }
   writeMatrix(out, "", "A", model.A);
   if (!model.B.isIdentity(0.0))
   {

@@ -205,6 +205,7 @@ public:
           auto mc = means_.leftCols(count_);
           E_.noalias() = -C * mc;  // no temporary: E_ keeps its storage across steps
           E_.colwise() += y;
+          upd.wrapInnovations(E_);
           upd.whiten(E_);
           logw_.head(count_) -= 0.5 * E_.colwise().squaredNorm().transpose();
           mc.noalias() += upd.W().transpose() * E_;
@@ -253,7 +254,14 @@ private:
   {
     // (17): x = sum w m; P = M + sum w (m - x)(m - x)'
     w_ = logw_.head(count_).array().exp();
-    const auto mc = means_.leftCols(count_);
+    auto mc = means_.leftCols(count_);
+    // An angle's components are first taken to the turn nearest to the first component's (each
+    // m_j wrapped relative to it), so that the mean and the spread are those of the angles, not of
+    // their representatives in (-pi, pi]: components at pi - a and -pi + a average to pi, not 0.
+    // They are wrapped again afterwards (x itself by the step).
+    for (const int a : this->angle_states_)
+      for (Eigen::Index j = 1; j < count_; ++j)
+        mc(a, j) = mc(a, 0) + wrapAngle(mc(a, j) - mc(a, 0));
     x_.noalias() = mc * w_;
     nu1_ = w_.dot(q_.head(count_));
     P_ = M_;
@@ -264,6 +272,7 @@ private:
       P_.noalias() += D_ * D_.transpose();
       mirrorLower(P_);
     }
+    wrapEntries(mc, this->angle_states_);
   }
 
   ControlLink link_;

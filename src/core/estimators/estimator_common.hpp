@@ -6,12 +6,14 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <type_traits>
 #include <vector>
 
 #include "estimators/estimator_sizes.hpp"
+#include "networked_estimation/common/angles.hpp"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/common/index_select.hpp"
 #include "networked_estimation/estimators/estimator.hpp"
@@ -279,12 +281,24 @@ public:
   {
     chol_.solveLower(E);
   }
-  /// x += W' L^{-1}(y - C x) for the C of factor(); returns the whitened innovation L^{-1}(y - C x).
+  /// The rows of C (as given to factor()) that measure an angle: their innovations are wrapped
+  /// into (-pi, pi] (docs/algorithms.md 2.7). Null or empty: none. Must outlive the update's use.
+  void setAngularRows(const std::vector<int>* rows) { angles_ = rows; }
+  /// Wraps the angular rows of innovations y - C x (a vector, or one column per innovation).
+  template <class Derived>
+  void wrapInnovations(Eigen::MatrixBase<Derived>& E) const
+  {
+    if (angles_ && !angles_->empty())
+      wrapEntries(E, *angles_);
+  }
+  /// x += W' L^{-1}(y - C x) for the C of factor(); returns the whitened innovation L^{-1}(y - C x)
+  /// (the angular rows of y - C x wrapped first).
   template <class VecY>
   const VecR& updateMean(const VecY& y, VecN& x)
   {
     e_ = y;
     e_.noalias() -= (*C_) * x;
+    wrapInnovations(e_);
     chol_.solveLower(e_);
     x.noalias() += W_.transpose() * e_;
     return e_;
@@ -331,6 +345,7 @@ private:
   VecR e_, v_;
   const MatC* C_ = nullptr;
   const MatR* R_ = nullptr;
+  const std::vector<int>* angles_ = nullptr;
   mutable MatN prior_;
   mutable long joseph_ = 0;
 };
@@ -364,6 +379,8 @@ public:
     AP_.resize(model_.n(), model_.n());
     xd_.resize(S::kFixed ? model_.n() : 0);
     Pd_.resize(S::kFixed ? model_.n() : 0, S::kFixed ? model_.n() : 0);
+    angle_states_ = model_.angles;
+    angle_rows_ = angularRows(model_);
     publish();
   }
   const Eigen::VectorXd& state() const override
@@ -442,6 +459,11 @@ protected:
       {
         Ca_ = selectRows(C_, idx);
         Ra_ = selectBlock(R, idx, idx);
+        // the angular rows among the compacted ones
+        angle_rows_a_.clear();
+        for (int i = 0; i < rows; ++i)
+          if (std::binary_search(angle_rows_.begin(), angle_rows_.end(), idx[i]))
+            angle_rows_a_.push_back(i);
       }
       ya_.resize(rows);
       for (int i = 0; i < rows; ++i)
@@ -450,13 +472,21 @@ protected:
     return rows;
   }
   /// Calls f(update, C, R, y) with the rows of the selected sensors (after select() found some).
+  /// The update is told which of these rows measure angles (the fixed-size Ca_ keeps the rows in
+  /// place, the dynamic one compacts them).
   template <class F>
   void withArrived(F&& f)
   {
     if (sel_.all())
+    {
+      upd_.setAngularRows(&angle_rows_);
       f(upd_, C_, own_R_ ? Rk_ : R_, y_);
+    }
     else
+    {
+      upd_.setAngularRows(S::kFixed ? &angle_rows_ : &angle_rows_a_);
       f(upd_, Ca_, Ra_, ya_);
+    }
   }
   /// Sample::R: m x m and finite (InputError otherwise, before anything changes).
   void checkStepR(const Eigen::MatrixXd& R) const
@@ -540,6 +570,7 @@ protected:
       throw;
     }
     ++steps_;
+    wrapEntries(x_, angle_states_);  // the angular states into (-pi, pi] (none: nothing to do)
     publish();
     checkFinite();
   }
@@ -569,6 +600,9 @@ protected:
   MatN P_, Ppred_, AP_;
   Eigen::VectorXd xd_;
   Eigen::MatrixXd Pd_;
+  std::vector<int> angle_states_;  ///< model_.angles: wrapped after every step
+  std::vector<int> angle_rows_;    ///< angularRows(model_): rows of C_ (and of the fixed-size Ca_)
+  std::vector<int> angle_rows_a_;  ///< dynamic sizes: the angular rows' positions in the compacted Ca_
   bool diverged_ = false;
 };
 

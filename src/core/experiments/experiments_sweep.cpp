@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "experiments/montecarlo_experiments.hpp"
+#include "networked_estimation/common/angles.hpp"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/estimators/estimator.hpp"
 #include "networked_estimation/io/json_writer.hpp"
@@ -345,6 +346,7 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
       std::vector<std::vector<bool>> on;
       std::vector<char> alive;
       std::vector<double> trP_sum, err_sum;
+      std::vector<int> angles;  // the model's: their errors wrapped
       Sample sample;
     };
     auto w = std::make_shared<Worker>();
@@ -358,6 +360,7 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
     w->alive.assign(nf, 1);
     w->trP_sum.assign(nf, 0.0);
     w->err_sum.assign(nf, 0.0);
+    w->angles = model.angles;
     w->sample = w->plant->received();
     return [w, T, half, nf, np, values, seed](long r, double* out) {
       std::fill(out, out + values, 0.0);
@@ -411,7 +414,7 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
             if (k > half)
             {
               w->trP_sum[j] += e.covariance().trace();
-              w->err_sum[j] += (s.x - e.state()).squaredNorm();
+              w->err_sum[j] += squaredError(s.x, e.state(), w->angles);
             }
           }
         }
@@ -423,7 +426,7 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
           {
             const Estimator& e = *w->est[j];
             o[0] = e.covariance().trace();
-            o[1] = (last.x - e.state()).squaredNorm();
+            o[1] = squaredError(last.x, e.state(), w->angles);
             o[2] = w->trP_sum[j] / static_cast<double>(T - half);
             o[3] = w->err_sum[j] / static_cast<double>(T - half);
           }

@@ -2,6 +2,7 @@
 #include <memory>
 
 #include "experiments/montecarlo_experiments.hpp"
+#include "networked_estimation/common/angles.hpp"
 #include "networked_estimation/simulation/lossy_run.hpp"
 #include "networked_estimation/config/sensor_links.hpp"
 #include "networked_estimation/common/error.hpp"
@@ -53,9 +54,11 @@ const SimulatedSample& stepRun(Run& run, long r)
 }
 
 /// Steps every filter on the sample (gamma forced for those that take every sample, ack_kf told
-/// nu_k) and records filter j's squared error at out[j T + k - 1].
+/// nu_k) and records filter j's squared error at out[j T + k - 1] (the differences of the angular states
+/// `angles` wrapped).
 void stepFilters(const std::vector<std::unique_ptr<Estimator>>& est, const std::vector<ErrorFilter>& filters,
-                 Sample& sample, const SimulatedSample& s, long r, long k, long T, double* out)
+                 const std::vector<int>& angles, Sample& sample, const SimulatedSample& s, long r, long k, long T,
+                 double* out)
 {
   const bool gamma = sample.gamma;
   for (std::size_t j = 0; j < est.size(); ++j)
@@ -72,7 +75,7 @@ void stepFilters(const std::vector<std::unique_ptr<Estimator>>& est, const std::
       throw DivergenceError(toString(e.algorithm()) + " diverged in run " + std::to_string(r) + " at k = " +
                             std::to_string(k) + ": " + err.what());
     }
-    out[j * static_cast<std::size_t>(T) + static_cast<std::size_t>(k - 1)] = (s.x - e.state()).squaredNorm();
+    out[j * static_cast<std::size_t>(T) + static_cast<std::size_t>(k - 1)] = squaredError(s.x, e.state(), angles);
   }
   sample.gamma = gamma;
 }
@@ -116,7 +119,7 @@ Moments squaredErrorRuns(const RunConfig& rc, const Model& model, const ChannelS
         if (model.hasControl())
           sample.u = s.u;
         sample.gamma = gamma;
-        stepFilters(st->est, filters, sample, s, r, k, T, out);
+        stepFilters(st->est, filters, model.angles, sample, s, r, k, T, out);
       }
     };
   };
@@ -319,7 +322,7 @@ ExperimentResult customExperiment(const RunConfig& rc)
       {
         const SimulatedSample& s = stepRun(run, r);
         sample = run.received();
-        stepFilters(*est, filters, sample, s, r, k, T, out);
+        stepFilters(*est, filters, model.angles, sample, s, r, k, T, out);
       }
     };
   };

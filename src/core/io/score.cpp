@@ -6,14 +6,20 @@
 #include <limits>
 #include <sstream>
 
+#include "networked_estimation/common/angles.hpp"
 #include "networked_estimation/common/error.hpp"
 
 namespace networked_estimation
 {
 
 
-Score scoreEstimate(const std::string& name, const Truth& truth, const ReplayOutput& estimate, long from)
+Score scoreEstimate(const std::string& name, const Truth& truth, const ReplayOutput& estimate, long from,
+                    const std::vector<int>& angles)
 {
+  for (const int a : angles)
+    if (a < 0 || a >= truth.n)
+      throw InputError(truth.path + ": the angular state " + std::to_string(a) + " is not among its n = " +
+                       std::to_string(truth.n) + " states (score it with the model it was simulated with)");
   if (estimate.n != truth.n)
     throw InputError(estimate.path + ": estimate '" + name + "' has n = " + std::to_string(estimate.n) +
                      " states but the truth " + truth.path + " has n = " + std::to_string(truth.n));
@@ -34,7 +40,7 @@ Score scoreEstimate(const std::string& name, const Truth& truth, const ReplayOut
     if (e.k < from)
       continue;
     ++score.steps;
-    sq += (t.x - e.x).squaredNorm();
+    sq += squaredError(t.x, e.x, angles);  // an angle's error is the shortest turn
     tr += e.trace;
     arrived += e.gamma ? 1.0 : 0.0;
   }

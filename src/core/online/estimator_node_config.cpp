@@ -15,6 +15,25 @@ namespace networked_estimation
 namespace
 {
 
+/// The one rule for angles is the model's (angularRows): a field that is an angle (roll, pitch or
+/// yaw of a quaternion) must feed a row that measures an angular state, or its jumps between pi and
+/// -pi would reach the filter unwrapped.
+void checkAngleFields(const Model& model, std::size_t sensor, const SensorInput& in, const std::string& key)
+{
+  const Sensor& s = model.sensors[sensor];
+  const std::vector<int> rows = angularRows(model);
+  for (std::size_t i = 0; i < in.fields.size(); ++i)
+  {
+    const int row = s.offset + static_cast<int>(i);
+    if (in.fields[i].quantity != Quantity::ORIENTATION_RPY || std::find(rows.begin(), rows.end(), row) != rows.end())
+      continue;
+    throw ConfigError(key + ".fields[" + std::to_string(i) + "]: " + in.fields[i].name +
+                      " is an angle in (-pi, pi], but row " + std::to_string(i) + " of sensor '" + s.name +
+                      "' does not measure an angular state of the model: make that row of C the unit vector of "
+                      "the state it measures and list the state in the model's angles (docs/formats.md 1.2b)");
+  }
+}
+
 /// The `sensors` block: one map per sensor of the model, keyed by the sensor's name.
 void parseSensorInputs(const YAML::Node& block, const std::string& source, EstimatorNodeConfig& c)
 {
@@ -32,6 +51,7 @@ void parseSensorInputs(const YAML::Node& block, const std::string& source, Estim
       throw ConfigError(key + ": expected a map (keys: topic, type, fields, rate)");
     ParamReader p(entry.second, key);
     parseInputBlock(p, key, sensorInputTypes(), model.sensors[index].size, "row of sensor '" + name + "'", in);
+    checkAngleFields(model, index, in, key);
     in.message_covariance = p.choice("covariance", "model", {"model", "message"}) == "message";
     if (in.message_covariance && in.fields.empty())
       throw ConfigError(key + ".covariance: message: " + toString(in.type) +

@@ -4,6 +4,7 @@
 #include <limits>
 #include <sstream>
 
+#include "networked_estimation/common/angles.hpp"
 #include "networked_estimation/common/error.hpp"
 
 namespace networked_estimation
@@ -80,6 +81,11 @@ OnlineEstimator::OnlineEstimator(const Model& model, const EstimatorSettings& se
                       " values (one per sensor), found " + std::to_string(options_.rate_ratio.size()));
   for (std::size_t i = 0; i < model_.sensors.size(); ++i)
     lattice_.emplace_back(options_.rate_ratio.empty() ? 1.0 : options_.rate_ratio[i]);
+  angle_rows_.resize(model_.sensors.size());
+  for (const int row : angularRows(model_))
+    for (std::size_t i = 0; i < model_.sensors.size(); ++i)
+      if (row >= model_.sensors[i].offset && row < model_.sensors[i].offset + model_.sensors[i].size)
+        angle_rows_[i].push_back(row - model_.sensors[i].offset);
 }
 
 void OnlineEstimator::start(long first_step)
@@ -576,7 +582,8 @@ void OnlineEstimator::gate(Slot& s, Sample& sample)
     const auto C = model_.C.middleRows(sn.offset, sn.size);
     const Eigen::MatrixXd& R = sample.R.size() ? sample.R : model_.R;
     const Eigen::MatrixXd S = C * Pp * C.transpose() + R.block(sn.offset, sn.offset, sn.size, sn.size);
-    const Eigen::VectorXd nu = sample.y.segment(sn.offset, sn.size) - C * xp;
+    Eigen::VectorXd nu = sample.y.segment(sn.offset, sn.size) - C * xp;
+    wrapEntries(nu, angle_rows_[i]);  // the sensor's angular rows (docs/algorithms.md 2.7)
     const Eigen::LDLT<Eigen::MatrixXd> ldlt(S);
     const double d2 = nu.dot(ldlt.solve(nu));
     if (!(d2 <= threshold * threshold))  // beyond it, or not computable (S singular, overflow)

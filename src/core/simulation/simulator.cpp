@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "networked_estimation/common/angles.hpp"
 #include "networked_estimation/common/error.hpp"
 
 namespace networked_estimation
@@ -240,6 +241,7 @@ PlantSimulator::PlantSimulator(const Model& model, std::uint64_t seed, ControlSe
                              : "process noise sqrt(lambda_min+(B Q B'))";
   state_limit_ = kFloorFraction * noise_sd_ / std::numeric_limits<double>::epsilon();
 
+  angle_rows_ = angularRows(model);
   sqrtP0_ = psdSqrt(model.P0);
   z0_.resize(n);
   eps_.resize(ne);
@@ -348,6 +350,7 @@ const SimulatedSample& PlantSimulator::advance(bool nu)
   if (nu && M.hasControl())
     xn_.noalias() += M.Bu * sample_.u;
   x_.swap(xn_);
+  wrapEntries(x_, M.angles);  // an angle of the plant lives in (-pi, pi] (docs/formats.md 1.2b)
 
   // The rounding floor (one pass over x_k; a NaN fails the comparison).
   for (Eigen::Index i = 0; i < x_.size(); ++i)
@@ -380,6 +383,7 @@ const SimulatedSample& PlantSimulator::advance(bool nu)
   sample_.v.noalias() = sqrtR_.triangularView<Eigen::Lower>() * zv_;
   sample_.y.noalias() = C * x_;
   sample_.y += sample_.v;
+  wrapEntries(sample_.y, angle_rows_);  // a sensor of an angle reports it in (-pi, pi]
 
   sample_.k = k_;
   sample_.x = x_;
