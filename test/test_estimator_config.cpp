@@ -113,6 +113,7 @@ TEST_F(EstimatorConfig, Defaults)
   EXPECT_EQ(c.position_indices, std::vector<int>{0});  // n = 1
   EXPECT_TRUE(c.publish_tf);
   EXPECT_TRUE(std::isinf(c.runtime.trace_bound));
+  EXPECT_TRUE(c.live_stability);
   EXPECT_FALSE(c.markov_link);
   EXPECT_EQ(c.stability_window, 1000u);
   EXPECT_EQ(c.stability_min_samples, 100u);
@@ -125,6 +126,7 @@ TEST_F(EstimatorConfig, EveryKeyIsRead)
       "{algorithm: rseio, mu: 0.8, period: 0.05, latency_budget: 0.2, late_policy: rewind, history_length: 20, "
       "max_future_steps: 50, max_past_steps: 300, input_type: point, frame_id: odom, child_frame_id: est, "
       "position_indices: [1, 0], publish_tf: false, trace_bound: 12.5, queue_size: 10, link_model: markov, "
+      "live_stability: false, "
       "stability_window: 400, stability_min_samples: 40, diagnostic_period: 2.0, latency_budget_min: 0.02, "
       "latency_budget_max: 0.5, max_stamp_ahead: 4, max_stamp_behind: 6}",
       planar_);
@@ -153,6 +155,7 @@ TEST_F(EstimatorConfig, EveryKeyIsRead)
   EXPECT_DOUBLE_EQ(c.runtime.trace_bound, 12.5);
   EXPECT_EQ(c.queue_size, 10u);
   EXPECT_TRUE(c.markov_link);
+  EXPECT_FALSE(c.live_stability);
   EXPECT_EQ(c.stability_window, 400u);
   EXPECT_EQ(c.stability_min_samples, 40u);
   const ne::EstimatorNodeConfig a =
@@ -210,6 +213,7 @@ TEST_F(EstimatorConfig, RefusalsNameTheKey)
   EXPECT_TRUE(has(error("{position_indices: [1, 1]}", planar_), "index 1 repeated"));
   EXPECT_TRUE(has(error("{position_indices: 3}", planar_), "expected a list of state indices"));
   EXPECT_TRUE(has(error("{publish_tf: maybe}"), "publish_tf: expected true or false, found 'maybe'"));
+  EXPECT_TRUE(has(error("{live_stability: 2}"), "live_stability: expected true or false, found '2'"));
   EXPECT_TRUE(has(error("{trace_bound: -1}"), "trace_bound"));
   EXPECT_TRUE(has(error("{queue_size: 0}"), "queue_size: expected an integer in [1, 1000000], found 0"));
   EXPECT_TRUE(has(error("{link_model: bursty}"), "link_model: expected iid | markov, found 'bursty'"));

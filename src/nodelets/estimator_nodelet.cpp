@@ -78,7 +78,8 @@ void EstimatorNodelet::onInit()
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
   diagnostics_->setHardwareID(toString(settings_.algorithm));
   diagnostics_->add("estimator", this, &EstimatorNodelet::diagnose);
-  diagnostics_->add("link stability", this, &EstimatorNodelet::diagnoseLink);
+  if (live_)  // live_stability: false: no window, no verdict, no status
+    diagnostics_->add("link stability", this, &EstimatorNodelet::diagnoseLink);
   // force_update: the updater's own period check uses ROS time, which stalls or jumps under sim time.
   diag_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
   if (publish_tf_)
@@ -208,7 +209,8 @@ void EstimatorNodelet::configure(ros::NodeHandle& pnh)
   stream_ = std::make_unique<OnlineStream>(c.model, settings_, c.online, c.timeline, c.runtime);
   stream_->after_step = [this](long k) { publishLocked(stepLocked(k)); };
   stream_->on_restart = [this](const std::string& why) {
-    live_->clear();
+    if (live_)
+      live_->clear();
     NODELET_WARN("Estimator %s: %s", toString(settings_.algorithm).c_str(), why.c_str());
   };
   limits_.period = c.period;
@@ -230,7 +232,8 @@ void EstimatorNodelet::configure(ros::NodeHandle& pnh)
   stability_model_ = withSensorRates(c.model, ratios, &rates_note);
   if (!rates_note.empty())
     NODELET_WARN("Estimator: %s", rates_note.c_str());
-  live_ = std::make_unique<LiveStability>(stability_model_, settings_, live);
+  if (c.live_stability)
+    live_ = std::make_unique<LiveStability>(stability_model_, settings_, live);
 }
 
 void EstimatorNodelet::onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m, const ros::Time& receipt)
@@ -385,7 +388,8 @@ Estimate::Ptr EstimatorNodelet::stepLocked(long k)
   e->covariance_trace = P.trace();
   e->covariance_is_pseudo = settings_.algorithm == Algorithm::RSEIO;
   const std::uint64_t resets = online.counters().divergence_resets;
-  live_->add(online.lastArrived(), online.lastDue(), online.lastGamma(), P, resets != resets_seen_);
+  if (live_)
+    live_->add(online.lastArrived(), online.lastDue(), online.lastGamma(), P, resets != resets_seen_);
   resets_seen_ = resets;
   const double q = est.commandArrivalProbability();
   e->command_arrival_probability = std::isfinite(q) ? q : -1.0;

@@ -99,6 +99,8 @@ struct BagRun
   std::map<long, Estimate> estimates;
   std::map<std::string, std::string> diagnostics;  ///< the estimator status's values at the end
   std::string status;                              ///< and its message
+  int link_level = -1;                             ///< the link stability status's level
+  std::string link_status;                         ///< and its message
   std::vector<TfSeen::Entry> tf;                   ///< the Estimator's odom -> base_link
   double wall = 0.0;                               ///< seconds the play took
   double value(const std::string& key) const
@@ -128,6 +130,7 @@ TEST(RealRobotGraph, JackalBag)
   const long odom_sent = 3060, imu_sent = 3061;
   Collector<Estimate> est(nh, "jackal/estimate");
   DiagnosticsProbe diag(nh, "jackal/estimator: estimator");
+  DiagnosticsProbe link(nh, "jackal/estimator: link stability");
   TfSeen tf(nh);
   ASSERT_TRUE(waitFor([&] { return est.sub.getNumPublishers() > 0; }, 20.0));
   ros::WallDuration(1.0).sleep();
@@ -140,12 +143,17 @@ TEST(RealRobotGraph, JackalBag)
   run.estimates = byStep(est);
   run.diagnostics = diag.snapshot();
   run.status = diag.lastMessage();
+  {
+    std::lock_guard<std::mutex> lock(link.mutex);
+    run.link_level = link.level;
+    run.link_status = link.message;
+  }
   run.tf = tf.from(ros::names::resolve("/manager"), "odom", "base_link");
   std::printf("[ jackal -r %g ] %.1f s; odom %g messages, %g late dropped, delay p99 %g s; imu %g, %g, %g s; "
-              "budget %g s; %zu estimates; %zu transforms\n",
+              "budget %g s; %zu estimates; %zu transforms; link stability: %s\n",
               rate, run.wall, run.value("odom messages"), run.value("odom late dropped"),
               run.value("odom delay p99 (s)"), run.value("imu messages"), run.value("imu late dropped"),
-              run.value("imu delay p99 (s)"), run.value("latency budget (s)"), run.estimates.size(), run.tf.size());
+              run.value("imu delay p99 (s)"), run.value("latency budget (s)"), run.estimates.size(), run.tf.size(), run.link_status.c_str());
 
   // Estimates at 50 Hz throughout.
   ASSERT_FALSE(run.estimates.empty());
@@ -185,6 +193,32 @@ TEST(RealRobotGraph, JackalBag)
   EXPECT_GE(span, 30.0);
   EXPECT_GE(span, 0.95 * (bag_end - bag_start));
   EXPECT_LE(gap, std::max(1.0, 0.5 * rate));  // the tf timer runs at 20 Hz of wall time: 0.05 s x rate apart
+
+  // The heading (state 2, the IMU's yaw, an angle of the model) is continuous: the Jackal faces
+  // west several times in the bag, where the IMU's yaw jumps between pi and -pi, and the estimate
+  // follows it across without a jump. Its turn rate stays below 2 rad/s, so between two steps
+  // (20 ms) the wrapped change is below 0.04 rad; 0.1 leaves room, a wrap missed would be ~6.28.
+  double max_step = 0.0, max_abs = 0.0;
+  const Estimate* before = nullptr;
+  for (const auto& kv : run.estimates)
+  {
+    const double yaw = kv.second.state.at(2);
+    ASSERT_TRUE(std::isfinite(yaw)) << "step " << kv.first;
+    EXPECT_LE(std::abs(yaw), M_PI + 1e-9) << "step " << kv.first << ": the yaw is kept in (-pi, pi]";
+    max_abs = std::max(max_abs, std::abs(yaw));
+    if (before)
+    {
+      const double d = std::remainder(yaw - before->state.at(2), 2.0 * M_PI);
+      max_step = std::max(max_step, std::abs(d));
+    }
+    before = &kv.second;
+  }
+  EXPECT_GT(max_abs, 3.0) << "the bag's heading should pass +-pi";
+  EXPECT_LT(max_step, 0.1) << "the heading jumped";
+
+  // The link verdict on this constant-velocity model with both links delivering: decided and OK.
+  EXPECT_EQ(run.link_level, 0) << run.link_status;
+  EXPECT_EQ(run.link_status.find("undecided"), std::string::npos) << run.link_status;
 }
 
 // tf with child_frame_id base_link and world_frame odom: the Estimator keeps publishing odom ->

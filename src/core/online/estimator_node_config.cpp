@@ -258,6 +258,7 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   limits.max_stamp_behind = c.timeline.max_behind;
   validateRuntimeSettings(rt, limits, source);
   c.queue_size = static_cast<std::size_t>(p.integer("queue_size", 1000, 1, 1000000));
+  c.live_stability = p.flag("live_stability", true);
   c.markov_link = p.choice("link_model", "iid", {"iid", "markov"}) == "markov";
   const long window = p.integer("stability_window", 1000, 10, 1000000);
   c.stability_window = static_cast<std::size_t>(window);
