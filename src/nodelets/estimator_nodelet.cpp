@@ -26,6 +26,7 @@ void EstimatorNodelet::onInit()
   trace_pub_ = nh.advertise<std_msgs::Float64>("covariance_trace", 1000);
   pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 100);
   odom_pub_ = nh.advertise<nav_msgs::Odometry>("odometry/filtered", 100);
+  startSetPose(nh);
   const Model& model = stream_->online().model();
   if (!datum_.empty() || std::any_of(inputs_.begin(), inputs_.end(), [](const SensorInput& in) {
         return in.type == InputType::NAVSATFIX;

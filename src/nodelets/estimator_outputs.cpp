@@ -202,6 +202,8 @@ void EstimatorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   stat.add("arrival rate", arrival);
   stat.add("accepted", c.accepted);
   stat.add("late dropped", c.late_dropped);
+  stat.add("poses set (set_pose)", c.estimates_set);
+  stat.add("set_pose refused", set_pose_refused_.load());
   stat.add("late fused", c.late_fused);
   stat.add("duplicates", c.duplicates);
   stat.add("rejected", rejectedLocked());

@@ -3,9 +3,10 @@
 //     wheel odometry and an IMU at 50 Hz, stamps as the robot made them) played with --clock at the
 //     test's ~rate into an Estimator configured as the README's robot section; the result is kept
 //     in a BagRun so that more assertions can be added on it.
-//   OwnTfIsKeptAndGivesWay, APoisonedFirstMessage, ReconfigureIsValidated, ImuWithoutEstimate
-//     (estimator_real_inputs.test): tf with child_frame_id base_link, stamps that must not anchor
-//     the timeline, runtime settings checked like the load, and sensor_msgs/Imu's covariance -1.
+//   OwnTfIsKeptAndGivesWay, APoisonedFirstMessage, ReconfigureIsValidated, ImuWithoutEstimate,
+//     SetPose (estimator_real_inputs.test): tf with child_frame_id base_link, stamps that must not
+//     anchor the timeline, runtime settings checked like the load, sensor_msgs/Imu's covariance
+//     -1, and set_pose as a topic and a service.
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <dynamic_reconfigure/Reconfigure.h>
@@ -29,6 +30,7 @@
 #include "graph_test_support.hpp"
 #include "networked_estimation/Estimate.h"
 #include "networked_estimation/Measurement.h"
+#include "networked_estimation/SetPose.h"
 
 namespace ne = networked_estimation;
 using ne::Estimate;
@@ -466,6 +468,80 @@ TEST(RealRobotGraph, ImuWithoutEstimate)
     ASSERT_TRUE(E.count(k)) << "step " << k;
     EXPECT_TRUE(E.at(k).gamma) << "step " << k;  // b (odometry) in every step
   }
+}
+
+// set_pose (robot_localization's): x and y of this model are seen by no sensor, so after a
+// set_pose they keep the pose's values (a random walk without observations: its mean stays) and
+// their variance grows from the pose's by Q each step; the heading is seen by the IMU (yaw 0).
+// The topic, then the service; a zero quaternion is refused by the service with the reason; the
+// diagnostics count both.
+TEST(RealRobotGraph, SetPose)
+{
+  ros::NodeHandle nh;
+  ros::Publisher imu = nh.advertise<sensor_msgs::Imu>("/setpose_imu", 100);
+  ros::Publisher topic = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("/setpose/set_pose", 10);
+  ros::ServiceClient service = nh.serviceClient<ne::SetPose>("/setpose/set_pose");
+  Collector<Estimate> est(nh, "setpose/estimate");
+  DiagnosticsProbe diag(nh, "setpose/estimator: estimator");
+  ASSERT_TRUE(waitFor([&] { return imu.getNumSubscribers() > 0 && topic.getNumSubscribers() > 0 &&
+                                   est.sub.getNumPublishers() > 0; }, 20.0));
+  ASSERT_TRUE(service.waitForExistence(ros::Duration(10.0)));
+  PeriodicFeeder feeder(0.05, [&](long) {
+    sensor_msgs::Imu i;
+    i.header.stamp = ros::Time::now();
+    i.orientation.w = 1.0;
+    imu.publish(i);
+  });
+  ASSERT_TRUE(waitFor([&] { return est.size() >= 5; }, 20.0));
+  auto pose = [](double x, double y, double yaw, double var) {
+    geometry_msgs::PoseWithCovarianceStamped p;
+    p.header.frame_id = "odom";
+    p.pose.pose.position.x = x;
+    p.pose.pose.position.y = y;
+    p.pose.pose.orientation.z = std::sin(yaw / 2);
+    p.pose.pose.orientation.w = std::cos(yaw / 2);
+    p.pose.covariance[0] = p.pose.covariance[7] = p.pose.covariance[35] = var;
+    return p;
+  };
+  // The latest estimate whose x is within 1e-6 of `x` (the unobserved x keeps the set value).
+  auto reached = [&](double x, double y, double var) {
+    std::lock_guard<std::mutex> lock(est.mutex);
+    if (est.msgs.empty())
+      return false;
+    const Estimate& e = est.msgs.back();
+    return std::abs(e.state[0] - x) < 1e-6 && std::abs(e.state[1] - y) < 1e-6 && e.covariance[0] >= var &&
+           e.covariance[0] < var + 1.0;
+  };
+  topic.publish(pose(5.0, -3.0, 1.0, 0.04));
+  ASSERT_TRUE(waitFor([&] { return reached(5.0, -3.0, 0.04); }, 5.0)) << "the set_pose topic did not set x, y";
+  {
+    std::lock_guard<std::mutex> lock(est.mutex);
+    const Estimate& e = est.msgs.back();
+    EXPECT_EQ(e.covariance[1], 0.0);                      // x and y uncorrelated, as the pose's covariance
+    EXPECT_LT(std::abs(e.state[2]), 1.0);                 // the IMU pulls the heading back from 1.0 towards 0
+    EXPECT_LT(e.covariance[0], 0.04 + 200 * 1e-4);        // grown by Q per step since (within 10 s)
+  }
+  ne::SetPose call;
+  call.request.pose = pose(-2.0, 7.5, 0.0, 0.09);
+  ASSERT_TRUE(service.call(call));
+  EXPECT_TRUE(call.response.success) << call.response.message;
+  ASSERT_TRUE(waitFor([&] { return reached(-2.0, 7.5, 0.09); }, 5.0)) << "the set_pose service did not set x, y";
+  ne::SetPose bad;
+  bad.request.pose = pose(1.0, 1.0, 0.0, 0.01);
+  bad.request.pose.pose.pose.orientation.w = 0.0;
+  ASSERT_TRUE(service.call(bad));
+  EXPECT_FALSE(bad.response.success);
+  EXPECT_NE(bad.response.message.find("not a rotation"), std::string::npos) << bad.response.message;
+  ne::SetPose nan_pose;
+  nan_pose.request.pose = pose(std::nan(""), 1.0, 0.0, 0.01);
+  ASSERT_TRUE(service.call(nan_pose));
+  EXPECT_FALSE(nan_pose.response.success);
+  EXPECT_NE(nan_pose.response.message.find("x is not finite"), std::string::npos) << nan_pose.response.message;
+  ros::WallDuration(0.5).sleep();
+  EXPECT_TRUE(reached(-2.0, 7.5, 0.09)) << "a refused set_pose changed the estimate";
+  EXPECT_TRUE(waitFor([&] { return diag.get("poses set (set_pose)") == 2.0 && diag.get("set_pose refused") == 2.0; },
+                      5.0))
+      << diag.get("poses set (set_pose)") << " " << diag.get("set_pose refused");
 }
 
 int main(int argc, char** argv)

@@ -70,6 +70,10 @@ public:
   /// Whether the work bound held back a due step at the last deadlines() call.
   bool throttled() const { return throttled_; }
 
+  /// set_pose: the filter starts over from x, P (OnlineEstimator::setEstimate; throws InputError
+  /// for a bad estimate, nothing changed).
+  void setEstimate(const Eigen::VectorXd& x, const Eigen::MatrixXd& P) { online_->setEstimate(x, P); }
+
   /// New runtime settings (validated by the caller): budget, late policy.
   void setRuntime(const RuntimeSettings& runtime);
   const RuntimeSettings& runtime() const { return runtime_; }
