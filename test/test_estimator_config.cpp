@@ -302,6 +302,26 @@ TEST_F(EstimatorConfig, SensorsBlockRefusalsNameTheKey)
   EXPECT_EQ(ne::covarianceOf(ne::InputType::ODOMETRY, m.inputs[0].fields[1]).index, 5);
   EXPECT_EQ(ne::covarianceOf(ne::InputType::IMU, ne::inputFieldFromString(ne::InputType::IMU, "orientation.yaw", "k")).block,
             ne::CovarianceBlock::ORIENTATION);
+  // robot_localization's per-input options: relative (poses), remove_gravitational_acceleration (Imu)
+  const ne::EstimatorNodeConfig rl = parse(
+      "{sensors: {a: {type: nav_msgs/Odometry, fields: [pose.pose.position.x, pose.pose.position.y], relative: true}, "
+      "b: {type: sensor_msgs/Imu, fields: [linear_acceleration.x], remove_gravitational_acceleration: true}}}",
+      planar_);
+  EXPECT_TRUE(rl.inputs[0].relative);
+  EXPECT_FALSE(rl.inputs[0].remove_gravity);
+  EXPECT_TRUE(rl.inputs[1].remove_gravity);
+  EXPECT_FALSE(rl.inputs[1].relative);
+  has(error("{sensors: {b: {type: sensor_msgs/Imu, fields: [linear_acceleration.x], relative: true}}}", planar_),
+      "sensors.b.relative: only for a pose (nav_msgs/Odometry, geometry_msgs/PoseWithCovarianceStamped, "
+      "geometry_msgs/PoseStamped), found sensor_msgs/Imu");
+  has(error("{sensors: {b: {type: nav_msgs/Odometry, fields: [pose.pose.position.x], "
+            "remove_gravitational_acceleration: true}}}", planar_),
+      "sensors.b.remove_gravitational_acceleration: only for sensor_msgs/Imu, found nav_msgs/Odometry");
+  has(error("{sensors: {b: {type: sensor_msgs/Imu, fields: [angular_velocity.z], "
+            "remove_gravitational_acceleration: true}}}", planar_),
+      "sensors.b.remove_gravitational_acceleration: the sensor reads no linear_acceleration field");
+  has(error("{sensors: {b: {type: nav_msgs/Odometry, fields: [pose.pose.position.x], relative: sometimes}}}", planar_),
+      "relative: expected true or false, found 'sometimes'");
   has(error("{sensors: {b: [1, 2]}}", planar_), "sensors.b: expected a map");
   has(error("{sensors: [a, b]}", planar_), "sensors: expected a map from sensor names");
 }

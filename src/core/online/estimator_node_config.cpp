@@ -65,6 +65,19 @@ void parseSensorInputs(const YAML::Node& block, const std::string& source, Estim
     if (!(in.rejection_threshold > 0.0))
       throw ConfigError(key + ".rejection_threshold: expected a Mahalanobis distance > 0, found " +
                         std::to_string(in.rejection_threshold));
+    in.remove_gravity = p.flag("remove_gravitational_acceleration", false);
+    if (in.remove_gravity && in.type != InputType::IMU)
+      throw ConfigError(key + ".remove_gravitational_acceleration: only for sensor_msgs/Imu, found " +
+                        toString(in.type));
+    if (in.remove_gravity && std::none_of(in.fields.begin(), in.fields.end(), [](const InputField& f) {
+          return f.quantity == Quantity::LINEAR_ACCELERATION;
+        }))
+      throw ConfigError(key + ".remove_gravitational_acceleration: the sensor reads no linear_acceleration field");
+    in.relative = p.flag("relative", false);
+    if (in.relative && in.type != InputType::ODOMETRY && in.type != InputType::POSE_WITH_COVARIANCE &&
+        in.type != InputType::POSE)
+      throw ConfigError(key + ".relative: only for a pose (nav_msgs/Odometry, geometry_msgs/PoseWithCovarianceStamped, "
+                        "geometry_msgs/PoseStamped), found " + toString(in.type));
     in.rate = p.number("rate", model_rate, 0.0, 1e9);
     if (!(in.rate > 0.0) || in.rate > model_rate * (1.0 + 1e-9))
       throw ConfigError(key + ".rate: expected > 0 and at most the model's rate " + std::to_string(model_rate) +
