@@ -322,6 +322,22 @@ TEST_F(EstimatorConfig, SensorsBlockRefusalsNameTheKey)
       "sensors.b.remove_gravitational_acceleration: the sensor reads no linear_acceleration field");
   has(error("{sensors: {b: {type: nav_msgs/Odometry, fields: [pose.pose.position.x], relative: sometimes}}}", planar_),
       "relative: expected true or false, found 'sometimes'");
+  // differential: the pose's fields read its velocity (no angle check: rates are not angles)
+  const ne::EstimatorNodeConfig df = parse(
+      "{sensors: {b: {type: nav_msgs/Odometry, fields: [pose.pose.orientation.yaw], differential: true}}}", planar_);
+  EXPECT_TRUE(df.inputs[1].differential);
+  EXPECT_EQ(df.inputs[1].fields[0].quantity, ne::Quantity::ANGULAR_VELOCITY);
+  EXPECT_EQ(df.inputs[1].fields[0].axis, 2);
+  has(error("{sensors: {b: {type: sensor_msgs/Imu, fields: [angular_velocity.z], differential: true}}}", planar_),
+      "sensors.b.differential: only for a pose");
+  has(error("{sensors: {b: {type: nav_msgs/Odometry, fields: [twist.twist.linear.x], differential: true}}}", planar_),
+      "sensors.b.fields[0]: twist.twist.linear.x: differential reads positions and roll / pitch / yaw of the pose");
+  has(error("{sensors: {b: {type: nav_msgs/Odometry, fields: [pose.pose.position.x], differential: true, "
+            "relative: true}}}", planar_),
+      "sensors.b.relative: not with differential");
+  has(error("{sensors: {b: {type: nav_msgs/Odometry, fields: [pose.pose.position.x], differential: true, "
+            "covariance: message}}}", planar_),
+      "sensors.b.covariance: message: not with differential");
   has(error("{sensors: {b: [1, 2]}}", planar_), "sensors.b: expected a map");
   has(error("{sensors: [a, b]}", planar_), "sensors: expected a map from sensor names");
 }

@@ -427,6 +427,52 @@ TEST(InputPreprocessing, GravityRemovedByTheOrientation)
   EXPECT_FALSE(ne::preprocess(in, mem, zero, why));
 }
 
+// differential: consecutive poses as a velocity in base_link: a robot facing +y that moves 0.2 m
+// along y and turns 0.05 rad in 0.1 s drives at 2 m/s forward, turning at 0.5 rad/s; the first
+// pose is only the reference; a stamp that does not advance is refused.
+TEST(InputPreprocessing, DifferentialPosesAreVelocities)
+{
+  ne::InputMemory mem;
+  std::string why;
+  auto pose = [](double x, double y, double yaw) {
+    geometry_msgs::Pose p;
+    p.position.x = x;
+    p.position.y = y;
+    tf2::Quaternion q;
+    q.setRPY(0.0, 0.0, yaw);
+    ne::fromTf(q, p.orientation);
+    return p;
+  };
+  ne::MessageView v;
+  const geometry_msgs::Pose a = pose(1.0, 1.0, M_PI / 2), b = pose(1.0, 1.2, M_PI / 2 + 0.05);
+  EXPECT_EQ(ne::differentiate(mem, &a, 10.0, v, why), ne::Differential::FIRST);
+  EXPECT_EQ(v.linear, nullptr);
+  ASSERT_EQ(ne::differentiate(mem, &b, 10.1, v, why), ne::Differential::OK) << why;
+  // Read through the fields a differential sensor gets (position.x -> vx, yaw -> vyaw).
+  const std::vector<ne::InputField> fields = {{"pose.pose.position.x", ne::Quantity::LINEAR_VELOCITY, 0},
+                                              {"pose.pose.position.y", ne::Quantity::LINEAR_VELOCITY, 1},
+                                              {"pose.pose.orientation.yaw", ne::Quantity::ANGULAR_VELOCITY, 2}};
+  double y[3];
+  ASSERT_TRUE(ne::readFields(v, fields, y, why)) << why;
+  EXPECT_NEAR(y[0], 2.0, 1e-9);
+  EXPECT_NEAR(y[1], 0.0, 1e-9);
+  EXPECT_NEAR(y[2], 0.5, 1e-9);
+  const geometry_msgs::Pose c = pose(1.0, 1.4, M_PI / 2);
+  EXPECT_EQ(ne::differentiate(mem, &c, 10.1, v, why), ne::Differential::BAD);
+  EXPECT_NE(why.find("is not after the previous pose's"), std::string::npos) << why;
+  geometry_msgs::Pose zero = c;
+  zero.orientation.w = 0.0;
+  zero.orientation.z = 0.0;
+  EXPECT_EQ(ne::differentiate(mem, &zero, 10.2, v, why), ne::Differential::BAD);
+  EXPECT_EQ(ne::differentiate(mem, nullptr, 10.2, v, why), ne::Differential::BAD);
+  // Turning through +-pi: the change, not the jump.
+  ne::InputMemory turn;
+  const geometry_msgs::Pose p1 = pose(0.0, 0.0, M_PI - 0.01), p2 = pose(0.0, 0.0, -M_PI + 0.01);
+  ne::differentiate(turn, &p1, 1.0, v, why);
+  ASSERT_EQ(ne::differentiate(turn, &p2, 1.02, v, why), ne::Differential::OK);
+  EXPECT_NEAR(v.angular->z, 1.0, 1e-9);
+}
+
 TEST(FrameTransforms, IntoWorldAndBaseLink)
 {
   tf2::Quaternion yaw90;

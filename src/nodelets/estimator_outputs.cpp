@@ -255,6 +255,8 @@ void EstimatorNodelet::diagnoseSensors(diagnostic_updater::DiagnosticStatusWrapp
     stat.add(name + " rate (Hz)", online.lattice(i).measuredRate(period));
     if (inputs_[i].type == InputType::IMU)
       stat.add(name + " without estimate (covariance -1)", c.disabled_per_sensor[i]);
+    else if (inputs_[i].differential)
+      stat.add(name + " reference poses (differential)", c.disabled_per_sensor[i]);
     const LatencyBudget::Window w = latency.window(i, now);
     if (w.fraction() > 0.01)
       stat.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,

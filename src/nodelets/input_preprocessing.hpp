@@ -2,7 +2,10 @@
 // - relative: the first pose of the sensor is the origin; every pose is read as T0^-1 T (position
 //   R0' (p - p0), orientation q0^-1 q, the pose covariance rotated by R0');
 // - remove_gravitational_acceleration (sensor_msgs/Imu): linear_acceleration - R' (0, 0, g), R
-//   the message's orientation (base_link in the world, after frame_transforms.hpp).
+//   the message's orientation (base_link in the world, after frame_transforms.hpp);
+// - differential (a pose): consecutive poses T_prev, T as the velocity of D = T_prev^-1 T over the
+//   stamps' difference dt: linear D's translation / dt, angular D's roll, pitch, yaw / dt (in
+//   base_link, as the pose's own axes).
 // Applied after the message is taken into the model's frames. Header-only and master-free.
 #pragma once
 
@@ -26,7 +29,75 @@ struct InputMemory
 {
   bool have_origin = false;
   tf2::Transform origin;
+  // differential: the previous pose and its stamp, and the velocities read from the latest pair
+  bool have_previous = false;
+  tf2::Transform previous;
+  double previous_stamp = 0.0;
+  geometry_msgs::Vector3 linear, angular;
 };
+
+enum class Differential
+{
+  OK,     ///< the view reads the velocity
+  FIRST,  ///< the first pose: only the reference of the next, nothing to fuse
+  BAD     ///< refused (why)
+};
+
+/// The velocity between the previous pose of the sensor and this one, into `v` (its linear and
+/// angular), or why not. The pose becomes the previous one unless it is refused.
+inline Differential differentiate(InputMemory& mem, const geometry_msgs::Pose* p, double stamp, MessageView& v,
+                                  std::string& why)
+{
+  if (!p)
+  {
+    why = "differential: the message has no pose";
+    return Differential::BAD;
+  }
+  const tf2::Quaternion q = toTf(p->orientation);
+  if (!(q.length2() > 0.0) || !std::isfinite(q.length2()) || !std::isfinite(p->position.x) ||
+      !std::isfinite(p->position.y) || !std::isfinite(p->position.z) || !std::isfinite(stamp))
+  {
+    why = "differential: the pose must be finite with an orientation that is a rotation";
+    return Differential::BAD;
+  }
+  const tf2::Transform T(q.normalized(), tf2::Vector3(p->position.x, p->position.y, p->position.z));
+  if (!mem.have_previous)
+  {
+    mem.previous = T;
+    mem.previous_stamp = stamp;
+    mem.have_previous = true;
+    why = "differential: the first pose is only the reference of the next";
+    return Differential::FIRST;
+  }
+  const double dt = stamp - mem.previous_stamp;
+  if (!(dt > 0.0))
+  {
+    why = "differential: stamp " + std::to_string(stamp) + " s is not after the previous pose's " +
+          std::to_string(mem.previous_stamp) + " s";
+    return Differential::BAD;
+  }
+  const tf2::Transform D = mem.previous.inverseTimes(T);
+  double roll = 0.0, pitch = 0.0, yaw = 0.0;
+  D.getBasis().getRPY(roll, pitch, yaw);
+  fromTf(D.getOrigin() / dt, mem.linear);
+  fromTf(tf2::Vector3(roll, pitch, yaw) / dt, mem.angular);
+  mem.previous = T;
+  mem.previous_stamp = stamp;
+  v.linear = &mem.linear;
+  v.angular = &mem.angular;
+  v.twist_cov = nullptr;  // covariance: model (refused at load with differential)
+  return Differential::OK;
+}
+
+/// The pose a message carries (null for the other types).
+template <class M>
+const geometry_msgs::Pose* poseOf(const M&)
+{
+  return nullptr;
+}
+inline const geometry_msgs::Pose* poseOf(const nav_msgs::Odometry& m) { return &m.pose.pose; }
+inline const geometry_msgs::Pose* poseOf(const geometry_msgs::PoseWithCovarianceStamped& m) { return &m.pose.pose; }
+inline const geometry_msgs::Pose* poseOf(const geometry_msgs::PoseStamped& m) { return &m.pose; }
 
 /// A pose relative to the first one seen (which becomes the origin). False with `why` when the
 /// first pose has no valid orientation (it is not taken as the origin then).

@@ -107,9 +107,26 @@ ros::Subscriber subscribeFields(ros::NodeHandle& nh, const SensorInput& in, uint
     std::string why;
     M local = *e.getConstMessage();  // into the model's frames, then relative / without gravity
     if (!intoFrames(sink.frames, local, why) || !preprocess(in, *memory, local, why))
+    {
       sink.bad(why);
-    else
-      deliver(in, view(local), stampOf(local, e.getReceiptTime()), e.getReceiptTime(), sink);
+      return;
+    }
+    const ros::Time stamp = stampOf(local, e.getReceiptTime());
+    MessageView v = view(local);
+    if (in.differential)
+      switch (differentiate(*memory, poseOf(local), stamp.toSec(), v, why))
+      {
+        case Differential::OK:
+          break;
+        case Differential::FIRST:  // not a loss: nothing was due yet
+          if (sink.disabled)
+            sink.disabled(stamp, e.getReceiptTime(), why);
+          return;
+        case Differential::BAD:
+          sink.bad(why);
+          return;
+      }
+    deliver(in, v, stamp, e.getReceiptTime(), sink);
   });
 }
 

@@ -6,7 +6,7 @@
 //   OwnTfIsKeptAndGivesWay, APoisonedFirstMessage, ReconfigureIsValidated, ImuWithoutEstimate,
 //     SetPose (estimator_real_inputs.test): tf with child_frame_id base_link, stamps that must not
 //     anchor the timeline, runtime settings checked like the load, sensor_msgs/Imu's covariance
-//     -1, and set_pose as a topic and a service.
+//     -1, set_pose as a topic and a service, relative and differential poses (RelativeAndDifferential).
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <dynamic_reconfigure/Reconfigure.h>
@@ -542,6 +542,43 @@ TEST(RealRobotGraph, SetPose)
   EXPECT_TRUE(waitFor([&] { return diag.get("poses set (set_pose)") == 2.0 && diag.get("set_pose refused") == 2.0; },
                       5.0))
       << diag.get("poses set (set_pose)") << " " << diag.get("set_pose refused");
+}
+
+// robot_localization's relative and differential inputs: a robot that starts at x = 10 m (in the
+// odometry's frame) and drives at 0.5 m/s; one sensor reads its pose relative to the first (x from
+// 0), the other differentiates consecutive poses (the velocity). The estimate follows x - 10 and
+// 0.5 m/s; the differential sensor's first pose is only a reference (counted, not a loss).
+TEST(RealRobotGraph, RelativeAndDifferential)
+{
+  ros::NodeHandle nh;
+  ros::Publisher a = nh.advertise<nav_msgs::Odometry>("/rl_odom_a", 100);
+  ros::Publisher b = nh.advertise<nav_msgs::Odometry>("/rl_odom_b", 100);
+  Collector<Estimate> est(nh, "rl/estimate");
+  DiagnosticsProbe diag(nh, "rl/estimator: estimator");
+  ASSERT_TRUE(waitFor([&] { return a.getNumSubscribers() > 0 && b.getNumSubscribers() > 0 &&
+                                   est.sub.getNumPublishers() > 0; }, 20.0));
+  const ros::Time t0 = ros::Time::now();
+  PeriodicFeeder feeder(0.05, [&](long) {
+    nav_msgs::Odometry o;
+    o.header.stamp = ros::Time::now();
+    o.header.frame_id = "odom";
+    o.pose.pose.position.x = 10.0 + 0.5 * (o.header.stamp - t0).toSec();
+    o.pose.pose.orientation.w = 1.0;
+    a.publish(o);
+    b.publish(o);
+  });
+  ASSERT_TRUE(waitFor([&] { return est.size() >= 60; }, 20.0)) << est.size();
+  {
+    std::lock_guard<std::mutex> lock(est.mutex);
+    const Estimate& e = est.msgs.back();
+    const double expected = 0.5 * (e.header.stamp - t0).toSec();  // the pose relative to the first (at t0 + ~0)
+    EXPECT_NEAR(e.state[0], expected, 0.06) << "relative: x should start from 0, not 10";
+    EXPECT_NEAR(e.state[1], 0.5, 0.05) << "differential: the velocity of consecutive poses";
+  }
+  ASSERT_TRUE(waitFor([&] { return !std::isnan(diag.get("vel reference poses (differential)")); }, 5.0));
+  const std::map<std::string, std::string> d = diag.snapshot();
+  EXPECT_EQ(std::stod(d.at("vel reference poses (differential)")), 1.0);
+  EXPECT_EQ(std::stod(d.at("rejected")), 0.0);
 }
 
 int main(int argc, char** argv)

@@ -108,6 +108,11 @@ struct SensorInput
   /// A pose type (Odometry, PoseWithCovarianceStamped, PoseStamped): the first message's pose is
   /// the origin, every pose read relative to it, T0^-1 T (robot_localization's poseN_relative).
   bool relative = false;
+  /// A pose type: consecutive poses T_prev, T fused as the velocity of T_prev^-1 T over their
+  /// stamps' difference, in base_link (robot_localization's *_differential): its position fields
+  /// read the linear velocity and its roll/pitch/yaw fields the angular rates (parse turns them
+  /// into LINEAR_VELOCITY and ANGULAR_VELOCITY fields).
+  bool differential = false;
 };
 
 /// Standard gravity (m/s^2), what remove_gravitational_acceleration subtracts.
