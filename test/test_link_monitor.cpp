@@ -402,6 +402,13 @@ TEST(LiveStability, ConstantVelocityRobot)
   const LiveStabilityReport rl = lost.evaluate();
   EXPECT_EQ(rl.status.level, LinkStatus::Level::WARN) << rl.status.message;
   EXPECT_NE(rl.status.message.find("at the estimates unstable"), std::string::npos) << rl.status.message;
+  // The status names what the silent link alone kept bounded (odom still delivers: not named).
+  EXPECT_NE(rl.status.message.find("sensor 'gnss' is below the rate it needs (arrival rate > 0"), std::string::npos)
+      << rl.status.message;
+  EXPECT_NE(rl.status.message.find(": x, y, which only it measures, are not bounded"), std::string::npos)
+      << rl.status.message;
+  EXPECT_EQ(rl.status.message.find("sensor 'odom'"), std::string::npos) << rl.status.message;
+  EXPECT_EQ(r.status.message.find("below the rate it needs"), std::string::npos) << r.status.message;
 
   KinematicSpec vel = spec;
   vel.sensors = {{"odom", "velocity", 0.1}};

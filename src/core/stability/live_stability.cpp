@@ -77,6 +77,27 @@ bool sameLinks(const std::vector<LinkModel>& a, const std::vector<LinkModel>& b)
   return true;
 }
 
+/// The states that sensor `s` alone measures (a column of C non-zero in its rows and in no other
+/// sensor's), by name: what its link alone keeps bounded.
+std::string statesOnlyMeasuredBy(const Model& m, std::size_t s)
+{
+  const Sensor& own = m.sensors[s];
+  std::string out;
+  for (int j = 0; j < m.n(); ++j)
+  {
+    if (m.C.block(own.offset, j, own.size, 1).isZero(0.0))
+      continue;
+    bool others = false;
+    for (std::size_t t = 0; t < m.sensors.size() && !others; ++t)
+      others = t != s && !m.C.block(m.sensors[t].offset, j, m.sensors[t].size, 1).isZero(0.0);
+    if (others)
+      continue;
+    out += (out.empty() ? "" : ", ") +
+           (static_cast<int>(m.states.size()) == m.n() ? m.states[static_cast<std::size_t>(j)] : "state " + std::to_string(j));
+  }
+  return out;
+}
+
 }  // namespace
 
 /// The last evaluation: the whole report for a window version, and the per-sensor margins for a
@@ -230,6 +251,17 @@ LiveStabilityReport LiveStability::evaluate() const
     }
     for (std::size_t i = 0; i < margins->size(); ++i)
       add(js.sensors[i].sensor + " needs", describeNeed((*margins)[i]));
+    // A sensor below the rate it needs: the status names what only it measures (an IMU that
+    // delivers nothing: the attitude).
+    if (out.status.level != LinkStatus::Level::OK)
+      for (std::size_t i = 0; i < margins->size() && i < model_->sensors.size(); ++i)
+      {
+        const SensorMargin& g = (*margins)[i];
+        const std::string alone = statesOnlyMeasuredBy(*model_, i);
+        if (std::isfinite(g.margin) && g.margin <= 0.0 && !alone.empty())
+          out.status.message += "; sensor '" + js.sensors[i].sensor + "' is below the rate it needs (" +
+                                describeNeed(g) + "): " + alone + ", which only it measures, are not bounded";
+      }
   }
   add("verdict at the estimates", toString(js.point.kind) + ": " + js.point.reason);
   if (!joint_.verdicts().deadReckoned().empty())
