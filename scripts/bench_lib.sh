@@ -43,6 +43,13 @@ cpu()
   echo "$(awk '{ print $14 + $15 }' "/proc/$1/stat"):$(cat /proc/"$1"/task/*/schedstat | awk '{ s += $1 } END { printf "%d", s }')"
 }
 
+# Context switches so far of all threads of process $1 (voluntary and not): a thread's wake-up
+# and sleep, the largest single cost of a message on a small VM.
+switches()
+{
+  cat /proc/"$1"/task/*/status | awk '/^(non)?voluntary_ctxt_switches/ { s += $2 } END { printf "%d", s }'
+}
+
 # Stops one process started by the calling script, by its PID: SIGINT, then SIGKILL after 5 s.
 stop_pid()
 {

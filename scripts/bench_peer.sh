@@ -23,7 +23,9 @@
 #                    minus that input's receipt (wall time, both in the probe); median and p99;
 #   idle             CPU of the process while a /clock keeps running at RATE times real time for
 #                    IDLE seconds after the playback, with no input (% of one core);
-#   final position   x, y, z of the last /odometry/filtered received.
+#   final position   x, y, z of the last /odometry/filtered received;
+#   context switches of all the process's threads (/proc/PID/task/*/status), per input over the
+#                    playback and per second idle: where a small VM's time goes.
 # The table holds the median over the runs of each column; every run is in the CSV.
 # Builds nothing: scripts/build.sh first, and the peer's workspace (robot_localization built with
 # catkin) given by PEER_WS; without it the benchmark is skipped (exit 0).
@@ -171,11 +173,11 @@ start_system()
   return 1
 }
 
-echo "system,run,inputs,cpu_us_per_input,cpu_us_per_input_schedstat,latency_median_us,latency_p99_us,outputs,matched,idle_pct_core,idle_pct_core_schedstat,x,y,z" > "$CSV"
+echo "system,run,inputs,cpu_us_per_input,cpu_us_per_input_schedstat,latency_median_us,latency_p99_us,outputs,matched,idle_pct_core,idle_pct_core_schedstat,x,y,z,switches_per_input,idle_switches_per_s" > "$CSV"
 
 run_one()  # system run
 {
-  local sys="$1" run="$2" c0 c1 c2 c3 t2 t3 probe
+  local sys="$1" run="$2" c0 c1 c2 c3 s0 s1 s2 s3 t2 t3 probe
   start_master "$LOGS/roscore_${sys}_$run.log" || { echo "  no roscore came up (log $LOGS/roscore_${sys}_$run.log)" >&2; return 1; }
   start_system "$sys" "$run" || { cleanup; NODE_PID=""; MASTER_PID=""; return 1; }
   python3 "$REPO/scripts/latency_probe.py" --odom "$ODOM" --imu "$IMU" --estimate /odometry/filtered \
@@ -183,10 +185,10 @@ run_one()  # system run
     > "$LOGS/probe_${sys}_$run.txt" 2> "$LOGS/probe_${sys}_$run.log" &
   PROBE_PID=$!
   sleep 2
-  c0="$(cpu "$NODE_PID")"
+  c0="$(cpu "$NODE_PID")"; s0="$(switches "$NODE_PID")"
   rosbag play -q --clock --hz "$CLOCK_HZ" -r "$RATE" -d 1 "$BAG" > "$LOGS/play_${sys}_$run.log" 2>&1 < /dev/null
   sleep 0.5
-  c1="$(cpu "$NODE_PID")"
+  c1="$(cpu "$NODE_PID")"; s1="$(switches "$NODE_PID")"
   wait "$PROBE_PID" || true
   PROBE_PID=""
   probe="$(cat "$LOGS/probe_${sys}_$run.txt")"
@@ -194,14 +196,14 @@ run_one()  # system run
   sim_clock "$BAG_END" "$RATE" "$((IDLE_SECONDS + 2))" "$CLOCK_HZ" > "$LOGS/clock_${sys}_$run.log" 2>&1 &
   CLOCK_PID=$!
   sleep 1.5
-  c2="$(cpu "$NODE_PID")"; t2="$(date +%s.%N)"
+  c2="$(cpu "$NODE_PID")"; s2="$(switches "$NODE_PID")"; t2="$(date +%s.%N)"
   sleep "$IDLE_SECONDS"
-  c3="$(cpu "$NODE_PID")"; t3="$(date +%s.%N)"
+  c3="$(cpu "$NODE_PID")"; s3="$(switches "$NODE_PID")"; t3="$(date +%s.%N)"
   wait "$CLOCK_PID" || true
   CLOCK_PID=""
   stop_pid "$NODE_PID"; NODE_PID=""
   stop_pid "$MASTER_PID"; MASTER_PID=""
-  python3 - "$sys" "$run" "$INPUTS" "$HZ" "$c0" "$c1" "$c2" "$c3" "$t2" "$t3" "$probe" "$CSV" <<'PY'
+  python3 - "$sys" "$run" "$INPUTS" "$HZ" "$c0" "$c1" "$c2" "$c3" "$t2" "$t3" "$probe" "$CSV" "$s0" "$s1" "$s2" "$s3" <<'PY'
 import sys
 sys_name, run, inputs, hz = sys.argv[1], sys.argv[2], float(sys.argv[3]), float(sys.argv[4])
 (k0, n0), (k1, n1), (k2, n2), (k3, n3) = [tuple(float(x) for x in v.split(":")) for v in sys.argv[5:9]]
@@ -209,16 +211,19 @@ t2, t3 = float(sys.argv[9]), float(sys.argv[10])
 probe = dict(kv.split("=") for kv in sys.argv[11].split()) if "=" in sys.argv[11] else {}
 cpu_ticks, cpu_ns = 1e6 * (k1 - k0) / hz / inputs, 1e-3 * (n1 - n0) / inputs
 idle_ticks, idle_ns = 100.0 * (k3 - k2) / hz / (t3 - t2), 1e-7 * (n3 - n2) / (t3 - t2)
+s0, s1, s2, s3 = (float(v) for v in sys.argv[13:17])
+switches_per_input, idle_switches_per_s = (s1 - s0) / inputs, (s3 - s2) / (t3 - t2)
 has_output = int(probe.get("estimates", "0")) > 0
 row = [sys_name, run, "%d" % inputs, "%.1f" % cpu_ticks, "%.1f" % cpu_ns,
        probe.get("median_us", "") if has_output else "", probe.get("p99_us", "") if has_output else "",
        probe.get("estimates", ""), probe.get("matched", ""), "%.3f" % idle_ticks, "%.3f" % idle_ns,
-       probe.get("x", ""), probe.get("y", ""), probe.get("z", "")]
+       probe.get("x", ""), probe.get("y", ""), probe.get("z", ""),
+       "%.2f" % switches_per_input, "%.0f" % idle_switches_per_s]
 open(sys.argv[12], "a").write(",".join(row) + "\n")
 print("  %-18s run %s: CPU per input %6.1f us (schedstat %6.1f); latency median %8s us, p99 %8s us (%s outputs, %s matched);"
-      " idle %.2f %% of a core; last position %s %s %s"
+      " idle %.2f %% of a core; last position %s %s %s; context switches %.2f per input, %.0f/s idle"
       % (sys_name, run, cpu_ticks, cpu_ns, row[5] or "-", row[6] or "-", row[7] or "0", row[8] or "0", idle_ticks,
-         row[11] or "-", row[12] or "-", row[13] or "-"))
+         row[11] or "-", row[12] or "-", row[13] or "-", switches_per_input, idle_switches_per_s))
 PY
 }
 
@@ -235,7 +240,7 @@ python3 - "$CSV" <<'PY'
 import csv, statistics, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 cols = ["cpu_us_per_input", "cpu_us_per_input_schedstat", "latency_median_us", "latency_p99_us",
-        "idle_pct_core", "idle_pct_core_schedstat", "x", "y", "z"]
+        "idle_pct_core", "idle_pct_core_schedstat", "x", "y", "z", "switches_per_input", "idle_switches_per_s"]
 med = {}
 for name in ("robot_localization", "estimator", "null"):
     mine = [r for r in rows if r["system"] == name]
@@ -245,17 +250,18 @@ for name in ("robot_localization", "estimator", "null"):
 def f(v, fmt):
     return "-" if v is None else fmt % v
 print()
-print("| system | model | runs | CPU per input (us) | latency median (us) | latency p99 (us) | idle (% of a core) | final x, y, z (m) |")
-print("|---|---|---|---|---|---|---|---|")
+print("| system | model | runs | CPU per input (us) | latency median (us) | latency p99 (us) | idle (% of a core) | final x, y, z (m) | context switches per input; idle per s |")
+print("|---|---|---|---|---|---|---|---|---|")
 model = {"robot_localization": "EKF, 15 states (3-D pose, velocities, accelerations)",
          "estimator": "kfio, linear, 6 states (x, y, yaw and their rates)",
          "null": "none (drops every message)"}
 for name, m in med.items():
     pos = "-" if m["x"] is None else "%.3f, %.3f, %.3f" % (m["x"], m["y"], m["z"])
-    print("| %s | %s | %d | %s (%s) | %s | %s | %s (%s) | %s |" % (
+    print("| %s | %s | %d | %s (%s) | %s | %s | %s (%s) | %s | %s; %s |" % (
         name, model[name], m["runs"], f(m["cpu_us_per_input"], "%.1f"), f(m["cpu_us_per_input_schedstat"], "%.1f"),
         f(m["latency_median_us"], "%.0f"), f(m["latency_p99_us"], "%.0f"), f(m["idle_pct_core"], "%.2f"),
-        f(m["idle_pct_core_schedstat"], "%.2f"), pos))
+        f(m["idle_pct_core_schedstat"], "%.2f"), pos, f(m["switches_per_input"], "%.2f"),
+        f(m["idle_switches_per_s"], "%.0f")))
 print("(medians over the runs; CPU per input: utime + stime, in brackets schedstat; idle: the same two)")
 e, r, n = med["estimator"], med["robot_localization"], med["null"]
 if e["cpu_us_per_input"] and r["cpu_us_per_input"] and n["cpu_us_per_input"]:
