@@ -125,9 +125,7 @@ for i in $(seq 1 100); do
   sleep 0.2
 done
 [ -n "$pid" ] || { echo "  the Estimator did not start (log $RUNS/play.log)"; exit 1; }
-# utime + stime of the process (clock ticks, as `time` and top count) and the nanoseconds on CPU of all
-# its threads (/proc/PID/task/*/schedstat: exact, where ticks are sampled), printed "ticks:ns".
-cpu() { echo "$(awk '{ print $14 + $15 }' "/proc/$1/stat"):$(cat /proc/"$1"/task/*/schedstat | awk '{ s += $1 } END { printf "%d", s }')"; }
+# cpu (bench_lib.sh): utime + stime and schedstat nanoseconds of the process, "ticks:ns".
 HZ="$(getconf CLK_TCK)"
 # Idle under sim time: the bag's clock runs, its messages go elsewhere.
 c0="$(cpu "$pid")"; t0="$(date +%s.%N)"

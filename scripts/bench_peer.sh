@@ -1,0 +1,274 @@
+#!/usr/bin/env bash
+# Side by side with the peer (docs/architecture.md, "Performance beside robot_localization"): one
+# bag, by default robot_localization's Jackal bag test/data/test2.bag (nav_msgs/Odometry on
+# /jackal_velocity_controller/odom and sensor_msgs/Imu on /imu/data, 50 Hz each), played with
+# `rosbag play --clock -r RATE` (default 4) in turn into
+#   robot_localization  ekf_localization_node, configured as robot_localization's own test of this
+#                       bag (its "bag2" test: 15-state 3-D EKF, odometry velocities + IMU
+#                       orientation, angular velocity and acceleration, 50 Hz timer);
+#   estimator           our Estimator nodelet (nodelet standalone) with config/robot/jackal.yaml,
+#                       the configuration of the rostests on this bag (kfio, a linear 6-state model:
+#                       position and heading with their rates; odometry x, y + IMU yaw);
+#   null                BenchNullReceiver (nodelet standalone), a receiver that drops every message
+#                       after one hand-off: what receiving the stream costs in roscpp.
+# Each run of each system has its own roscore on a free port; every process it starts is stopped
+# by its PID. Measured per run:
+#   CPU per input    utime + stime of the system's process (/proc/PID/stat) over the playback
+#                    divided by the number of input messages of the two topics (and the same from
+#                    /proc/PID/task/*/schedstat, exact where ticks are sampled);
+#   latency          seen from a third process (scripts/latency_probe.py --match received) that
+#                    subscribes to the inputs and to /odometry/filtered: for each output stamped t,
+#                    the input that completed it is the last one received before it with a stamp
+#                    within 10 ms (half the 50 Hz period) of t; latency = the output's receipt
+#                    minus that input's receipt (wall time, both in the probe); median and p99;
+#   idle             CPU of the process while a /clock keeps running at RATE times real time for
+#                    IDLE seconds after the playback, with no input (% of one core);
+#   final position   x, y, z of the last /odometry/filtered received;
+#   context switches of all the process's threads (/proc/PID/task/*/status), per input over the
+#                    playback and per second idle: where a small VM's time goes.
+# The table holds the median over the runs of each column; every run is in the CSV.
+# Builds nothing: scripts/build.sh first, and the peer's workspace (robot_localization built with
+# catkin) given by PEER_WS; without it the benchmark is skipped (exit 0).
+# Usage: PEER_WS=<peer workspace> scripts/bench_peer.sh [--runs N] [--rate R] [--idle-seconds S]
+#          [--clock-hz HZ] [--systems "robot_localization estimator null"] [BAG]
+#   defaults: 3 runs, rate 4, 10 s idle, all three systems, test/data/test2.bag, /clock at 100 Hz
+#   (wall: rosbag play's default). Under sim time a ros::Timer fires at most once per /clock
+#   message: at -r 4 a 100 Hz /clock advances 40 ms a message, and robot_localization's 50 Hz
+#   timer fires at 25 Hz of sim time; --clock-hz 200 lets it run at its 50 Hz.
+# Results: $WS/bench/peer.csv and a table on stdout; logs in $WS/bench/peer_runs/.
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/workspace.sh"
+
+RUNS_WANTED=3
+RATE=4
+IDLE_SECONDS=10
+BAG=""
+SYSTEMS="robot_localization estimator null"
+CLOCK_HZ=100
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --runs) RUNS_WANTED="$2"; shift 2 ;;
+    --rate) RATE="$2"; shift 2 ;;
+    --idle-seconds) IDLE_SECONDS="$2"; shift 2 ;;
+    --systems) SYSTEMS="$2"; shift 2 ;;
+    --clock-hz) CLOCK_HZ="$2"; shift 2 ;;
+    -h|--help) sed -n '2,/^set -euo/p' "${BASH_SOURCE[0]}" | sed '$d; s/^# \{0,1\}//'; exit 0 ;;
+    -*) echo "bench_peer: unknown option '$1' (see --help)" >&2; exit 2 ;;
+    *) BAG="$1"; shift ;;
+  esac
+done
+BAG="${BAG:-$REPO/test/data/test2.bag}"
+for v in "$RUNS_WANTED" "$IDLE_SECONDS"; do
+  [[ "$v" =~ ^[1-9][0-9]*$ ]] || { echo "bench_peer: --runs and --idle-seconds take a positive integer, found '$v'" >&2; exit 2; }
+done
+for v in "$RATE" "$CLOCK_HZ"; do
+  [[ "$v" =~ ^[0-9]*\.?[0-9]+$ ]] || { echo "bench_peer: --rate and --clock-hz take a positive number, found '$v'" >&2; exit 2; }
+done
+[ -f "$BAG" ] || { echo "bench_peer: no bag '$BAG'" >&2; exit 2; }
+for sys in $SYSTEMS; do
+  case "$sys" in
+    robot_localization|estimator|null) ;;
+    *) echo "bench_peer: --systems: unknown system '$sys' (expected robot_localization, estimator, null)" >&2; exit 2 ;;
+  esac
+done
+
+EKF="${PEER_WS:+$PEER_WS/devel/lib/robot_localization/ekf_localization_node}"
+if [ -z "${PEER_WS:-}" ]; then
+  echo "bench_peer: skipped: PEER_WS is not set (a catkin workspace with robot_localization built in it)"
+  exit 0
+fi
+if [ ! -x "$EKF" ]; then
+  echo "bench_peer: skipped: no robot_localization built in PEER_WS=$PEER_WS (expected $EKF)"
+  exit 0
+fi
+source "$(dirname "${BASH_SOURCE[0]}")/bench_lib.sh"
+
+OUT="$WS/bench"
+LOGS="$OUT/peer_runs"
+CSV="$OUT/peer.csv"
+rm -rf "$LOGS"
+mkdir -p "$LOGS" "$ROS_LOG_DIR"
+NODE_PID=""
+PROBE_PID=""
+CLOCK_PID=""
+MASTER_PID=""
+cleanup()
+{
+  local p
+  for p in "$CLOCK_PID" "$PROBE_PID" "$NODE_PID" "$MASTER_PID"; do
+    [ -n "$p" ] && stop_pid "$p"
+  done
+  return 0
+}
+trap cleanup EXIT
+
+ODOM=/jackal_velocity_controller/odom
+IMU=/imu/data
+read -r INPUTS BAG_START BAG_END < <(python3 - "$BAG" "$ODOM" "$IMU" <<'PY'
+import sys, rosbag
+b = rosbag.Bag(sys.argv[1])
+topics = b.get_type_and_topic_info().topics
+n = sum(topics[t].message_count for t in sys.argv[2:] if t in topics)
+print(n, b.get_start_time(), b.get_end_time())
+PY
+)
+[ "$INPUTS" -gt 0 ] || { echo "bench_peer: the bag has no message on $ODOM or $IMU" >&2; exit 2; }
+PLAY_WALL="$(python3 -c "print(($BAG_END - $BAG_START) / $RATE)")"
+HZ="$(getconf CLK_TCK)"
+
+# robot_localization's configuration of its test on this bag (the bag2 test): 3-D mode, the
+# odometry's linear velocities and yaw rate, the IMU's orientation, angular velocity and linear
+# acceleration (gravity removed), its process noise and a near-zero initial covariance.
+python3 - "$LOGS/ekf.yaml" "$ODOM" "$IMU" <<'PY'
+import sys, yaml
+q = [0.03, 0.03, 0.4, 0.03, 0.03, 0.06, 0.025, 0.025, 0.05, 0.002, 0.002, 0.004, 0.01, 0.01, 0.01]
+def diag(d):
+    return [d[i] if i == j else 0.0 for i in range(15) for j in range(15)]
+cfg = {
+    "frequency": 50, "sensor_timeout": 0.1, "two_d_mode": False,
+    "map_frame": "map", "odom_frame": "odom", "base_link_frame": "base_link", "world_frame": "odom",
+    "odom0": sys.argv[2], "imu0": sys.argv[3],
+    "odom0_config": [False] * 6 + [True, True, True] + [False, False, True] + [False] * 3,
+    "imu0_config": [False] * 3 + [True] * 3 + [False] * 3 + [True] * 6,
+    "odom0_differential": False, "imu0_differential": False,
+    "odom0_queue_size": 10, "imu0_queue_size": 10,
+    "imu0_remove_gravitational_acceleration": True,
+    "print_diagnostics": False, "debug": False,
+    "process_noise_covariance": diag(q),
+    "initial_estimate_covariance": diag([1e-9] * 15),
+}
+yaml.safe_dump(cfg, open(sys.argv[1], "w"), default_flow_style=None)
+PY
+
+# Starts system $1 in the current master; sets NODE_PID and waits until it subscribes to the IMU.
+start_system()
+{
+  local sys="$1" name log="$LOGS/$1_$2.log" i
+  rosparam set /use_sim_time true
+  case "$sys" in
+    robot_localization)
+      name=ekf
+      rosparam load "$LOGS/ekf.yaml" /$name
+      LD_LIBRARY_PATH="$PEER_WS/devel/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}" \
+        "$EKF" __name:=$name > "$log" 2>&1 < /dev/null &
+      ;;
+    estimator)
+      name=estimator
+      rosparam load "$REPO/config/robot/jackal.yaml" /$name
+      rosrun nodelet nodelet standalone networked_estimation/Estimator __name:=$name > "$log" 2>&1 < /dev/null &
+      ;;
+    null)
+      name=null_receiver
+      rosparam set /$name/topics "[$ODOM, $IMU]"
+      rosrun nodelet nodelet standalone networked_estimation/BenchNullReceiver __name:=$name > "$log" 2>&1 < /dev/null &
+      ;;
+  esac
+  NODE_PID=$!
+  for i in $(seq 1 60); do
+    kill -0 "$NODE_PID" 2>/dev/null || { echo "  $sys did not start (log $log)" >&2; return 1; }
+    rostopic info "$IMU" 2>/dev/null | grep -q "/$name " && return 0
+    sleep 0.5
+  done
+  echo "  $sys did not subscribe to $IMU within 30 s (log $log)" >&2
+  return 1
+}
+
+echo "system,run,inputs,cpu_us_per_input,cpu_us_per_input_schedstat,latency_median_us,latency_p99_us,outputs,matched,idle_pct_core,idle_pct_core_schedstat,x,y,z,switches_per_input,idle_switches_per_s" > "$CSV"
+
+run_one()  # system run
+{
+  local sys="$1" run="$2" c0 c1 c2 c3 s0 s1 s2 s3 t2 t3 probe
+  start_master "$LOGS/roscore_${sys}_$run.log" || { echo "  no roscore came up (log $LOGS/roscore_${sys}_$run.log)" >&2; return 1; }
+  start_system "$sys" "$run" || { cleanup; NODE_PID=""; MASTER_PID=""; return 1; }
+  python3 "$REPO/scripts/latency_probe.py" --odom "$ODOM" --imu "$IMU" --estimate /odometry/filtered \
+    --period 0.02 --match received --odometry --seconds "$(python3 -c "print($PLAY_WALL + 1.5)")" \
+    > "$LOGS/probe_${sys}_$run.txt" 2> "$LOGS/probe_${sys}_$run.log" &
+  PROBE_PID=$!
+  sleep 2
+  c0="$(cpu "$NODE_PID")"; s0="$(switches "$NODE_PID")"
+  rosbag play -q --clock --hz "$CLOCK_HZ" -r "$RATE" -d 1 "$BAG" > "$LOGS/play_${sys}_$run.log" 2>&1 < /dev/null
+  sleep 0.5
+  c1="$(cpu "$NODE_PID")"; s1="$(switches "$NODE_PID")"
+  wait "$PROBE_PID" || true
+  PROBE_PID=""
+  probe="$(cat "$LOGS/probe_${sys}_$run.txt")"
+  # Idle: the clock runs on from the bag's end, no input.
+  sim_clock "$BAG_END" "$RATE" "$((IDLE_SECONDS + 2))" "$CLOCK_HZ" > "$LOGS/clock_${sys}_$run.log" 2>&1 &
+  CLOCK_PID=$!
+  sleep 1.5
+  c2="$(cpu "$NODE_PID")"; s2="$(switches "$NODE_PID")"; t2="$(date +%s.%N)"
+  sleep "$IDLE_SECONDS"
+  c3="$(cpu "$NODE_PID")"; s3="$(switches "$NODE_PID")"; t3="$(date +%s.%N)"
+  wait "$CLOCK_PID" || true
+  CLOCK_PID=""
+  stop_pid "$NODE_PID"; NODE_PID=""
+  stop_pid "$MASTER_PID"; MASTER_PID=""
+  python3 - "$sys" "$run" "$INPUTS" "$HZ" "$c0" "$c1" "$c2" "$c3" "$t2" "$t3" "$probe" "$CSV" "$s0" "$s1" "$s2" "$s3" <<'PY'
+import sys
+sys_name, run, inputs, hz = sys.argv[1], sys.argv[2], float(sys.argv[3]), float(sys.argv[4])
+(k0, n0), (k1, n1), (k2, n2), (k3, n3) = [tuple(float(x) for x in v.split(":")) for v in sys.argv[5:9]]
+t2, t3 = float(sys.argv[9]), float(sys.argv[10])
+probe = dict(kv.split("=") for kv in sys.argv[11].split()) if "=" in sys.argv[11] else {}
+cpu_ticks, cpu_ns = 1e6 * (k1 - k0) / hz / inputs, 1e-3 * (n1 - n0) / inputs
+idle_ticks, idle_ns = 100.0 * (k3 - k2) / hz / (t3 - t2), 1e-7 * (n3 - n2) / (t3 - t2)
+s0, s1, s2, s3 = (float(v) for v in sys.argv[13:17])
+switches_per_input, idle_switches_per_s = (s1 - s0) / inputs, (s3 - s2) / (t3 - t2)
+has_output = int(probe.get("estimates", "0")) > 0
+row = [sys_name, run, "%d" % inputs, "%.1f" % cpu_ticks, "%.1f" % cpu_ns,
+       probe.get("median_us", "") if has_output else "", probe.get("p99_us", "") if has_output else "",
+       probe.get("estimates", ""), probe.get("matched", ""), "%.3f" % idle_ticks, "%.3f" % idle_ns,
+       probe.get("x", ""), probe.get("y", ""), probe.get("z", ""),
+       "%.2f" % switches_per_input, "%.0f" % idle_switches_per_s]
+open(sys.argv[12], "a").write(",".join(row) + "\n")
+print("  %-18s run %s: CPU per input %6.1f us (schedstat %6.1f); latency median %8s us, p99 %8s us (%s outputs, %s matched);"
+      " idle %.2f %% of a core; last position %s %s %s; context switches %.2f per input, %.0f/s idle"
+      % (sys_name, run, cpu_ticks, cpu_ns, row[5] or "-", row[6] or "-", row[7] or "0", row[8] or "0", idle_ticks,
+         row[11] or "-", row[12] or "-", row[13] or "-", switches_per_input, idle_switches_per_s))
+PY
+}
+
+echo "== Side by side with robot_localization: $(basename "$BAG"), $INPUTS inputs over $(python3 -c "print(round($BAG_END - $BAG_START, 1))") s, rosbag play --clock -r $RATE (/clock at $CLOCK_HZ Hz); $RUNS_WANTED run(s); idle $IDLE_SECONDS s (logs in $LOGS)"
+echo "machine: $(nproc) cores, $(uname -r); load before: $(uptime | sed 's/.*load average/load average/')"
+for run in $(seq 1 "$RUNS_WANTED"); do
+  for sys in $SYSTEMS; do
+    run_one "$sys" "$run" || echo "  $sys run $run: FAILED"
+  done
+done
+echo "load after: $(uptime | sed 's/.*load average/load average/')"
+
+python3 - "$CSV" <<'PY'
+import csv, statistics, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+cols = ["cpu_us_per_input", "cpu_us_per_input_schedstat", "latency_median_us", "latency_p99_us",
+        "idle_pct_core", "idle_pct_core_schedstat", "x", "y", "z", "switches_per_input", "idle_switches_per_s"]
+med = {}
+for name in ("robot_localization", "estimator", "null"):
+    mine = [r for r in rows if r["system"] == name]
+    med[name] = {c: (statistics.median(float(r[c]) for r in mine) if mine and all(r[c] for r in mine) else None)
+                 for c in cols}
+    med[name]["runs"] = len(mine)
+def f(v, fmt):
+    return "-" if v is None else fmt % v
+print()
+print("| system | model | runs | CPU per input (us) | latency median (us) | latency p99 (us) | idle (% of a core) | final x, y, z (m) | context switches per input; idle per s |")
+print("|---|---|---|---|---|---|---|---|---|")
+model = {"robot_localization": "EKF, 15 states (3-D pose, velocities, accelerations)",
+         "estimator": "kfio, linear, 6 states (x, y, yaw and their rates)",
+         "null": "none (drops every message)"}
+for name, m in med.items():
+    pos = "-" if m["x"] is None else "%.3f, %.3f, %.3f" % (m["x"], m["y"], m["z"])
+    print("| %s | %s | %d | %s (%s) | %s | %s | %s (%s) | %s | %s; %s |" % (
+        name, model[name], m["runs"], f(m["cpu_us_per_input"], "%.1f"), f(m["cpu_us_per_input_schedstat"], "%.1f"),
+        f(m["latency_median_us"], "%.0f"), f(m["latency_p99_us"], "%.0f"), f(m["idle_pct_core"], "%.2f"),
+        f(m["idle_pct_core_schedstat"], "%.2f"), pos, f(m["switches_per_input"], "%.2f"),
+        f(m["idle_switches_per_s"], "%.0f")))
+print("(medians over the runs; CPU per input: utime + stime, in brackets schedstat; idle: the same two)")
+e, r, n = med["estimator"], med["robot_localization"], med["null"]
+if e["cpu_us_per_input"] and r["cpu_us_per_input"] and n["cpu_us_per_input"]:
+    print("estimator / robot_localization CPU per input: %.2f (schedstat %.2f); estimator / null: %.2f (schedstat %.2f)"
+          % (e["cpu_us_per_input"] / r["cpu_us_per_input"],
+             e["cpu_us_per_input_schedstat"] / r["cpu_us_per_input_schedstat"],
+             e["cpu_us_per_input"] / n["cpu_us_per_input"],
+             e["cpu_us_per_input_schedstat"] / n["cpu_us_per_input_schedstat"]))
+PY
+echo "results: $CSV"
