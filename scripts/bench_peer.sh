@@ -6,9 +6,12 @@
 #   robot_localization  ekf_localization_node, configured as robot_localization's own test of this
 #                       bag (its "bag2" test: 15-state 3-D EKF, odometry velocities + IMU
 #                       orientation, angular velocity and acceleration, 50 Hz timer);
-#   estimator           our Estimator nodelet (nodelet standalone) with config/robot/jackal.yaml,
-#                       the configuration of the rostests on this bag (kfio, a linear 6-state model:
-#                       position and heading with their rates; odometry x, y + IMU yaw);
+#   estimator           our Estimator nodelet (nodelet standalone) with --params FILE, by default
+#                       config/robot/jackal.yaml, the configuration of the rostests on this bag
+#                       (kfio, a linear 6-state model: position and heading with their rates;
+#                       odometry x, y + IMU yaw); config/peer_tests/jackal_bag2.yaml is
+#                       robot_localization's own configuration of this bag translated (ekfio,
+#                       omni_3d, 15 states);
 #   null                BenchNullReceiver (nodelet standalone), a receiver that drops every message
 #                       after one hand-off: what receiving the stream costs in roscpp.
 # Each run of each system has its own roscore on a free port; every process it starts is stopped
@@ -30,7 +33,7 @@
 # Builds nothing: scripts/build.sh first, and the peer's workspace (robot_localization built with
 # catkin) given by PEER_WS; without it the benchmark is skipped (exit 0).
 # Usage: PEER_WS=<peer workspace> scripts/bench_peer.sh [--runs N] [--rate R] [--idle-seconds S]
-#          [--clock-hz HZ] [--systems "robot_localization estimator null"] [BAG]
+#          [--clock-hz HZ] [--systems "robot_localization estimator null"] [--params FILE] [BAG]
 #   defaults: 3 runs, rate 4, 10 s idle, all three systems, test/data/test2.bag, /clock at 100 Hz
 #   (wall: rosbag play's default). Under sim time a ros::Timer fires at most once per /clock
 #   message: at -r 4 a 100 Hz /clock advances 40 ms a message, and robot_localization's 50 Hz
@@ -45,6 +48,7 @@ IDLE_SECONDS=10
 BAG=""
 SYSTEMS="robot_localization estimator null"
 CLOCK_HZ=100
+PARAMS=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --runs) RUNS_WANTED="$2"; shift 2 ;;
@@ -52,12 +56,15 @@ while [ $# -gt 0 ]; do
     --idle-seconds) IDLE_SECONDS="$2"; shift 2 ;;
     --systems) SYSTEMS="$2"; shift 2 ;;
     --clock-hz) CLOCK_HZ="$2"; shift 2 ;;
+    --params) PARAMS="$2"; shift 2 ;;
     -h|--help) sed -n '2,/^set -euo/p' "${BASH_SOURCE[0]}" | sed '$d; s/^# \{0,1\}//'; exit 0 ;;
     -*) echo "bench_peer: unknown option '$1' (see --help)" >&2; exit 2 ;;
     *) BAG="$1"; shift ;;
   esac
 done
 BAG="${BAG:-$REPO/test/data/test2.bag}"
+PARAMS="${PARAMS:-$REPO/config/robot/jackal.yaml}"
+[ -f "$PARAMS" ] || { echo "bench_peer: --params: no file '$PARAMS'" >&2; exit 2; }
 for v in "$RUNS_WANTED" "$IDLE_SECONDS"; do
   [[ "$v" =~ ^[1-9][0-9]*$ ]] || { echo "bench_peer: --runs and --idle-seconds take a positive integer, found '$v'" >&2; exit 2; }
 done
@@ -154,7 +161,7 @@ start_system()
       ;;
     estimator)
       name=estimator
-      rosparam load "$REPO/config/robot/jackal.yaml" /$name
+      rosparam load "$PARAMS" /$name
       rosrun nodelet nodelet standalone networked_estimation/Estimator __name:=$name > "$log" 2>&1 < /dev/null &
       ;;
     null)
