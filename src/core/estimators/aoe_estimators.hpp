@@ -32,13 +32,6 @@ std::unique_ptr<Estimator> makeAoe(const Model& model, ControlLink link, SizeCho
 std::unique_ptr<Estimator> makeOptimalEstimator(const Model& model, ControlLink link, std::size_t max_components,
                                                 SizeChoice choice);
 
-/// The estimators compiled for the sizes S (aoe_impl.hpp; one explicit instantiation per size of
-/// KalmanSizes and for DynamicSizes, in instances/).
-template <class S>
-std::unique_ptr<Estimator> newAoe(const Model& model, ControlLink link);
-template <class S>
-std::unique_ptr<Estimator> newOptimalEstimator(const Model& model, ControlLink link, std::size_t max_components);
-
 /// What the exact optimal estimator tells beyond the Estimator interface (any size; reached by
 /// dynamic_cast from the Estimator that makeOptimalEstimator returns).
 class OptimalEstimator

@@ -15,34 +15,6 @@ std::unique_ptr<Estimator> makeEstimator(const Model& model, const EstimatorSett
 namespace detail
 {
 
-// The dispatch to the compiled forms (estimator_sizes.hpp): the first listed size that fits the
-// model, else the dynamic form. Only the factory templates' declarations are seen here; their
-// instantiations are compiled in instances/.
-
-std::unique_ptr<Estimator> makeKalmanFilter(const Model& model, Algorithm algorithm, SizeChoice choice)
-{
-  return makeSized(KalmanSizes(), choice, false, model,
-                   [&](auto sizes) { return newKalmanFilter<decltype(sizes)>(model, algorithm); });
-}
-
-std::unique_ptr<Estimator> makeAoe(const Model& model, ControlLink link, SizeChoice choice)
-{
-  return makeSized(KalmanSizes(), choice, false, model, [&](auto sizes) { return newAoe<decltype(sizes)>(model, link); });
-}
-
-std::unique_ptr<Estimator> makeOptimalEstimator(const Model& model, ControlLink link, std::size_t max_components,
-                                                SizeChoice choice)
-{
-  return makeSized(KalmanSizes(), choice, false, model, [&](auto sizes) {
-    return newOptimalEstimator<decltype(sizes)>(model, link, max_components);
-  });
-}
-
-std::unique_ptr<Estimator> makeRseio(const Model& model, double mu, SizeChoice choice)
-{
-  return makeSized(RseioSizes(), choice, true, model, [&](auto sizes) { return newRseio<decltype(sizes)>(model, mu); });
-}
-
 // Each algorithm's factory picks its fixed-size form when the model's sizes are among the
 // instantiated ones (estimator_sizes.hpp) and the dynamic form otherwise.
 std::unique_ptr<Estimator> makeEstimator(const Model& model, const EstimatorSettings& settings, SizeChoice choice)

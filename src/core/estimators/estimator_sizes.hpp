@@ -1,28 +1,21 @@
 // Compile-time sizes of an estimator's matrices.
 //
-// Each algorithm is written once, as a class template on a Sizes type (kalman_impl.hpp,
-// aoe_impl.hpp, rseio_impl.hpp), and compiled for the general case (every size Eigen::Dynamic:
-// heap storage, sizes known at run time) and for a few small models (fixed-size Eigen types: no
-// heap, no size dispatch, products unrolled by the compiler; at n = 2 or 4 the dynamic types spend
-// more time on size checks and dispatch than on the arithmetic). makeEstimator picks the
-// fixed-size instantiation whose sizes match the model and falls back to the dynamic one for any
-// other model.
-//
-// Each (algorithm, sizes) pair is compiled in exactly one translation unit of instances/, by an
-// explicit instantiation of the algorithm's factory template (newKalmanFilter<S> and the like);
-// the dispatch (makeSized) sees only the declarations. So the instantiations compile in parallel
-// and a change to one algorithm recompiles only its own instances. A size listed below but not
-// instantiated fails the link; an instantiation of a size not listed fails to compile (sizeListed).
+// Each algorithm is written once, as a class template on a Sizes type, and compiled for the general
+// case (every size Eigen::Dynamic: heap storage, sizes known at run time) and for a few small models
+// (fixed-size Eigen types: no heap, no size dispatch, products unrolled by the compiler; at n = 2 or
+// 4 the dynamic types spend more time on size checks and dispatch than on the arithmetic).
+// makeEstimator picks the fixed-size instantiation whose sizes match the model and falls back to
+// the dynamic one for any other model.
 //
 // Quantities whose size varies from step to step (the rows of the sensors that arrived, the rank
 // rho of rseio's sensitivity Gram matrices) keep the full compile-time size on the fixed path,
-// padded with rows that contribute exact zeros (estimator_common.hpp, rseio_impl.hpp); the dynamic
-// path stores them compacted.
+// padded with rows that contribute exact zeros (estimator_common.hpp, rseio.cpp); the dynamic path
+// stores them compacted.
 #pragma once
 
 #include <Eigen/Core>
+#include <memory>
 #include <string>
-#include <type_traits>
 #include <utility>
 
 #include "networked_estimation/config/model.hpp"
@@ -87,8 +80,8 @@ struct SizeList
 
 /// The fixed-size instantiations of kf, kfio, ack_kf, aoe and oe: the sizes of the shipped models
 /// and of the measurements (n = 1 with m = 1 or 2, n = 2 with m = 1 or 2, n = 4 with m = 2 or 4).
-/// Each size costs compile time (instances/), so the lists stay short; every other size runs the
-/// dynamic form.
+/// Each size adds about 8 s of compile time (kalman.cpp and aoe.cpp together; an rseio size about
+/// 7 s), so the lists stay short; every other size runs the dynamic form.
 // clang-format off
 using KalmanSizes = SizeList<
     Sizes<1, 1>, Sizes<1, 2>,
@@ -113,28 +106,22 @@ enum class SizeChoice
   DYNAMIC
 };
 
-/// Whether S is one of the sizes of List (or the dynamic sizes, always compiled).
-template <class S, class... L>
-constexpr bool sizeListed(SizeList<L...>)
+/// Builds Impl<S> for the first S of the list that fits the model (Impl<DynamicSizes> when none
+/// does, or for SizeChoice::DYNAMIC) from the arguments (model first).
+template <template <class> class Impl, class Base, class... Args>
+std::unique_ptr<Base> makeSized(SizeList<>, SizeChoice /*choice*/, bool /*with_nw*/, const Model& model,
+                                Args&&... args)
 {
-  return std::is_same<S, DynamicSizes>::value || (std::is_same<S, L>::value || ...);
+  return std::make_unique<Impl<DynamicSizes>>(model, std::forward<Args>(args)...);
 }
 
-/// make(S()) for the first S of the list that fits the model, make(DynamicSizes()) when none does
-/// or for SizeChoice::DYNAMIC. make is called with an empty Sizes object naming the sizes; it
-/// calls the algorithm's factory template for them (whose instantiations live in instances/).
-template <class Make>
-auto makeSized(SizeList<>, SizeChoice /*choice*/, bool /*with_nw*/, const Model& /*model*/, Make&& make)
-{
-  return make(DynamicSizes());
-}
-
-template <class S, class... Rest, class Make>
-auto makeSized(SizeList<S, Rest...>, SizeChoice choice, bool with_nw, const Model& model, Make&& make)
+template <template <class> class Impl, class Base, class S, class... Rest, class... Args>
+std::unique_ptr<Base> makeSized(SizeList<S, Rest...>, SizeChoice choice, bool with_nw, const Model& model,
+                                Args&&... args)
 {
   if (choice == SizeChoice::AUTOMATIC && S::fits(model, with_nw))
-    return make(S());
-  return makeSized(SizeList<Rest...>(), choice, with_nw, model, std::forward<Make>(make));
+    return std::make_unique<Impl<S>>(model, std::forward<Args>(args)...);
+  return makeSized<Impl, Base>(SizeList<Rest...>(), choice, with_nw, model, std::forward<Args>(args)...);
 }
 
 }  // namespace detail

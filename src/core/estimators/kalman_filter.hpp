@@ -13,10 +13,5 @@ namespace detail
 /// kf, kfio or ack_kf (algorithm), fixed-size for the sizes of KalmanSizes, dynamic otherwise.
 std::unique_ptr<Estimator> makeKalmanFilter(const Model& model, Algorithm algorithm, SizeChoice choice);
 
-/// The filter compiled for the sizes S (kalman_impl.hpp; one explicit instantiation per size of
-/// KalmanSizes and for DynamicSizes, in instances/).
-template <class S>
-std::unique_ptr<Estimator> newKalmanFilter(const Model& model, Algorithm algorithm);
-
 }  // namespace detail
 }  // namespace networked_estimation

@@ -15,11 +15,6 @@ namespace detail
 /// The estimator it returns is also an Rseio.
 std::unique_ptr<Estimator> makeRseio(const Model& model, double mu, SizeChoice choice);
 
-/// RSEIO compiled for the sizes S (rseio_impl.hpp; one explicit instantiation per size of
-/// RseioSizes and for DynamicSizes, in instances/).
-template <class S>
-std::unique_ptr<Estimator> newRseio(const Model& model, double mu);
-
 /// What RSEIO tells beyond the Estimator interface (any size; reached by dynamic_cast from the
 /// Estimator that makeRseio returns).
 class Rseio

@@ -3,16 +3,14 @@
 //   kf:     every finite sample is a measurement (it cannot tell a loss); u applied as delivered.
 //   kfio:   Sinopoli's filter: updates only when gamma_k = 1; u applied as delivered.
 //   ack_kf: kfio told nu_k: applies nu_k Bu u_k (docs/algorithms.md 5.2).
-// The class template; included only by the translation units of instances/ that compile it for
-// one size each (estimator_sizes.hpp).
-#pragma once
-
 #include "estimators/kalman_filter.hpp"
 #include "estimators/estimator_common.hpp"
 
 namespace networked_estimation
 {
 namespace detail
+{
+namespace
 {
 
 template <class S>
@@ -71,11 +69,11 @@ private:
   int nu_ = -1;
 };
 
-template <class S>
-std::unique_ptr<Estimator> newKalmanFilter(const Model& model, Algorithm algorithm)
+}  // namespace
+
+std::unique_ptr<Estimator> makeKalmanFilter(const Model& model, Algorithm algorithm, SizeChoice choice)
 {
-  static_assert(sizeListed<S>(KalmanSizes()), "a size compiled for the Kalman filters must be in KalmanSizes");
-  return std::make_unique<KalmanFilter<S>>(model, algorithm);
+  return makeSized<KalmanFilter, Estimator>(KalmanSizes(), choice, false, model, algorithm);
 }
 
 }  // namespace detail

@@ -1,8 +1,4 @@
 // AOE and OE for non-acknowledged control links with Markov losses (docs/algorithms.md 5.3, 5.4).
-// The class templates; included only by the translation units of instances/ that compile them for
-// one size each (estimator_sizes.hpp).
-#pragma once
-
 #include "estimators/aoe_estimators.hpp"
 #include "estimators/estimator_common.hpp"
 
@@ -14,6 +10,8 @@
 namespace networked_estimation
 {
 namespace detail
+{
+namespace
 {
 
 template <class S>
@@ -293,18 +291,17 @@ private:
   bool capped_ = false;
 };
 
-template <class S>
-std::unique_ptr<Estimator> newAoe(const Model& model, ControlLink link)
+}  // namespace
+
+std::unique_ptr<Estimator> makeAoe(const Model& model, ControlLink link, SizeChoice choice)
 {
-  static_assert(sizeListed<S>(KalmanSizes()), "a size compiled for aoe must be in KalmanSizes");
-  return std::make_unique<Aoe<S>>(model, link);
+  return makeSized<Aoe, Estimator>(KalmanSizes(), choice, false, model, link);
 }
 
-template <class S>
-std::unique_ptr<Estimator> newOptimalEstimator(const Model& model, ControlLink link, std::size_t max_components)
+std::unique_ptr<Estimator> makeOptimalEstimator(const Model& model, ControlLink link, std::size_t max_components,
+                                                SizeChoice choice)
 {
-  static_assert(sizeListed<S>(KalmanSizes()), "a size compiled for oe must be in KalmanSizes");
-  return std::make_unique<OptimalFilter<S>>(model, link, max_components);
+  return makeSized<OptimalFilter, Estimator>(KalmanSizes(), choice, false, model, link, max_components);
 }
 
 }  // namespace detail
