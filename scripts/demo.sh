@@ -8,7 +8,8 @@
 set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 bash "$HERE/install_deps.sh"
-bash "$HERE/build.sh"
+# Only what the demo runs: the nodelets, the summary node and the four tools below.
+bash "$HERE/build.sh" networked_estimation_nodelets estimate_summary simulate replay score analyze
 source "$HERE/workspace.sh"
 BIN="$WS/devel/lib/networked_estimation"
 OUT="$WS/demo"

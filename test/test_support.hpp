@@ -1,9 +1,12 @@
 // Models and random matrices for the core unit tests (built in C++, independent of the parser).
+// Their definitions are compiled once, in test_support.cpp (the test support library), not in
+// every test that includes this header (a QR and an eigensolver take seconds to compile).
 #pragma once
 
 #include <Eigen/Dense>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "networked_estimation/config/model.hpp"
 #include "experiments/montecarlo_experiments.hpp"  // private header (src/core): the papers' example models
@@ -16,111 +19,24 @@ namespace test
 
 /// x_k = a x_{k-1} + w (Q = 1) seen by two scalar sensors y = x + v (R = I) named `first` and
 /// `second`, with a scalar control input (Bu = 1) when `control`; validated.
-inline Model scalarTwoSensorModel(double a, const std::string& first, const std::string& second, bool control = false)
-{
-  Model m;
-  m.name = "two";
-  m.A = Eigen::MatrixXd::Constant(1, 1, a);
-  m.B = Eigen::MatrixXd::Identity(1, 1);
-  m.Q = Eigen::MatrixXd::Identity(1, 1);
-  m.C = Eigen::MatrixXd::Ones(2, 1);
-  m.R = Eigen::MatrixXd::Identity(2, 2);
-  m.sensors = {{first, 0, 1}, {second, 1, 1}};
-  m.x0 = Eigen::VectorXd::Zero(1);
-  m.P0 = Eigen::MatrixXd::Identity(1, 1);
-  m.Bu = control ? Eigen::MatrixXd::Ones(1, 1) : Eigen::MatrixXd(1, 0);
-  validateModel(m, "two");
-  return m;
-}
-
-inline Eigen::MatrixXd randomMatrix(Rng& rng, int r, int c, double scale = 1.0)
-{
-  Eigen::MatrixXd M(r, c);
-  for (int i = 0; i < r; ++i)
-    for (int j = 0; j < c; ++j)
-      M(i, j) = scale * rng.uniform(-1.0, 1.0);
-  return M;
-}
-
+Model scalarTwoSensorModel(double a, const std::string& first, const std::string& second, bool control = false);
+/// r x c with entries uniform in [-scale, scale].
+Eigen::MatrixXd randomMatrix(Rng& rng, int r, int c, double scale = 1.0);
 /// Random symmetric positive definite matrix with eigenvalues in [lo, hi].
-inline Eigen::MatrixXd randomSpd(Rng& rng, int n, double lo = 0.2, double hi = 3.0)
-{
-  Eigen::HouseholderQR<Eigen::MatrixXd> qr(randomMatrix(rng, n, n));
-  const Eigen::MatrixXd U = qr.householderQ();
-  Eigen::VectorXd d(n);
-  for (int i = 0; i < n; ++i)
-    d[i] = rng.uniform(lo, hi);
-  Eigen::MatrixXd S = U * d.asDiagonal() * U.transpose();
-  return 0.5 * (S + S.transpose());
-}
-
+Eigen::MatrixXd randomSpd(Rng& rng, int n, double lo = 0.2, double hi = 3.0);
 /// Single sensor "y" covering every row.
-inline void singleSensor(Model& m)
-{
-  m.sensors.clear();
-  m.sensors.push_back({"y", 0, static_cast<int>(m.C.rows())});
-}
-
+void singleSensor(Model& m);
 /// Zhou's example (Section IV of his paper), as the Monte Carlo experiments build it.
-inline Model zhouModel(double range = 1.0)
-{
-  return mc::zhouExampleModel(range);
-}
-
+Model zhouModel(double range = 1.0);
 /// Lin et al.'s example with C = [[1, -1], [0, 1]] (our reading of the garbled C; docs/algorithms.md 6.2).
-inline Model aoeModel(double rhoA = 1.2910)
-{
-  return mc::aoeExampleModel(rhoA);
-}
-
+Model aoeModel(double rhoA = 1.2910);
 /// A random model with n states, nw noise inputs, sensors of the given sizes, ne uncertain
 /// parameters with non-zero dA, dB, dC, and p inputs.
-inline Model randomModel(Rng& rng, int n, int nw, std::vector<int> sensor_sizes, int ne, int p)
-{
-  Model m;
-  m.name = "random";
-  m.period = 0.01;
-  m.A = randomMatrix(rng, n, n, 0.6);
-  m.B = randomMatrix(rng, n, nw);
-  m.Q = randomSpd(rng, nw);
-  int mtot = 0;
-  for (int s : sensor_sizes)
-    mtot += s;
-  m.C = randomMatrix(rng, mtot, n);
-  m.R = Eigen::MatrixXd::Zero(mtot, mtot);
-  int off = 0;
-  for (std::size_t i = 0; i < sensor_sizes.size(); ++i)
-  {
-    const int s = sensor_sizes[i];
-    m.R.block(off, off, s, s) = randomSpd(rng, s);
-    m.sensors.push_back({"s" + std::to_string(i), off, s});
-    off += s;
-  }
-  m.x0 = randomMatrix(rng, n, 1);
-  m.P0 = randomSpd(rng, n);
-  for (int k = 0; k < ne; ++k)
-  {
-    Uncertainty u;
-    u.dA = randomMatrix(rng, n, n, 0.3);
-    u.dB = randomMatrix(rng, n, nw, 0.3);
-    u.dC = randomMatrix(rng, mtot, n, 0.3);
-    u.range = 0.5;
-    m.uncertainty.push_back(u);
-  }
-  m.Bu = randomMatrix(rng, n, p);
-  return m;
-}
-
-inline double maxAbsDiff(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b)
-{
-  return (a - b).cwiseAbs().maxCoeff();
-}
-
+Model randomModel(Rng& rng, int n, int nw, std::vector<int> sensor_sizes, int ne, int p);
+/// max |a - b| over the entries.
+double maxAbsDiff(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b);
 /// Smallest eigenvalue of a symmetric matrix.
-inline double minEig(const Eigen::MatrixXd& S)
-{
-  return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(0.5 * (S + S.transpose())).eigenvalues().minCoeff();
-}
+double minEig(const Eigen::MatrixXd& S);
 
 }  // namespace test
 }  // namespace networked_estimation
