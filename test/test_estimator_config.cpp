@@ -113,6 +113,7 @@ TEST_F(EstimatorConfig, Defaults)
   EXPECT_EQ(c.position_indices, std::vector<int>{0});  // n = 1
   EXPECT_TRUE(c.publish_tf);
   EXPECT_TRUE(std::isinf(c.runtime.trace_bound));
+  EXPECT_TRUE(c.live_stability);
   EXPECT_FALSE(c.markov_link);
   EXPECT_EQ(c.stability_window, 1000u);
   EXPECT_EQ(c.stability_min_samples, 100u);
@@ -125,6 +126,7 @@ TEST_F(EstimatorConfig, EveryKeyIsRead)
       "{algorithm: rseio, mu: 0.8, period: 0.05, latency_budget: 0.2, late_policy: rewind, history_length: 20, "
       "max_future_steps: 50, max_past_steps: 300, input_type: point, frame_id: odom, child_frame_id: est, "
       "position_indices: [1, 0], publish_tf: false, trace_bound: 12.5, queue_size: 10, link_model: markov, "
+      "live_stability: false, "
       "stability_window: 400, stability_min_samples: 40, diagnostic_period: 2.0, latency_budget_min: 0.02, "
       "latency_budget_max: 0.5, max_stamp_ahead: 4, max_stamp_behind: 6}",
       planar_);
@@ -153,6 +155,7 @@ TEST_F(EstimatorConfig, EveryKeyIsRead)
   EXPECT_DOUBLE_EQ(c.runtime.trace_bound, 12.5);
   EXPECT_EQ(c.queue_size, 10u);
   EXPECT_TRUE(c.markov_link);
+  EXPECT_FALSE(c.live_stability);
   EXPECT_EQ(c.stability_window, 400u);
   EXPECT_EQ(c.stability_min_samples, 40u);
   const ne::EstimatorNodeConfig a =
@@ -210,6 +213,7 @@ TEST_F(EstimatorConfig, RefusalsNameTheKey)
   EXPECT_TRUE(has(error("{position_indices: [1, 1]}", planar_), "index 1 repeated"));
   EXPECT_TRUE(has(error("{position_indices: 3}", planar_), "expected a list of state indices"));
   EXPECT_TRUE(has(error("{publish_tf: maybe}"), "publish_tf: expected true or false, found 'maybe'"));
+  EXPECT_TRUE(has(error("{live_stability: 2}"), "live_stability: expected true or false, found '2'"));
   EXPECT_TRUE(has(error("{trace_bound: -1}"), "trace_bound"));
   EXPECT_TRUE(has(error("{queue_size: 0}"), "queue_size: expected an integer in [1, 1000000], found 0"));
   EXPECT_TRUE(has(error("{link_model: bursty}"), "link_model: expected iid | markov, found 'bursty'"));
@@ -298,6 +302,42 @@ TEST_F(EstimatorConfig, SensorsBlockRefusalsNameTheKey)
   EXPECT_EQ(ne::covarianceOf(ne::InputType::ODOMETRY, m.inputs[0].fields[1]).index, 5);
   EXPECT_EQ(ne::covarianceOf(ne::InputType::IMU, ne::inputFieldFromString(ne::InputType::IMU, "orientation.yaw", "k")).block,
             ne::CovarianceBlock::ORIENTATION);
+  // robot_localization's per-input options: relative (poses), remove_gravitational_acceleration (Imu)
+  const ne::EstimatorNodeConfig rl = parse(
+      "{sensors: {a: {type: nav_msgs/Odometry, fields: [pose.pose.position.x, pose.pose.position.y], relative: true}, "
+      "b: {type: sensor_msgs/Imu, fields: [linear_acceleration.x], remove_gravitational_acceleration: true}}}",
+      planar_);
+  EXPECT_TRUE(rl.inputs[0].relative);
+  EXPECT_FALSE(rl.inputs[0].remove_gravity);
+  EXPECT_TRUE(rl.inputs[1].remove_gravity);
+  EXPECT_FALSE(rl.inputs[1].relative);
+  has(error("{sensors: {b: {type: sensor_msgs/Imu, fields: [linear_acceleration.x], relative: true}}}", planar_),
+      "sensors.b.relative: only for a pose (nav_msgs/Odometry, geometry_msgs/PoseWithCovarianceStamped, "
+      "geometry_msgs/PoseStamped), found sensor_msgs/Imu");
+  has(error("{sensors: {b: {type: nav_msgs/Odometry, fields: [pose.pose.position.x], "
+            "remove_gravitational_acceleration: true}}}", planar_),
+      "sensors.b.remove_gravitational_acceleration: only for sensor_msgs/Imu, found nav_msgs/Odometry");
+  has(error("{sensors: {b: {type: sensor_msgs/Imu, fields: [angular_velocity.z], "
+            "remove_gravitational_acceleration: true}}}", planar_),
+      "sensors.b.remove_gravitational_acceleration: the sensor reads no linear_acceleration field");
+  has(error("{sensors: {b: {type: nav_msgs/Odometry, fields: [pose.pose.position.x], relative: sometimes}}}", planar_),
+      "relative: expected true or false, found 'sometimes'");
+  // differential: the pose's fields read its velocity (no angle check: rates are not angles)
+  const ne::EstimatorNodeConfig df = parse(
+      "{sensors: {b: {type: nav_msgs/Odometry, fields: [pose.pose.orientation.yaw], differential: true}}}", planar_);
+  EXPECT_TRUE(df.inputs[1].differential);
+  EXPECT_EQ(df.inputs[1].fields[0].quantity, ne::Quantity::ANGULAR_VELOCITY);
+  EXPECT_EQ(df.inputs[1].fields[0].axis, 2);
+  has(error("{sensors: {b: {type: sensor_msgs/Imu, fields: [angular_velocity.z], differential: true}}}", planar_),
+      "sensors.b.differential: only for a pose");
+  has(error("{sensors: {b: {type: nav_msgs/Odometry, fields: [twist.twist.linear.x], differential: true}}}", planar_),
+      "sensors.b.fields[0]: twist.twist.linear.x: differential reads positions and roll / pitch / yaw of the pose");
+  has(error("{sensors: {b: {type: nav_msgs/Odometry, fields: [pose.pose.position.x], differential: true, "
+            "relative: true}}}", planar_),
+      "sensors.b.relative: not with differential");
+  has(error("{sensors: {b: {type: nav_msgs/Odometry, fields: [pose.pose.position.x], differential: true, "
+            "covariance: message}}}", planar_),
+      "sensors.b.covariance: message: not with differential");
   has(error("{sensors: {b: [1, 2]}}", planar_), "sensors.b: expected a map");
   has(error("{sensors: [a, b]}", planar_), "sensors: expected a map from sensor names");
 }

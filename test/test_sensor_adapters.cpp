@@ -11,6 +11,7 @@
 
 #include "networked_estimation/common/random.hpp"
 #include "frame_transforms.hpp"
+#include "input_preprocessing.hpp"
 #include "odometry_output.hpp"
 #include "tf_output.hpp"
 #include "sensor_adapters.hpp"
@@ -337,6 +338,141 @@ ne::Frames tableFrames(const std::map<std::pair<std::string, std::string>, tf2::
 // q' = q_T q), velocities into base_link (rotation only), an IMU's rates rotated and its
 // orientation turned into base_link's; no transform when the frame is the target or empty; a
 // missing transform refused naming both frames.
+// relative: the first pose is the origin, later ones T0^-1 T (a robot that starts at (2, 1) facing
+// +y and drives 1 m forward reads (1, 0) facing 0); the covariance rotated into the origin's axes.
+TEST(InputPreprocessing, RelativePoses)
+{
+  auto yawOf = [](const geometry_msgs::Quaternion& q) {
+    double r, p, y;
+    tf2::Matrix3x3(ne::toTf(q)).getRPY(r, p, y);
+    return y;
+  };
+  ne::SensorInput in;
+  in.type = ne::InputType::ODOMETRY;
+  in.relative = true;
+  ne::InputMemory mem;
+  std::string why;
+  auto odom = [](double x, double y, double yaw) {
+    nav_msgs::Odometry m;
+    m.pose.pose.position.x = x;
+    m.pose.pose.position.y = y;
+    tf2::Quaternion q;
+    q.setRPY(0.0, 0.0, yaw);
+    ne::fromTf(q, m.pose.pose.orientation);
+    m.pose.covariance[0] = 0.04;  // x
+    m.pose.covariance[7] = 0.01;  // y
+    return m;
+  };
+  nav_msgs::Odometry a = odom(2.0, 1.0, M_PI / 2);
+  ASSERT_TRUE(ne::preprocess(in, mem, a, why)) << why;
+  EXPECT_NEAR(a.pose.pose.position.x, 0.0, 1e-12);
+  EXPECT_NEAR(a.pose.pose.position.y, 0.0, 1e-12);
+  EXPECT_NEAR(yawOf(a.pose.pose.orientation), 0.0, 1e-12);
+  EXPECT_NEAR(a.pose.covariance[0], 0.01, 1e-12);  // x and y swap under the quarter turn
+  EXPECT_NEAR(a.pose.covariance[7], 0.04, 1e-12);
+  nav_msgs::Odometry b = odom(2.0, 2.0, M_PI / 2 + 0.25);
+  ASSERT_TRUE(ne::preprocess(in, mem, b, why)) << why;
+  EXPECT_NEAR(b.pose.pose.position.x, 1.0, 1e-12);
+  EXPECT_NEAR(b.pose.pose.position.y, 0.0, 1e-12);
+  EXPECT_NEAR(yawOf(b.pose.pose.orientation), 0.25, 1e-12);
+  // Without relative: untouched.
+  ne::SensorInput plain = in;
+  plain.relative = false;
+  ne::InputMemory other;
+  nav_msgs::Odometry c = odom(2.0, 2.0, 0.1);
+  ASSERT_TRUE(ne::preprocess(plain, other, c, why));
+  EXPECT_EQ(c.pose.pose.position.x, 2.0);
+  // A first pose without an orientation cannot be the origin: refused, and the next one is.
+  ne::InputMemory fresh;
+  nav_msgs::Odometry zero = odom(5.0, 5.0, 0.0);
+  zero.pose.pose.orientation = geometry_msgs::Quaternion();
+  zero.pose.pose.orientation.w = 0.0;
+  EXPECT_FALSE(ne::preprocess(in, fresh, zero, why));
+  EXPECT_NE(why.find("relative: the first pose"), std::string::npos) << why;
+  nav_msgs::Odometry d = odom(5.0, 5.0, 0.0);
+  ASSERT_TRUE(ne::preprocess(in, fresh, d, why));
+  EXPECT_NEAR(d.pose.pose.position.x, 0.0, 1e-12);
+}
+
+// remove_gravitational_acceleration: an IMU at rest reads +g along the world's up; rotated by its
+// orientation, gravity leaves nothing, in any attitude; with a forward acceleration only that stays.
+TEST(InputPreprocessing, GravityRemovedByTheOrientation)
+{
+  ne::SensorInput in;
+  in.type = ne::InputType::IMU;
+  in.remove_gravity = true;
+  ne::InputMemory mem;
+  std::string why;
+  ne::Rng rng(7);
+  for (int t = 0; t < 50; ++t)
+  {
+    tf2::Quaternion q;
+    q.setRPY(rng.uniform(-M_PI, M_PI), rng.uniform(-1.5, 1.5), rng.uniform(-M_PI, M_PI));
+    const tf2::Vector3 forward(0.7, 0.0, 0.0);  // body-frame acceleration
+    const tf2::Vector3 reading = forward + tf2::Matrix3x3(q).transpose() * tf2::Vector3(0.0, 0.0, ne::kGravity);
+    sensor_msgs::Imu m;
+    ne::fromTf(q, m.orientation);
+    ne::fromTf(reading, m.linear_acceleration);
+    ASSERT_TRUE(ne::preprocess(in, mem, m, why)) << why;
+    EXPECT_NEAR(m.linear_acceleration.x, 0.7, 1e-12);
+    EXPECT_NEAR(m.linear_acceleration.y, 0.0, 1e-12);
+    EXPECT_NEAR(m.linear_acceleration.z, 0.0, 1e-12);
+  }
+  sensor_msgs::Imu none;  // no orientation estimate: nothing to rotate gravity by
+  none.orientation.w = 1.0;
+  none.orientation_covariance[0] = -1.0;
+  EXPECT_FALSE(ne::preprocess(in, mem, none, why));
+  EXPECT_NE(why.find("remove_gravitational_acceleration: the message has no orientation"), std::string::npos);
+  sensor_msgs::Imu zero;
+  EXPECT_FALSE(ne::preprocess(in, mem, zero, why));
+}
+
+// differential: consecutive poses as a velocity in base_link: a robot facing +y that moves 0.2 m
+// along y and turns 0.05 rad in 0.1 s drives at 2 m/s forward, turning at 0.5 rad/s; the first
+// pose is only the reference; a stamp that does not advance is refused.
+TEST(InputPreprocessing, DifferentialPosesAreVelocities)
+{
+  ne::InputMemory mem;
+  std::string why;
+  auto pose = [](double x, double y, double yaw) {
+    geometry_msgs::Pose p;
+    p.position.x = x;
+    p.position.y = y;
+    tf2::Quaternion q;
+    q.setRPY(0.0, 0.0, yaw);
+    ne::fromTf(q, p.orientation);
+    return p;
+  };
+  ne::MessageView v;
+  const geometry_msgs::Pose a = pose(1.0, 1.0, M_PI / 2), b = pose(1.0, 1.2, M_PI / 2 + 0.05);
+  EXPECT_EQ(ne::differentiate(mem, &a, 10.0, v, why), ne::Differential::FIRST);
+  EXPECT_EQ(v.linear, nullptr);
+  ASSERT_EQ(ne::differentiate(mem, &b, 10.1, v, why), ne::Differential::OK) << why;
+  // Read through the fields a differential sensor gets (position.x -> vx, yaw -> vyaw).
+  const std::vector<ne::InputField> fields = {{"pose.pose.position.x", ne::Quantity::LINEAR_VELOCITY, 0},
+                                              {"pose.pose.position.y", ne::Quantity::LINEAR_VELOCITY, 1},
+                                              {"pose.pose.orientation.yaw", ne::Quantity::ANGULAR_VELOCITY, 2}};
+  double y[3];
+  ASSERT_TRUE(ne::readFields(v, fields, y, why)) << why;
+  EXPECT_NEAR(y[0], 2.0, 1e-9);
+  EXPECT_NEAR(y[1], 0.0, 1e-9);
+  EXPECT_NEAR(y[2], 0.5, 1e-9);
+  const geometry_msgs::Pose c = pose(1.0, 1.4, M_PI / 2);
+  EXPECT_EQ(ne::differentiate(mem, &c, 10.1, v, why), ne::Differential::BAD);
+  EXPECT_NE(why.find("is not after the previous pose's"), std::string::npos) << why;
+  geometry_msgs::Pose zero = c;
+  zero.orientation.w = 0.0;
+  zero.orientation.z = 0.0;
+  EXPECT_EQ(ne::differentiate(mem, &zero, 10.2, v, why), ne::Differential::BAD);
+  EXPECT_EQ(ne::differentiate(mem, nullptr, 10.2, v, why), ne::Differential::BAD);
+  // Turning through +-pi: the change, not the jump.
+  ne::InputMemory turn;
+  const geometry_msgs::Pose p1 = pose(0.0, 0.0, M_PI - 0.01), p2 = pose(0.0, 0.0, -M_PI + 0.01);
+  ne::differentiate(turn, &p1, 1.0, v, why);
+  ASSERT_EQ(ne::differentiate(turn, &p2, 1.02, v, why), ne::Differential::OK);
+  EXPECT_NEAR(v.angular->z, 1.0, 1e-9);
+}
+
 TEST(FrameTransforms, IntoWorldAndBaseLink)
 {
   tf2::Quaternion yaw90;

@@ -28,6 +28,7 @@ void EstimatorNodelet::onInit()
   trace_pub_ = nh.advertise<std_msgs::Float64>("covariance_trace", 1000);
   pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 100);
   odom_pub_ = nh.advertise<nav_msgs::Odometry>("odometry/filtered", 100);
+  startSetPose(nh);
   const Model& model = stream_->online().model();
   if (!datum_.empty() || std::any_of(inputs_.begin(), inputs_.end(), [](const SensorInput& in) {
         return in.type == InputType::NAVSATFIX;
@@ -80,7 +81,8 @@ void EstimatorNodelet::onInit()
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
   diagnostics_->setHardwareID(toString(settings_.algorithm));
   diagnostics_->add("estimator", this, &EstimatorNodelet::diagnose);
-  diagnostics_->add("link stability", this, &EstimatorNodelet::diagnoseLink);
+  if (live_)  // live_stability: false: no window, no verdict, no status
+    diagnostics_->add("link stability", this, &EstimatorNodelet::diagnoseLink);
   // force_update: the updater's own period check uses ROS time, which stalls or jumps under sim time.
   diag_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
   if (publish_tf_)
@@ -210,7 +212,8 @@ void EstimatorNodelet::configure(ros::NodeHandle& pnh)
   stream_ = std::make_unique<OnlineStream>(c.model, settings_, c.online, c.timeline, c.runtime);
   stream_->after_step = [this](long k) { publishLocked(stepLocked(k)); };
   stream_->on_restart = [this](const std::string& why) {
-    live_->clear();
+    if (live_)
+      live_->clear();
     NODELET_WARN("Estimator %s: %s", toString(settings_.algorithm).c_str(), why.c_str());
   };
   limits_.period = c.period;
@@ -237,7 +240,8 @@ void EstimatorNodelet::configure(ros::NodeHandle& pnh)
   stability_model_ = withSensorRates(linearisedModel(c.model, c.model.x0, c.period), ratios, &rates_note);
   if (!rates_note.empty())
     NODELET_WARN("Estimator: %s", rates_note.c_str());
-  live_ = std::make_unique<LiveStability>(stability_model_, settings_, live);
+  if (c.live_stability)
+    live_ = std::make_unique<LiveStability>(stability_model_, settings_, live);
 }
 
 void EstimatorNodelet::onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m, const ros::Time& receipt)
@@ -392,7 +396,8 @@ Estimate::Ptr EstimatorNodelet::stepLocked(long k)
   e->covariance_trace = P.trace();
   e->covariance_is_pseudo = settings_.algorithm == Algorithm::RSEIO;
   const std::uint64_t resets = online.counters().divergence_resets;
-  live_->add(online.lastArrived(), online.lastDue(), online.lastGamma(), P, resets != resets_seen_);
+  if (live_)
+    live_->add(online.lastArrived(), online.lastDue(), online.lastGamma(), P, resets != resets_seen_);
   resets_seen_ = resets;
   const double q = est.commandArrivalProbability();
   e->command_arrival_probability = std::isfinite(q) ? q : -1.0;

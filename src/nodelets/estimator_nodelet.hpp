@@ -44,6 +44,7 @@
 #include "networked_estimation/Estimate.h"
 #include "networked_estimation/Measurement.h"
 #include "networked_estimation/ScheduleStep.h"
+#include "networked_estimation/SetPose.h"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/online/estimator_node_config.hpp"
 #include "networked_estimation/config/rate_schedule.hpp"
@@ -86,6 +87,10 @@ private:
   /// what it read, is not applied). A change is validated as a whole (validateRuntimeSettings):
   /// refused with the key named, the settings in use kept and shown back.
   void startReconfigure(ros::NodeHandle& pnh);
+  /// set_pose topic and service (estimator_set_pose.cpp).
+  void startSetPose(ros::NodeHandle& nh);
+  /// The filter starts over from the pose (into world_frame); false with `why` when refused.
+  bool setPose(const geometry_msgs::PoseWithCovarianceStamped& m, std::string& why);
   void reconfigure(EstimatorConfig& c);
 
   /// world_frame and base_link_frame, looked up in tf2 at the message's stamp (a missing or
@@ -197,7 +202,9 @@ private:
 
   DispatchThread dispatch_;  ///< serves the inputs and the deadlines (before the subscribers: outlives them)
   std::vector<ros::Subscriber> subs_;
-  ros::Subscriber cmd_sub_, schedule_sub_, tf_sub_, tf_static_sub_;
+  ros::Subscriber cmd_sub_, schedule_sub_, tf_sub_, tf_static_sub_, set_pose_sub_;
+  ros::ServiceServer set_pose_srv_;
+  std::atomic<unsigned long> set_pose_refused_{0};
   ros::Publisher estimate_pub_, trace_pub_, pose_pub_, odom_pub_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;

@@ -202,6 +202,8 @@ void EstimatorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   stat.add("arrival rate", arrival);
   stat.add("accepted", c.accepted);
   stat.add("late dropped", c.late_dropped);
+  stat.add("poses set (set_pose)", c.estimates_set);
+  stat.add("set_pose refused", set_pose_refused_.load());
   stat.add("late fused", c.late_fused);
   stat.add("duplicates", c.duplicates);
   stat.add("rejected", rejectedLocked());
@@ -253,6 +255,8 @@ void EstimatorNodelet::diagnoseSensors(diagnostic_updater::DiagnosticStatusWrapp
     stat.add(name + " rate (Hz)", online.lattice(i).measuredRate(period));
     if (inputs_[i].type == InputType::IMU)
       stat.add(name + " without estimate (covariance -1)", c.disabled_per_sensor[i]);
+    else if (inputs_[i].differential)
+      stat.add(name + " reference poses (differential)", c.disabled_per_sensor[i]);
     const LatencyBudget::Window w = latency.window(i, now);
     if (w.fraction() > 0.01)
       stat.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "frame_transforms.hpp"
+#include "input_preprocessing.hpp"
 #include "sensor_adapters.hpp"
 
 namespace networked_estimation
@@ -101,13 +102,31 @@ inline void deliver(const SensorInput& in, const MessageView& v, const ros::Time
 template <class M>
 ros::Subscriber subscribeFields(ros::NodeHandle& nh, const SensorInput& in, uint32_t queue, const SensorSink& sink)
 {
-  return subscribeEvents<M>(nh, in.topic, queue, [in, sink](const ros::MessageEvent<M const>& e) {
+  auto memory = std::make_shared<InputMemory>();
+  return subscribeEvents<M>(nh, in.topic, queue, [in, sink, memory](const ros::MessageEvent<M const>& e) {
     std::string why;
-    M local = *e.getConstMessage();  // into the model's frames
-    if (!intoFrames(sink.frames, local, why))
+    M local = *e.getConstMessage();  // into the model's frames, then relative / without gravity
+    if (!intoFrames(sink.frames, local, why) || !preprocess(in, *memory, local, why))
+    {
       sink.bad(why);
-    else
-      deliver(in, view(local), stampOf(local, e.getReceiptTime()), e.getReceiptTime(), sink);
+      return;
+    }
+    const ros::Time stamp = stampOf(local, e.getReceiptTime());
+    MessageView v = view(local);
+    if (in.differential)
+      switch (differentiate(*memory, poseOf(local), stamp.toSec(), v, why))
+      {
+        case Differential::OK:
+          break;
+        case Differential::FIRST:  // not a loss: nothing was due yet
+          if (sink.disabled)
+            sink.disabled(stamp, e.getReceiptTime(), why);
+          return;
+        case Differential::BAD:
+          sink.bad(why);
+          return;
+      }
+    deliver(in, v, stamp, e.getReceiptTime(), sink);
   });
 }
 

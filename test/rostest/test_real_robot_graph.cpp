@@ -3,9 +3,10 @@
 //     wheel odometry and an IMU at 50 Hz, stamps as the robot made them) played with --clock at the
 //     test's ~rate into an Estimator configured as the README's robot section; the result is kept
 //     in a BagRun so that more assertions can be added on it.
-//   OwnTfIsKeptAndGivesWay, APoisonedFirstMessage, ReconfigureIsValidated, ImuWithoutEstimate
-//     (estimator_real_inputs.test): tf with child_frame_id base_link, stamps that must not anchor
-//     the timeline, runtime settings checked like the load, and sensor_msgs/Imu's covariance -1.
+//   OwnTfIsKeptAndGivesWay, APoisonedFirstMessage, ReconfigureIsValidated, ImuWithoutEstimate,
+//     SetPose (estimator_real_inputs.test): tf with child_frame_id base_link, stamps that must not
+//     anchor the timeline, runtime settings checked like the load, sensor_msgs/Imu's covariance
+//     -1, set_pose as a topic and a service, relative and differential poses (RelativeAndDifferential).
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <dynamic_reconfigure/Reconfigure.h>
@@ -29,6 +30,7 @@
 #include "graph_test_support.hpp"
 #include "networked_estimation/Estimate.h"
 #include "networked_estimation/Measurement.h"
+#include "networked_estimation/SetPose.h"
 
 namespace ne = networked_estimation;
 using ne::Estimate;
@@ -99,6 +101,8 @@ struct BagRun
   std::map<long, Estimate> estimates;
   std::map<std::string, std::string> diagnostics;  ///< the estimator status's values at the end
   std::string status;                              ///< and its message
+  int link_level = -1;                             ///< the link stability status's level
+  std::string link_status;                         ///< and its message
   std::vector<TfSeen::Entry> tf;                   ///< the Estimator's odom -> base_link
   double wall = 0.0;                               ///< seconds the play took
   double value(const std::string& key) const
@@ -128,6 +132,7 @@ TEST(RealRobotGraph, JackalBag)
   const long odom_sent = 3060, imu_sent = 3061;
   Collector<Estimate> est(nh, "jackal/estimate");
   DiagnosticsProbe diag(nh, "jackal/estimator: estimator");
+  DiagnosticsProbe link(nh, "jackal/estimator: link stability");
   TfSeen tf(nh);
   ASSERT_TRUE(waitFor([&] { return est.sub.getNumPublishers() > 0; }, 20.0));
   ros::WallDuration(1.0).sleep();
@@ -140,12 +145,17 @@ TEST(RealRobotGraph, JackalBag)
   run.estimates = byStep(est);
   run.diagnostics = diag.snapshot();
   run.status = diag.lastMessage();
+  {
+    std::lock_guard<std::mutex> lock(link.mutex);
+    run.link_level = link.level;
+    run.link_status = link.message;
+  }
   run.tf = tf.from(ros::names::resolve("/manager"), "odom", "base_link");
   std::printf("[ jackal -r %g ] %.1f s; odom %g messages, %g late dropped, delay p99 %g s; imu %g, %g, %g s; "
-              "budget %g s; %zu estimates; %zu transforms\n",
+              "budget %g s; %zu estimates; %zu transforms; link stability: %s\n",
               rate, run.wall, run.value("odom messages"), run.value("odom late dropped"),
               run.value("odom delay p99 (s)"), run.value("imu messages"), run.value("imu late dropped"),
-              run.value("imu delay p99 (s)"), run.value("latency budget (s)"), run.estimates.size(), run.tf.size());
+              run.value("imu delay p99 (s)"), run.value("latency budget (s)"), run.estimates.size(), run.tf.size(), run.link_status.c_str());
 
   // Estimates at 50 Hz throughout.
   ASSERT_FALSE(run.estimates.empty());
@@ -185,6 +195,32 @@ TEST(RealRobotGraph, JackalBag)
   EXPECT_GE(span, 30.0);
   EXPECT_GE(span, 0.95 * (bag_end - bag_start));
   EXPECT_LE(gap, std::max(1.0, 0.5 * rate));  // the tf timer runs at 20 Hz of wall time: 0.05 s x rate apart
+
+  // The heading (state 2, the IMU's yaw, an angle of the model) is continuous: the Jackal faces
+  // west several times in the bag, where the IMU's yaw jumps between pi and -pi, and the estimate
+  // follows it across without a jump. Its turn rate stays below 2 rad/s, so between two steps
+  // (20 ms) the wrapped change is below 0.04 rad; 0.1 leaves room, a wrap missed would be ~6.28.
+  double max_step = 0.0, max_abs = 0.0;
+  const Estimate* before = nullptr;
+  for (const auto& kv : run.estimates)
+  {
+    const double yaw = kv.second.state.at(2);
+    ASSERT_TRUE(std::isfinite(yaw)) << "step " << kv.first;
+    EXPECT_LE(std::abs(yaw), M_PI + 1e-9) << "step " << kv.first << ": the yaw is kept in (-pi, pi]";
+    max_abs = std::max(max_abs, std::abs(yaw));
+    if (before)
+    {
+      const double d = std::remainder(yaw - before->state.at(2), 2.0 * M_PI);
+      max_step = std::max(max_step, std::abs(d));
+    }
+    before = &kv.second;
+  }
+  EXPECT_GT(max_abs, 3.0) << "the bag's heading should pass +-pi";
+  EXPECT_LT(max_step, 0.1) << "the heading jumped";
+
+  // The link verdict on this constant-velocity model with both links delivering: decided and OK.
+  EXPECT_EQ(run.link_level, 0) << run.link_status;
+  EXPECT_EQ(run.link_status.find("undecided"), std::string::npos) << run.link_status;
 }
 
 // tf with child_frame_id base_link and world_frame odom: the Estimator keeps publishing odom ->
@@ -432,6 +468,117 @@ TEST(RealRobotGraph, ImuWithoutEstimate)
     ASSERT_TRUE(E.count(k)) << "step " << k;
     EXPECT_TRUE(E.at(k).gamma) << "step " << k;  // b (odometry) in every step
   }
+}
+
+// set_pose (robot_localization's): x and y of this model are seen by no sensor, so after a
+// set_pose they keep the pose's values (a random walk without observations: its mean stays) and
+// their variance grows from the pose's by Q each step; the heading is seen by the IMU (yaw 0).
+// The topic, then the service; a zero quaternion is refused by the service with the reason; the
+// diagnostics count both.
+TEST(RealRobotGraph, SetPose)
+{
+  ros::NodeHandle nh;
+  ros::Publisher imu = nh.advertise<sensor_msgs::Imu>("/setpose_imu", 100);
+  ros::Publisher topic = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("/setpose/set_pose", 10);
+  ros::ServiceClient service = nh.serviceClient<ne::SetPose>("/setpose/set_pose");
+  Collector<Estimate> est(nh, "setpose/estimate");
+  DiagnosticsProbe diag(nh, "setpose/estimator: estimator");
+  ASSERT_TRUE(waitFor([&] { return imu.getNumSubscribers() > 0 && topic.getNumSubscribers() > 0 &&
+                                   est.sub.getNumPublishers() > 0; }, 20.0));
+  ASSERT_TRUE(service.waitForExistence(ros::Duration(10.0)));
+  PeriodicFeeder feeder(0.05, [&](long) {
+    sensor_msgs::Imu i;
+    i.header.stamp = ros::Time::now();
+    i.orientation.w = 1.0;
+    imu.publish(i);
+  });
+  ASSERT_TRUE(waitFor([&] { return est.size() >= 5; }, 20.0));
+  auto pose = [](double x, double y, double yaw, double var) {
+    geometry_msgs::PoseWithCovarianceStamped p;
+    p.header.frame_id = "odom";
+    p.pose.pose.position.x = x;
+    p.pose.pose.position.y = y;
+    p.pose.pose.orientation.z = std::sin(yaw / 2);
+    p.pose.pose.orientation.w = std::cos(yaw / 2);
+    p.pose.covariance[0] = p.pose.covariance[7] = p.pose.covariance[35] = var;
+    return p;
+  };
+  // The latest estimate whose x is within 1e-6 of `x` (the unobserved x keeps the set value).
+  auto reached = [&](double x, double y, double var) {
+    std::lock_guard<std::mutex> lock(est.mutex);
+    if (est.msgs.empty())
+      return false;
+    const Estimate& e = est.msgs.back();
+    return std::abs(e.state[0] - x) < 1e-6 && std::abs(e.state[1] - y) < 1e-6 && e.covariance[0] >= var &&
+           e.covariance[0] < var + 1.0;
+  };
+  topic.publish(pose(5.0, -3.0, 1.0, 0.04));
+  ASSERT_TRUE(waitFor([&] { return reached(5.0, -3.0, 0.04); }, 5.0)) << "the set_pose topic did not set x, y";
+  {
+    std::lock_guard<std::mutex> lock(est.mutex);
+    const Estimate& e = est.msgs.back();
+    EXPECT_EQ(e.covariance[1], 0.0);                      // x and y uncorrelated, as the pose's covariance
+    EXPECT_LT(std::abs(e.state[2]), 1.0);                 // the IMU pulls the heading back from 1.0 towards 0
+    EXPECT_LT(e.covariance[0], 0.04 + 200 * 1e-4);        // grown by Q per step since (within 10 s)
+  }
+  ne::SetPose call;
+  call.request.pose = pose(-2.0, 7.5, 0.0, 0.09);
+  ASSERT_TRUE(service.call(call));
+  EXPECT_TRUE(call.response.success) << call.response.message;
+  ASSERT_TRUE(waitFor([&] { return reached(-2.0, 7.5, 0.09); }, 5.0)) << "the set_pose service did not set x, y";
+  ne::SetPose bad;
+  bad.request.pose = pose(1.0, 1.0, 0.0, 0.01);
+  bad.request.pose.pose.pose.orientation.w = 0.0;
+  ASSERT_TRUE(service.call(bad));
+  EXPECT_FALSE(bad.response.success);
+  EXPECT_NE(bad.response.message.find("not a rotation"), std::string::npos) << bad.response.message;
+  ne::SetPose nan_pose;
+  nan_pose.request.pose = pose(std::nan(""), 1.0, 0.0, 0.01);
+  ASSERT_TRUE(service.call(nan_pose));
+  EXPECT_FALSE(nan_pose.response.success);
+  EXPECT_NE(nan_pose.response.message.find("x is not finite"), std::string::npos) << nan_pose.response.message;
+  ros::WallDuration(0.5).sleep();
+  EXPECT_TRUE(reached(-2.0, 7.5, 0.09)) << "a refused set_pose changed the estimate";
+  EXPECT_TRUE(waitFor([&] { return diag.get("poses set (set_pose)") == 2.0 && diag.get("set_pose refused") == 2.0; },
+                      5.0))
+      << diag.get("poses set (set_pose)") << " " << diag.get("set_pose refused");
+}
+
+// robot_localization's relative and differential inputs: a robot that starts at x = 10 m (in the
+// odometry's frame) and drives at 0.5 m/s; one sensor reads its pose relative to the first (x from
+// 0), the other differentiates consecutive poses (the velocity). The estimate follows x - 10 and
+// 0.5 m/s; the differential sensor's first pose is only a reference (counted, not a loss).
+TEST(RealRobotGraph, RelativeAndDifferential)
+{
+  ros::NodeHandle nh;
+  ros::Publisher a = nh.advertise<nav_msgs::Odometry>("/rl_odom_a", 100);
+  ros::Publisher b = nh.advertise<nav_msgs::Odometry>("/rl_odom_b", 100);
+  Collector<Estimate> est(nh, "rl/estimate");
+  DiagnosticsProbe diag(nh, "rl/estimator: estimator");
+  ASSERT_TRUE(waitFor([&] { return a.getNumSubscribers() > 0 && b.getNumSubscribers() > 0 &&
+                                   est.sub.getNumPublishers() > 0; }, 20.0));
+  const ros::Time t0 = ros::Time::now();
+  PeriodicFeeder feeder(0.05, [&](long) {
+    nav_msgs::Odometry o;
+    o.header.stamp = ros::Time::now();
+    o.header.frame_id = "odom";
+    o.pose.pose.position.x = 10.0 + 0.5 * (o.header.stamp - t0).toSec();
+    o.pose.pose.orientation.w = 1.0;
+    a.publish(o);
+    b.publish(o);
+  });
+  ASSERT_TRUE(waitFor([&] { return est.size() >= 60; }, 20.0)) << est.size();
+  {
+    std::lock_guard<std::mutex> lock(est.mutex);
+    const Estimate& e = est.msgs.back();
+    const double expected = 0.5 * (e.header.stamp - t0).toSec();  // the pose relative to the first (at t0 + ~0)
+    EXPECT_NEAR(e.state[0], expected, 0.06) << "relative: x should start from 0, not 10";
+    EXPECT_NEAR(e.state[1], 0.5, 0.05) << "differential: the velocity of consecutive poses";
+  }
+  ASSERT_TRUE(waitFor([&] { return !std::isnan(diag.get("vel reference poses (differential)")); }, 5.0));
+  const std::map<std::string, std::string> d = diag.snapshot();
+  EXPECT_EQ(std::stod(d.at("vel reference poses (differential)")), 1.0);
+  EXPECT_EQ(std::stod(d.at("rejected")), 0.0);
 }
 
 int main(int argc, char** argv)

@@ -62,6 +62,7 @@ struct EstimatorNodeConfig
   std::string odom_frame = "odom";
   StateMap state_map;
   std::size_t queue_size = 1000;
+  bool live_stability = true;      ///< false: no link stability window, verdict or status
   bool markov_link = false;        ///< link_model: markov (recovery rate) instead of iid (arrival rate)
   std::size_t stability_window = 1000;
   std::size_t stability_min_samples = 100;
@@ -71,7 +72,7 @@ struct EstimatorNodeConfig
 /// max_components, period, latency_budget, latency_budget_min, latency_budget_max,
 /// max_stamp_ahead, max_stamp_behind, late_policy, history_length, max_future_steps,
 /// max_past_steps, input_type, frame_id, child_frame_id, position_indices, publish_tf, trace_bound,
-/// queue_size, link_model, stability_window, stability_min_samples, sensors.<name>.{topic, type,
+/// queue_size, live_stability, link_model, stability_window, stability_min_samples, sensors.<name>.{topic, type,
 /// fields, rate}, datum, command.{topic, type, fields}, world_frame, base_link_frame, odom_frame, state_mapping.{x, y, z, yaw, vx, vy, vz, yaw_rate}; diagnostic_period is left to
 /// diagnostic_updater). Throws ConfigError naming `source` and the key, also for an unknown key,
 /// a model file that cannot be read, an empty frame name, and ack_kf (the graph does not carry nu_k).

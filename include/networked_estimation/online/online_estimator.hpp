@@ -101,6 +101,7 @@ struct OnlineCounters
   std::uint64_t rejected = 0;
   std::uint64_t rewinds = 0;          ///< re-filterings done (one per late-fused message)
   std::uint64_t missing_commands = 0; ///< steps processed without the command u_k (zero input used)
+  std::uint64_t estimates_set = 0;    ///< setEstimate calls that took effect (set_pose)
   std::uint64_t divergence_resets = 0;///< the covariance overflowed: the filter was reset to x0, P0
   /// Random schedule: steps processed without their schedule draw in hand (then a sensor counts
   /// as due only when its y_k arrived).
@@ -192,9 +193,17 @@ public:
   /// forgotten.
   void setLatePolicy(LatePolicy policy);
 
-  /// Everything back to the state after construction (filter at x0, P0, nothing in hand, not
-  /// started). Counters are kept (they count since construction).
+  /// Everything back to the state after construction (filter at the model's x0, P0, nothing in
+  /// hand, not started). Counters are kept (they count since construction).
   void reset();
+
+  /// Starts the filter over from a given estimate (set_pose): x_{k|k} = x and P_{k|k} = P at the
+  /// last processed step (before the timeline starts: x_{0|0}, P_{0|0}); the next process()
+  /// predicts from them. Data still in hand for later steps is kept; with REWIND the history
+  /// starts now (data for steps already taken is then late). Angular entries of x are wrapped.
+  /// Throws InputError (the estimate unchanged) for a wrong size, a non-finite entry or a P that
+  /// is not symmetric positive semidefinite. Counted (counters().estimates_set).
+  void setEstimate(const Eigen::VectorXd& x, const Eigen::MatrixXd& P);
 
 private:
   struct Slot
@@ -240,6 +249,7 @@ private:
   std::unique_ptr<Estimator> live_;
   std::unique_ptr<Estimator> checkpoint_;  ///< REWIND: the filter at step checkpoint_k_
   long checkpoint_k_ = 0;
+  bool estimate_set_ = false;  ///< live_ was built from a setEstimate (reset() rebuilds it from model_)
   std::vector<Slot> ring_;
   long next_ = 1;
   bool started_ = false;

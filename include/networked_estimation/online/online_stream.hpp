@@ -70,6 +70,10 @@ public:
   /// Whether the work bound held back a due step at the last deadlines() call.
   bool throttled() const { return throttled_; }
 
+  /// set_pose: the filter starts over from x, P (OnlineEstimator::setEstimate; throws InputError
+  /// for a bad estimate, nothing changed).
+  void setEstimate(const Eigen::VectorXd& x, const Eigen::MatrixXd& P) { online_->setEstimate(x, P); }
+
   /// New runtime settings (validated by the caller): budget, late policy.
   void setRuntime(const RuntimeSettings& runtime);
   const RuntimeSettings& runtime() const { return runtime_; }
@@ -95,6 +99,9 @@ private:
   /// The timeline's verdict on a message (sensor: its index, or npos); anchors or restarts as it
   /// says. False: refused (counted), with the reason in `refusal`.
   bool admit(std::size_t sensor, double stamp, long step, const Clocks& now, OfferResult& refusal);
+  /// A sensor's message arriving: index checked, admitted by the timeline, placed (its step
+  /// position), and the steps whose deadline passed taken. False: refused, `r` says why.
+  bool arrive(std::size_t sensor, double stamp, long step, const Clocks& now, OfferResult& r, double& position);
   void restart(const std::string& why);
   void catchUp(const Clocks& now);
   void drainComplete();

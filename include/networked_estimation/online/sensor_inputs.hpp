@@ -101,7 +101,22 @@ struct SensorInput
   bool message_covariance = false;
   /// Largest Mahalanobis distance of the innovation still fused (+inf: off; OnlineOptions).
   double rejection_threshold = std::numeric_limits<double>::infinity();
+  /// sensor_msgs/Imu: subtract gravity (kGravity along the world's z, rotated into base_link by
+  /// the message's orientation) from linear_acceleration (robot_localization's
+  /// imuN_remove_gravitational_acceleration).
+  bool remove_gravity = false;
+  /// A pose type (Odometry, PoseWithCovarianceStamped, PoseStamped): the first message's pose is
+  /// the origin, every pose read relative to it, T0^-1 T (robot_localization's poseN_relative).
+  bool relative = false;
+  /// A pose type: consecutive poses T_prev, T fused as the velocity of T_prev^-1 T over their
+  /// stamps' difference, in base_link (robot_localization's *_differential): its position fields
+  /// read the linear velocity and its roll/pitch/yaw fields the angular rates (parse turns them
+  /// into LINEAR_VELOCITY and ANGULAR_VELOCITY fields).
+  bool differential = false;
 };
+
+/// Standard gravity (m/s^2), what remove_gravitational_acceleration subtracts.
+constexpr double kGravity = 9.80665;
 
 /// Parses a type name (e.g. "sensor_msgs/NavSatFix") among `allowed`; throws ConfigError naming
 /// `key` and listing them.

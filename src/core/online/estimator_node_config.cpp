@@ -51,8 +51,33 @@ void parseSensorInputs(const YAML::Node& block, const std::string& source, Estim
       throw ConfigError(key + ": expected a map (keys: topic, type, fields, rate)");
     ParamReader p(entry.second, key);
     parseInputBlock(p, key, sensorInputTypes(), model.sensors[index].size, "row of sensor '" + name + "'", in);
-    checkAngleFields(model, index, in, key);
+    const bool pose_type =
+        in.type == InputType::ODOMETRY || in.type == InputType::POSE_WITH_COVARIANCE || in.type == InputType::POSE;
+    const std::string pose_types =
+        "a pose (nav_msgs/Odometry, geometry_msgs/PoseWithCovarianceStamped, geometry_msgs/PoseStamped)";
+    in.differential = p.flag("differential", false);
+    if (in.differential)
+    {
+      if (!pose_type)
+        throw ConfigError(key + ".differential: only for " + pose_types + ", found " + toString(in.type));
+      for (std::size_t i = 0; i < in.fields.size(); ++i)
+      {
+        InputField& f = in.fields[i];
+        if (f.quantity == Quantity::POSITION)
+          f.quantity = Quantity::LINEAR_VELOCITY;  // the pose's change per second, in base_link
+        else if (f.quantity == Quantity::ORIENTATION_RPY)
+          f.quantity = Quantity::ANGULAR_VELOCITY;
+        else
+          throw ConfigError(key + ".fields[" + std::to_string(i) + "]: " + f.name +
+                            ": differential reads positions and roll / pitch / yaw of the pose, not this field");
+      }
+    }
+    else
+      checkAngleFields(model, index, in, key);
     in.message_covariance = p.choice("covariance", "model", {"model", "message"}) == "message";
+    if (in.message_covariance && in.differential)
+      throw ConfigError(key + ".covariance: message: not with differential (a velocity's covariance is not in the "
+                        "pose's message): use covariance: model, the model's R of the velocity rows");
     if (in.message_covariance && in.fields.empty())
       throw ConfigError(key + ".covariance: message: " + toString(in.type) +
                         " carries no covariance (use covariance: model)");
@@ -65,6 +90,19 @@ void parseSensorInputs(const YAML::Node& block, const std::string& source, Estim
     if (!(in.rejection_threshold > 0.0))
       throw ConfigError(key + ".rejection_threshold: expected a Mahalanobis distance > 0, found " +
                         std::to_string(in.rejection_threshold));
+    in.remove_gravity = p.flag("remove_gravitational_acceleration", false);
+    if (in.remove_gravity && in.type != InputType::IMU)
+      throw ConfigError(key + ".remove_gravitational_acceleration: only for sensor_msgs/Imu, found " +
+                        toString(in.type));
+    if (in.remove_gravity && std::none_of(in.fields.begin(), in.fields.end(), [](const InputField& f) {
+          return f.quantity == Quantity::LINEAR_ACCELERATION;
+        }))
+      throw ConfigError(key + ".remove_gravitational_acceleration: the sensor reads no linear_acceleration field");
+    in.relative = p.flag("relative", false);
+    if (in.relative && !pose_type)
+      throw ConfigError(key + ".relative: only for " + pose_types + ", found " + toString(in.type));
+    if (in.relative && in.differential)
+      throw ConfigError(key + ".relative: not with differential (a velocity has no origin)");
     in.rate = p.number("rate", model_rate, 0.0, 1e9);
     if (!(in.rate > 0.0) || in.rate > model_rate * (1.0 + 1e-9))
       throw ConfigError(key + ".rate: expected > 0 and at most the model's rate " + std::to_string(model_rate) +
@@ -259,6 +297,7 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   limits.max_stamp_behind = c.timeline.max_behind;
   validateRuntimeSettings(rt, limits, source);
   c.queue_size = static_cast<std::size_t>(p.integer("queue_size", 1000, 1, 1000000));
+  c.live_stability = p.flag("live_stability", true);
   c.markov_link = p.choice("link_model", "iid", {"iid", "markov"}) == "markov";
   const long window = p.integer("stability_window", 1000, 10, 1000000);
   c.stability_window = static_cast<std::size_t>(window);

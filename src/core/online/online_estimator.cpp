@@ -102,9 +102,15 @@ void OnlineEstimator::start(long first_step)
 
 void OnlineEstimator::reset()
 {
-  live_->reset();
+  if (estimate_set_)
+  {
+    live_ = makeEstimator(model_, settings_);  // back to the model's own x0, P0
+    estimate_set_ = false;
+  }
+  else
+    live_->reset();
   if (checkpoint_)
-    checkpoint_->reset();
+    checkpoint_ = live_->clone();
   for (Slot& s : ring_)
     s.k = -1;
   next_ = 1;
@@ -114,6 +120,37 @@ void OnlineEstimator::reset()
     l.reset();
   last_gamma_ = false;
   last_sensors_ = 0;
+}
+
+void OnlineEstimator::setEstimate(const Eigen::VectorXd& x, const Eigen::MatrixXd& P)
+{
+  const long n = model_.n();
+  if (x.size() != n || P.rows() != n || P.cols() != n)
+    throw InputError("set estimate: expected a state of " + std::to_string(n) + " entries and a " + std::to_string(n) +
+                     " x " + std::to_string(n) + " covariance, found " + std::to_string(x.size()) + " and " +
+                     std::to_string(P.rows()) + " x " + std::to_string(P.cols()));
+  if (!x.allFinite() || !P.allFinite())
+    throw InputError("set estimate: the state and covariance must be finite");
+  const double scale = std::max(1.0, P.cwiseAbs().maxCoeff());
+  if (!(P - P.transpose()).cwiseAbs().maxCoeff() <= 1e-9 * scale)
+    throw InputError("set estimate: the covariance is not symmetric");
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(P, Eigen::EigenvaluesOnly);
+  if (eig.eigenvalues().minCoeff() < -1e-12 * scale)
+    throw InputError("set estimate: the covariance is not positive semidefinite (smallest eigenvalue " +
+                     std::to_string(eig.eigenvalues().minCoeff()) + ")");
+  Model from = model_;
+  from.x0 = x;
+  for (const int a : model_.angles)
+    from.x0[a] = wrapAngle(from.x0[a]);
+  from.P0 = 0.5 * (P + P.transpose());
+  live_ = makeEstimator(from, settings_);
+  if (checkpoint_)
+  {
+    checkpoint_ = live_->clone();
+    checkpoint_k_ = next_ - 1;
+  }
+  estimate_set_ = true;
+  ++counters_.estimates_set;
 }
 
 OnlineEstimator::Slot& OnlineEstimator::slot(long k)

@@ -100,23 +100,31 @@ long OnlineStream::place(std::size_t sensor, double stamp, long step, const Cloc
   return k;
 }
 
-OfferResult OnlineStream::measurement(std::size_t sensor, double stamp, long step, const double* y, std::size_t size,
-                                      const double* R, const Clocks& now)
+bool OnlineStream::arrive(std::size_t sensor, double stamp, long step, const Clocks& now, OfferResult& r,
+                          double& position)
 {
-  OfferResult r;
   if (sensor >= refused_.size())
   {
     r.offer = Offer::REJECTED;
     r.reason = "sensor index " + std::to_string(sensor) + " out of range";
-    return r;
+    return false;
   }
   if (!admit(sensor, stamp, step, now, r))
-    return r;
-  double position = 0.0;
+    return false;
   place(sensor, stamp, step, now, position);
   // Steps whose deadline has passed are taken first (their wait may not have timed out yet): what
   // arrives after a deadline is late, exactly, whichever callback notices first.
   catchUp(now);
+  return true;
+}
+
+OfferResult OnlineStream::measurement(std::size_t sensor, double stamp, long step, const double* y, std::size_t size,
+                                      const double* R, const Clocks& now)
+{
+  OfferResult r;
+  double position = 0.0;
+  if (!arrive(sensor, stamp, step, now, r, position))
+    return r;
   r = step >= 1 ? online_->offerMeasurement(step, sensor, y, size, R)
                 : online_->offerSample(position, sensor, y, size, R);
   if (r.offer == Offer::LATE_DROPPED)
@@ -128,17 +136,9 @@ OfferResult OnlineStream::measurement(std::size_t sensor, double stamp, long ste
 OfferResult OnlineStream::disabled(std::size_t sensor, double stamp, long step, const Clocks& now)
 {
   OfferResult r;
-  if (sensor >= refused_.size())
-  {
-    r.offer = Offer::REJECTED;
-    r.reason = "sensor index " + std::to_string(sensor) + " out of range";
-    return r;
-  }
-  if (!admit(sensor, stamp, step, now, r))
-    return r;
   double position = 0.0;
-  place(sensor, stamp, step, now, position);
-  catchUp(now);
+  if (!arrive(sensor, stamp, step, now, r, position))
+    return r;
   r = online_->offerDisabled(sensor, position, step >= 1 ? step : -1);
   drainComplete();
   return r;
