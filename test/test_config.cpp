@@ -751,7 +751,7 @@ TEST(Algorithm, NamesRoundTrip)
       });
   EXPECT_EQ(msg,
             "cli: algorithm: unknown algorithm 'ukf' (expected one of: kf, kfio, rseio, aoe, oe, "
-            "ack_kf)");
+            "ack_kf, ekfio)");
 }
 
 TEST(ParseEstimatorSettings, FullFile)

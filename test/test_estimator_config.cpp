@@ -535,3 +535,27 @@ TEST_F(EstimatorConfig, SensorsBlockMalformedValues)
   for (const auto& row : table)
     EXPECT_EQ(error(row.first, planar_), row.second) << row.first;
 }
+
+// A model with a built-in motion: the Estimator takes algorithm ekfio, its steps last its `period`
+// (Sample::dt of every step, which the motion is discretised at), and any other algorithm is
+// refused at load naming the algorithm and why.
+TEST_F(EstimatorConfig, EkfioWithARobotMotion)
+{
+  const std::string omni = write("omni.yaml",
+                                 "name: rover\nperiod: 0.05\nmotion: omni_2d\n"
+                                 "Q: [[1,0,0,0,0,0,0,0],[0,1,0,0,0,0,0,0],[0,0,1,0,0,0,0,0],[0,0,0,1,0,0,0,0],"
+                                 "[0,0,0,0,1,0,0,0],[0,0,0,0,0,1,0,0],[0,0,0,0,0,0,1,0],[0,0,0,0,0,0,0,1]]\n"
+                                 "sensors:\n  - {name: odom, C: [[0,0,0,1,0,0,0,0],[0,0,0,0,0,1,0,0]], "
+                                 "R: [[0.01,0],[0,0.01]]}\n");
+  const ne::EstimatorNodeConfig c = parse("{algorithm: ekfio}", omni);
+  EXPECT_EQ(c.settings.algorithm, ne::Algorithm::EKFIO);
+  EXPECT_EQ(c.model.motion, ne::Motion::OMNI_2D);
+  EXPECT_EQ(c.online.step_duration, 0.05);
+  const ne::EstimatorNodeConfig faster = parse("{algorithm: ekfio, period: 0.02}", omni);
+  EXPECT_EQ(faster.online.step_duration, 0.02);
+  const std::string kfio = error("{algorithm: kfio}", omni);
+  EXPECT_NE(kfio.find("kfio needs a linear model"), std::string::npos) << kfio;
+  EXPECT_NE(kfio.find("use ekfio"), std::string::npos) << kfio;
+  EXPECT_NE(error("{}", omni).find("kfio needs a linear model"), std::string::npos);  // the default algorithm
+  EXPECT_NE(error("{algorithm: rseio, mu: 0.9}", omni).find("rseio needs a linear model"), std::string::npos);
+}

@@ -411,5 +411,35 @@ check "make_model to a folder that does not exist: exit 2" rc_and_grep "$rc" 2 "
 run_rc rc "$BIN/make_model" --help
 check "make_model --help: exit code 0 and usage" rc_and_grep "$rc" 0 "usage: make_model" "$WORK/out.txt"
 
+# --- a robot motion (omni_2d) and ekfio: make_model, simulate, replay, score, analyze -------------
+# A rover driving at 1 m/s and turning at 0.8 rad/s (x0), its odometry and IMU in its own frame, a
+# GPS fix; ekfio on the simulated data is consistent (mse/trace about 1, < 2 as for kfio above).
+OMNI=(--motion omni_2d --rate 20 --process-noise 0.0001,0.0001,0.0001,0.01,0.01,0.01,0.1,0.1
+      --sensor gps:x,y:0.5 --sensor imu:yaw,vyaw,ax,ay:0.02,0.01,0.1,0.1 --sensor odom:vx,vy,vyaw:0.05
+      --x0 0,0,3,1,0,0.8,0,0 --p0 0.01 --name rover)
+run_rc rc "$BIN/make_model" "${OMNI[@]}" --output "$K/rover.yaml"
+check "make_model omni_2d exits 0" rc_and_grep "$rc" 0 "wrote .*rover.yaml: omni_2d at 20 Hz, n = 8, m = 9" "$WORK/out.txt"
+check "make_model omni_2d writes the motion and no A" sh -c "grep -q '^motion: omni_2d' '$K/rover.yaml' && ! grep -q '^A:' '$K/rover.yaml'"
+run_rc rc "$BIN/simulate" --model "$K/rover.yaml" --channel "$BERNOULLI" --steps 1000 --seed 9 --out "$K/rsim"
+check "simulate of omni_2d: exits 0" [ "$rc" = 0 ]
+run_rc rc "$BIN/replay" --model "$K/rover.yaml" --settings "$ROOT/config/estimators/ekfio.yaml" \
+  --input "$K/rsim/input.csv" --output "$K/rsim/ekfio.csv"
+check "replay ekfio of omni_2d: exits 0" [ "$rc" = 0 ]
+run_rc rc "$BIN/score" --truth "$K/rsim/truth.csv" --estimate ekfio="$K/rsim/ekfio.csv" --model "$K/rover.yaml" --csv
+check "score --model of ekfio on omni_2d: consistent (mse/trace < 2)" awk -F, '$1 == "ekfio" { exit !($6 < 2) }' "$WORK/out.txt"
+run_rc rc "$BIN/replay" --model "$K/rover.yaml" --settings "$EST/kfio.yaml" --input "$K/rsim/input.csv" \
+  --output "$K/rsim/kfio.csv"
+check "replay kfio of omni_2d: exit 2 saying to use ekfio" rc_and_grep "$rc" 2 "kfio needs a linear model.*use ekfio" "$WORK/err.txt"
+run_rc rc "$BIN/analyze" --model "$K/rover.yaml" --channel "$BERNOULLI"
+check "analyze of omni_2d: a local verdict" rc_and_grep "$rc" 0 "a local verdict, for its linearisation at x0" "$WORK/out.txt"
+run_rc rc "$BIN/analyze" --model "$K/rover.yaml" --at 1,2
+check "analyze --at of the wrong size: exit 2" rc_and_grep "$rc" 2 "expected a finite state of 8 values" "$WORK/err.txt"
+made_refused "omni: a state the motion does not have" "sensors\[0\].states: 'heading' is not a state of omni_2d" \
+  --motion omni_2d --rate 20 --process-noise 0.01 --sensor compass:heading:0.1
+made_refused "omni: --dims" "option '--dims' is not for a omni_2d model" --motion omni_2d --dims 2 --rate 20 \
+  --process-noise 0.01 --sensor odom:vx:0.1
+made_refused "omni: --two-d-mode on omni_2d" "two-d-mode: only for omni_3d" --motion omni_2d --rate 20 \
+  --process-noise 0.01 --sensor odom:vx:0.1 --two-d-mode
+
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

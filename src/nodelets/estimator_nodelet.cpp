@@ -3,6 +3,8 @@
 
 #include <pluginlib/class_list_macros.hpp>
 
+#include "networked_estimation/motion/linearised_model.hpp"
+
 namespace networked_estimation
 {
 
@@ -230,7 +232,12 @@ void EstimatorNodelet::configure(ros::NodeHandle& pnh)
   std::vector<double> ratios;
   for (double r : c.online.rate_ratio)
     ratios.push_back(SensorLattice::whole(r));  // a 9.996 Hz sensor in a 30 Hz model: every 3rd step
-  stability_model_ = withSensorRates(c.model, ratios, &rates_note);
+  // A built-in motion: the verdicts of its linearisation at x0 over the steps' period (a local
+  // verdict, docs/stability.md 5)
+  if (c.model.nonlinear())
+    NODELET_INFO("Estimator: model '%s' has motion %s: the link verdicts are local, for its linearisation at x0",
+                 c.model.name.c_str(), toString(c.model.motion).c_str());
+  stability_model_ = withSensorRates(linearisedModel(c.model, c.model.x0, c.period), ratios, &rates_note);
   if (!rates_note.empty())
     NODELET_WARN("Estimator: %s", rates_note.c_str());
   if (c.live_stability)

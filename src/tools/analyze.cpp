@@ -11,6 +11,7 @@
 #include "networked_estimation/config/estimator_settings.hpp"
 #include "networked_estimation/config/sensor_links.hpp"
 #include "networked_estimation/io/arrival_trace.hpp"
+#include "networked_estimation/motion/linearised_model.hpp"
 #include "networked_estimation/stability/excitation.hpp"
 #include "networked_estimation/stability/link_design.hpp"
 #include "networked_estimation/stability/stability.hpp"
@@ -366,6 +367,29 @@ int printDesign(const Model& model, const cli::CommandLine& cl)
 
 }  // namespace
 
+namespace
+{
+
+/// "1,2.5,-3" -> {1, 2.5, -3}; UsageError naming `what` and the entry otherwise.
+std::vector<double> numberList(const std::string& text, const std::string& what)
+{
+  std::vector<double> out;
+  std::stringstream in(text);
+  std::string cell;
+  while (std::getline(in, cell, ','))
+  {
+    char* end = nullptr;
+    const double v = std::strtod(cell.c_str(), &end);
+    if (cell.empty() || end != cell.c_str() + cell.size() || !std::isfinite(v))
+      throw cli::UsageError(what + ": entry " + std::to_string(out.size()) + ": expected a finite number, found '" +
+                            cell + "'");
+    out.push_back(v);
+  }
+  return out;
+}
+
+}  // namespace
+
 int main(int argc, char** argv)
 {
   cli::CommandLine cl("analyze",
@@ -394,9 +418,29 @@ int main(int argc, char** argv)
                            false, false},
                           {"growth-cap", "G", "--design: the margin, |alpha_k|^2 Phi_k <= G (default 0.9, in (0, 1))",
                            false, false},
+                          {"at", "V1,...,Vn",
+                           "a model with a built-in motion: the state to linearise it at (default its x0); the "
+                           "verdicts are local",
+                           false, false},
                       });
   return cli::runTool(cl, argc, argv, [&]() -> int {
-    const Model model = loadModel(cl.get("model"));
+    const Model loaded = loadModel(cl.get("model"));
+    if (cl.has("at") && !loaded.nonlinear())
+      throw cli::UsageError("option '--at' is only for a model with a built-in motion (model '" + loaded.name +
+                            "' is linear)");
+    // A built-in motion: the verdicts of its linearisation at one state (a local verdict)
+    std::string local_note;
+    Eigen::VectorXd at = loaded.x0;
+    if (cl.has("at"))
+    {
+      const std::vector<double> v = numberList(cl.get("at"), "option '--at'");
+      at = Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
+    }
+    const Model model = linearisedModel(loaded, at, loaded.period);
+    if (loaded.nonlinear())
+      local_note = "; model '" + loaded.name + "' has motion " + toString(loaded.motion) +
+                   ": a local verdict, for its linearisation at " + (cl.has("at") ? "--at" : "x0") + " over " +
+                   txt(loaded.period) + " s (docs/stability.md 5)";
     if (cl.has("design"))
     {
       for (const char* o : {"channel", "estimator", "trace", "block"})
@@ -415,7 +459,8 @@ int main(int argc, char** argv)
       est = loadEstimatorSettings(cl.get("estimator"));
     const int h = static_cast<int>(cl.getLong("block", model.n(), 1, 10000));
     const std::vector<TraceEvidence> traces = traceEvidence(model, cl.getAll("trace"), h);
-    const StabilityReport rep = analyzeStability(model, links.link, has_est ? &est : nullptr);
+    StabilityReport rep = analyzeStability(model, links.link, has_est ? &est : nullptr);
+    rep.estimator_note += local_note;
     if (cl.has("json"))
     {
       std::cout << json(rep, links, traces);

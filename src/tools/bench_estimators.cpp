@@ -8,6 +8,10 @@
 // names the form it ran. kf_dynamic, kfio_dynamic, rseio_arrival_dynamic and aoe_dynamic run the
 // dynamic form at n = 2 and 4 for comparison. kfio_angle runs kfio on the same plant with state 0 an
 // angle (n = 2, 4, 8): the cost of wrapping the innovation and the state (docs/algorithms.md 2.7).
+// ekfio_omni runs ekfio on the robot motions (n = 8: omni_2d with odometry vx, vy, vyaw and an IMU
+// yaw, vyaw, ax, ay, m = 7; n = 15: omni_3d with odometry vx, vy, vz, vyaw and an IMU of the three
+// angles, rates and accelerations, m = 13; each sensor lost with probability 0.2) next to
+// kfio_omni, kfio on the motion's linearisation at x0: the same n, m and data, target ekfio <= 2x.
 //
 // The benchmarks are registered normally, so every --benchmark_* flag works (filter, out, ...).
 // After the run a summary table prints, per algorithm and n, the median and the minimum time per
@@ -37,6 +41,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
@@ -50,6 +55,9 @@
 #include "networked_estimation/config/model.hpp"
 #include "networked_estimation/common/random.hpp"
 #include "networked_estimation/config/estimator_settings.hpp"
+#include "networked_estimation/config/omni_model.hpp"
+#include "networked_estimation/motion/linearised_model.hpp"
+#include "networked_estimation/simulation/simulator.hpp"
 
 namespace networked_estimation
 {
@@ -176,6 +184,70 @@ void benchEstimator(benchmark::State& state, EstimatorCase c)
   }
 }
 
+/// The robot of ekfio_omni / kfio_omni: omni_2d (n = 8) or omni_3d (n = 15), driving forward and turning.
+Model omniBenchModel(int n)
+{
+  OmniSpec spec;
+  spec.name = "bench_omni_n" + std::to_string(n);
+  spec.rate = 50;
+  spec.p0 = {0.01};
+  if (n == 8)
+  {
+    spec.motion = "omni_2d";
+    spec.process_noise = {1e-4, 1e-4, 1e-4, 0.01, 0.01, 0.01, 0.1, 0.1};
+    spec.sensors = {{"odom", {"vx", "vy", "vyaw"}, {0.05}}, {"imu", {"yaw", "vyaw", "ax", "ay"}, {0.02, 0.01, 0.1, 0.1}}};
+    spec.x0 = {0, 0, 0.5, 1.0, 0, 0.3, 0, 0};
+  }
+  else
+  {
+    spec.motion = "omni_3d";
+    spec.process_noise = {1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 0.01, 0.01, 0.01, 0.01, 0.01, 0.01, 0.1, 0.1, 0.1};
+    spec.sensors = {{"odom", {"vx", "vy", "vz", "vyaw"}, {0.05}},
+                    {"imu", {"roll", "pitch", "yaw", "vroll", "vpitch", "vyaw", "ax", "ay", "az"},
+                     {0.02, 0.02, 0.02, 0.01, 0.01, 0.01, 0.1, 0.1, 0.1}}};
+    spec.x0 = {0, 0, 0, 0.05, -0.05, 0.5, 1.0, 0, 0, 0, 0, 0.3, 0, 0, 0};
+  }
+  return makeOmniModel(spec);
+}
+
+/// ekfio on the motion (EKFIO) or kfio on its linearisation at x0 (KFIO), on the same simulated data.
+void benchOmni(benchmark::State& state, Algorithm algorithm)
+{
+  const Model omni = omniBenchModel(sizeArg(state));
+  const Model model = algorithm == Algorithm::EKFIO ? omni : linearisedModel(omni, omni.x0, omni.period);
+  PlantSimulator sim(omni, 17);
+  Rng rng(23);
+  std::vector<Sample> ring(kRingSize);
+  for (Sample& s : ring)
+  {
+    s.y = sim.step().y;
+    for (const Sensor& sn : omni.sensors)
+      if (rng.bernoulli(0.2))
+        s.y.segment(sn.offset, sn.size).setConstant(std::numeric_limits<double>::quiet_NaN());
+    s.gamma = s.y.array().isFinite().any();
+  }
+  EstimatorSettings settings;
+  settings.algorithm = algorithm;
+  std::unique_ptr<Estimator> est;
+  std::size_t i = 0;
+  try
+  {
+    est = makeEstimator(model, settings);
+    for (auto _ : state)
+    {
+      est->step(ring[i & (kRingSize - 1)]);
+      ++i;
+    }
+  }
+  catch (const std::exception& e)
+  {
+    state.SkipWithError(e.what());
+    return;
+  }
+  benchmark::DoNotOptimize(est->state().data());
+  state.SetLabel(est->implementation());
+}
+
 double statMin(const std::vector<double>& v)
 {
   return v.empty() ? 0.0 : *std::min_element(v.begin(), v.end());
@@ -232,6 +304,9 @@ void registerBenchmarks()
                 "kfio_angle", benchEstimator,
                 EstimatorCase{Algorithm::KFIO, true, detail::SizeChoice::AUTOMATIC, true}),
             {2, 4, 8});
+  // robot motions: ekfio next to kfio at the same n, m and data
+  configure(benchmark::RegisterBenchmark("ekfio_omni", benchOmni, Algorithm::EKFIO), {8, 15});
+  configure(benchmark::RegisterBenchmark("kfio_omni", benchOmni, Algorithm::KFIO), {8, 15});
 }
 
 }  // namespace

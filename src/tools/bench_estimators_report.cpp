@@ -220,6 +220,29 @@ void printSummary(const std::map<Key, Timing>& timings, bool cpu_time, std::size
     printTable(timings, fixed_table, fixed_sizes, false);
     printTable(timings, fixed_table, fixed_sizes, true);
   }
+  Table omni_table;
+  omni_table.reference = "kfio_omni";
+  omni_table.targeted = [](int n) { return n == 8 || n == 15; };
+  omni_table.targeted_text = "n = 8, 15";
+  omni_table.rows = {
+    {"kfio_omni", "kfio_omni", false, 0.0},
+    {"ekfio_omni", "ekfio_omni", false, 2.0},
+  };
+  std::vector<int> omni_sizes;
+  for (int n : sizes)
+  {
+    if (timings.count(Key("ekfio_omni", n)) != 0 || timings.count(Key("kfio_omni", n)) != 0)
+    {
+      omni_sizes.push_back(n);
+    }
+  }
+  if (!omni_sizes.empty())
+  {
+    std::printf("\nRobot motions (n = 8: omni_2d, m = 7; n = 15: omni_3d, m = 13): ekfio against kfio on the "
+                "motion's linearisation, the same data:\n");
+    printTable(timings, omni_table, omni_sizes, false);
+    printTable(timings, omni_table, omni_sizes, true);
+  }
   std::printf("\nPASS/MISS compares the ratio with the target; timing is informative only (exit code 0).\n");
 }
 

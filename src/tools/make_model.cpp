@@ -1,5 +1,6 @@
 // make_model: writes the model file of a constant-velocity or constant-acceleration robot
-// (kinematic_model.hpp, docs/formats.md "Kinematic models for robots (make_model)").
+// (kinematic_model.hpp, docs/formats.md "Kinematic models for robots (make_model)"), or of a robot
+// with a built-in motion omni_2d / omni_3d (omni_model.hpp, docs/formats.md 1.7b).
 #include <cctype>
 #include <cerrno>
 #include <cstdlib>
@@ -12,6 +13,7 @@
 #include "cli.hpp"
 #include "networked_estimation/config/kinematic_model.hpp"
 #include "networked_estimation/config/model_writer.hpp"
+#include "networked_estimation/config/omni_model.hpp"
 #include "networked_estimation/io/atomic_file.hpp"
 
 using namespace networked_estimation;
@@ -49,6 +51,66 @@ KinematicSensor parseSensor(const std::string& text)
   if (parts.size() != 3)
     throw cli::UsageError("option '--sensor': expected NAME:QUANTITY:SIGMA, found '" + text + "'");
   return KinematicSensor{parts[0], parts[1], parseNumber(parts[2], "option '--sensor' '" + text + "': SIGMA")};
+}
+
+/// Comma-separated numbers ("0.1" or "0.1,0.2"), for the option `what`.
+std::vector<double> parseNumbers(const std::string& text, const std::string& what)
+{
+  std::vector<double> out;
+  const std::vector<std::string> parts = split(text, ',');
+  for (std::size_t i = 0; i < parts.size(); ++i)
+    out.push_back(parseNumber(parts[i], what + (parts.size() > 1 ? ": entry " + std::to_string(i) : "")));
+  return out;
+}
+
+/// --sensor NAME:STATE,STATE,...:SIGMA[,SIGMA...] of an omni model.
+OmniSensor parseOmniSensor(const std::string& text)
+{
+  const std::vector<std::string> parts = split(text, ':');
+  if (parts.size() != 3)
+    throw cli::UsageError("option '--sensor': expected NAME:STATE,STATE,...:SIGMA[,SIGMA,...] for an omni model, "
+                          "found '" + text + "'");
+  return OmniSensor{parts[0], split(parts[1], ','), parseNumbers(parts[2], "option '--sensor' '" + text + "': SIGMA")};
+}
+
+/// The options of a kinematic model that an omni model does not take, and the other way round.
+const std::vector<std::string>& kinematicOnly()
+{
+  static const std::vector<std::string> keys = {"dims",         "accel-density", "jerk-density",
+                                                "p0-position",  "p0-velocity",   "p0-acceleration",
+                                                "heading",      "p0-yaw",        "p0-yaw-rate",
+                                                "p0-yaw-acceleration"};
+  return keys;
+}
+const std::vector<std::string>& omniOnly()
+{
+  static const std::vector<std::string> keys = {"process-noise", "p0", "two-d-mode"};
+  return keys;
+}
+
+/// make_model --motion omni_2d | omni_3d.
+Model omniModel(const cli::CommandLine& cl, std::string& comment)
+{
+  for (const std::string& key : kinematicOnly())
+    if (cl.has(key))
+      throw cli::UsageError("option '--" + key + "' is not for a " + cl.get("motion") + " model");
+  if (!cl.has("process-noise"))
+    throw cli::UsageError("missing required option '--process-noise' (for a " + cl.get("motion") + " model)");
+  OmniSpec spec;
+  spec.motion = cl.get("motion");
+  spec.name = cl.get("name", "robot");
+  spec.rate = parseNumber(cl.get("rate"), "option '--rate'");
+  spec.process_noise = parseNumbers(cl.get("process-noise"), "option '--process-noise'");
+  for (const std::string& s : cl.getAll("sensor"))
+    spec.sensors.push_back(parseOmniSensor(s));
+  if (cl.has("x0"))
+    spec.x0 = parseNumbers(cl.get("x0"), "option '--x0'");
+  if (cl.has("p0"))
+    spec.p0 = parseNumbers(cl.get("p0"), "option '--p0'");
+  spec.two_d_mode = cl.has("two-d-mode");
+  const Model model = makeOmniModel(spec);
+  comment += omniModelComment(spec);
+  return model;
 }
 
 /// The option a key of makeKinematicModel's messages comes from, as the user typed it:
@@ -99,10 +161,15 @@ int main(int argc, char** argv)
       "axis with standard deviation SIGMA (m, m/s, m/s^2). --heading Q adds a heading: the yaw (an angle, written\n"
       "in the file's angles) moves like one more axis, driven by white angular acceleration (rad^2/s^3) or jerk\n"
       "(rad^2/s^5) of density Q, last in each group ([x, y, yaw, vx, vy, vyaw]); QUANTITY yaw, yaw_rate or\n"
-      "yaw_acceleration is a one-row sensor of it. Writes to stdout unless --output is given.",
+      "yaw_acceleration is a one-row sensor of it.\n"
+      "--motion omni_2d or omni_3d writes a robot with a built-in nonlinear motion (for ekfio; docs/algorithms.md\n"
+      "8): the state of robot_localization, omni_2d [x, y, yaw, vx, vy, vyaw, ax, ay], omni_3d [x, y, z, roll,\n"
+      "pitch, yaw, vx, vy, vz, vroll, vpitch, vyaw, ax, ay, az], velocities and accelerations in the robot's\n"
+      "frame; --process-noise gives Q per second (one value, or one per state), each --sensor\n"
+      "NAME:STATE,STATE,...:SIGMA[,SIGMA,...] measures the named states. Writes to stdout unless --output is given.",
       {
-          {"motion", "MOTION", "constant_velocity or constant_acceleration", true, false},
-          {"dims", "D", "number of axes: 1, 2 or 3", true, false},
+          {"motion", "MOTION", "constant_velocity, constant_acceleration, omni_2d or omni_3d", true, false},
+          {"dims", "D", "constant_velocity / constant_acceleration: number of axes, 1, 2 or 3", false, false},
           {"rate", "HZ", "sampling rate (the model's period is 1 / HZ)", true, false},
           {"accel-density", "Q", "constant_velocity: spectral density of the acceleration (m^2/s^3)", false, false},
           {"jerk-density", "Q", "constant_acceleration: spectral density of the jerk (m^2/s^5)", false, false},
@@ -119,9 +186,37 @@ int main(int argc, char** argv)
           {"p0-yaw-rate", "VAR", "with --heading: initial variance of the yaw rate, (rad/s)^2 (default 1)", false, false},
           {"p0-yaw-acceleration", "VAR", "with --heading, constant_acceleration: of the yaw acceleration (default 1)",
            false, false},
+          {"process-noise", "V|V1,...,Vn", "omni: Q's diagonal per second (robot_localization's "
+           "process_noise_covariance), one value or n", false, false},
+          {"p0", "V|V1,...,Vn", "omni: P0's diagonal, one value or n (default 1)", false, false},
+          {"two-d-mode", "", "omni_3d: hold z, roll, pitch, their rates and az at 0", false, false},
           {"output", "FILE", "write the model here (atomically) instead of to stdout", false, false},
       });
   return cli::runTool(cl, argc, argv, [&]() -> int {
+    const std::string motion = cl.get("motion");
+    if (motion == "omni_2d" || motion == "omni_3d")
+    {
+      std::string comment = "Generated by make_model (docs/formats.md 1.7b):\n  " + commandLine(argc, argv) + "\n";
+      const Model model = omniModel(cl, comment);
+      if (!cl.has("output"))
+      {
+        std::ostringstream text;
+        writeModelYaml(text, model, comment);
+        std::cout << text.str();
+        return 0;
+      }
+      AtomicFile file(cl.get("output"));
+      writeModelYaml(file.stream(), model, comment);
+      file.commit();
+      std::cout << "wrote " << file.path() << ": " << motion << " at " << cl.get("rate") << " Hz, n = " << model.n()
+                << ", m = " << model.m() << "\n";
+      return 0;
+    }
+    for (const std::string& key : omniOnly())
+      if (cl.has(key))
+        throw cli::UsageError("option '--" + key + "' is only for an omni_2d or omni_3d model");
+    if (!cl.has("dims"))
+      throw cli::UsageError("missing required option '--dims' (for a " + motion + " model)");
     KinematicSpec spec;
     spec.motion = cl.get("motion");
     spec.name = cl.get("name", spec.name);

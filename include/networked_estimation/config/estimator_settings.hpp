@@ -19,10 +19,11 @@ enum class Algorithm
   RSEIO,  ///< Zhou's robust estimator with intermittent observations
   AOE,    ///< approximate optimal estimator, NACK control link (Lin et al.)
   OE,     ///< exact optimal estimator (Gaussian mixture, capped)
-  ACK_KF  ///< Kalman filter told whether each command arrived
+  ACK_KF, ///< Kalman filter told whether each command arrived
+  EKFIO   ///< extended kfio: a built-in nonlinear motion (or kfio's prediction on a linear model)
 };
 
-/// "kf", "kfio", "rseio", "aoe", "oe", "ack_kf".
+/// "kf", "kfio", "rseio", "aoe", "oe", "ack_kf", "ekfio".
 std::string toString(Algorithm a);
 /// Inverse of toString; throws ConfigError for an unknown name (listing the known ones).
 Algorithm algorithmFromString(const std::string& name, const std::string& source);

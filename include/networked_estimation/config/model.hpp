@@ -1,7 +1,10 @@
-// The linear plant and its sensors (docs/formats.md, "Model file").
+// The plant and its sensors (docs/formats.md, "Model file"): linear,
 //
 //   x_k = A x_{k-1} + nu_k Bu u_k + B w_{k-1}      w ~ N(0, Q)
 //   y_k = C x_k + v_k                               v ~ N(0, R), received iff gamma_k = 1
+//
+// or a built-in robot motion (key `motion`, motion/motion.hpp), x_k = f(x_{k-1}, dt) + w, w ~ N(0, Q dt)
+// with Q per second, no A, B = I, no control, the same sensors.
 #pragma once
 
 #include <Eigen/Dense>
@@ -9,6 +12,7 @@
 #include <vector>
 
 #include "networked_estimation/config/schedule.hpp"
+#include "networked_estimation/motion/motion.hpp"
 
 namespace YAML
 {
@@ -55,8 +59,15 @@ struct Model
   /// estimators wrap it after every step and wrap the innovation of every row that measures it
   /// (angularRows; docs/algorithms.md 2.7, docs/formats.md 1.2b).
   std::vector<int> angles;
+  /// LINEAR (A predicts), or a built-in motion: then A is empty, B = I, Q is per second, no
+  /// control and no uncertainty; states and angles are the motion's (docs/algorithms.md 7).
+  Motion motion = Motion::LINEAR;
+  /// omni_3d only: z, roll, pitch, their rates and az held at 0 (robot_localization's two_d_mode).
+  bool two_d_mode = false;
 
-  int n() const { return static_cast<int>(A.rows()); }
+  int n() const { return motion == Motion::LINEAR ? static_cast<int>(A.rows()) : motionStates(motion); }
+  /// Whether the model has a built-in nonlinear motion (no A).
+  bool nonlinear() const { return motion != Motion::LINEAR; }
   int nw() const { return static_cast<int>(B.cols()); }
   int m() const { return static_cast<int>(C.rows()); }
   int p() const { return static_cast<int>(Bu.cols()); }

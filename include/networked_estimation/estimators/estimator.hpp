@@ -34,6 +34,10 @@ struct Sample
   /// model's R. Its blocks of the fused sensors must be symmetric positive definite (the caller
   /// validates them); a non-finite entry or a wrong size is an InputError.
   Eigen::MatrixXd R;
+  /// The step's duration in seconds, > 0 (0: the model's period). Only a built-in motion reads it
+  /// (ekfio discretises f and Q at it); a linear model's A is per period. Negative or not finite:
+  /// InputError from ekfio.
+  double dt = 0.0;
 };
 
 class Estimator
@@ -76,6 +80,13 @@ protected:
   long steps_ = 0;
   bool last_updated_ = false;
 };
+
+/// The prior of a step from (x, P) = (x_{k-1|k-1}, P_{k-1|k-1}), as kfio and ekfio predict: for a linear
+/// model xp = A x + Bu u (u empty: zero input), Pp = A P A' + B Q B'; for a built-in motion
+/// xp = f(x, dt), Pp = F P F' + Q dt (dt = 0: the model's period), two_d_mode applied. Used by the
+/// rejection thresholds (OnlineOptions).
+void predictPrior(const Model& model, const Eigen::VectorXd& x, const Eigen::MatrixXd& P, const Eigen::VectorXd& u,
+                  double dt, Eigen::VectorXd& xp, Eigen::MatrixXd& Pp);
 
 /// Builds the estimator named by settings.algorithm. Throws ConfigError when the combination is
 /// invalid (e.g. aoe/oe for a model with control but settings without control_link).

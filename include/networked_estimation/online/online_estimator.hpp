@@ -56,11 +56,16 @@ struct OnlineOptions
   std::vector<double> rate_ratio;
   /// Per sensor (empty = none): the largest Mahalanobis distance sqrt(nu' S^-1 nu) of the
   /// sensor's innovation nu = y - C xpred (its angular rows wrapped), S = C Ppred C' + R, that is still fused (as
-  /// robot_localization's *_rejection_threshold); +inf = off. xpred = A x + Bu u and Ppred =
-  /// A P A' + B Q B' from the estimator's x_{k-1|k-1}, P_{k-1|k-1} (for rseio its pseudo-
+  /// robot_localization's *_rejection_threshold); +inf = off. xpred and Ppred are predictPrior's
+  /// (A x + Bu u and A P A' + B Q B', or a built-in motion's f and F P F' + Q dt) from the
+  /// estimator's x_{k-1|k-1}, P_{k-1|k-1} (for rseio its pseudo-
   /// covariance, for aoe/oe the mixture's moments, with the command as sent). A measurement beyond
   /// it is not fused and counts as not arrived (a loss for the link statistics).
   std::vector<double> rejection_threshold;
+  /// Seconds from one step to the next (Sample::dt of every step; 0: the model's period). The
+  /// Estimator sets its `period`, which may differ from the model's: a built-in motion then
+  /// predicts over the steps' actual spacing (a linear model's A stays per its own period).
+  double step_duration = 0.0;
 };
 
 /// Validates options (history_length >= 1 for rewind, max_future_steps >= 1, max_past_steps >=

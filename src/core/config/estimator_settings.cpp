@@ -21,14 +21,15 @@ namespace
 
 const std::vector<std::string>& algorithmNames()
 {
-  static const std::vector<std::string> names = {"kf", "kfio", "rseio", "aoe", "oe", "ack_kf"};
+  static const std::vector<std::string> names = {"kf", "kfio", "rseio", "aoe", "oe", "ack_kf", "ekfio"};
   return names;
 }
 
 const std::vector<Algorithm>& algorithmValues()
 {
   static const std::vector<Algorithm> values = {Algorithm::KF,  Algorithm::KFIO, Algorithm::RSEIO,
-                                                Algorithm::AOE, Algorithm::OE,   Algorithm::ACK_KF};
+                                                Algorithm::AOE, Algorithm::OE,   Algorithm::ACK_KF,
+                                                Algorithm::EKFIO};
   return values;
 }
 

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "config/motion_config.hpp"
 #include "config/schedule_config.hpp"
 #include "config/yaml_reader.hpp"
 #include "networked_estimation/common/error.hpp"
@@ -130,7 +131,7 @@ Model parseModelImpl(const YAML::Node& node, const std::string& source)
   in.checkKeys(
       node, "",
       {"name", "period", "A", "B", "Q", "C", "R", "sensors", "x0", "P0", "uncertainty", "control", "schedule",
-       "states", "angles"});
+       "states", "angles", "motion", "two_d_mode"});
 
   Model model;
   if (node["name"])
@@ -147,15 +148,18 @@ Model parseModelImpl(const YAML::Node& node, const std::string& source)
     }
   }
 
-  // A: n x n
-  const YAML::Node a_node = in.require(node, "", "A");
-  model.A = in.matrix(a_node, "A", -1, -1, "");
-  if (model.A.rows() != model.A.cols())
+  // A: n x n, or a built-in motion (no A, B = I)
+  readMotion(in, node, model);
+  if (!model.nonlinear())
   {
-    in.fail(a_node, "A",
-            "expected a square matrix (n x n), found " + dims(model.A.rows(), model.A.cols()));
+    const YAML::Node a_node = in.require(node, "", "A", "or a built-in motion: motion omni_2d or omni_3d");
+    model.A = in.matrix(a_node, "A", -1, -1, "");
+    if (model.A.rows() != model.A.cols())
+    {
+      in.fail(a_node, "A", "expected a square matrix (n x n), found " + dims(model.A.rows(), model.A.cols()));
+    }
   }
-  const int n = static_cast<int>(model.A.rows());
+  const int n = model.n();
   const std::string n_rows = countText("n", n) + " rows";
   const std::string n_cols = countText("n", n) + " columns";
 
@@ -171,7 +175,8 @@ Model parseModelImpl(const YAML::Node& node, const std::string& source)
   const int nw = static_cast<int>(model.B.cols());
   const YAML::Node q_node = in.require(node, "", "Q");
   model.Q = in.matrix(q_node, "Q", nw, nw,
-                      countText("nw", nw) + (node["B"] ? ", the columns of B" : ", B = identity"));
+                      model.nonlinear() ? "per second, one row per state of " + toString(model.motion)
+                                        : countText("nw", nw) + (node["B"] ? ", the columns of B" : ", B = identity"));
   checkCovariance(in, q_node, "Q", "Q", model.Q, true);
 
   // C / R, or sensors
@@ -337,11 +342,15 @@ Model parseModelImpl(const YAML::Node& node, const std::string& source)
   }
 
   // state names and angles
-  if (const YAML::Node s_node = node["states"])
+  if (model.nonlinear())
+  {
+    readMotionNames(in, node, model);
+  }
+  else if (const YAML::Node s_node = node["states"])
   {
     model.states = parseStateNames(in, s_node, n);
   }
-  if (const YAML::Node a_node = node["angles"])
+  if (const YAML::Node a_node = node["angles"]; a_node && !model.nonlinear())
   {
     model.angles = parseAngles(in, a_node, model.states, n);
   }
@@ -521,17 +530,32 @@ void validateModel(const Model& model, const std::string& source)
                        formatNumber(model.period));
   }
 
-  // A
-  if (model.A.size() == 0)
+  // A, or a built-in motion
+  if (model.nonlinear())
   {
-    fail("A", "empty matrix");
+    const auto problem = motionModelProblem(model);
+    if (!problem.first.empty())
+    {
+      fail(problem.first, problem.second);
+    }
   }
-  if (model.A.rows() != model.A.cols())
+  else
   {
-    fail("A", "expected a square matrix (n x n), found " + dims(model.A.rows(), model.A.cols()));
+    if (model.two_d_mode)
+    {
+      fail("two_d_mode", "only with motion omni_3d (a linear model has no planar constraint)");
+    }
+    if (model.A.size() == 0)
+    {
+      fail("A", "empty matrix");
+    }
+    if (model.A.rows() != model.A.cols())
+    {
+      fail("A", "expected a square matrix (n x n), found " + dims(model.A.rows(), model.A.cols()));
+    }
+    checkFinite("A", "A", model.A);
   }
-  checkFinite("A", "A", model.A);
-  const Eigen::Index n = model.A.rows();
+  const Eigen::Index n = model.n();
   const std::string n_text = countText("n", static_cast<int>(n));
 
   // B, Q

@@ -116,7 +116,19 @@ void writeModelYaml(std::ostream& out, const Model& model, const std::string& co
     }
     out << "]\n";
   }
-  writeMatrix(out, "", "A", model.A);
+  if (model.nonlinear())
+  {
+    // the motion's states and angles are implied; written above, they document the file
+    out << "motion: " << toString(model.motion) << "\n";
+    if (model.two_d_mode)
+    {
+      out << "two_d_mode: true\n";
+    }
+  }
+  else
+  {
+    writeMatrix(out, "", "A", model.A);
+  }
   if (!model.B.isIdentity(0.0))
   {
     writeMatrix(out, "", "B", model.B);

@@ -14,6 +14,7 @@
 #include "networked_estimation/estimators/estimator.hpp"
 #include "networked_estimation/io/json_writer.hpp"
 #include "networked_estimation/simulation/lossy_run.hpp"
+#include "networked_estimation/motion/linearised_model.hpp"
 #include "networked_estimation/stability/stability.hpp"
 
 namespace networked_estimation
@@ -315,7 +316,8 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
     for (double b : axes.size() > 1 ? axes[1].values : std::vector<double>{0.0})
       sweep->point_values.push_back(axes.size() > 1 ? std::vector<double>{a, b} : std::vector<double>{a});
   sweep->points = static_cast<long>(sweep->point_values.size());
-  sweep->analysis = analyseSweep(model, su.links.link, axes);
+  // a built-in motion: the verdicts of its linearisation at x0 (local, docs/stability.md 5)
+  sweep->analysis = analyseSweep(linearisedModel(model, model.x0, model.period), su.links.link, axes);
 
   if (rc.progress)
     rc.progress->setTotal(rc.runs);

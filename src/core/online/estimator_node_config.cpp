@@ -162,6 +162,7 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   RuntimeSettings& rt = c.runtime;
   rt.late_policy = p.text("late_policy", "drop");
   c.online.late_policy = latePolicyFromString(rt.late_policy, source);
+  c.online.step_duration = c.period;  // a built-in motion predicts over the steps' spacing
   c.online.history_length = static_cast<std::size_t>(p.integer("history_length", 100, 1, 100000));
   c.online.max_future_steps = p.integer("max_future_steps", 1000, 1, 1000000);
   c.online.max_past_steps =

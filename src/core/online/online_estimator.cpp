@@ -37,6 +37,9 @@ void validateOnlineOptions(const OnlineOptions& o, const std::string& source)
     if (!(o.rejection_threshold[i] > 0.0))
       throw ConfigError(source + ": rejection_threshold[" + std::to_string(i) + "]: expected > 0 (+inf: off), found " +
                         std::to_string(o.rejection_threshold[i]));
+  if (!(o.step_duration >= 0.0 && o.step_duration <= 3600.0))
+    throw ConfigError(source + ": step_duration: expected seconds in [0, 3600] (0: the model's period), found " +
+                      std::to_string(o.step_duration));
   for (std::size_t i = 0; i < o.rate_ratio.size(); ++i)
     if (!(o.rate_ratio[i] >= 1.0 && o.rate_ratio[i] <= 1e9))
       throw ConfigError(source + ": rate_ratio[" + std::to_string(i) + "]: expected in [1, 1e9] (a sensor rate at or " +
@@ -443,6 +446,7 @@ OfferResult OnlineEstimator::offerSchedule(long k, const std::vector<bool>& tran
 void OnlineEstimator::fillSample(long k, Sample& sample) const
 {
   const Slot& s = ring_[static_cast<std::size_t>(k) % ring_.size()];
+  sample.dt = options_.step_duration;  // the steps' grid: k - 1 to k is one step_duration
   if (s.k != k)  // nothing arrived for step k
   {
     sample.gamma = false;
@@ -609,10 +613,7 @@ void OnlineEstimator::gate(Slot& s, Sample& sample)
       continue;
     if (!predicted)
     {
-      xp = model_.A * est.state();
-      if (model_.hasControl() && sample.u.size() == model_.p())
-        xp += model_.Bu * sample.u;
-      Pp = model_.A * est.covariance() * model_.A.transpose() + model_.B * model_.Q * model_.B.transpose();
+      predictPrior(model_, est.state(), est.covariance(), sample.u, sample.dt, xp, Pp);
       predicted = true;
     }
     const Sensor& sn = model_.sensors[i];

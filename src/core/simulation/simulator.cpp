@@ -199,7 +199,8 @@ PlantSimulator::PlantSimulator(const Model& model, std::uint64_t seed, ControlSe
 {
   const int n = model.n(), nw = model.nw(), m = model.m(), p = model.p(), ne = model.ne();
   const std::string& name = model.name;
-  requireSize(model.A, n, n, "A", name);
+  if (!model.nonlinear())
+    requireSize(model.A, n, n, "A", name);
   requireSize(model.B, n, nw, "B", name);
   requireSize(model.Q, nw, nw, "Q", name);
   requireSize(model.C, m, n, "C", name);
@@ -221,7 +222,9 @@ PlantSimulator::PlantSimulator(const Model& model, std::uint64_t seed, ControlSe
       requireSize(unc.dC, m, n, idx + "dC", name);
   }
 
-  sqrtQ_ = lowerCholesky(model.Q, "Q", name);
+  // a built-in motion's Q is per second: the noise of one step of the period is N(0, Q T)
+  const Eigen::MatrixXd q_step = model.nonlinear() ? Eigen::MatrixXd(model.Q * model.period) : model.Q;
+  sqrtQ_ = lowerCholesky(q_step, "Q", name);
   sqrtR_ = lowerCholesky(model.R, "R", name);
 
   // The rounding floor (simulator.hpp): the smallest noise standard deviation in state units.
@@ -234,7 +237,7 @@ PlantSimulator::PlantSimulator(const Model& model, std::uint64_t seed, ControlSe
                           ? std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(
                                                         model.R, Eigen::EigenvaluesOnly).eigenvalues()(0))) / c
                           : std::numeric_limits<double>::infinity();
-  const double lw = nw > 0 ? smallestNonZeroEigenvalue(model.B * model.Q * model.B.transpose()) : 0.0;
+  const double lw = nw > 0 ? smallestNonZeroEigenvalue(model.B * q_step * model.B.transpose()) : 0.0;
   const double sd_w = lw > 0.0 ? std::sqrt(lw) : std::numeric_limits<double>::infinity();
   noise_sd_ = std::min(sd_v, sd_w);
   noise_kind_ = sd_v <= sd_w ? "measurement noise sqrt(lambda_min(R)) / ||C||_inf"
@@ -268,6 +271,9 @@ void PlantSimulator::start()
   for (Eigen::Index i = 0; i < z0_.size(); ++i)
     z0_(i) = rng_x0_.normal();
   x_ = model_.x0 + sqrtP0_ * z0_;
+  if (model_.two_d_mode)
+    for (const int held : planarConstrained())
+      x_[held] = 0.0;
 
   // eps_0: used in A and B of the first transition.
   for (int j = 0; j < model_.ne(); ++j)
@@ -345,10 +351,22 @@ const SimulatedSample& PlantSimulator::advance(bool nu)
     zw_(i) = rng_w_.normal();
   w_.noalias() = sqrtQ_.triangularView<Eigen::Lower>() * zw_;
 
-  xn_.noalias() = A * x_;
-  xn_.noalias() += B * w_;
-  if (nu && M.hasControl())
-    xn_.noalias() += M.Bu * sample_.u;
+  if (M.nonlinear())
+  {
+    // the same motion ekfio predicts with, over the period, plus N(0, Q T) (B = I)
+    propagate(M.motion, x_, M.period, xn_, nullptr);
+    xn_ += w_;
+    if (M.two_d_mode)
+      for (const int held : planarConstrained())
+        xn_[held] = 0.0;
+  }
+  else
+  {
+    xn_.noalias() = A * x_;
+    xn_.noalias() += B * w_;
+    if (nu && M.hasControl())
+      xn_.noalias() += M.Bu * sample_.u;
+  }
   x_.swap(xn_);
   wrapEntries(x_, M.angles);  // an angle of the plant lives in (-pi, pi] (docs/formats.md 1.2b)
 

@@ -436,6 +436,10 @@ StabilityReport analyzeStability(const Model& model, const std::vector<std::opti
     case Algorithm::KFIO:
       rep.estimator_note = "the verdicts concern E[P] of the Kalman filter with intermittent observations";
       break;
+    case Algorithm::EKFIO:
+      rep.estimator_note = "the verdicts concern E[P] of the Kalman filter with intermittent observations of this "
+                           "linear model (ekfio's linearisation): for a built-in motion a local verdict";
+      break;
     case Algorithm::AOE:
     case Algorithm::OE:
     case Algorithm::ACK_KF:

@@ -1,0 +1,30 @@
+// The model file's keys of a built-in motion (docs/formats.md 1.7b): `motion`, `two_d_mode`, and
+// what they exclude (A, B, control, uncertainty) or fix (states, angles).
+#pragma once
+
+#include <string>
+#include <utility>
+
+#include "config/yaml_reader.hpp"
+#include "networked_estimation/config/model.hpp"
+
+namespace networked_estimation
+{
+namespace detail
+{
+
+/// For a file with `motion`: reads it and `two_d_mode`, refuses A, B, control and uncertainty (they
+/// belong to linear models) and a missing period; sets the model's motion, A empty and B = I.
+/// Without `motion`, refuses `two_d_mode`. Fails through `in` naming the key.
+void readMotion(const Reader& in, const YAML::Node& node, Model& model);
+
+/// For a motion model: `states` and `angles`, when given, must be the motion's; the model gets
+/// them either way.
+void readMotionNames(const Reader& in, const YAML::Node& node, Model& model);
+
+/// validateModel's checks of a built-in motion (A empty, B = I, no control, no uncertainty, the
+/// motion's states and angles, two_d_mode only for omni_3d, a period): {key, problem}, or empty.
+std::pair<std::string, std::string> motionModelProblem(const Model& model);
+
+}  // namespace detail
+}  // namespace networked_estimation
