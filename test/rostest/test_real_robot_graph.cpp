@@ -7,6 +7,9 @@
 //     SetPose (estimator_real_inputs.test): tf with child_frame_id base_link, stamps that must not
 //     anchor the timeline, runtime settings checked like the load, sensor_msgs/Imu's covariance
 //     -1, set_pose as a topic and a service, relative and differential poses (RelativeAndDifferential).
+//   PeerBagTest (estimator_peer_bag2*.test): one of robot_localization's bag tests through
+//     launch/peer_bag_test.launch, asserting what it asserts: the last /odometry/filtered position
+//     within ~tolerance of ~expected.
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <dynamic_reconfigure/Reconfigure.h>
@@ -579,6 +582,54 @@ TEST(RealRobotGraph, RelativeAndDifferential)
   const std::map<std::string, std::string> d = diag.snapshot();
   EXPECT_EQ(std::stod(d.at("vel reference poses (differential)")), 1.0);
   EXPECT_EQ(std::stod(d.at("rejected")), 0.0);
+}
+
+// robot_localization's bag tests assert the last /odometry/filtered position after the bag: here
+// the same assertion on our Estimator, the bag played by launch/peer_bag_test.launch. Parameters:
+// ~expected [x, y, z], ~tolerance (m), ~bag_end (the bag's last stamp, s).
+TEST(RealRobotGraph, PeerBagTest)
+{
+  ros::NodeHandle nh, pnh("~");
+  std::vector<double> expected;
+  double tolerance = 0.0, bag_end = 0.0;
+  ASSERT_TRUE(pnh.getParam("expected", expected) && expected.size() == 3);
+  ASSERT_TRUE(pnh.getParam("tolerance", tolerance) && pnh.getParam("bag_end", bag_end));
+  Collector<nav_msgs::Odometry> odom(nh, "/odometry/filtered");
+  DiagnosticsProbe diag(nh, "ekf_se: estimator");
+  DiagnosticsProbe link(nh, "ekf_se: link stability");
+  // Until the estimate reaches the bag's end (or nothing new comes for 10 s of wall time).
+  std::size_t seen = 0;
+  ros::WallTime quiet_since = ros::WallTime::now();
+  const ros::WallTime start = ros::WallTime::now();
+  while ((ros::WallTime::now() - start).toSec() < 400.0)
+  {
+    ros::WallDuration(0.5).sleep();
+    std::lock_guard<std::mutex> lock(odom.mutex);
+    if (!odom.msgs.empty() && odom.msgs.back().header.stamp.toSec() >= bag_end - 0.05)
+      break;
+    if (odom.msgs.size() != seen)
+    {
+      seen = odom.msgs.size();
+      quiet_since = ros::WallTime::now();
+    }
+    else if (seen > 0 && (ros::WallTime::now() - quiet_since).toSec() > 10.0)
+      break;
+  }
+  ros::WallDuration(2.0).sleep();  // a diagnostics period (1 s of wall time)
+  std::lock_guard<std::mutex> lock(odom.mutex);
+  ASSERT_FALSE(odom.msgs.empty()) << "no /odometry/filtered";
+  const nav_msgs::Odometry& last = odom.msgs.back();
+  const auto& p = last.pose.pose.position;
+  const double d = std::sqrt((p.x - expected[0]) * (p.x - expected[0]) + (p.y - expected[1]) * (p.y - expected[1]) +
+                             (p.z - expected[2]) * (p.z - expected[2]));
+  std::printf("[ peer bag test ] %zu estimates, last at %.3f s: (%.4f, %.4f, %.4f), %.4f m from (%.4f, %.4f, %.4f) "
+              "(tolerance %.4f); status: %s; link: %s\n",
+              odom.msgs.size(), last.header.stamp.toSec(), p.x, p.y, p.z, d, expected[0], expected[1], expected[2],
+              tolerance, diag.lastMessage().c_str(), link.lastMessage().c_str());
+  EXPECT_GE(last.header.stamp.toSec(), bag_end - 0.1) << "the estimate stopped before the bag's end";
+  EXPECT_LE(std::abs(p.x - expected[0]), tolerance);
+  EXPECT_LE(std::abs(p.y - expected[1]), tolerance);
+  EXPECT_LE(std::abs(p.z - expected[2]), tolerance);
 }
 
 int main(int argc, char** argv)
