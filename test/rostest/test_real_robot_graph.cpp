@@ -586,14 +586,24 @@ TEST(RealRobotGraph, RelativeAndDifferential)
 
 // robot_localization's bag tests assert the last /odometry/filtered position after the bag: here
 // the same assertion on our Estimator, the bag played by launch/peer_bag_test.launch. Parameters:
-// ~expected [x, y, z], ~tolerance (m), ~bag_end (the bag's last stamp, s).
+// ~bag_end (the bag's last stamp, s); optionally ~expected [x, y, z] with ~tolerance (m, per
+// axis, as robot_localization's test), ~link_level (the link stability status's level at the end:
+// 0 OK, 1 WARN, 2 ERROR), ~link_mentions (texts its message must contain) and ~lossy_sensor (a
+// sensor whose arrival rate the link status must show below 1).
 TEST(RealRobotGraph, PeerBagTest)
 {
   ros::NodeHandle nh, pnh("~");
   std::vector<double> expected;
+  std::vector<std::string> mentions;
   double tolerance = 0.0, bag_end = 0.0;
-  ASSERT_TRUE(pnh.getParam("expected", expected) && expected.size() == 3);
-  ASSERT_TRUE(pnh.getParam("tolerance", tolerance) && pnh.getParam("bag_end", bag_end));
+  int link_level = -1;
+  std::string lossy_sensor;
+  ASSERT_TRUE(pnh.getParam("bag_end", bag_end));
+  const bool position = pnh.getParam("expected", expected);
+  ASSERT_TRUE(!position || (expected.size() == 3 && pnh.getParam("tolerance", tolerance)));
+  pnh.getParam("link_level", link_level);
+  pnh.getParam("link_mentions", mentions);
+  pnh.getParam("lossy_sensor", lossy_sensor);
   Collector<nav_msgs::Odometry> odom(nh, "/odometry/filtered");
   DiagnosticsProbe diag(nh, "ekf_se: estimator");
   DiagnosticsProbe link(nh, "ekf_se: link stability");
@@ -620,16 +630,37 @@ TEST(RealRobotGraph, PeerBagTest)
   ASSERT_FALSE(odom.msgs.empty()) << "no /odometry/filtered";
   const nav_msgs::Odometry& last = odom.msgs.back();
   const auto& p = last.pose.pose.position;
-  const double d = std::sqrt((p.x - expected[0]) * (p.x - expected[0]) + (p.y - expected[1]) * (p.y - expected[1]) +
-                             (p.z - expected[2]) * (p.z - expected[2]));
-  std::printf("[ peer bag test ] %zu estimates, last at %.3f s: (%.4f, %.4f, %.4f), %.4f m from (%.4f, %.4f, %.4f) "
-              "(tolerance %.4f); status: %s; link: %s\n",
-              odom.msgs.size(), last.header.stamp.toSec(), p.x, p.y, p.z, d, expected[0], expected[1], expected[2],
-              tolerance, diag.lastMessage().c_str(), link.lastMessage().c_str());
+  std::printf("[ peer bag test ] %zu estimates, last at %.3f s: (%.4f, %.4f, %.4f); status: %s; link: %s\n",
+              odom.msgs.size(), last.header.stamp.toSec(), p.x, p.y, p.z, diag.lastMessage().c_str(),
+              link.lastMessage().c_str());
   EXPECT_GE(last.header.stamp.toSec(), bag_end - 0.1) << "the estimate stopped before the bag's end";
-  EXPECT_LE(std::abs(p.x - expected[0]), tolerance);
-  EXPECT_LE(std::abs(p.y - expected[1]), tolerance);
-  EXPECT_LE(std::abs(p.z - expected[2]), tolerance);
+  if (position)
+  {
+    const double d = std::sqrt((p.x - expected[0]) * (p.x - expected[0]) +
+                               (p.y - expected[1]) * (p.y - expected[1]) + (p.z - expected[2]) * (p.z - expected[2]));
+    std::printf("[ peer bag test ] %.4f m from (%.4f, %.4f, %.4f), tolerance %.4f per axis\n", d, expected[0],
+                expected[1], expected[2], tolerance);
+    EXPECT_LE(std::abs(p.x - expected[0]), tolerance);
+    EXPECT_LE(std::abs(p.y - expected[1]), tolerance);
+    EXPECT_LE(std::abs(p.z - expected[2]), tolerance);
+  }
+  int level = -1;
+  std::string message;
+  {
+    std::lock_guard<std::mutex> l(link.mutex);
+    level = link.level;
+    message = link.message;
+  }
+  if (link_level >= 0)
+    EXPECT_EQ(level, link_level) << message;
+  for (const std::string& m : mentions)
+    EXPECT_NE(message.find(m), std::string::npos) << "expected '" << m << "' in: " << message;
+  if (!lossy_sensor.empty())
+  {
+    const double rate = std::atof(link.text(lossy_sensor + " arrival rate").c_str());
+    EXPECT_GT(rate, 0.0) << link.text(lossy_sensor + " arrival rate");
+    EXPECT_LT(rate, 1.0) << "the link status should show " << lossy_sensor << "'s losses";
+  }
 }
 
 int main(int argc, char** argv)
