@@ -243,7 +243,7 @@ for run in $(seq 1 "$RUNS_WANTED"); do
 done
 echo "load after: $(uptime | sed 's/.*load average/load average/')"
 
-python3 - "$CSV" <<'PY'
+python3 - "$CSV" "$(sed -n 's/^algorithm: *\([a-z_]*\).*/\1/p' "$PARAMS" | head -n 1), $(basename "$PARAMS")" <<'PY'
 import csv, statistics, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 cols = ["cpu_us_per_input", "cpu_us_per_input_schedstat", "latency_median_us", "latency_p99_us",
@@ -260,7 +260,7 @@ print()
 print("| system | model | runs | CPU per input (us) | latency median (us) | latency p99 (us) | idle (% of a core) | final x, y, z (m) | context switches per input; idle per s |")
 print("|---|---|---|---|---|---|---|---|---|")
 model = {"robot_localization": "EKF, 15 states (3-D pose, velocities, accelerations)",
-         "estimator": "kfio, linear, 6 states (x, y, yaw and their rates)",
+         "estimator": sys.argv[2],
          "null": "none (drops every message)"}
 for name, m in med.items():
     pos = "-" if m["x"] is None else "%.3f, %.3f, %.3f" % (m["x"], m["y"], m["z"])
