@@ -102,6 +102,8 @@ private:
   /// A sensor's message arriving: index checked, admitted by the timeline, placed (its step
   /// position), and the steps whose deadline passed taken. False: refused, `r` says why.
   bool arrive(std::size_t sensor, double stamp, long step, const Clocks& now, OfferResult& r, double& position);
+  /// A command's stamp checked by the timeline; false: refused (counted), `r` says why.
+  bool admitCommand(double stamp, const Clocks& now, OfferResult& r);
   void restart(const std::string& why);
   void catchUp(const Clocks& now);
   void drainComplete();

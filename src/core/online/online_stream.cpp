@@ -144,19 +144,24 @@ OfferResult OnlineStream::disabled(std::size_t sensor, double stamp, long step, 
   return r;
 }
 
+bool OnlineStream::admitCommand(double stamp, const Clocks& now, OfferResult& r)
+{
+  const Timeline::Admission a = timeline_.plausible(stamp, now.ros);
+  if (a.verdict != Timeline::Verdict::REFUSE)
+    return true;
+  ++refused_other_;
+  r.offer = Offer::REJECTED;
+  r.reason = "command: " + a.reason;
+  return false;
+}
+
 OfferResult OnlineStream::command(long step, double stamp, const double* u, std::size_t size, const Clocks& now)
 {
   OfferResult r;
   if (!online_->started())
     return r;  // the timeline starts with the measurements
-  const Timeline::Admission a = timeline_.plausible(stamp, now.ros);
-  if (a.verdict == Timeline::Verdict::REFUSE)
-  {
-    ++refused_other_;
-    r.offer = Offer::REJECTED;
-    r.reason = "command: " + a.reason;
+  if (!admitCommand(stamp, now, r))
     return r;
-  }
   catchUp(now);
   r = online_->offerCommand(step, u, size);
   drainComplete();
@@ -166,14 +171,8 @@ OfferResult OnlineStream::command(long step, double stamp, const double* u, std:
 OfferResult OnlineStream::heldCommand(double stamp, const double* u, std::size_t size, const Clocks& now)
 {
   OfferResult r;
-  const Timeline::Admission a = timeline_.plausible(stamp, now.ros);
-  if (a.verdict == Timeline::Verdict::REFUSE)
-  {
-    ++refused_other_;
-    r.offer = Offer::REJECTED;
-    r.reason = "command: " + a.reason;
+  if (!admitCommand(stamp, now, r))
     return r;
-  }
   if (held_.size() >= 1000)
     held_.erase(held_.begin());
   held_[stamp].assign(u, u + size);  // kept before the timeline starts, too
