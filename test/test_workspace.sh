@@ -121,6 +121,7 @@ check "every launch file is installed and resolves (roslaunch --files)" bash -c 
     case "$f" in
       estimator.launch) args=(model:="$share/config/models/zhou_example.yaml") ;;
       lossy_channel.launch) args=(in:=/imu out:=/imu_lossy) ;;
+      peer_bag_test.launch) args=(bag:=/any.bag params:="$share/config/peer_tests/jackal_bag2.yaml") ;;
       *) args=() ;;
     esac
     roslaunch --files networked_estimation "$f" "${args[@]}" > /dev/null || { echo "$f"; exit 1; }
