@@ -5,13 +5,13 @@
 #include <sstream>
 
 #include "cli.hpp"
-#include "networked_estimation/io/json_writer.hpp"
 #include "networked_estimation/config/model.hpp"
 #include "networked_estimation/config/channel_settings.hpp"
 #include "networked_estimation/config/estimator_settings.hpp"
 #include "networked_estimation/config/sensor_links.hpp"
 #include "networked_estimation/io/arrival_trace.hpp"
 #include "networked_estimation/motion/linearised_model.hpp"
+#include "networked_estimation/stability/analysis_json.hpp"
 #include "networked_estimation/stability/excitation.hpp"
 #include "networked_estimation/stability/link_design.hpp"
 #include "networked_estimation/stability/stability.hpp"
@@ -20,203 +20,6 @@ using namespace networked_estimation;
 
 namespace
 {
-
-/// A critical rate of +infinity: no rate keeps E[P] bounded (JSON has no number for it: null, and
-/// the set says unbounded_at_every_rate).
-bool noRate(double v)
-{
-  return std::isinf(v) && v > 0.0;
-}
-
-void jverdict(JsonWriter& w, const Verdict& v)
-{
-  w.beginObject().member("kind", toString(v.kind)).member("reason", v.reason).key("numbers").beginObject();
-  for (const auto& kv : v.numbers)
-    w.member(kv.first, kv.second);
-  w.endObject().endObject();
-}
-
-void jintervals(JsonWriter& w, const std::vector<RateInterval>& v)
-{
-  w.beginArray();
-  for (const RateInterval& in : v)
-    w.beginArray().value(in.lower).value(in.upper).endArray();
-  w.endArray();
-}
-
-void jlink(JsonWriter& w, const SensorLinkReport& l, const std::string& origin)
-{
-  const SensorMargin& m = l.margin;
-  w.beginObject().member("sensor", l.sensor).member("origin", origin);
-  w.member("kind", l.lossless ? "lossless" : l.link.kind == LinkModel::Kind::IID ? "bernoulli" : "gilbert_elliott");
-  w.member("arrival_rate", l.arrival_rate).member("recovery_rate", l.recovery_rate);
-  if (l.link.kind == LinkModel::Kind::GILBERT_ELLIOTT)
-    w.member("p", l.link.p).member("r", l.link.r);
-  else
-    w.key("p").null().key("r").null();
-  w.member("on_off", l.link.onOff()).member("capacity", l.capacity);
-  w.key("margin").beginObject().key("quantity");
-  if (m.quantity.empty())
-    w.null();
-  else
-    w.value(m.quantity);
-  w.member("value", m.value).member("half_line", m.half_line).member("diverges_at", m.band.diverges_at);
-  w.member("converges_at", m.band.converges_at).member("undecided_band", m.band.undecided_band);
-  w.member("any_positive", m.any_positive);
-  w.key("stable_intervals");
-  jintervals(w, m.stable);
-  w.member("scan_points", m.scan_points).member("margin", m.margin).member("note", m.note).endObject();
-  w.member("markov_threshold", l.markov_note).endObject();
-}
-
-void jset(JsonWriter& w, const RateAnalysis& r)
-{
-  w.beginObject().member("name", r.name).key("sensors").beginArray();
-  for (int s : r.sensors)
-    w.value(s);
-  w.endArray().member("lower_bound", r.lower_bound).member("closed_form_upper", r.closed_form_upper);
-  w.member("mare_diverges_at", r.mare.diverges_at).member("mare_converges_at", r.mare.converges_at);
-  w.member("mare_undecided_band", r.mare.undecided_band);
-  w.member("exact_rate", r.exact_rate).member("exact_method", r.exact_method);
-  w.member("unbounded_at_every_rate", noRate(r.exact_rate));
-  w.member("dead_reckoned", r.dead_reckoned);
-  w.member("recovery_lower_bound", r.recovery_lower_bound).member("recovery_exact", r.recovery_exact);
-  w.member("recovery_note", r.recovery_note).key("recovery_stable_intervals");
-  jintervals(w, r.recovery_stable);
-  w.key("aoe_theorem5");
-  jverdict(w, r.aoe_theorem5);
-  w.key("verdict");
-  jverdict(w, r.verdict);
-  w.member("margin_quantity", r.margin_quantity).member("channel_value", r.channel_value);
-  w.member("necessary_threshold", r.necessary_threshold).member("sufficient_threshold", r.sufficient_threshold);
-  w.member("margin", r.margin).key("stable_intervals");
-  jintervals(w, r.stable_intervals);
-  w.endObject();
-}
-
-/// Gan and Liu's evidence for one sensor's recorded arrivals (a scalar output only).
-struct TraceEvidence
-{
-  std::string sensor;
-  std::size_t samples = 0;
-  bool applicable = false;
-  std::string reason;  ///< why not applicable
-  ExcitationReport report;
-};
-
-std::vector<TraceEvidence> traceEvidence(const Model& model, const std::vector<std::string>& specs, int h)
-{
-  std::vector<TraceEvidence> out;
-  std::vector<std::string> given(model.sensors.size());  // per sensor: the --trace that gave its arrivals
-  for (const std::string& spec : specs)
-  {
-    const ArrivalTrace trace = readArrivalTrace(spec, model);
-    for (std::size_t s = 0; s < model.sensors.size(); ++s)
-    {
-      if (trace.arrivals[s].empty())
-        continue;
-      const Sensor& sensor = model.sensors[s];
-      if (!given[s].empty())
-        throw cli::UsageError("option '--trace': sensor '" + sensor.name + "' has two traces (--trace " + given[s] +
-                              " and --trace " + spec + "); give one per sensor");
-      given[s] = spec;
-      TraceEvidence e;
-      e.sensor = sensor.name;
-      e.samples = trace.arrivals[s].size();
-      if (sensor.size != 1)
-        e.reason = "not applicable: Gan and Liu treat a scalar output (sensor " + sensor.name + " has " +
-                   std::to_string(sensor.size) + " rows)";
-      else if (e.samples < static_cast<std::size_t>(h))
-        e.reason = "not applicable: the trace of " + sensor.name + " has " + std::to_string(e.samples) +
-                   " samples, fewer than one block of h = " + std::to_string(h);
-      else
-      {
-        e.applicable = true;
-        e.report = ganLiuTrace(model.A, model.C.middleRows(sensor.offset, 1), model.R(sensor.offset, sensor.offset),
-                               trace.arrivals[s], h);
-      }
-      out.push_back(e);
-    }
-  }
-  return out;
-}
-
-void jtrace(JsonWriter& w, const TraceEvidence& e)
-{
-  w.beginObject().member("sensor", e.sensor).member("samples", e.samples);
-  if (!e.applicable)
-  {
-    w.key("verdict").beginObject().member("kind", "not_applicable").member("reason", e.reason).endObject();
-    w.endObject();
-    return;
-  }
-  const ExcitationReport& r = e.report;
-  w.member("h", r.h).member("lambda_block_min", r.lambda_block).member("lambda", r.lambda).member("norm_A", r.norm_A);
-  w.key("a3").beginArray();
-  for (const ExcitationA3& a : r.a3)
-    w.beginObject().member("p", a.p).member("printed", a.printed).member("proof", a.proof).member("holds", a.holds()).endObject();
-  w.endArray().key("verdict");
-  jverdict(w, r.verdict);
-  w.member("caveat", ExcitationReport::caveat()).endObject();
-}
-
-std::string json(const StabilityReport& rep, const SensorLinks& sl, const std::vector<TraceEvidence>& traces)
-{
-  JsonWriter w;
-  w.beginObject();
-  w.br(2).member("model", rep.model_name);
-  w.br(2).key("eigenvalues").beginArray();
-  for (int i = 0; i < rep.eigenvalues.size(); ++i)
-    w.beginObject().member("re", rep.eigenvalues[i].real()).member("im", rep.eigenvalues[i].imag()).endObject();
-  w.endArray();
-  w.br(2).member("spectral_radius", rep.spectral_radius);
-  w.br(2).member("mahler_measure", rep.mahler_measure);
-  w.br(2).member("entropy", rep.entropy);
-  w.br(2).member("diagonalizable", rep.diagonalizable);
-  w.br(2).key("strong_observability");
-  jverdict(w, rep.strong_observability);
-  w.br(2).member("noise_excites_unstable_modes", rep.noise_excites_unstable_modes);
-  w.br(2).member("detectable", rep.detectable);
-  w.br(2).member("dead_reckoned", rep.dead_reckoned);
-  w.br(2).key("channel");
-  if (rep.has_channel)
-  {
-    w.beginObject().member("kind", rep.link.kind == LinkModel::Kind::IID ? "bernoulli" : "gilbert_elliott");
-    w.member("arrival_rate", rep.arrival_rate).member("recovery_rate", rep.recovery_rate);
-    w.member("on_off", rep.link.onOff()).member("capacity", rep.capacity.total);
-    w.member("capacity_lower", rep.capacity.lower).member("capacity_upper", rep.capacity.upper);
-    w.member("capacity_note", rep.capacity_note).member("mare_at_rates", rep.mare_at_rates);
-    w.member("mare_at_rates_trace", rep.mare_at_rates_trace);
-    w.member("mare_at_rates_certificate", rep.mare_at_rates_certificate);
-    w.member("uniform", rep.uniform_links).endObject();
-  }
-  else
-    w.null();
-  w.br(2).key("links").beginArray();
-  for (std::size_t i = 0; i < rep.links.size(); ++i)
-    jlink(w.br(4), rep.links[i], i < sl.origin.size() ? sl.origin[i] : "");
-  if (!rep.links.empty())
-    w.br(2);
-  w.endArray();
-  w.br(2).member("estimator", rep.estimator);
-  w.br(2).member("estimator_note", rep.estimator_note);
-  w.br(2).key("rseio");
-  jverdict(w, rep.rseio);
-  w.br(2).key("all_sensors");
-  jset(w, rep.model);
-  w.br(2).key("sensors").beginArray();
-  for (const RateAnalysis& r : rep.sensors)
-    jset(w.br(4), r);
-  w.br(2).endArray();
-  w.br(2).key("gan_liu").beginArray();
-  for (const TraceEvidence& e : traces)
-    jtrace(w.br(4), e);
-  if (!traces.empty())
-    w.br(2);
-  w.endArray();
-  w.br(0).endObject();
-  return w.text() + "\n";
-}
 
 std::string txt(double v)
 {
@@ -233,7 +36,7 @@ std::string txt(double v)
 /// A critical rate, +infinity in words.
 std::string rate(double v)
 {
-  return noRate(v) ? "none (unbounded at every rate)" : txt(v);
+  return unboundedAtEveryRate(v) ? "none (unbounded at every rate)" : txt(v);
 }
 
 std::string intervals(const std::vector<RateInterval>& v)
@@ -266,7 +69,7 @@ void printSet(std::ostream& os, const RateAnalysis& r)
     os << "  margin                          " << r.margin_quantity << " " << txt(r.channel_value) << ", stable for "
        << intervals(r.stable_intervals) << ": distance to the nearest edge " << txt(r.margin)
        << (r.margin > 0 ? " (inside)" : " (outside)") << "\n";
-  else if (noRate(r.sufficient_threshold))
+  else if (unboundedAtEveryRate(r.sufficient_threshold))
     os << "  margin                          none: no " << r.margin_quantity << " keeps E[P] bounded\n";
   else
     os << "  margin                          " << r.margin_quantity << " " << txt(r.channel_value) << " - critical "
@@ -300,36 +103,6 @@ void printLinks(std::ostream& os, const StabilityReport& rep)
          << m.note << ")\n";
     os << "    Markov threshold: " << l.markov_note << "\n";
   }
-}
-
-/// analyze --design's JSON: the model, the cost and cap, and per sensor its least-cost rate and
-/// its least rate alone.
-std::string designJson(const Model& model, const LinkDesign& d, const std::string& cost)
-{
-  JsonWriter w;
-  w.beginObject();
-  w.br(2).member("model", model.name);
-  w.br(2).key("design").beginObject().member("cost", cost).member("growth_cap", d.growth_cap);
-  w.member("applicable", d.applicable).member("note", d.note);
-  if (d.applicable)
-  {
-    w.member("cost_value", d.cost_value).key("verdict");
-    jverdict(w, d.check);
-    w.member("vertices", d.vertices);
-  }
-  w.key("sensors").beginArray();
-  for (std::size_t j = 0; j < model.sensors.size(); ++j)
-  {
-    w.br(4).beginObject().member("name", model.sensors[j].name);
-    if (d.applicable)
-      w.member("arrival_rate", d.rates[j]).member("alone", d.alone[j]);
-    w.endObject();
-  }
-  if (!model.sensors.empty())
-    w.br(2);
-  w.endArray().endObject();
-  w.br(0).endObject();
-  return w.text() + "\n";
 }
 
 int printDesign(const Model& model, const cli::CommandLine& cl)
@@ -425,22 +198,18 @@ int main(int argc, char** argv)
                       });
   return cli::runTool(cl, argc, argv, [&]() -> int {
     const Model loaded = loadModel(cl.get("model"));
-    if (cl.has("at") && !loaded.nonlinear())
-      throw cli::UsageError("option '--at' is only for a model with a built-in motion (model '" + loaded.name +
-                            "' is linear)");
     // A built-in motion: the verdicts of its linearisation at one state (a local verdict)
-    std::string local_note;
-    Eigen::VectorXd at = loaded.x0;
+    Eigen::VectorXd at;
     if (cl.has("at"))
     {
+      if (!loaded.nonlinear())
+        throw cli::UsageError("option '--at' is only for a model with a built-in motion (model '" + loaded.name +
+                              "' is linear)");
       const std::vector<double> v = numberList(cl.get("at"), "option '--at'");
       at = Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
     }
-    const Model model = linearisedModel(loaded, at, loaded.period);
-    if (loaded.nonlinear())
-      local_note = "; model '" + loaded.name + "' has motion " + toString(loaded.motion) +
-                   ": a local verdict, for its linearisation at " + (cl.has("at") ? "--at" : "x0") + " over " +
-                   txt(loaded.period) + " s (docs/stability.md 5)";
+    std::string local_note;
+    const Model model = analysedModel(loaded, cl.has("at") ? &at : nullptr, "--at", local_note);
     if (cl.has("design"))
     {
       for (const char* o : {"channel", "estimator", "trace", "block"})
@@ -458,12 +227,27 @@ int main(int argc, char** argv)
     if (has_est)
       est = loadEstimatorSettings(cl.get("estimator"));
     const int h = static_cast<int>(cl.getLong("block", model.n(), 1, 10000));
-    const std::vector<TraceEvidence> traces = traceEvidence(model, cl.getAll("trace"), h);
+    std::vector<std::vector<std::vector<bool>>> arrivals;
+    std::vector<std::string> labels;
+    for (const std::string& spec : cl.getAll("trace"))
+    {
+      arrivals.push_back(readArrivalTrace(spec, model).arrivals);
+      labels.push_back("--trace " + spec);
+    }
+    std::vector<TraceEvidence> traces;
+    try
+    {
+      traces = traceEvidence(model, arrivals, labels, h);
+    }
+    catch (const InputError& e)
+    {
+      throw cli::UsageError(std::string("option '--trace': ") + e.what());
+    }
     StabilityReport rep = analyzeStability(model, links.link, has_est ? &est : nullptr);
     rep.estimator_note += local_note;
     if (cl.has("json"))
     {
-      std::cout << json(rep, links, traces);
+      std::cout << analysisJson(rep, links.origin, traces);
       return 0;
     }
     std::cout << "model " << rep.model_name << ": n = " << model.n() << ", " << model.sensors.size() << " sensor(s)\n";
