@@ -10,6 +10,12 @@ Every function is a thin binding of the C++ core (the module _core); nothing is 
 The generated ROS messages and services stay where ROS puts them (networked_estimation.msg, .srv).
 """
 
+from pkgutil import extend_path
+
+# Every folder of the package on sys.path (a catkin workspace splits it: these files in the source
+# space, the compiled _core and the messages in the devel space).
+__path__ = extend_path(__path__, __name__)
+
 from ._core import (  # noqa: F401
     DivergenceError,
     Estimator,
@@ -30,6 +36,24 @@ from ._core import (  # noqa: F401
     score,
     simulate,
 )
+
+
+
+def _by_name(function):
+    """A Python function calling the binding `function`, so that it pickles by its name (dask's
+    workers call networked_estimation.montecarlo; a binding's own object does not pickle)."""
+    def call(*args, **kwargs):
+        return function(*args, **kwargs)
+    call.__name__ = call.__qualname__ = function.__name__
+    call.__doc__ = function.__doc__
+    call.__module__ = __name__
+    return call
+
+
+Bernoulli, GilbertElliott, Sensor = _by_name(Bernoulli), _by_name(GilbertElliott), _by_name(Sensor)
+analyze, design, experiment_names = _by_name(analyze), _by_name(design), _by_name(experiment_names)
+load_replay_input, make_estimator = _by_name(load_replay_input), _by_name(make_estimator)
+merge, montecarlo, score, simulate = _by_name(merge), _by_name(montecarlo), _by_name(score), _by_name(simulate)
 
 __all__ = [
     "DivergenceError", "Estimator", "Link", "Bernoulli", "GilbertElliott", "Model", "MonteCarloResult",

@@ -61,10 +61,23 @@ std::shared_ptr<PyEstimator> makePyEstimator(const std::shared_ptr<Model>& model
 {
   if (!model)
     throw py::type_error("make_estimator(): expected a Model");
-  settings["algorithm"] = algorithm;
   auto e = std::make_shared<PyEstimator>();
   e->model = std::make_shared<const Model>(*model);
-  e->settings = parseEstimatorSettings(toYaml(settings, "make_estimator()"), "make_estimator()");
+  const auto ends = [&algorithm](const std::string& tail) {
+    return algorithm.size() >= tail.size() && algorithm.compare(algorithm.size() - tail.size(), tail.size(), tail) == 0;
+  };
+  if (ends(".yaml") || ends(".yml"))  // an estimator settings file
+  {
+    if (!settings.empty())
+      throw py::value_error("make_estimator(): settings come from the file '" + algorithm +
+                            "': give no keywords with it");
+    e->settings = loadEstimatorSettings(algorithm);
+  }
+  else
+  {
+    settings["algorithm"] = algorithm;
+    e->settings = parseEstimatorSettings(toYaml(settings, "make_estimator()"), "make_estimator()");
+  }
   e->estimator = makeEstimator(*e->model, e->settings);
   return e;
 }
@@ -427,8 +440,9 @@ make_estimator(model, algorithm, **settings). It keeps its own copy of the model
       [](const std::shared_ptr<Model>& model, const std::string& algorithm, py::kwargs settings)
       { return makePyEstimator(model, algorithm, settings); },
       py::arg("model"), py::arg("algorithm") = "kfio",
-      "The estimator `algorithm` (kf, kfio, rseio, aoe, oe, ack_kf, ekfio) for `model`; the other keys of "
-      "an estimator settings file (mu, control_link, recovery, failure, max_components) as keywords.");
+      "The estimator `algorithm` (kf, kfio, rseio, aoe, oe, ack_kf, ekfio) for `model`, the other keys of "
+      "an estimator settings file (mu, control_link, max_components) as keywords; or `algorithm` an "
+      "estimator settings file (.yaml).");
 }
 
 void bindSimulation(py::module& m)

@@ -1,0 +1,161 @@
+# Estimators from Python: a step loop equals the batch run, run() equals the replay tool bit for bit,
+# refusals leave the estimate untouched, clone/reset, divergence, and the GIL released in run().
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import networked_estimation as ne
+from conftest import CHANNELS, ESTIMATORS, MODELS, columns, read_csv, same, tool
+
+CASES = [  # model, settings file, channel, actuator channel
+    ("zhou_example.yaml", "kfio.yaml", "gilbert_elliott_bursty.yaml", None),
+    ("zhou_example.yaml", "rseio.yaml", "bernoulli_0.2.yaml", None),
+    ("zhou_example.yaml", "kf.yaml", "bernoulli_0.2.yaml", None),
+    ("planar_robot.yaml", "kfio.yaml", "wifi_bursty.yaml", None),
+    ("zhou_actuated.yaml", "aoe.yaml", "bernoulli_0.2.yaml", "actuator_q1_0.3_q2_0.4.yaml"),
+    ("zhou_actuated.yaml", "oe.yaml", "bernoulli_0.2.yaml", "actuator_q1_0.3_q2_0.4.yaml"),
+]
+
+
+@pytest.mark.parametrize("model_file, settings, channel, actuator", CASES)
+def test_run_equals_the_replay_tool(tmp_path, model_file, settings, channel, actuator):
+    args = ["--model", MODELS / model_file, "--channel", CHANNELS / channel, "--steps", 300, "--seed", 11,
+            "--out", tmp_path]
+    if actuator:
+        args += ["--actuator-channel", CHANNELS / actuator]
+    tool("simulate", *args)
+    tool("replay", "--model", MODELS / model_file, "--settings", ESTIMATORS / settings,
+         "--input", tmp_path / "input.csv", "--output", tmp_path / "out.csv")
+    header, out = read_csv(tmp_path / "out.csv")
+
+    model = ne.Model.from_yaml(MODELS / model_file)
+    data = ne.load_replay_input(tmp_path / "input.csv", model)
+    est = ne.make_estimator(model, str(ESTIMATORS / settings))
+    x, P, trace = est.run(data["Y"], data["gamma"], U=data["U"])
+    n = model.n
+    assert same(x, columns(header, out, "x"))
+    assert same(P.reshape(len(x), n * n), out[:, 2 + n:2 + n + n * n])
+    assert same(trace, out[:, -1])
+
+
+@pytest.mark.parametrize("model_file, settings, channel, actuator", CASES)
+def test_step_loop_equals_run(model_file, settings, channel, actuator):
+    model = ne.Model.from_yaml(MODELS / model_file)
+    sim = ne.simulate(model, CHANNELS / channel, steps=200, seed=4,
+                      actuator_link=(CHANNELS / actuator) if actuator else None)
+    batch = ne.make_estimator(model, str(ESTIMATORS / settings))
+    x, P, trace = batch.run(sim["y"], sim["gamma"], U=sim["u"] if model.p else None)
+    single = ne.make_estimator(model, str(ESTIMATORS / settings))
+    for k in range(len(x)):
+        single.step(sim["y"][k], bool(sim["gamma"][k]), sim["u"][k] if model.p else None)
+        assert same(single.x, x[k]) and same(single.P, P[k]), k
+    assert single.steps == batch.steps == len(x)
+
+
+def zhou():
+    return ne.Model.from_yaml(MODELS / "zhou_example.yaml")
+
+
+def test_refused_steps_leave_the_estimate_untouched():
+    est = ne.make_estimator(zhou(), "kfio")
+    est.step([0.5], True)
+    x, P = est.x, est.P
+    with pytest.raises(ValueError, match=r"step\(\): y: expected shape \(m,\) = \(1,\), found \(2,\)"):
+        est.step([1.0, 2.0], True)
+    with pytest.raises(ValueError, match=r"step\(\): R"):
+        est.step([1.0], True, R=np.eye(2))
+    with pytest.raises(ValueError, match="y"):
+        est.step(["a"], True)
+    assert same(est.x, x) and same(est.P, P) and est.steps == 1
+
+
+def test_run_refusals_name_the_argument():
+    est = ne.make_estimator(zhou(), "kfio")
+    with pytest.raises(ValueError, match=r"run\(\): Y: expected shape \(N, m\) with m = 1, found \(5, 2\)"):
+        est.run(np.zeros((5, 2)), np.ones(5))
+    with pytest.raises(ValueError, match=r"run\(\): Gamma: expected shape \(N,\) with N = 5"):
+        est.run(np.zeros((5, 1)), np.ones(4))
+    with pytest.raises(ValueError, match=r"run\(\): Gamma\[2\]: expected 0 or 1"):
+        est.run(np.zeros((5, 1)), [1, 1, 2, 1, 1])
+    Y = np.zeros((5, 1))
+    Y[3, 0] = np.inf
+    with pytest.raises(ValueError, match=r"run\(\): step 3"):
+        est.run(Y, np.ones(5))
+    assert est.steps == 3  # the steps before the bad one are kept, as in a step() loop
+
+
+def test_settings_refusals():
+    m = zhou()
+    with pytest.raises(ValueError, match="kfi0"):
+        ne.make_estimator(m, "kfi0")
+    with pytest.raises(ValueError, match="mu"):
+        ne.make_estimator(m, "rseio", mu=2.0)
+    with pytest.raises(ValueError, match="bogus"):
+        ne.make_estimator(m, "kfio", bogus=1)
+    with pytest.raises(ValueError, match="give no keywords"):
+        ne.make_estimator(m, str(ESTIMATORS / "rseio.yaml"), mu=0.5)
+    with pytest.raises(ValueError, match="control_link"):
+        ne.make_estimator(ne.Model.from_yaml(MODELS / "zhou_actuated.yaml"), "aoe")
+
+
+def test_clone_and_reset():
+    est = ne.make_estimator(zhou(), "rseio", mu=0.8)
+    est.step([1.0], True)
+    twin = est.clone()
+    twin.step([2.0], True)
+    assert est.steps == 1 and twin.steps == 2
+    est.step([2.0], True)
+    assert same(est.x, twin.x) and same(est.P, twin.P)
+    est.reset()
+    assert est.steps == 0 and same(est.x, zhou().x0)
+
+
+def test_divergence_is_its_own_error():
+    m = ne.Model(A=[[1e40]], Q=[[1.0]], sensors=[ne.Sensor("y", C=[[1.0]], R=[[1.0]])], x0=[0.0], P0=[[1.0]])
+    est = ne.make_estimator(m, "kfio")
+    with pytest.raises(ne.DivergenceError, match=r"kfio diverged at step"):
+        est.run(np.zeros((50, 1)), np.zeros(50))
+    assert issubclass(ne.DivergenceError, RuntimeError)
+
+
+def longest_pause_while(work):
+    """Runs work() in a thread; returns (its seconds, the longest gap between two iterations of a
+    Python loop in this thread meanwhile). A call holding the GIL stops this loop for its whole length."""
+    started, done = threading.Event(), threading.Event()
+
+    def worker():
+        started.set()
+        work()
+        done.set()
+
+    t = threading.Thread(target=worker)
+    t.start()
+    started.wait()
+    t0 = last = time.perf_counter()
+    gap = 0.0
+    while not done.is_set():
+        now = time.perf_counter()
+        gap = max(gap, now - last)
+        last = now
+    t.join()
+    return time.perf_counter() - t0, gap
+
+
+def test_run_releases_the_gil():
+    m = ne.Model.from_yaml(MODELS / "zhou_actuated.yaml")
+    sim = ne.simulate(m, CHANNELS / "bernoulli_0.2.yaml", steps=400, seed=2,
+                      actuator_link=CHANNELS / "actuator_q1_0.3_q2_0.4.yaml")
+    reps = 1
+    while True:  # enough oe steps (a mixture of 512 components: slow) for a run of about 0.5 s or more
+        est = ne.make_estimator(m, "oe", control_link={"recovery": 0.3, "failure": 0.4}, max_components=512)
+        Y, G, U = (np.tile(a, (reps, 1)) if a.ndim == 2 else np.tile(a, reps) for a in (sim["y"], sim["gamma"], sim["u"]))
+        seconds, gap = longest_pause_while(lambda: est.run(Y, G, U=U))
+        if seconds > 0.5 or reps > 64:
+            break
+        reps *= 2
+    assert seconds > 0.3, "the run is too short to tell"
+    # Holding the GIL would pause this thread for the whole run; released, only the interpreter's
+    # switch interval (5 ms) and the OS scheduler's slices separate two iterations.
+    assert gap < seconds / 3, (gap, seconds)

@@ -1,0 +1,88 @@
+# montecarlo() against the tool (the CSV byte for byte, the JSON but for threads and wall time),
+# shards and merge, the progress callback, refusals, and the GIL released meanwhile.
+import json
+import pickle
+
+import numpy as np
+import pytest
+
+import networked_estimation as ne
+from conftest import CHANNELS, ESTIMATORS, MODELS, tool
+from test_estimators import longest_pause_while
+
+
+def untimed(text):
+    d = json.loads(text)
+    d.pop("threads")
+    d.pop("wall_seconds")
+    return d
+
+
+def test_zhou_fig1_equals_the_tool(tmp_path):
+    tool("montecarlo", "--experiment", "zhou_fig1", "--runs", 200, "--steps", 60, "--seed", 4, "--threads", 2,
+         "--out", tmp_path)
+    calls = []
+    r = ne.montecarlo("zhou_fig1", runs=200, steps=60, seed=4, threads=1, progress=lambda d, t: calls.append((d, t)))
+    assert r.csv() == (tmp_path / "zhou_fig1.csv").read_text()
+    assert untimed(r.json()) == untimed((tmp_path / "zhou_fig1.json").read_text())
+    # the arrays are the CSV's numbers (printed with 10 digits)
+    case = r.cases[0]
+    series = next(iter(case["series"].values()))
+    assert len(case["x"]) == len(series["mean"]) == len(series["sd"]) and series["n"] == 200
+    assert r.case(case["name"])["title"] == case["title"]
+    with pytest.raises(KeyError, match="is not a case"):
+        r.case("nope")
+    # progress: every block reported once, in order, up to the total
+    assert calls and calls[-1][0] == calls[-1][1] and [d for d, _ in calls] == sorted(d for d, _ in calls)
+    r.write(tmp_path / "again")
+    assert (tmp_path / "again" / "zhou_fig1.csv").read_text() == r.csv()
+
+
+def test_custom_equals_the_tool(tmp_path):
+    files = dict(model=MODELS / "planar_robot.yaml", channels={"odom": CHANNELS / "wifi_bursty.yaml"},
+                 settings=[ESTIMATORS / "kfio.yaml", ESTIMATORS / "kf.yaml"])
+    tool("montecarlo", "--experiment", "custom", "--runs", 70, "--steps", 40, "--out", tmp_path,
+         "--model", files["model"], "--channel", f"odom={files['channels']['odom']}",
+         "--settings", ",".join(map(str, files["settings"])))
+    r = ne.montecarlo("custom", runs=70, steps=40, **files)
+    assert r.csv() == (tmp_path / "custom.csv").read_text()
+
+
+def test_shards_merge_to_the_unsharded_run(tmp_path):
+    whole = ne.montecarlo("zhou_fig2", runs=300, steps=30, seed=2)
+    shards = [ne.montecarlo("zhou_fig2", runs=300, steps=30, seed=2, shard=(k, 3)) for k in (1, 2, 3)]
+    assert [s.index for s in shards] == [1, 2, 3] and shards[0].count == 3
+    merged = ne.merge(reversed([pickle.loads(pickle.dumps(s)) for s in shards]))
+    assert merged.csv() == whole.csv()
+    assert untimed(merged.json()) == untimed(whole.json())
+    assert np.array_equal(merged.samples[whole.cases[0]["name"]], whole.samples[whole.cases[0]["name"]])
+    paths = [s.write(tmp_path) for s in shards]
+    assert ne.merge(paths).csv() == whole.csv()
+    with pytest.raises(ValueError, match="shard"):
+        ne.merge(paths[:2])
+
+
+def test_montecarlo_refusals():
+    with pytest.raises(ValueError, match=r"unknown experiment 'zhou_fig9'"):
+        ne.montecarlo("zhou_fig9")
+    with pytest.raises(ValueError, match=r"needs model= and settings="):
+        ne.montecarlo("custom", runs=10)
+    with pytest.raises(ValueError, match=r"model is only for the experiments custom and sweep"):
+        ne.montecarlo("zhou_fig1", model=MODELS / "zhou_example.yaml")
+    with pytest.raises(ValueError, match=r"shard: expected \(k, n\) with 1 <= k <= n"):
+        ne.montecarlo("zhou_fig1", runs=10, shard=(0, 3))
+    with pytest.raises(ValueError, match="found none"):
+        ne.merge([])
+    with pytest.raises(ZeroDivisionError):  # the callback's own error comes back, after the run
+        ne.montecarlo("zhou_fig1", runs=64, steps=10, progress=lambda d, t: 1 / 0)
+
+
+def test_montecarlo_releases_the_gil():
+    runs = 256
+    while True:
+        seconds, gap = longest_pause_while(lambda: ne.montecarlo("zhou_fig1", runs=runs, steps=200, threads=1))
+        if seconds > 0.5 or runs > 100000:
+            break
+        runs *= 2
+    assert seconds > 0.3, "the run is too short to tell"
+    assert gap < seconds / 3, (gap, seconds)
