@@ -9,6 +9,7 @@ PACKAGES=(
   libgeographiclib-dev libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   libyaml-cpp-dev libeigen3-dev nlohmann-json3-dev libgtest-dev googletest libbenchmark-dev
   python3-matplotlib python3-numpy catkin-lint
+  pybind11-dev python3-dev python3-setuptools python3-pytest python3-yaml python3-distributed
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

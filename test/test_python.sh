@@ -8,7 +8,8 @@ if [ $# -ne 4 ]; then
   echo "usage: $0 RESULT_XML TOOLS_DIR PYTHON_DIR REPO_ROOT" >&2
   exit 2
 fi
-RESULT=$(cd "$(dirname "$1")" 2>/dev/null && pwd || mkdir -p "$(dirname "$1")" && cd "$(dirname "$1")" && pwd)/$(basename "$1")
+mkdir -p "$(dirname "$1")"
+RESULT=$(cd "$(dirname "$1")" && pwd)/$(basename "$1")
 NE_TOOLS=$(cd "$2" && pwd)
 NE_ROOT=$(cd "$4" && pwd)
 PYTHON_DIR=$(cd "$3" && pwd)
@@ -17,4 +18,4 @@ export NE_TOOLS NE_ROOT
 source "$NE_ROOT/scripts/env.sh"
 export PYTHONPATH="$PYTHON_DIR${PYTHONPATH:+:$PYTHONPATH}"
 cd "$NE_ROOT/test/python"
-exec python3 -m pytest -q -p no:cacheprovider --junitxml="$RESULT" -o junit_family=xunit1 .
+exec python3 -m pytest -q -rs -p no:cacheprovider --junitxml="$RESULT" -o junit_family=xunit1 .
