@@ -7,7 +7,7 @@
 #  2. the workspace that ran this test (it compiled the same sources with the same flags) installs
 #     into its install space (what `catkin_make install` does after its build);
 #  3. with only that install space sourced, the package is found by rospack, its tools run through
-#     rosrun (without "File system loop" warnings), its nodelets are exported, every launch file of
+#     rosrun (without "File system loop" warnings), its Python module imports and runs, its nodelets are exported, every launch file of
 #     the repository is installed and resolves, the demo graph runs to its summary, and a small
 #     package of its own workspace compiles and links against the installed headers and libraries
 #     and runs an estimator.
@@ -114,6 +114,13 @@ check "the install space stands alone (its setup chains to neither the build's d
 check "rospack finds the installed package" bash -c '[ "$(bash -c "source $0/setup.bash; rospack find networked_estimation")" = "$1" ]' "$INSTALL" "$share"
 check "rosrun runs an installed tool (analyze) without find warnings" \
   no_loop run_installed rosrun networked_estimation analyze --model "$share/config/models/zhou_example.yaml" --channel "$share/config/channels/bernoulli_0.2.yaml"
+check "the Python module imports from the install space and runs an estimator, next to the messages" \
+  run_installed python3 -c 'import sys, networked_estimation as ne, networked_estimation.msg as msg
+m = ne.Model.from_yaml(sys.argv[1])
+sim = ne.simulate(m, ne.Bernoulli(0.2), steps=50, seed=1)
+x, P, trace = ne.make_estimator(m, "kfio").run(sim["y"], sim["gamma"])
+assert x.shape == (50, m.n) and "/install/" in ne._core.__file__ and msg.Estimate, ne._core.__file__' \
+  "$share/config/models/zhou_example.yaml"
 check "the nodelet plugins are exported" bash -c 'source "$0/setup.bash"; rospack plugins --attrib=plugin nodelet | grep -q "networked_estimation .*$0/share/networked_estimation/nodelet_plugins.xml"' "$INSTALL"
 check "every launch file is installed and resolves (roslaunch --files)" bash -c 'source "$0/setup.bash"; share="$0/share/networked_estimation"
   for f in $(cd "$1/launch" && ls); do

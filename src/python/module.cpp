@@ -337,18 +337,23 @@ Link.from_yaml(path) reads a file.)doc")
 
   m.def(
       "Bernoulli",
-      [](double loss, py::kwargs more)
+      [](py::object p, py::kwargs more)
       {
         py::dict d;
         d["model"] = "bernoulli";
-        d["loss"] = loss;
+        if (!p.is_none())
+        {
+          if (more.contains("loss"))
+            throw py::value_error("Bernoulli(): give the loss probability once (p or loss)");
+          d["loss"] = p;
+        }
         for (const auto& item : more)
           d[item.first] = item.second;
         return linkFromKwargs(d, "Bernoulli()");
       },
-      py::arg("loss"),
-      "An i.i.d. link losing each message with probability `loss` (arrival rate 1 - loss); more keys "
-      "of a channel file (seed, delay, jitter, ...) as keywords.");
+      py::arg("p") = py::none(),
+      "An i.i.d. link losing each message with probability p (the channel file's key loss; arrival "
+      "rate 1 - p); more keys of a channel file (seed, delay, jitter, ...) as keywords.");
   m.def(
       "GilbertElliott",
       [](double p, double r, double loss_good, double loss_bad, py::kwargs more)

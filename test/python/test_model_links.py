@@ -70,6 +70,11 @@ def test_model_from_missing_file_names_it():
 def test_links_and_their_refusals():
     b = ne.Bernoulli(0.2, seed=5)
     assert (b.model, b.loss, b.seed) == ("bernoulli", 0.2, 5)
+    assert ne.Bernoulli(p=0.3).loss == ne.Bernoulli(loss=0.3).loss == 0.3
+    with pytest.raises(ValueError, match="once"):
+        ne.Bernoulli(0.3, loss=0.3)
+    with pytest.raises(ValueError, match="needs loss"):
+        ne.Bernoulli()
     g = ne.GilbertElliott(0.05, 0.4, loss_good=0.005)
     assert (g.model, g.p, g.r, g.loss_good, g.loss_bad) == ("gilbert_elliott", 0.05, 0.4, 0.005, 1.0)
     f = ne.Link.from_yaml(CHANNELS / "wifi_bursty.yaml")
