@@ -33,6 +33,9 @@ DoubleArray asArray(py::handle o, int ndim, const std::string& what);
 /// Whether `o` names a file: a str or an os.PathLike. `path` receives it.
 bool asPath(py::handle o, std::string& path);
 
+/// A Link, or a channel file read with its own checks; TypeError naming `what` for anything else.
+ChannelSettings linkOf(py::handle link, const std::string& what);
+
 /// The links of the model's sensors (simulate, analyze): None (every sensor lossless), a Link or a
 /// channel file for every sensor, or a dict {sensor name: Link or file}, the key "*" for every
 /// sensor without its own. Files only: exactly the tools' --channel rule (resolveSensorLinks), so

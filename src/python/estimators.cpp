@@ -257,21 +257,6 @@ py::dict score(py::handle truth, py::handle x, py::handle P, py::handle gamma, l
   return d;
 }
 
-ChannelSettings actuatorLink(py::handle o)
-{
-  std::string path;
-  if (asPath(o, path))
-    return loadChannelSettings(path);
-  try
-  {
-    return o.cast<ChannelSettings>();
-  }
-  catch (const py::cast_error&)
-  {
-    throw py::type_error("simulate(): actuator_link: expected a Link or a channel file");
-  }
-}
-
 py::dict simulate(const std::shared_ptr<Model>& model_ptr, py::handle links, long steps, std::uint64_t seed,
                   py::handle control, py::handle actuator_link, const std::string& loss_output)
 {
@@ -291,7 +276,7 @@ py::dict simulate(const std::shared_ptr<Model>& model_ptr, py::handle links, lon
     options.control = ControlSequence::parse(control.is_none() ? "paper" : control.cast<std::string>(),
                                              "simulate(): control");
     if (!actuator_link.is_none())
-      options.actuator_link = actuatorLink(actuator_link);
+      options.actuator_link = linkOf(actuator_link, "simulate(): actuator_link");
   }
   else if (!control.is_none() || !actuator_link.is_none())
     throw py::value_error(std::string("simulate(): ") + (control.is_none() ? "actuator_link" : "control") +

@@ -3,6 +3,7 @@
 #include <pybind11/stl.h>
 
 #include <exception>
+#include <functional>
 
 #include "bindings.hpp"
 #include "networked_estimation/common/error.hpp"
@@ -48,19 +49,23 @@ bool estimatorSettings(py::handle o, EstimatorSettings& out)
   return true;
 }
 
+/// analysedModel with the state `at` from Python (None: x0); `fn` names the function in errors.
+Model analysedAt(const Model& loaded, py::handle at, const std::string& fn, std::string& local_note)
+{
+  if (at.is_none())
+    return analysedModel(loaded, nullptr, fn + ": at", local_note);
+  const DoubleArray a = asArray(at, 1, fn + ": at");
+  const Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(a.data(), a.shape(0));
+  return analysedModel(loaded, &x, fn + ": at", local_note);
+}
+
 py::object analyze(const std::shared_ptr<Model>& loaded, py::handle links, py::handle estimator, py::handle at,
                    py::handle traces, int block)
 {
   if (!loaded)
     throw py::type_error("analyze(): expected a Model");
-  Eigen::VectorXd x;
-  if (!at.is_none())
-  {
-    const DoubleArray a = asArray(at, 1, "analyze(): at");
-    x = Eigen::Map<const Eigen::VectorXd>(a.data(), a.shape(0));
-  }
   std::string local_note;
-  const Model model = analysedModel(*loaded, at.is_none() ? nullptr : &x, "analyze(): at", local_note);
+  const Model model = analysedAt(*loaded, at, "analyze()", local_note);
   const SensorLinks sl = sensorLinks(model, links, "analyze(): links");
   EstimatorSettings est;
   const bool has_est = estimatorSettings(estimator, est);
@@ -112,14 +117,8 @@ py::object design(const std::shared_ptr<Model>& loaded, const std::string& cost,
     throw py::value_error("design(): cost: expected 'total_rate' or 'capacity', found '" + cost + "'");
   if (!(growth_cap > 0.0 && growth_cap < 1.0))
     throw py::value_error("design(): growth_cap: expected a number in (0, 1), found " + std::to_string(growth_cap));
-  Eigen::VectorXd x;
-  if (!at.is_none())
-  {
-    const DoubleArray a = asArray(at, 1, "design(): at");
-    x = Eigen::Map<const Eigen::VectorXd>(a.data(), a.shape(0));
-  }
   std::string local_note;
-  const Model model = analysedModel(*loaded, at.is_none() ? nullptr : &x, "design(): at", local_note);
+  const Model model = analysedAt(*loaded, at, "design()", local_note);
   LinkDesign d;
   {
     py::gil_scoped_release release;
@@ -263,9 +262,10 @@ py::dict caseDict(const CaseResult& c)
   return d;
 }
 
-using Result = std::shared_ptr<ExperimentResult>;
-
-Result runWithProgress(const std::function<ExperimentResult(ProgressCounter*)>& body, py::handle progress)
+/// Runs body(progress counter or nullptr) without the GIL, the Python callback `progress` (or None)
+/// called as blocks finish; its first exception is raised after the run.
+template <class T>
+std::shared_ptr<T> runWithProgress(const std::function<T(ProgressCounter*)>& body, py::handle progress)
 {
   Progress p;
   std::unique_ptr<ProgressCounter> counter;
@@ -274,10 +274,10 @@ Result runWithProgress(const std::function<ExperimentResult(ProgressCounter*)>& 
     p.callback = py::reinterpret_borrow<py::object>(progress);
     counter.reset(new ProgressCounter([&p](long done, long total) { p(done, total); }));
   }
-  std::shared_ptr<ExperimentResult> result;
+  std::shared_ptr<T> result;
   {
     py::gil_scoped_release release;
-    result = std::make_shared<ExperimentResult>(body(counter.get()));
+    result = std::make_shared<T>(body(counter.get()));
   }
   if (p.error)
     std::rethrow_exception(p.error);
@@ -408,7 +408,8 @@ them all.)doc")
         const MonteCarloConfig cfg =
             config(experiment, runs, steps, seed, threads, model, channels, actuator_channel, settings, axes);
         if (shard.is_none())
-          return py::cast(runWithProgress([&cfg](ProgressCounter* p) { return runExperiment(cfg, p); }, progress));
+          return py::cast(runWithProgress<ExperimentResult>(
+              [&cfg](ProgressCounter* p) { return runExperiment(cfg, p); }, progress));
         int k = 0, n = 0;
         try
         {
@@ -424,21 +425,8 @@ them all.)doc")
           throw py::value_error("montecarlo(): shard: expected (k, n) with 1 <= k <= n <= " +
                                 std::to_string(kMaxShards) + ", found (" + std::to_string(k) + ", " +
                                 std::to_string(n) + ")");
-        std::shared_ptr<ShardFile> out;
-        Progress p;
-        std::unique_ptr<ProgressCounter> counter;
-        if (!progress.is_none())
-        {
-          p.callback = py::reinterpret_borrow<py::object>(progress);
-          counter.reset(new ProgressCounter([&p](long done, long total) { p(done, total); }));
-        }
-        {
-          py::gil_scoped_release release;
-          out = std::make_shared<ShardFile>(runShard(cfg, k, n, counter.get()));
-        }
-        if (p.error)
-          std::rethrow_exception(p.error);
-        return py::cast(out);
+        return py::cast(runWithProgress<ShardFile>(
+            [&cfg, k, n](ProgressCounter* p) { return runShard(cfg, k, n, p); }, progress));
       },
       py::arg("experiment"), py::arg("runs") = 0, py::arg("steps") = 0, py::arg("seed") = 1, py::arg("threads") = 0,
       py::arg("model") = py::none(), py::arg("channels") = py::none(), py::arg("actuator_channel") = py::none(),

@@ -113,6 +113,8 @@ std::string describeLink(const ChannelSettings& s)
   return os.str();
 }
 
+}  // namespace
+
 ChannelSettings linkOf(py::handle o, const std::string& what)
 {
   std::string path;
@@ -128,8 +130,6 @@ ChannelSettings linkOf(py::handle o, const std::string& what)
                          std::string(Py_TYPE(o.ptr())->tp_name));
   }
 }
-
-}  // namespace
 
 SensorLinks sensorLinks(const Model& model, py::handle links, const std::string& what)
 {
