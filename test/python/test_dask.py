@@ -17,7 +17,7 @@ Client, LocalCluster = distributed.Client, distributed.LocalCluster
 def test_shards_on_a_dask_cluster_merge_to_the_unsharded_run():
     args = dict(runs=400, steps=40, seed=8)
     whole = ne.montecarlo("zhou_fig1", **args)
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as cluster, \
             Client(cluster) as client:
         futures = [client.submit(ne.montecarlo, "zhou_fig1", shard=(k, 4), pure=False, **args) for k in range(1, 5)]
         shards = client.gather(futures)
