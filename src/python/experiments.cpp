@@ -49,14 +49,15 @@ bool estimatorSettings(py::handle o, EstimatorSettings& out)
   return true;
 }
 
-/// analysedModel with the state `at` from Python (None: x0); `fn` names the function in errors.
+/// analysedModel with the state `at` from Python (None: x0; the note says "at"); `fn` names the
+/// function in the errors of a malformed `at`.
 Model analysedAt(const Model& loaded, py::handle at, const std::string& fn, std::string& local_note)
 {
   if (at.is_none())
-    return analysedModel(loaded, nullptr, fn + ": at", local_note);
+    return analysedModel(loaded, nullptr, "at", local_note);
   const DoubleArray a = asArray(at, 1, fn + ": at");
   const Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(a.data(), a.shape(0));
-  return analysedModel(loaded, &x, fn + ": at", local_note);
+  return analysedModel(loaded, &x, "at", local_note);
 }
 
 py::object analyze(const std::shared_ptr<Model>& loaded, py::handle links, py::handle estimator, py::handle at,
