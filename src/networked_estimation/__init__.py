@@ -47,6 +47,7 @@ def _by_name(function):
     call.__name__ = call.__qualname__ = function.__name__
     call.__doc__ = function.__doc__
     call.__module__ = __name__
+    call.__wrapped__ = function  # help() and inspect show the binding's own signature
     return call
 
 

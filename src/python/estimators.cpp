@@ -78,7 +78,14 @@ std::shared_ptr<PyEstimator> makePyEstimator(const std::shared_ptr<Model>& model
     settings["algorithm"] = algorithm;
     e->settings = parseEstimatorSettings(toYaml(settings, "make_estimator()"), "make_estimator()");
   }
-  e->estimator = makeEstimator(*e->model, e->settings);
+  try
+  {
+    e->estimator = makeEstimator(*e->model, e->settings);
+  }
+  catch (const ConfigError& err)
+  {
+    throw ConfigError(std::string("make_estimator(): ") + err.what());
+  }
   return e;
 }
 
@@ -111,7 +118,15 @@ void step(PyEstimator& e, py::handle y, bool gamma, py::handle u, int nu, py::ha
   }
   s.nu = nu;
   s.dt = dt;
-  e.estimator->step(s);
+  try
+  {
+    checkStepCovariance(model, s);
+    e.estimator->step(s);
+  }
+  catch (const InputError& err)
+  {
+    throw InputError(std::string("step(): ") + err.what());
+  }
 }
 
 /// run(): steps the whole sequence in C++ without the GIL; returns (x, P, trace).
@@ -172,6 +187,7 @@ py::tuple run(PyEstimator& e, py::handle Y, py::handle Gamma, py::handle U, py::
         s.dt = dts.data()[k];
       try
       {
+        checkStepCovariance(model, s);
         e.estimator->step(s);
       }
       catch (const InputError& err)

@@ -37,7 +37,9 @@ bool estimatorSettings(py::handle o, EstimatorSettings& out)
   std::string text;
   if (!asPath(o, text))
     throw py::type_error("analyze(): estimator: expected an algorithm name, a dict of settings or a settings file");
+  std::string names;
   for (const char* name : {"kf", "kfio", "rseio", "aoe", "oe", "ack_kf", "ekfio"})
+  {
     if (text == name)
     {
       YAML::Node node;
@@ -45,6 +47,14 @@ bool estimatorSettings(py::handle o, EstimatorSettings& out)
       out = parseEstimatorSettings(node, "analyze(): estimator");
       return true;
     }
+    names += (names.empty() ? "" : ", ") + std::string(name);
+  }
+  const auto ends = [&text](const std::string& tail) {
+    return text.size() >= tail.size() && text.compare(text.size() - tail.size(), tail.size(), tail) == 0;
+  };
+  if (!ends(".yaml") && !ends(".yml") && !py::hasattr(o, "__fspath__"))
+    throw py::value_error("analyze(): estimator: '" + text + "' is neither an algorithm (" + names +
+                          ") nor an estimator settings file (.yaml)");
   out = loadEstimatorSettings(text);
   return true;
 }
@@ -136,6 +146,10 @@ std::vector<std::string> pathList(py::handle o, const std::string& what)
     return out;
   if (asPath(o, one))
     return {one};
+  if (!py::isinstance<py::list>(o) && !py::isinstance<py::tuple>(o))
+    throw py::type_error(what + ": expected a file path or a list of them, found " +
+                         std::string(Py_TYPE(o.ptr())->tp_name) +
+                         " (the shards check the files' contents: write a Link with its to_yaml() to a file)");
   for (const auto& item : o)
   {
     if (!asPath(item, one))
@@ -196,7 +210,14 @@ MonteCarloConfig config(const std::string& experiment, long runs, long steps, st
                         py::handle axes)
 {
   MonteCarloConfig cfg;
-  checkExperimentName(experiment);
+  try
+  {
+    checkExperimentName(experiment);
+  }
+  catch (const ConfigError& e)
+  {
+    throw ConfigError(std::string("montecarlo(): experiment: ") + e.what());
+  }
   cfg.experiment = experiment;
   if (runs < 0 || steps < 0 || threads < 0)
     throw py::value_error("montecarlo(): runs, steps and threads: expected >= 0 (0: the default), found " +
@@ -283,6 +304,12 @@ std::shared_ptr<T> runWithProgress(const std::function<T(ProgressCounter*)>& bod
   if (p.error)
     std::rethrow_exception(p.error);
   return result;
+}
+
+/// How a shard held in memory (not read from a file) is named in the merge's messages.
+std::string memoryLabel(const ShardFile& s)
+{
+  return "<Shard " + std::to_string(s.shard) + " of " + std::to_string(s.shards) + " of " + s.config.experiment + ">";
 }
 
 }  // namespace
@@ -394,7 +421,12 @@ them all.)doc")
           },
           py::arg("dir"), "Writes DIR/NAME.shard-K-of-N.json; returns its path.")
       .def(py::pickle([](const ShardFile& s) { return shardJson(s); },
-                      [](const std::string& text) { return std::make_shared<ShardFile>(parseShard(text, "Shard")); }))
+                      [](const std::string& text)
+                      {
+                        auto s = std::make_shared<ShardFile>(parseShard(text, "a pickled Shard"));
+                        s->path = memoryLabel(*s);
+                        return s;
+                      }))
       .def("__repr__", [](const ShardFile& s) {
         return "<networked_estimation.Shard " + s.config.experiment + " " + std::to_string(s.shard) + " of " +
                std::to_string(s.shards) + ">";
@@ -426,8 +458,10 @@ them all.)doc")
           throw py::value_error("montecarlo(): shard: expected (k, n) with 1 <= k <= n <= " +
                                 std::to_string(kMaxShards) + ", found (" + std::to_string(k) + ", " +
                                 std::to_string(n) + ")");
-        return py::cast(runWithProgress<ShardFile>(
-            [&cfg, k, n](ProgressCounter* p) { return runShard(cfg, k, n, p); }, progress));
+        std::shared_ptr<ShardFile> shard_file = runWithProgress<ShardFile>(
+            [&cfg, k, n](ProgressCounter* p) { return runShard(cfg, k, n, p); }, progress);
+        shard_file->path = memoryLabel(*shard_file);
+        return py::cast(shard_file);
       },
       py::arg("experiment"), py::arg("runs") = 0, py::arg("steps") = 0, py::arg("seed") = 1, py::arg("threads") = 0,
       py::arg("model") = py::none(), py::arg("channels") = py::none(), py::arg("actuator_channel") = py::none(),

@@ -44,7 +44,8 @@ YAML::Node toYaml(py::handle value, const std::string& what)
     for (const auto& item : py::reinterpret_borrow<py::dict>(value))
     {
       const std::string key = py::str(item.first).cast<std::string>();
-      node[key] = toYaml(item.second, what + "['" + key + "']");
+      const bool top = what.size() >= 2 && what.compare(what.size() - 2, 2, "()") == 0;
+      node[key] = toYaml(item.second, what + (top ? ": " : ".") + key);  // "Model(): sensors[0].C"
     }
     return node;
   }

@@ -71,6 +71,36 @@ def test_refused_steps_leave_the_estimate_untouched():
     assert same(est.x, x) and same(est.P, P) and est.steps == 1
 
 
+def test_a_step_covariance_is_checked_before_the_step():
+    m = ne.Model.from_yaml(MODELS / "planar_robot.yaml")
+    est = ne.make_estimator(m, "kfio")
+    y = np.full(m.m, np.nan)
+    y[0:2] = [0.1, 0.2]  # odom arrives; imu and gps do not
+    R = np.array(m.R)
+    R[4, 4] = -1.0  # gps's block: not fused at this step, not checked
+    est.step(y, True, R=R)
+    x, P = est.x, est.P
+    bad = np.array(m.R)
+    bad[1, 1] = -1.0
+    with pytest.raises(ValueError, match=r"step\(\): R: sensor 'odom': its block is not positive definite"):
+        est.step(y, True, R=bad)
+    bad = np.array(m.R)
+    bad[0, 1] = 1e-4
+    with pytest.raises(ValueError, match=r"step\(\): R: sensor 'odom': its block is not symmetric"):
+        est.step(y, True, R=bad)
+    bad = np.array(m.R)
+    bad[0, 0] = np.nan
+    with pytest.raises(ValueError, match=r"step\(\): R: sensor 'odom': its block is not finite"):
+        est.step(y, True, R=bad)
+    assert same(est.x, x) and same(est.P, P) and est.steps == 1  # untouched, and it still steps:
+    est.step(y, True, R=R)
+    Rs = np.tile(m.R, (3, 1, 1))
+    Rs[2, 0, 0] = 0.0
+    Rs[2, 1, 1] = 0.0
+    with pytest.raises(ValueError, match=r"run\(\): step 2: R: sensor 'odom': its block is not positive definite"):
+        est.run(np.tile(y, (3, 1)), np.ones(3), R=Rs)
+
+
 def test_run_refusals_name_the_argument():
     est = ne.make_estimator(zhou(), "kfio")
     with pytest.raises(ValueError, match=r"run\(\): Y: expected shape \(N, m\) with m = 1, found \(5, 2\)"):
@@ -96,7 +126,7 @@ def test_settings_refusals():
         ne.make_estimator(m, "kfio", bogus=1)
     with pytest.raises(ValueError, match="give no keywords"):
         ne.make_estimator(m, str(ESTIMATORS / "rseio.yaml"), mu=0.5)
-    with pytest.raises(ValueError, match="control_link"):
+    with pytest.raises(ValueError, match=r"^make_estimator\(\): .*control_link"):
         ne.make_estimator(ne.Model.from_yaml(MODELS / "zhou_actuated.yaml"), "aoe")
 
 

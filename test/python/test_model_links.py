@@ -58,8 +58,10 @@ def test_model_refusals_name_the_key(changes, words):
 
 
 def test_model_refuses_a_value_it_cannot_read():
-    with pytest.raises(TypeError, match=r"Model\(\)\['A'\].*object"):
+    with pytest.raises(TypeError, match=r"Model\(\): A: expected a number.*found object"):
         small_model(A=object())
+    with pytest.raises(TypeError, match=r"Model\(\): sensors\[0\]\.C\[1\]: expected"):
+        small_model(sensors=[ne.Sensor("pos", C=[[1.0, 0.0], object()], R=[[1.0]])])
 
 
 def test_model_from_missing_file_names_it():

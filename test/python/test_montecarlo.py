@@ -63,8 +63,18 @@ def test_shards_merge_to_the_unsharded_run(tmp_path):
 
 
 def test_montecarlo_refusals():
-    with pytest.raises(ValueError, match=r"unknown experiment 'zhou_fig9'"):
+    with pytest.raises(ValueError, match=r"^montecarlo\(\): experiment: unknown experiment 'zhou_fig9'"):
         ne.montecarlo("zhou_fig9")
+    with pytest.raises(TypeError, match=r"montecarlo\(\): channels: expected a file path or a list of them, found "
+                                        r".*Link .*to_yaml"):
+        ne.montecarlo("custom", model=MODELS / "zhou_example.yaml", settings=ESTIMATORS / "kfio.yaml",
+                      channels=ne.Bernoulli(0.2))
+    one = ne.montecarlo("zhou_fig1", runs=128, steps=5, shard=(1, 2))
+    with pytest.raises(ValueError, match=r"missing shard 2 of 2 of zhou_fig1 \(found 1\)$"):
+        ne.merge([one])
+    with pytest.raises(ValueError, match=r"duplicate shard 1 of 2: <Shard 1 of 2 of zhou_fig1> and "
+                                         r"<Shard 1 of 2 of zhou_fig1>"):
+        ne.merge([one, pickle.loads(pickle.dumps(one))])
     with pytest.raises(ValueError, match=r"needs model= and settings="):
         ne.montecarlo("custom", runs=10)
     with pytest.raises(ValueError, match=r"model is only for the experiments custom and sweep"):

@@ -119,6 +119,8 @@ def test_analyze_with_link_objects_and_refusals():
     assert a == b and c == d and a != d  # rseio's verdicts differ from kfio's
     with pytest.raises(ValueError, match=r"at is only for a model with a built-in motion \(model 'zhou_example' is linear\)"):
         ne.analyze(m, at=[0.0, 0.0])
+    with pytest.raises(ValueError, match=r"analyze\(\): estimator: 'nope' is neither an algorithm \(kf, kfio, "):
+        ne.analyze(m, estimator="nope")
     with pytest.raises(ValueError, match=r"cost: expected 'total_rate' or 'capacity'"):
         ne.design(m, "cheap")
     with pytest.raises(ValueError, match=r"traces\['y'\]\[1\]: expected 0 or 1"):

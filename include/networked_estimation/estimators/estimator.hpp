@@ -88,6 +88,13 @@ protected:
 void predictPrior(const Model& model, const Eigen::VectorXd& x, const Eigen::MatrixXd& P, const Eigen::VectorXd& u,
                   double dt, Eigen::VectorXd& xp, Eigen::MatrixXd& Pp);
 
+/// Checks sample.R for a step of `model` (nothing when it is empty): m x m, and the block of every
+/// sensor the step fuses (gamma set and the sensor's y finite) finite, symmetric and positive
+/// definite. Throws InputError "R: ..." naming the sensor, e.g. "R: sensor 'gps': its block is not
+/// positive definite". The estimators leave this to their callers (it is per message in the
+/// nodelet, per file row in replay); the Python module checks with it.
+void checkStepCovariance(const Model& model, const Sample& sample);
+
 /// Builds the estimator named by settings.algorithm. Throws ConfigError when the combination is
 /// invalid (e.g. aoe/oe for a model with control but settings without control_link).
 /// The estimator keeps its own copy of the model.

@@ -274,13 +274,17 @@ ExperimentResult mergeShards(std::vector<ShardFile> shards)
     std::vector<int> present;
     for (const auto& e : by_index)
       present.push_back(e.first);
-    std::set<std::string> dirs;
+    std::set<std::string> dirs;  // the folders of the shard files (none for shards held in memory)
     for (const ShardFile& s : shards)
-      dirs.insert(std::filesystem::path(s.path).parent_path().string());
+    {
+      const std::string dir = std::filesystem::path(s.path).parent_path().string();
+      if (!dir.empty())
+        dirs.insert(dir);
+    }
     std::vector<std::string> dir_list(dirs.begin(), dirs.end());
     throw InputError("missing shard" + std::string(missing.size() > 1 ? "s " : " ") + joinInts(missing, 20) + " of " +
-                     std::to_string(n) + " of " + ref.config.experiment + " (found " + joinInts(present, 20) + " in " +
-                     joinStrings(dir_list) + ")");
+                     std::to_string(n) + " of " + ref.config.experiment + " (found " + joinInts(present, 20) +
+                     (dir_list.empty() ? std::string() : " in " + joinStrings(dir_list)) + ")");
   }
   // 3. the input files as they were when the shards ran (the merge re-reads them)
   std::vector<ShardInput> now;
