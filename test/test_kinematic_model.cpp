@@ -446,10 +446,50 @@ TEST(KinematicModel, TheWrittenFileReadsBackBitForBit)
   EXPECT_NE(text.str().find("q [[T^3/3, T^2/2], [T^2/2, T]]"), std::string::npos);
   EXPECT_EQ(text.str().find("\nB:"), std::string::npos);  // B = identity is left out
 
-  Model with_control = makeKinematicModel(cv);
-  with_control.Bu = MatrixXd::Ones(4, 1);
+  Model invalid = makeKinematicModel(cv);
+  invalid.Q(0, 0) = -1.0;
   std::ostringstream ignored;
-  EXPECT_THROW(writeModelYaml(ignored, with_control, ""), ConfigError);
+  EXPECT_THROW(writeModelYaml(ignored, invalid, ""), ConfigError);
+}
+
+// Every part of a model is written: control, uncertainty and each kind of schedule read back
+// exactly (the Python module pickles models through this text).
+TEST(ModelWriter, ControlUncertaintyAndSchedulesReadBack)
+{
+  const std::string base =
+      "name: full\nperiod: 0.1\nA: [[1, 0.1, 0], [0, 1, 0], [0, 0, 0.9]]\nQ: [[0.3, 0, 0], [0, 0.1, 0], [0, 0, 1]]\n"
+      "sensors:\n  - {name: a, C: [[1, 0, 0]], R: [[0.7]]}\n  - {name: b, C: [[0, 1, 0], [0, 0, 1]], R: [[1, 0.2], [0.2, 2]]}\n"
+      "x0: [0.1, 0, 0]\nP0: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]\ncontrol: {Bu: [[0.5], [1], [0]]}\n"
+      "uncertainty:\n  - {dA: [[0, 0.01, 0], [0, 0, 0], [0, 0, 0]], range: 0.3}\n  - {dC: [[0.1, 0, 0], [0, 0, 0], [0, 0, 0]], range: 1}\n";
+  const std::vector<std::string> schedules = {
+      "",
+      "schedule: {pattern: [[a], [b], []]}\n",
+      "schedule: {subsets: [[a], [a, b]], probabilities: [0.3, 0.7]}\n",
+      "schedule: {subsets: [[a], [b]], transition: [[0.9, 0.1], [0.3, 0.7]]}\n",
+  };
+  for (const std::string& schedule : schedules)
+  {
+    const Model m = parseModel(YAML::Load(base + schedule), "full.yaml");
+    std::ostringstream text;
+    writeModelYaml(text, m, "");
+    const Model r = parseModel(YAML::Load(text.str()), "written");
+    EXPECT_EQ(r.A, m.A);
+    EXPECT_EQ(r.Bu, m.Bu);
+    EXPECT_EQ(r.R, m.R);
+    ASSERT_EQ(r.uncertainty.size(), 2u);
+    for (std::size_t j = 0; j < 2; ++j)
+    {
+      EXPECT_EQ(r.uncertainty[j].dA, m.uncertainty[j].dA);
+      EXPECT_EQ(r.uncertainty[j].dB, m.uncertainty[j].dB);
+      EXPECT_EQ(r.uncertainty[j].dC, m.uncertainty[j].dC);
+      EXPECT_EQ(r.uncertainty[j].range, m.uncertainty[j].range);
+    }
+    EXPECT_EQ(static_cast<int>(r.schedule.kind), static_cast<int>(m.schedule.kind)) << schedule;
+    EXPECT_EQ(r.schedule.pattern, m.schedule.pattern);
+    EXPECT_EQ(r.schedule.subsets, m.schedule.subsets);
+    EXPECT_EQ(r.schedule.markov, m.schedule.markov);
+    EXPECT_EQ(r.schedule.transition, m.schedule.transition) << text.str();
+  }
 }
 
 // --heading: the yaw is one more axis of the same motion, last in each group, with its own density,

@@ -275,6 +275,14 @@ Model.from_yaml(path) reads a file.)doc")
              return os.str();
            },
            "The model as a model file's text.")
+      .def(py::pickle(
+          [](const Model& mo)
+          {
+            std::ostringstream os;
+            writeModelYaml(os, mo, "");
+            return os.str();
+          },
+          [](const std::string& text) { return std::make_shared<Model>(parseModel(YAML::Load(text), "a pickled Model")); }))
       .def("__repr__", [](const Model& mo) {
         return "<networked_estimation.Model '" + mo.name + "': n = " + std::to_string(mo.n()) + ", m = " +
                std::to_string(mo.m()) + ", " + std::to_string(mo.sensors.size()) + " sensor(s)>";

@@ -42,6 +42,17 @@ def test_model_to_yaml_reads_back():
     assert again.angles == m.angles and again.states == m.states
 
 
+@pytest.mark.parametrize("path", sorted(MODELS.glob("*.yaml")), ids=lambda p: p.name)
+def test_every_example_model_pickles_exactly(path):
+    m = ne.Model.from_yaml(path)
+    again = pickle.loads(pickle.dumps(m))
+    for name in ("A", "B", "Q", "C", "R", "Bu", "x0", "P0"):
+        assert np.array_equal(getattr(m, name), getattr(again, name)), name
+    assert (again.name, again.period, again.sensors, again.angles) == (m.name, m.period, m.sensors, m.angles)
+    sim, sim2 = ne.simulate(m, None, 50, 3), ne.simulate(again, None, 50, 3)  # uncertainty, schedule too
+    assert np.array_equal(sim["y"], sim2["y"], equal_nan=True) and np.array_equal(sim["x"], sim2["x"])
+
+
 @pytest.mark.parametrize("changes, words", [
     (dict(Q=np.eye(3)), ["Q", "3"]),                                  # wrong size
     (dict(Q=-np.eye(2)), ["Q", "positive"]),                          # not positive definite

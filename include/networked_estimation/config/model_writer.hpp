@@ -11,9 +11,9 @@ namespace networked_estimation
 {
 
 /// Writes `comment` (each line prefixed with "# ") and the keys name, period (when set), states and
-/// angles (when given; angles by name when the states are named), A, B (when not the identity), Q,
-/// sensors, x0, P0. Throws ConfigError for a model with uncertain
-/// parameters, a control input or a schedule (not written by this function).
+/// angles (when given; angles by name when the states are named), motion (or A), B (when not the
+/// identity), Q, sensors, x0, P0, and control, uncertainty and schedule when the model has them.
+/// Throws ConfigError for a model that fails validateModel.
 void writeModelYaml(std::ostream& out, const Model& model, const std::string& comment);
 
 }  // namespace networked_estimation

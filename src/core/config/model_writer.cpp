@@ -60,16 +60,57 @@ void writeMatrix(std::ostream& out, const std::string& indent, const std::string
   }
 }
 
+/// [[a, b], [], [c]]: per entry the names of the sensors it marks.
+void writeSubsets(std::ostream& out, const std::string& key, const Model& model,
+                  const std::vector<std::vector<bool>>& subsets)
+{
+  out << "  " << key << ": [";
+  for (std::size_t i = 0; i < subsets.size(); ++i)
+  {
+    out << (i ? ", [" : "[");
+    bool first = true;
+    for (std::size_t s = 0; s < subsets[i].size(); ++s)
+    {
+      if (subsets[i][s])
+      {
+        out << (first ? "" : ", ") << yamlString(model.sensors[s].name);
+        first = false;
+      }
+    }
+    out << "]";
+  }
+  out << "]\n";
+}
+
+void writeSchedule(std::ostream& out, const Model& model)
+{
+  const Schedule& sc = model.schedule;
+  if (!sc.active())
+  {
+    return;
+  }
+  out << "schedule:\n";
+  if (sc.kind == Schedule::Kind::PERIODIC)
+  {
+    writeSubsets(out, "pattern", model, sc.pattern);
+    return;
+  }
+  writeSubsets(out, "subsets", model, sc.subsets);
+  if (sc.markov)
+  {
+    writeMatrix(out, "  ", "transition", sc.transition);
+  }
+  else
+  {
+    out << "  probabilities: " << row(sc.transition, 0) << "\n";  // i.i.d.: every row is the law
+  }
+}
+
 }  // namespace
 
 void writeModelYaml(std::ostream& out, const Model& model, const std::string& comment)
 {
   const std::string source = "model " + yamlString(model.name);
-  if (!model.uncertainty.empty() || model.hasControl() || model.schedule.active())
-  {
-    throw ConfigError(message(source, 0, "", "writeModelYaml writes no uncertainty, control or "
-                                             "schedule, and this model has one"));
-  }
   validateModel(model, source);
 
   std::string::size_type start = 0;
@@ -143,6 +184,23 @@ void writeModelYaml(std::ostream& out, const Model& model, const std::string& co
   }
   out << "x0: " << row(model.x0.transpose(), 0) << "\n";
   writeMatrix(out, "", "P0", model.P0);
+  if (model.hasControl())
+  {
+    out << "control:\n";
+    writeMatrix(out, "  ", "Bu", model.Bu);
+  }
+  if (!model.uncertainty.empty())
+  {
+    out << "uncertainty:\n";
+    for (const Uncertainty& u : model.uncertainty)
+    {
+      out << "  - range: " << plainNumber(u.range) << "\n";
+      writeMatrix(out, "    ", "dA", u.dA);
+      writeMatrix(out, "    ", "dB", u.dB);
+      writeMatrix(out, "    ", "dC", u.dC);
+    }
+  }
+  writeSchedule(out, model);
 }
 
 }  // namespace networked_estimation
