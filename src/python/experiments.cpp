@@ -10,6 +10,7 @@
 #include "networked_estimation/config/estimator_settings.hpp"
 #include "networked_estimation/experiments/montecarlo.hpp"
 #include "networked_estimation/experiments/montecarlo_shards.hpp"
+#include "networked_estimation/experiments/sweep.hpp"
 #include "networked_estimation/stability/analysis_json.hpp"
 
 namespace networked_estimation
@@ -306,6 +307,57 @@ std::shared_ptr<T> runWithProgress(const std::function<T(ProgressCounter*)>& bod
   return result;
 }
 
+/// A sweep's grid as arrays: the axes, the points' values (P x axes), per estimator the cells'
+/// statistics (P values each), the verdicts; None for another experiment.
+py::object sweepDict(const ExperimentResult& r)
+{
+  if (!r.sweep)
+    return py::none();
+  const SweepResult& sw = *r.sweep;
+  const Py_ssize_t P = sw.points, A = static_cast<Py_ssize_t>(sw.axes.size());
+  py::dict d;
+  std::vector<std::string> axes;
+  for (const SweepAxis& a : sw.axes)
+    axes.push_back(a.name());
+  d["axes"] = axes;
+  py::array_t<double> values({P, A});
+  for (Py_ssize_t i = 0; i < P; ++i)
+    for (Py_ssize_t j = 0; j < A; ++j)
+      values.mutable_data()[i * A + j] = sw.point_values[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
+  d["values"] = values;
+  d["verdicts"] = sw.analysis.verdicts;
+  const std::pair<const char*, double SweepCell::*> stats[] = {
+      {"trP_mean", &SweepCell::trP_mean},         {"trP_sd", &SweepCell::trP_sd},
+      {"err_mean", &SweepCell::err_mean},         {"err_sd", &SweepCell::err_sd},
+      {"trP_avg_mean", &SweepCell::trP_avg_mean}, {"trP_avg_sd", &SweepCell::trP_avg_sd},
+      {"err_avg_mean", &SweepCell::err_avg_mean}, {"err_avg_sd", &SweepCell::err_avg_sd}};
+  const std::pair<const char*, long SweepCell::*> counts[] = {
+      {"n", &SweepCell::n}, {"diverged", &SweepCell::diverged}, {"floored", &SweepCell::floored}};
+  const std::size_t E = sw.estimators.size();
+  py::dict estimators;
+  for (std::size_t j = 0; j < E; ++j)
+  {
+    py::dict e;
+    for (const auto& st : stats)
+    {
+      py::array_t<double> a({P});
+      for (Py_ssize_t i = 0; i < P; ++i)
+        a.mutable_data()[i] = sw.cells[static_cast<std::size_t>(i) * E + j].*(st.second);
+      e[st.first] = a;
+    }
+    for (const auto& c : counts)
+    {
+      py::array_t<long long> a({P});
+      for (Py_ssize_t i = 0; i < P; ++i)
+        a.mutable_data()[i] = sw.cells[static_cast<std::size_t>(i) * E + j].*(c.second);
+      e[c.first] = a;
+    }
+    estimators[py::str(sw.estimators[j])] = e;
+  }
+  d["estimators"] = estimators;
+  return d;
+}
+
 /// How a shard held in memory (not read from a file) is named in the merge's messages.
 std::string memoryLabel(const ShardFile& s)
 {
@@ -381,6 +433,11 @@ per case: name, title, x and per series (by name) mean, sd, n, window, time_aver
                              },
                              "per case, the per-run values (runs x sample_columns), e.g. zhou_fig2's P_{T|T}")
       .def_readonly("sample_columns", &ExperimentResult::sample_columns)
+      .def_property_readonly("sweep", &sweepDict,
+                             "the sweep experiment's grid (None for the others): axes (names), values (points x "
+                             "axes), verdicts (one per point), estimators {name: {trP_mean, trP_sd, err_mean, "
+                             "err_sd, trP_avg_mean, trP_avg_sd, err_avg_mean, err_avg_sd, n, diverged, floored}}, "
+                             "each an array over the points (sweep.csv's rows)")
       .def("csv", [](const ExperimentResult& r) { return experimentCsv(r); }, "NAME.csv's text")
       .def("json", [](const ExperimentResult& r) { return experimentJson(r); }, "NAME.json's text")
       .def("to_dict", [](const ExperimentResult& r) { return parseJson(experimentJson(r)); },

@@ -96,3 +96,25 @@ def test_montecarlo_releases_the_gil():
         runs *= 2
     assert seconds > 0.3, "the run is too short to tell"
     assert gap < seconds / 3, (gap, seconds)
+
+
+def test_sweep_equals_the_tool_and_its_arrays_are_the_csv(tmp_path):
+    files = dict(model=MODELS / "unstable_two_links.yaml", channels={"camera": CHANNELS / "gilbert_elliott_bursty.yaml"},
+                 settings=[ESTIMATORS / "kfio.yaml", ESTIMATORS / "kf.yaml"],
+                 axes=["gnss.arrival_rate=0.2:0.8:3", "camera.recovery_rate=0.1:0.7:4"])
+    tool("montecarlo", "--experiment", "sweep", "--model", files["model"],
+         "--channel", f"camera={files['channels']['camera']}", "--settings", ",".join(map(str, files["settings"])),
+         "--axis", files["axes"][0], "--axis", files["axes"][1], "--runs", 70, "--steps", 20, "--out", tmp_path)
+    r = ne.montecarlo("sweep", runs=70, steps=20, **files)
+    text = (tmp_path / "sweep.csv").read_text()
+    assert r.csv() == text
+    sw = r.sweep
+    assert sw["axes"] == ["gnss.arrival_rate", "camera.recovery_rate"] and sw["values"].shape == (12, 2)
+    rows = [line.split(",") for line in text.splitlines()[1:]]
+    for row in rows:
+        point, name = int(row[0]), row[5]
+        cells = sw["estimators"][name]
+        assert [float(row[3]), float(row[4])] == list(sw["values"][point])
+        assert int(row[6]) == cells["n"][point] and row[-1] == sw["verdicts"][point]
+        assert float(row[9]) == pytest.approx(cells["trP_mean"][point], rel=1e-9)  # the CSV prints 10 digits
+    assert ne.montecarlo("zhou_fig1", runs=64, steps=5).sweep is None
