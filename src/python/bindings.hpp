@@ -42,6 +42,9 @@ ChannelSettings linkOf(py::handle link, const std::string& what);
 /// the origins read as the tools'. `what` names the argument in errors.
 SensorLinks sensorLinks(const Model& model, py::handle links, const std::string& what);
 
+/// json.loads(text): the tools' JSON documents as Python dicts.
+py::object parseJson(const std::string& text);
+
 /// Registered by each part of the module (module.cpp calls them in order).
 void bindModel(py::module& m);
 void bindEstimators(py::module& m);

@@ -81,6 +81,11 @@ DoubleArray asArray(py::handle o, int ndim, const std::string& what)
   return a;
 }
 
+py::object parseJson(const std::string& text)
+{
+  return py::module::import("json").attr("loads")(text);
+}
+
 bool asPath(py::handle o, std::string& path)
 {
   if (py::isinstance<py::str>(o))

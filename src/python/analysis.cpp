@@ -1,0 +1,148 @@
+// The Python module, part three: stability analysis and link design (docs/python.md). analyze() and
+// design() return what `analyze --json` and `analyze --design --json` print, parsed.
+#include <pybind11/stl.h>
+
+#include "bindings.hpp"
+#include "networked_estimation/common/error.hpp"
+#include "networked_estimation/config/estimator_settings.hpp"
+#include "networked_estimation/stability/analysis_json.hpp"
+
+namespace networked_estimation
+{
+namespace python
+{
+namespace
+{
+
+/// estimator=: None (kfio), an algorithm name, a dict of settings keys, or a settings file.
+bool estimatorSettings(py::handle o, EstimatorSettings& out)
+{
+  if (o.is_none())
+    return false;
+  if (py::isinstance<py::dict>(o))
+  {
+    out = parseEstimatorSettings(toYaml(o, "analyze(): estimator"), "analyze(): estimator");
+    return true;
+  }
+  std::string text;
+  if (!asPath(o, text))
+    throw py::type_error("analyze(): estimator: expected an algorithm name, a dict of settings or a settings file");
+  std::string names;
+  for (const char* name : {"kf", "kfio", "rseio", "aoe", "oe", "ack_kf", "ekfio"})
+  {
+    if (text == name)
+    {
+      YAML::Node node;
+      node["algorithm"] = text;
+      out = parseEstimatorSettings(node, "analyze(): estimator");
+      return true;
+    }
+    names += (names.empty() ? "" : ", ") + std::string(name);
+  }
+  const auto ends = [&text](const std::string& tail) {
+    return text.size() >= tail.size() && text.compare(text.size() - tail.size(), tail.size(), tail) == 0;
+  };
+  if (!ends(".yaml") && !ends(".yml") && !py::hasattr(o, "__fspath__"))
+    throw py::value_error("analyze(): estimator: '" + text + "' is neither an algorithm (" + names +
+                          ") nor an estimator settings file (.yaml)");
+  out = loadEstimatorSettings(text);
+  return true;
+}
+
+/// analysedModel with the state `at` from Python (None: x0; the note says "at"); `fn` names the
+/// function in the errors of a malformed `at`.
+Model analysedAt(const Model& loaded, py::handle at, const std::string& fn, std::string& local_note)
+{
+  if (at.is_none())
+    return analysedModel(loaded, nullptr, "at", local_note);
+  const DoubleArray a = asArray(at, 1, fn + ": at");
+  const Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(a.data(), a.shape(0));
+  return analysedModel(loaded, &x, "at", local_note);
+}
+
+py::object analyze(const std::shared_ptr<Model>& loaded, py::handle links, py::handle estimator, py::handle at,
+                   py::handle traces, int block)
+{
+  if (!loaded)
+    throw py::type_error("analyze(): expected a Model");
+  std::string local_note;
+  const Model model = analysedAt(*loaded, at, "analyze()", local_note);
+  const SensorLinks sl = sensorLinks(model, links, "analyze(): links");
+  EstimatorSettings est;
+  const bool has_est = estimatorSettings(estimator, est);
+  // traces: {sensor: arrivals (0/1 per step)}
+  std::vector<std::vector<std::vector<bool>>> arrivals;
+  std::vector<std::string> labels;
+  if (!traces.is_none())
+  {
+    if (!py::isinstance<py::dict>(traces))
+      throw py::type_error("analyze(): traces: expected a dict {sensor name: arrivals (0 or 1 per step)}");
+    for (const auto& item : py::reinterpret_borrow<py::dict>(traces))
+    {
+      const std::string name = py::str(item.first).cast<std::string>();
+      const std::string what = "analyze(): traces['" + name + "']";
+      const std::size_t s = sensorIndex(model, name, "analyze(): traces");
+      const DoubleArray a = asArray(item.second, 1, what);
+      std::vector<std::vector<bool>> per(model.sensors.size());
+      for (Py_ssize_t k = 0; k < a.shape(0); ++k)
+      {
+        const double v = a.data()[k];
+        if (v != 0.0 && v != 1.0)
+          throw py::value_error(what + "[" + std::to_string(k) + "]: expected 0 or 1, found " + std::to_string(v));
+        per[s].push_back(v != 0.0);
+      }
+      arrivals.push_back(per);
+      labels.push_back(what);
+    }
+  }
+  if (block < 0)
+    block = model.n();
+  if (block < 1 || block > 10000)
+    throw py::value_error("analyze(): block: expected 1 ... 10000, found " + std::to_string(block));
+  std::vector<TraceEvidence> evidence;
+  StabilityReport rep;
+  {
+    py::gil_scoped_release release;
+    evidence = traceEvidence(model, arrivals, labels, block);
+    rep = analyzeStability(model, sl.link, has_est ? &est : nullptr);
+  }
+  rep.estimator_note += local_note;
+  return parseJson(analysisJson(rep, sl.origin, evidence));
+}
+
+py::object design(const std::shared_ptr<Model>& loaded, const std::string& cost, double growth_cap, py::handle at)
+{
+  if (!loaded)
+    throw py::type_error("design(): expected a Model");
+  if (cost != "total_rate" && cost != "capacity")
+    throw py::value_error("design(): cost: expected 'total_rate' or 'capacity', found '" + cost + "'");
+  if (!(growth_cap > 0.0 && growth_cap < 1.0))
+    throw py::value_error("design(): growth_cap: expected a number in (0, 1), found " + std::to_string(growth_cap));
+  std::string local_note;
+  const Model model = analysedAt(*loaded, at, "design()", local_note);
+  LinkDesign d;
+  {
+    py::gil_scoped_release release;
+    d = designLinks(model, cost == "capacity" ? DesignCost::CAPACITY : DesignCost::TOTAL_RATE, growth_cap);
+  }
+  return parseJson(designJson(model, d, cost));
+}
+
+}  // namespace
+
+void bindAnalysis(py::module& m)
+{
+  m.def("analyze", &analyze, py::arg("model"), py::arg("links") = py::none(), py::arg("estimator") = py::none(),
+        py::arg("at") = py::none(), py::arg("traces") = py::none(), py::arg("block") = -1,
+        "Stability analysis of `model` over its sensors' links, as `analyze --json` prints it (a dict): "
+        "links as simulate()'s; estimator an algorithm name, a dict of settings or a settings file (None: "
+        "kfio); at the state a built-in motion is linearised at (None: x0); traces {sensor: arrivals} for "
+        "Gan and Liu's evidence in blocks of `block` steps (-1: n).");
+  m.def("design", &design, py::arg("model"), py::arg("cost") = "total_rate", py::arg("growth_cap") = 0.9,
+        py::arg("at") = py::none(),
+        "Link design, as `analyze --design COST --json` prints it (a dict): the i.i.d. arrival rates that "
+        "keep E[P] bounded at least cost ('total_rate' or 'capacity') with |alpha|^2 Phi <= growth_cap.");
+}
+
+}  // namespace python
+}  // namespace networked_estimation
