@@ -456,3 +456,58 @@ TEST(LiveStability, CacheFollowsTheWindows)
   for (std::size_t i = 0; i < fr.values.size(); ++i)
     EXPECT_EQ(fr.values[i], later.values[i]);
 }
+
+// A built-in motion's live verdicts follow its linearisation (the nodelet rebuilds them at the
+// estimate): relinearised() keeps the windows and computes the model's part for the new model, so
+// it reports exactly what a monitor of that model fed the same arrivals reports; takeWindows()
+// brings later arrivals over; both own their models.
+TEST(LiveStability, RelinearisedKeepsTheWindows)
+{
+  EstimatorSettings kfio;
+  LiveStabilityOptions o;
+  o.window = 400;
+  o.min_samples = 50;
+  const Model unstable = scalarTwoSensors(1.5);
+  LiveStability fed(unstable, kfio, o);
+  std::unique_ptr<LiveStability> fresh;
+  {
+    const Model stable = scalarTwoSensors(0.9);  // gone before the copies are used
+    fresh = std::make_unique<LiveStability>(stable, kfio, o);
+  }
+  Rng rng(5);
+  std::vector<std::vector<bool>> arrivals;
+  for (int k = 0; k < 600; ++k)
+    arrivals.push_back({rng.bernoulli(0.2), rng.bernoulli(0.2)});  // 0.2 + 1.96 sqrt(0.16 / 300) < 1/3
+  for (int k = 0; k < 300; ++k)
+  {
+    fed.add(arrivals[k], arrivals[k][0] || arrivals[k][1], unstable.P0, false);
+    fresh->add(arrivals[k], arrivals[k][0] || arrivals[k][1], unstable.P0, false);
+  }
+  std::unique_ptr<LiveStability> local;
+  {
+    const Model stable = scalarTwoSensors(0.9);
+    local = std::make_unique<LiveStability>(fed.relinearised(stable));
+  }
+  const auto values = [](const LiveStabilityReport& r) {
+    std::string out = toString(r.status.level) + " " + r.status.message + "\n";
+    for (const auto& kv : r.values)
+      if (kv.first.find("Theorem 1") == std::string::npos)  // kfio's invariant along the fed model's own steps
+        out += kv.first + " = " + kv.second + "\n";
+    return out;
+  };
+  EXPECT_EQ(values(local->evaluate()), values(fresh->evaluate()));
+  EXPECT_NE(values(local->evaluate()), values(fed.evaluate()));  // 1.5 at arrival 0.2 each: unbounded
+  EXPECT_EQ(fed.evaluate().status.level, LinkStatus::Level::ERROR);
+  EXPECT_EQ(local->evaluate().status.level, LinkStatus::Level::OK);
+  for (int k = 300; k < 600; ++k)
+  {
+    fed.add(arrivals[k], arrivals[k][0] || arrivals[k][1], unstable.P0, false);
+    fresh->add(arrivals[k], arrivals[k][0] || arrivals[k][1], unstable.P0, false);
+  }
+  const std::string before = values(local->evaluate());
+  local->takeWindows(fed);
+  EXPECT_EQ(values(local->evaluate()), values(fresh->evaluate()));
+  EXPECT_NE(values(local->evaluate()), before);  // the new arrivals are seen (not the cached report)
+  LiveStability other(test::scalarTwoSensorModel(0.9, "a", "c"), kfio, o);
+  EXPECT_THROW(other.takeWindows(fed), std::invalid_argument);
+}

@@ -229,19 +229,24 @@ void EstimatorNodelet::configure(ros::NodeHandle& pnh)
   live.late_data_dropped = c.online.late_policy == LatePolicy::DROP;
   // Sensors at their own rates: the verdicts see each sensor only at its own steps.
   std::string rates_note;
-  std::vector<double> ratios;
+  rate_ratios_.clear();
   for (double r : c.online.rate_ratio)
-    ratios.push_back(SensorLattice::whole(r));  // a 9.996 Hz sensor in a 30 Hz model: every 3rd step
-  // A built-in motion: the verdicts of its linearisation at x0 over the steps' period (a local
-  // verdict, docs/stability.md 5)
+    rate_ratios_.push_back(SensorLattice::whole(r));  // a 9.996 Hz sensor in a 30 Hz model: every 3rd step
+  // A built-in motion: the verdicts of its linearisation over the steps' period, at x0 until the
+  // first diagnostic, then at the estimate (a local verdict, docs/stability.md 5)
   if (c.model.nonlinear())
-    NODELET_INFO("Estimator: model '%s' has motion %s: the link verdicts are local, for its linearisation at x0",
+  {
+    NODELET_INFO("Estimator: model '%s' has motion %s: the link verdicts are local, for its linearisation at the "
+                 "current estimate",
                  c.model.name.c_str(), toString(c.model.motion).c_str());
-  stability_model_ = withSensorRates(linearisedModel(c.model, c.model.x0, c.period), ratios, &rates_note);
+    motion_model_ = std::make_unique<const Model>(c.model);
+  }
+  const Model stability_model =
+      withSensorRates(linearisedModel(c.model, c.model.x0, c.period), rate_ratios_, &rates_note);
   if (!rates_note.empty())
     NODELET_WARN("Estimator: %s", rates_note.c_str());
   if (c.live_stability)
-    live_ = std::make_unique<LiveStability>(stability_model_, settings_, live);
+    live_ = std::make_unique<LiveStability>(stability_model, settings_, live);
 }
 
 void EstimatorNodelet::onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m, const ros::Time& receipt)

@@ -184,8 +184,14 @@ private:
   EstimatorSettings settings_;
   std::unique_ptr<OnlineStream> stream_;
   RuntimeLimits limits_;
-  Model stability_model_;  ///< the model with the sensors' rates as a schedule (live_ reads it)
   std::unique_ptr<LiveStability> live_;
+  /// A built-in motion (docs/stability.md 5): the motion model, the sensors' rate ratios, and the
+  /// verdicts of its linearisation at the estimate, rebuilt in diagnoseLink when the Jacobian moved
+  /// (the diagnostics' thread only).
+  std::unique_ptr<const Model> motion_model_;
+  std::vector<double> rate_ratios_;
+  std::unique_ptr<LiveStability> local_;
+  std::uint64_t relinearisations_ = 0;
   std::uint64_t resets_seen_ = 0;  ///< divergence resets of the filter already told to live_
 
   std::string input_type_, frame_id_, child_frame_id_;

@@ -2,6 +2,8 @@
 // pose, tf, the NavSatFix datum and the diagnostics.
 #include "estimator_nodelet.hpp"
 
+#include "networked_estimation/motion/linearised_model.hpp"
+
 namespace networked_estimation
 {
 
@@ -273,16 +275,47 @@ void EstimatorNodelet::diagnoseSensors(diagnostic_updater::DiagnosticStatusWrapp
   }
 }
 
+namespace
+{
+/// Two Jacobians of a motion give the same verdicts for the live diagnostic: no entry moved by more
+/// than 0.1 % of the largest (the verdicts depend on the structure, not on small changes).
+bool sameLinearisation(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b)
+{
+  return a.rows() == b.rows() && a.cols() == b.cols() &&
+         (a - b).cwiseAbs().maxCoeff() <= 1e-3 * std::max(1.0, b.cwiseAbs().maxCoeff());
+}
+}  // namespace
+
 void EstimatorNodelet::diagnoseLink(diagnostic_updater::DiagnosticStatusWrapper& stat)
 {
   // Copied under the lock, evaluated outside it (three core stability tests and the Gan-Liu
   // evidence, well under a millisecond), so the filter thread is never held up by it.
   std::unique_ptr<LiveStability> snapshot;
+  Eigen::VectorXd estimate;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     snapshot = std::make_unique<LiveStability>(*live_);
+    if (motion_model_)
+      estimate = stream_->online().estimator().state();
   }
-  const LiveStabilityReport report = snapshot->evaluate();
+  const LiveStability* evaluated = snapshot.get();
+  if (motion_model_)  // a built-in motion: the verdicts of its linearisation at the estimate
+  {
+    const Model local = withSensorRates(linearisedModel(*motion_model_, estimate, limits_.period), rate_ratios_);
+    if (!local_ || !sameLinearisation(local_->model().A, local.A))
+    {
+      local_ = std::make_unique<LiveStability>(snapshot->relinearised(local));
+      ++relinearisations_;
+    }
+    else
+      local_->takeWindows(*snapshot);
+    evaluated = local_.get();
+  }
+  LiveStabilityReport report = evaluated->evaluate();
+  if (motion_model_)
+    report.values.emplace_back("linearisation", "at the estimate (a local verdict), rebuilt " +
+                                                    std::to_string(relinearisations_) +
+                                                    " times: when the Jacobian moves by over 0.1 % of its largest entry");
   const unsigned char level = report.status.level == LinkStatus::Level::OK ? diagnostic_msgs::DiagnosticStatus::OK
                               : report.status.level == LinkStatus::Level::WARN
                                   ? diagnostic_msgs::DiagnosticStatus::WARN

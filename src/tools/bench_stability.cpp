@@ -10,6 +10,9 @@
 //                           C: cache off 0, a second with new data, or on 1, a second without):
 //                           what the Estimator nodelet spends at most once a second
 //   live_second/n/S/M/F     the same after F new steps (cache on: a second of an F Hz stream)
+//   live_relinearise/D      a built-in motion's live verdicts rebuilt at a moved estimate (omni_2d
+//                           for D = 2, omni_3d for D = 3) and evaluated: what the Estimator spends
+//                           at most once a second while the robot moves
 //   live_model/NAME/MODE    from scratch, on each model given with --model FILE; live_model_second
 //                           after 50 new steps
 //
@@ -29,6 +32,8 @@
 #include "networked_estimation/config/channel_settings.hpp"
 #include "networked_estimation/config/estimator_settings.hpp"
 #include "networked_estimation/config/model.hpp"
+#include "networked_estimation/config/omni_model.hpp"
+#include "networked_estimation/motion/linearised_model.hpp"
 #include "networked_estimation/stability/live_stability.hpp"
 #include "networked_estimation/stability/stability.hpp"
 
@@ -169,6 +174,48 @@ void liveOn(benchmark::State& state, const Model& m, bool markov, bool cache, in
                  (fresh > 0 ? ", " + std::to_string(fresh) + " new steps" : cache ? ", cached" : "") + ": " + m.name);
 }
 
+/// A built-in motion's live verdicts along a moving estimate, as the Estimator rebuilds them once a
+/// second while the robot moves: the linearisation at a new state (heading and speeds changed),
+/// relinearised() on a full window, and its first evaluation. range(0): 2 for omni_2d (odometry vx,
+/// vy, vyaw + IMU yaw, vyaw), 3 for omni_3d (odometry vx, vy, vz, vyaw + IMU roll, pitch, yaw and
+/// rates).
+void liveRelinearise(benchmark::State& state)
+{
+  OmniSpec spec;
+  spec.rate = 50.0;
+  spec.process_noise = {0.01};
+  if (state.range(0) == 2)
+  {
+    spec.motion = "omni_2d";
+    spec.sensors = {{"odom", {"vx", "vy", "vyaw"}, {0.05}}, {"imu", {"yaw", "vyaw"}, {0.02}}};
+  }
+  else
+  {
+    spec.motion = "omni_3d";
+    spec.sensors = {{"odom", {"vx", "vy", "vz", "vyaw"}, {0.05}},
+                    {"imu", {"roll", "pitch", "yaw", "vroll", "vpitch", "vyaw"}, {0.02}}};
+  }
+  const Model motion = makeOmniModel(spec);
+  EstimatorSettings settings;
+  settings.algorithm = Algorithm::EKFIO;
+  LiveStabilityOptions o;
+  LiveStability live(linearisedModel(motion, motion.x0, motion.period), settings, o);
+  Rng rng(3);
+  for (std::size_t k = 0; k < o.window; ++k)
+    live.add({rng.bernoulli(0.9), rng.bernoulli(0.8)}, true, motion.P0, false);
+  Eigen::VectorXd x = motion.x0;
+  const int yaw = motion.n() == 8 ? 2 : 5, vx = motion.n() == 8 ? 3 : 6;
+  for (auto _ : state)
+  {
+    x[yaw] += 0.3;  // the robot turned and sped up since the last second
+    x[vx] += 0.1;
+    const LiveStability local = live.relinearised(linearisedModel(motion, x, motion.period));
+    const LiveStabilityReport rep = local.evaluate();
+    benchmark::DoNotOptimize(rep.values.size());
+  }
+  state.SetLabel(spec.motion + ", n = " + std::to_string(motion.n()) + ", 2 sensors");
+}
+
 void liveSecond(benchmark::State& state)
 {
   const int n = static_cast<int>(state.range(0)), S = static_cast<int>(state.range(1));
@@ -210,6 +257,11 @@ int main(int argc, char** argv)
       ->Args({15, 4, 0, 0})
       ->Args({15, 4, 1, 0})
       ->Args({15, 4, 0, 1})
+      ->Unit(benchmark::kMicrosecond)
+      ->UseRealTime();
+  benchmark::RegisterBenchmark("live_relinearise", liveRelinearise)
+      ->Arg(2)
+      ->Arg(3)
       ->Unit(benchmark::kMicrosecond)
       ->UseRealTime();
   benchmark::RegisterBenchmark("live_second", liveSecond)

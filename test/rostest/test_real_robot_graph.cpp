@@ -588,8 +588,9 @@ TEST(RealRobotGraph, RelativeAndDifferential)
 // the same assertion on our Estimator, the bag played by launch/peer_bag_test.launch. Parameters:
 // ~bag_end (the bag's last stamp, s); optionally ~expected [x, y, z] with ~tolerance (m, per
 // axis, as robot_localization's test), ~link_level (the link stability status's level at the end:
-// 0 OK, 1 WARN, 2 ERROR), ~link_mentions (texts its message must contain) and ~lossy_sensor (a
-// sensor whose arrival rate the link status must show below 1).
+// 0 OK, 1 WARN, 2 ERROR), ~link_mentions (texts its message must contain), ~lossy_sensor (a
+// sensor whose arrival rate the link status must show below 1) and ~relinearised (a built-in
+// motion: the link status's verdicts were rebuilt at the moving estimate at least twice).
 TEST(RealRobotGraph, PeerBagTest)
 {
   ros::NodeHandle nh, pnh("~");
@@ -604,6 +605,8 @@ TEST(RealRobotGraph, PeerBagTest)
   pnh.getParam("link_level", link_level);
   pnh.getParam("link_mentions", mentions);
   pnh.getParam("lossy_sensor", lossy_sensor);
+  bool relinearised = false;
+  pnh.getParam("relinearised", relinearised);
   Collector<nav_msgs::Odometry> odom(nh, "/odometry/filtered");
   DiagnosticsProbe diag(nh, "ekf_se: estimator");
   DiagnosticsProbe link(nh, "ekf_se: link stability");
@@ -655,6 +658,15 @@ TEST(RealRobotGraph, PeerBagTest)
     EXPECT_EQ(level, link_level) << message;
   for (const std::string& m : mentions)
     EXPECT_NE(message.find(m), std::string::npos) << "expected '" << m << "' in: " << message;
+  if (relinearised)
+  {
+    const std::string lin = link.text("linearisation");  // "at the estimate (...), rebuilt N times: ..."
+    std::printf("[ peer bag test ] linearisation: %s\n", lin.c_str());
+    const std::string::size_type at = lin.find("rebuilt ");
+    ASSERT_NE(at, std::string::npos) << "linearisation: " << lin;
+    EXPECT_EQ(lin.rfind("at the estimate", 0), 0u) << lin;
+    EXPECT_GE(std::atol(lin.c_str() + at + 8), 2) << lin;
+  }
   if (!lossy_sensor.empty())
   {
     const double rate = std::atof(link.text(lossy_sensor + " arrival rate").c_str());

@@ -53,6 +53,10 @@ public:
   /// after skipped steps starts no transition (LinkMonitor::add).
   void add(const std::vector<bool>& arrived, const std::vector<bool>& due);
   void clear();
+  /// The windows of `from` (a monitor of a model with the same sensors, e.g. another linearisation
+  /// of a built-in motion) in place of this one's; the verdicts stay this monitor's. Throws
+  /// std::invalid_argument when the sensors or the mode differ.
+  void takeWindows(const JointLinkMonitor& from);
   std::size_t sensors() const { return monitors_.size(); }
   const LinkMonitor& sensor(std::size_t s) const { return monitors_[s]; }
   bool markov() const { return markov_; }

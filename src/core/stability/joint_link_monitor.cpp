@@ -102,6 +102,21 @@ void JointLinkMonitor::clear()
   std::fill(skipped_.begin(), skipped_.end(), 0);
 }
 
+void JointLinkMonitor::takeWindows(const JointLinkMonitor& from)
+{
+  if (from.monitors_.size() != monitors_.size() || from.markov_ != markov_)
+    throw std::invalid_argument("JointLinkMonitor::takeWindows: the other monitor has " +
+                                std::to_string(from.monitors_.size()) + " sensors (" +
+                                (from.markov_ ? "markov" : "iid") + "), this one " + std::to_string(monitors_.size()) +
+                                " (" + (markov_ ? "markov" : "iid") + ")");
+  for (std::size_t s = 0; s < monitors_.size(); ++s)
+    if (from.model_.sensors[s].name != model_.sensors[s].name)
+      throw std::invalid_argument("JointLinkMonitor::takeWindows: sensor " + std::to_string(s) + " is '" +
+                                  from.model_.sensors[s].name + "' there, '" + model_.sensors[s].name + "' here");
+  monitors_ = from.monitors_;
+  skipped_ = from.skipped_;
+}
+
 JointLinkStatus JointLinkMonitor::evaluate() const
 {
   JointLinkStatus out;

@@ -116,9 +116,10 @@ struct LiveStability::Cache
 };
 
 LiveStability::LiveStability(const Model& model, const EstimatorSettings& settings, const LiveStabilityOptions& options)
-  : model_(&model),
+  : model_(std::make_shared<const Model>(model)),
+    settings_(settings),
     options_(options),
-    joint_(model, options.window, options.markov, options.min_samples),
+    joint_(*model_, options.window, options.markov, options.min_samples),
     cache_(std::make_shared<Cache>())
 {
   cache_->gan_liu.resize(model.sensors.size());
@@ -202,6 +203,21 @@ void LiveStability::clear()
   joint_.clear();
   if (theorem1_)
     theorem1_->start(predictedFromPrior());
+}
+
+LiveStability LiveStability::relinearised(const Model& local) const
+{
+  LiveStability out(local, settings_, options_);
+  out.takeWindows(*this);
+  return out;
+}
+
+void LiveStability::takeWindows(const LiveStability& from)
+{
+  joint_.takeWindows(from.joint_);
+  generation_ = from.generation_;
+  epoch_ = from.epoch_;
+  samples_ = from.samples_;
 }
 
 LiveStabilityReport LiveStability::evaluate() const
