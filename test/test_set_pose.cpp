@@ -212,4 +212,11 @@ TEST(SetPose, BadEstimatesLeaveTheFilterAsItWas)
   EXPECT_TRUE(refused(Eigen::VectorXd::Zero(6), -I, "not positive semidefinite"));
   EXPECT_EQ(online.estimator().state(), before);
   EXPECT_EQ(online.counters().estimates_set, 0u);
+  // The symmetry test is relative (1e-9 of the largest entry), as set_pose's: a covariance in large
+  // units is symmetric, and a rounding-level asymmetry (P computed as A P A') is not a refusal.
+  EXPECT_FALSE(refused(Eigen::VectorXd::Zero(6), 1e10 * I, "not symmetric"));
+  Eigen::MatrixXd rounded = I;
+  rounded(0, 1) = 1e-13;
+  EXPECT_FALSE(refused(Eigen::VectorXd::Zero(6), rounded, "not symmetric"));
+  EXPECT_EQ(online.counters().estimates_set, 2u);
 }

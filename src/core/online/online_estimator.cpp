@@ -135,7 +135,7 @@ void OnlineEstimator::setEstimate(const Eigen::VectorXd& x, const Eigen::MatrixX
   if (!x.allFinite() || !P.allFinite())
     throw InputError("set estimate: the state and covariance must be finite");
   const double scale = std::max(1.0, P.cwiseAbs().maxCoeff());
-  if (!(P - P.transpose()).cwiseAbs().maxCoeff() <= 1e-9 * scale)
+  if (!((P - P.transpose()).cwiseAbs().maxCoeff() <= 1e-9 * scale))
     throw InputError("set estimate: the covariance is not symmetric");
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(P, Eigen::EigenvaluesOnly);
   if (eig.eigenvalues().minCoeff() < -1e-12 * scale)
