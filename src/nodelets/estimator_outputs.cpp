@@ -301,10 +301,11 @@ void EstimatorNodelet::diagnoseLink(diagnostic_updater::DiagnosticStatusWrapper&
   const LiveStability* evaluated = snapshot.get();
   if (motion_model_)  // a built-in motion: the verdicts of its linearisation at the estimate
   {
-    const Model local = withSensorRates(linearisedModel(*motion_model_, estimate, limits_.period), rate_ratios_);
+    // (the sensors' rates change the schedule, not A: compare first, add them only to rebuild)
+    const Model local = linearisedModel(*motion_model_, estimate, limits_.period);
     if (!local_ || !sameLinearisation(local_->model().A, local.A))
     {
-      local_ = std::make_unique<LiveStability>(snapshot->relinearised(local));
+      local_ = std::make_unique<LiveStability>(snapshot->relinearised(withSensorRates(local, rate_ratios_)));
       ++relinearisations_;
     }
     else

@@ -39,10 +39,7 @@ bool estimatorSettings(py::handle o, EstimatorSettings& out)
     }
     names += (names.empty() ? "" : ", ") + std::string(name);
   }
-  const auto ends = [&text](const std::string& tail) {
-    return text.size() >= tail.size() && text.compare(text.size() - tail.size(), tail.size(), tail) == 0;
-  };
-  if (!ends(".yaml") && !ends(".yml") && !py::hasattr(o, "__fspath__"))
+  if (!isSettingsFile(text) && !py::hasattr(o, "__fspath__"))
     throw py::value_error("analyze(): estimator: '" + text + "' is neither an algorithm (" + names +
                           ") nor an estimator settings file (.yaml)");
   out = loadEstimatorSettings(text);

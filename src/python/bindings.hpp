@@ -27,6 +27,12 @@ using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecas
 /// in the TypeError of anything else, e.g. "Model(): key 'A'".
 YAML::Node toYaml(py::handle value, const std::string& what);
 
+/// An array's shape as numpy prints it: "(3,)", "(2, 4)".
+std::string shapeText(const py::array& a);
+
+/// Whether `name` names an estimator settings file (.yaml or .yml) rather than an algorithm.
+bool isSettingsFile(const std::string& name);
+
 /// `o` as a float64 array of `ndim` dimensions; ValueError "<what>: expected ..." otherwise.
 DoubleArray asArray(py::handle o, int ndim, const std::string& what);
 

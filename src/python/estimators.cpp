@@ -34,14 +34,6 @@ struct PyEstimator
   Sample sample;
 };
 
-std::string shapeText(const py::array& a)
-{
-  std::string out = "(";
-  for (Py_ssize_t i = 0; i < a.ndim(); ++i)
-    out += (i ? ", " : "") + std::to_string(a.shape(i));
-  return out + (a.ndim() == 1 ? ",)" : ")");
-}
-
 /// `o` as an array of exactly `shape` (-1: any); ValueError naming `what`, expected and found.
 DoubleArray shaped(py::handle o, std::vector<Py_ssize_t> shape, const std::string& what, const std::string& meaning)
 {
@@ -63,10 +55,7 @@ std::shared_ptr<PyEstimator> makePyEstimator(const std::shared_ptr<Model>& model
     throw py::type_error("make_estimator(): expected a Model");
   auto e = std::make_shared<PyEstimator>();
   e->model = std::make_shared<const Model>(*model);
-  const auto ends = [&algorithm](const std::string& tail) {
-    return algorithm.size() >= tail.size() && algorithm.compare(algorithm.size() - tail.size(), tail.size(), tail) == 0;
-  };
-  if (ends(".yaml") || ends(".yml"))  // an estimator settings file
+  if (isSettingsFile(algorithm))
   {
     if (!settings.empty())
       throw py::value_error("make_estimator(): settings come from the file '" + algorithm +

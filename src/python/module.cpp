@@ -65,19 +65,29 @@ YAML::Node toYaml(py::handle value, const std::string& what)
                        std::string(Py_TYPE(value.ptr())->tp_name));
 }
 
+std::string shapeText(const py::array& a)
+{
+  std::string out = "(";
+  for (Py_ssize_t i = 0; i < a.ndim(); ++i)
+    out += (i ? ", " : "") + std::to_string(a.shape(i));
+  return out + (a.ndim() == 1 ? ",)" : ")");
+}
+
+bool isSettingsFile(const std::string& name)
+{
+  for (const std::string tail : {".yaml", ".yml"})
+    if (name.size() >= tail.size() && name.compare(name.size() - tail.size(), tail.size(), tail) == 0)
+      return true;
+  return false;
+}
+
 DoubleArray asArray(py::handle o, int ndim, const std::string& what)
 {
   DoubleArray a = DoubleArray::ensure(o);
   if (!a)
     throw py::value_error(what + ": expected an array of numbers");
   if (a.ndim() != ndim)
-  {
-    std::string shape;
-    for (Py_ssize_t i = 0; i < a.ndim(); ++i)
-      shape += (i ? ", " : "") + std::to_string(a.shape(i));
-    throw py::value_error(what + ": expected a " + std::to_string(ndim) + "-D array, found shape (" + shape +
-                          (a.ndim() == 1 ? "," : "") + ")");
-  }
+    throw py::value_error(what + ": expected a " + std::to_string(ndim) + "-D array, found shape " + shapeText(a));
   return a;
 }
 
