@@ -31,6 +31,7 @@
 #include "load_failure.hpp"
 #include "param_yaml.hpp"
 #include "dispatch_thread.hpp"
+#include "outbox.hpp"
 #include "channel_message_types.hpp"
 #include "lossy_channel_config.hpp"
 
@@ -162,14 +163,14 @@ private:
     std::unique_lock<std::mutex> lock(mutex_);
     const ChannelRecord rec = deliveries_->offer(t, msg);
     monitor_.add(rec.outcome == ChannelOutcome::DELIVERED);
-    deliveries_->popDue(t, outbox_);
+    queueDue(t);
     // Called in a publisher's thread (DirectQueue), nothing else wakes the dispatch thread: tell it
     // when the next delivery is due before the time it waits for.
     const bool wake = !dispatch_.inThisThread() && channel_->nextDue() < armed_due_;
     lock.unlock();
     if (wake)
       dispatch_.wake();
-    flush();
+    outbox_.flush();
     if (events_pub_.getNumSubscribers() > 0)  // the event (and its stamp) only when wanted
       events_pub_.publish(toMessage(rec, stamp()));
   }
@@ -188,34 +189,13 @@ private:
     return m;
   }
 
-  /// Publishes the outbox in order, without holding mutex_ (`in` is a DirectQueue: an in-process
-  /// publisher's thread runs onInput inside roscpp's publish, holding roscpp's publication lock, and
-  /// takes mutex_; a thread holding mutex_ while it publishes would deadlock with it). One thread
-  /// publishes at a time; a thread that finds another publishing leaves its messages to it.
-  void flush()
+  /// The deliveries due at `t` into the outbox, in order (mutex_ held; published by
+  /// outbox_.flush() after it is released: `in` is a DirectQueue, whose callbacks run inside an
+  /// in-process publisher's publish, see outbox.hpp).
+  void queueDue(double t)
   {
-    for (;;)
-    {
-      std::unique_lock<std::mutex> publishing(publishing_, std::try_to_lock);
-      if (!publishing.owns_lock())
-        return;
-      for (;;)
-      {
-        {
-          std::lock_guard<std::mutex> lock(mutex_);
-          sending_.swap(outbox_);
-        }
-        if (sending_.empty())
-          break;
-        for (const auto& m : sending_)
-          publish_(m);
-        sending_.clear();
-      }
-      publishing.unlock();
-      std::lock_guard<std::mutex> lock(mutex_);  // pushed after our last look, while we held publishing_?
-      if (outbox_.empty())
-        return;
-    }
+    deliveries_->popDue(t, due_);
+    outbox_.append(due_);
   }
 
   /// Publishes the deliveries that are due; returns the wall seconds until the next one (the
@@ -232,9 +212,9 @@ private:
       if (wait > 0.0)  // wall-clock wait; under sim time the clock may run at another rate: re-check often
         return ros::Time::isSimTime() ? std::min(wait, 0.0005) : wait;
       armed_due_ = -std::numeric_limits<double>::infinity();  // runs again at once
-      deliveries_->popDue(now(), outbox_);
+      queueDue(now());
     }
-    flush();
+    outbox_.flush();
     return 0.0;
   }
 
@@ -364,9 +344,9 @@ private:
   bool reconfigure_ready_ = false;
   std::mutex mutex_;
   double armed_due_ = std::numeric_limits<double>::infinity();  ///< the dispatch thread waits for it (mutex_)
-  std::mutex publishing_;  ///< held by the one thread that publishes the outbox (flush)
-  std::vector<boost::shared_ptr<const void>> outbox_;   ///< due, not yet published (mutex_)
-  std::vector<boost::shared_ptr<const void>> sending_;  ///< being published (publishing_)
+  std::vector<boost::shared_ptr<const void>> due_;  ///< popped from deliveries_ (mutex_)
+  /// Due deliveries, published in order on `out` (publish_).
+  Outbox<boost::shared_ptr<const void>> outbox_{[this](const boost::shared_ptr<const void>& m) { publish_(m); }};
 
   bool advertised_ = false;
   bool has_header_ = false;
