@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Noetic compatibility check: recompiles every translation unit of the package (core, nodelets,
-# tools, tests; taken from the build's compile_commands.json, with the same flags) against the
+# tools, tests; taken from the build's compile_commands.json, with the same flags; a unity batch as
+# each of its source files alone) against the
 # headers of Eigen 3.3.7, the Eigen of ROS Noetic's platform, and checks the sources for library
 # features that GCC 9's libstdc++ (Noetic's compiler) lacks.
 #
@@ -52,6 +53,21 @@ with open(probe, "w") as f:
     f.write('#include <Eigen/Core>\n'
             'static_assert(EIGEN_WORLD_VERSION == 3 && EIGEN_MAJOR_VERSION == 3 && EIGEN_MINOR_VERSION == 7,'
             ' "the compatibility check must compile against Eigen 3.3.7");\n')
+# A unity batch (CMake's UNITY_BUILD: Unity/unity_N_cxx.cxx, one #include per source) is checked
+# as its sources, each alone: every file must also compile by itself.
+expanded = []
+for e in entries:
+    if "/Unity/unity_" not in e["file"]:
+        expanded.append(e)
+        continue
+    args = e["arguments"] if "arguments" in e else shlex.split(e["command"])
+    for line in open(e["file"]):
+        line = line.strip()
+        if line.startswith('#include "') and line.endswith('"'):
+            source = line[len('#include "'):-1]
+            expanded.append({"directory": e["directory"], "file": source,
+                             "arguments": [source if a == e["file"] else a for a in args]})
+entries = expanded
 seen = set()
 with open(os.path.join(work, "commands.txt"), "w") as out:
     for i, e in enumerate(entries):

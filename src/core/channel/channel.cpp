@@ -1,4 +1,5 @@
 #include "networked_estimation/channel/channel.hpp"
+#include "networked_estimation/common/numbers.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -13,8 +14,6 @@ namespace networked_estimation
 namespace
 {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kTwoPi = 6.283185307179586476925286766559;
 
 void requireProbability(double v, const char* key)

@@ -16,6 +16,7 @@
 #include "networked_estimation/simulation/lossy_run.hpp"
 #include "networked_estimation/motion/linearised_model.hpp"
 #include "networked_estimation/stability/stability.hpp"
+#include "io/tokens.hpp"
 
 namespace networked_estimation
 {
@@ -33,31 +34,6 @@ constexpr long kMaxGridPoints = 10000;
   throw ConfigError("--axis '" + arg + "': " + what);
 }
 
-/// A finite decimal number, the whole text.
-bool parseNumber(const std::string& text, double& v)
-{
-  if (text.empty() || std::isspace(static_cast<unsigned char>(text[0])))
-    return false;
-  char* end = nullptr;
-  errno = 0;
-  v = std::strtod(text.c_str(), &end);
-  return errno == 0 && end == text.c_str() + text.size() && std::isfinite(v);
-}
-
-std::vector<std::string> split(const std::string& text, char sep)
-{
-  std::vector<std::string> parts;
-  std::string::size_type start = 0;
-  for (;;)
-  {
-    const std::string::size_type at = text.find(sep, start);
-    parts.push_back(text.substr(start, at == std::string::npos ? std::string::npos : at - start));
-    if (at == std::string::npos)
-      return parts;
-    start = at + 1;
-  }
-}
-
 std::vector<LinkModel> linkModels(const std::vector<std::optional<ChannelSettings>>& links)
 {
   std::vector<LinkModel> v;
@@ -67,7 +43,7 @@ std::vector<LinkModel> linkModels(const std::vector<std::optional<ChannelSetting
 }
 
 /// %.10g, or `null_text` for NaN / infinity.
-std::string num(double v, const char* null_text)
+std::string sweepNumber(double v, const char* null_text)
 {
   return std::isfinite(v) ? mc::fmt(v) : null_text;
 }
@@ -110,15 +86,15 @@ SweepAxis parseSweepAxis(const std::string& arg)
     axisError(arg, "the schedule is not swept (only link parameters: SENSOR." + valid + ")");
   if (std::find(sweepParameters().begin(), sweepParameters().end(), a.param) == sweepParameters().end())
     axisError(arg, "unknown parameter '" + a.param + "' (valid: " + valid + ")");
-  const std::vector<std::string> range = split(arg.substr(eq + 1), ':');
+  const std::vector<std::string> range = tokens::split(arg.substr(eq + 1), ':');
   if (range.size() != 3)
     axisError(arg, form);
-  if (!parseNumber(range[0], a.lo))
+  if (!tokens::parseFinite(range[0], a.lo))
     axisError(arg, "LO '" + range[0] + "' is not a number");
-  if (!parseNumber(range[1], a.hi))
+  if (!tokens::parseFinite(range[1], a.hi))
     axisError(arg, "HI '" + range[1] + "' is not a number");
   double n = 0.0;
-  if (!parseNumber(range[2], n) || n != std::floor(n) || n < 1 || n > kMaxAxisPoints)
+  if (!tokens::parseFinite(range[2], n) || n != std::floor(n) || n < 1 || n > kMaxAxisPoints)
     axisError(arg, "N '" + range[2] + "' is not an integer in [1, " + std::to_string(kMaxAxisPoints) + "]");
   a.count = static_cast<long>(n);
   if (a.lo > a.hi)
@@ -244,7 +220,7 @@ std::string sweepCsv(const SweepResult& sw)
          << c.floored;
       for (double x : {c.trP_mean, c.trP_sd, c.err_mean, c.err_sd, c.trP_avg_mean, c.trP_avg_sd, c.err_avg_mean,
                        c.err_avg_sd})
-        os << ',' << num(x, "");
+        os << ',' << sweepNumber(x, "");
       os << ',' << sw.analysis.verdicts[static_cast<std::size_t>(p)] << '\n';
     }
   }

@@ -1,5 +1,6 @@
 // Lines, cells and messages of the core's CSV readers (csv_cells.hpp).
 #include "io/csv_cells.hpp"
+#include "io/tokens.hpp"
 
 #include <algorithm>
 #include <cerrno>
@@ -110,15 +111,7 @@ CellKind classify(const std::string& cell, double& value)
 
 bool parseLong(const std::string& cell, long& out)
 {
-  if (cell.empty())
-    return false;
-  errno = 0;
-  char* end = nullptr;
-  const long v = std::strtol(cell.c_str(), &end, 10);
-  if (end != cell.c_str() + cell.size() || errno == ERANGE)
-    return false;
-  out = v;
-  return true;
+  return tokens::parseLong(cell, out);  // (cells are trimmed: no leading space to refuse)
 }
 
 /// Opens a file for reading or throws InputError naming it.

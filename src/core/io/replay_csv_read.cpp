@@ -1,5 +1,6 @@
 // Reading the replay input, replay output and truth CSV files (replay_csv.hpp).
 #include <Eigen/Cholesky>
+#include "networked_estimation/common/numbers.hpp"
 #include <cmath>
 #include <fstream>
 #include <istream>
@@ -16,8 +17,6 @@ using namespace csv;
 
 namespace
 {
-
-const double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 /// A row's r cells: per sensor all empty (the model's R) or all numbers forming a symmetric
 /// positive definite block; row.R is the model's R with those blocks (empty when none is given).

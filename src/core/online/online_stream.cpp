@@ -1,5 +1,6 @@
 // The Estimator's input side: timeline, latency budget and sample assembly (online_stream.hpp).
 #include "networked_estimation/online/online_stream.hpp"
+#include "config/yaml_reader.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -12,13 +13,7 @@ namespace
 
 constexpr long kStepsPerCall = 1000;  ///< steps taken per call at most (the inputs are not starved)
 
-std::string seconds(double s)
-{
-  std::ostringstream o;
-  o.precision(6);
-  o << s;
-  return o.str();
-}
+std::string streamSeconds(double s) { return detail::formatNumber(s, 6); }
 
 }  // namespace
 
@@ -263,7 +258,7 @@ bool OnlineStream::deadlines(const Clocks& now)
     // The clock went back (a bag looped, a simulator restarted): start over cleanly.
     const double back = last_now_ - now.ros;
     ++time_resets_;
-    restart("time jumped back by " + seconds(back) + " s: estimator reset, waiting for the stream to restart");
+    restart("time jumped back by " + streamSeconds(back) + " s: estimator reset, waiting for the stream to restart");
     return false;
   }
   last_now_ = now.ros;
@@ -273,8 +268,8 @@ bool OnlineStream::deadlines(const Clocks& now)
   {
     const double behind = now.ros - nextDeadline();
     ++time_resets_;
-    restart("ROS time is " + seconds(behind) + " s past the next step's deadline, more than max_stamp_behind " +
-            seconds(timeline_.options().max_behind) + " s (time jumped forward, or the estimator stalled): "
+    restart("ROS time is " + streamSeconds(behind) + " s past the next step's deadline, more than max_stamp_behind " +
+            streamSeconds(timeline_.options().max_behind) + " s (time jumped forward, or the estimator stalled): "
             "estimator reset, waiting for the stream to restart");
     return false;
   }

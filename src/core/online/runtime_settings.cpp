@@ -5,29 +5,24 @@
 #include <sstream>
 
 #include "networked_estimation/common/error.hpp"
+#include "config/yaml_reader.hpp"
 
 namespace networked_estimation
 {
 namespace
 {
 
-std::string number(double v)
-{
-  std::ostringstream s;
-  s.precision(10);
-  s << v;
-  return s.str();
-}
+std::string settingNumber(double v) { return detail::formatNumber(v, 10); }
 
 void budgetFits(const std::string& source, const std::string& key, double v, const RuntimeLimits& limits)
 {
   const double future = static_cast<double>(limits.max_future_steps) * limits.period;
   if (!(v < future))
-    throw ConfigError(source + ": " + key + ": expected below max_future_steps x period = " + number(future) +
-                      " s (messages for the steps it waits on would be refused as far future), found " + number(v));
+    throw ConfigError(source + ": " + key + ": expected below max_future_steps x period = " + settingNumber(future) +
+                      " s (messages for the steps it waits on would be refused as far future), found " + settingNumber(v));
   if (!(v <= limits.max_stamp_behind))
-    throw ConfigError(source + ": " + key + ": expected at most max_stamp_behind = " + number(limits.max_stamp_behind) +
-                      " s (messages it waits for would be refused as too old), found " + number(v));
+    throw ConfigError(source + ": " + key + ": expected at most max_stamp_behind = " + settingNumber(limits.max_stamp_behind) +
+                      " s (messages it waits for would be refused as too old), found " + settingNumber(v));
 }
 
 }  // namespace
@@ -37,21 +32,21 @@ void validateRuntimeSettings(const RuntimeSettings& s, const RuntimeLimits& limi
   auto seconds = [&](const std::string& key, double v, bool zero_ok) {
     if (!std::isfinite(v) || v < 0.0 || (!zero_ok && v == 0.0))
       throw ConfigError(source + ": " + key + ": expected a number of seconds " + (zero_ok ? ">= 0" : "> 0") +
-                        ", found " + number(v));
+                        ", found " + settingNumber(v));
   };
   seconds("latency_budget", s.latency_budget, true);
   seconds("latency_budget_min", s.latency_budget_min, true);
   seconds("latency_budget_max", s.latency_budget_max, false);
   if (s.latency_budget_min > s.latency_budget_max)
     throw ConfigError(source + ": latency_budget_min: expected at most latency_budget_max = " +
-                      number(s.latency_budget_max) + " s, found " + number(s.latency_budget_min));
+                      settingNumber(s.latency_budget_max) + " s, found " + settingNumber(s.latency_budget_min));
   if (s.adaptive_latency)
     budgetFits(source, "latency_budget_max", s.latency_budget_max, limits);
   else
     budgetFits(source, "latency_budget", s.latency_budget, limits);
   latePolicyFromString(s.late_policy, source);
   if (std::isnan(s.trace_bound) || s.trace_bound < 0.0)
-    throw ConfigError(source + ": trace_bound: expected a number >= 0 (inf: no bound), found " + number(s.trace_bound));
+    throw ConfigError(source + ": trace_bound: expected a number >= 0 (inf: no bound), found " + settingNumber(s.trace_bound));
 }
 
 std::string describe(const RuntimeSettings& s)

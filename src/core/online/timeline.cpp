@@ -1,6 +1,7 @@
 // The Estimator's timeline: stamps checked against ROS time, provisional anchors, restarts and the
 // catch-up work bound (timeline.hpp).
 #include "networked_estimation/online/timeline.hpp"
+#include "config/yaml_reader.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -11,13 +12,7 @@ namespace networked_estimation
 namespace
 {
 
-std::string seconds(double s)
-{
-  std::ostringstream o;
-  o.precision(10);
-  o << s;
-  return o.str();
-}
+std::string timelineSeconds(double s) { return detail::formatNumber(s, 10); }
 
 }  // namespace
 
@@ -31,13 +26,13 @@ Timeline::Admission Timeline::plausible(double stamp, double now) const
   Admission a;
   a.verdict = Verdict::REFUSE;
   if (!(stamp > 0.0))
-    a.reason = "stamp " + seconds(stamp) + ": not a sample time (an unset header stamp?)";
+    a.reason = "stamp " + timelineSeconds(stamp) + ": not a sample time (an unset header stamp?)";
   else if (now > 0.0 && stamp > now + options_.max_ahead)
-    a.reason = "stamp " + seconds(stamp) + " is " + seconds(stamp - now) + " s ahead of ROS time " + seconds(now) +
-               " (max_stamp_ahead " + seconds(options_.max_ahead) + " s)";
+    a.reason = "stamp " + timelineSeconds(stamp) + " is " + timelineSeconds(stamp - now) + " s ahead of ROS time " + timelineSeconds(now) +
+               " (max_stamp_ahead " + timelineSeconds(options_.max_ahead) + " s)";
   else if (now > 0.0 && stamp < now - options_.max_behind)
-    a.reason = "stamp " + seconds(stamp) + " is " + seconds(now - stamp) + " s behind ROS time " + seconds(now) +
-               " (max_stamp_behind " + seconds(options_.max_behind) + " s)";
+    a.reason = "stamp " + timelineSeconds(stamp) + " is " + timelineSeconds(now - stamp) + " s behind ROS time " + timelineSeconds(now) +
+               " (max_stamp_behind " + timelineSeconds(options_.max_behind) + " s)";
   else
     a.verdict = Verdict::ACCEPT;
   return a;
@@ -62,8 +57,8 @@ Timeline::Admission Timeline::admit(double stamp, long step, double now)
       misfits_ = 0;
       return a;
     }
-    const std::string what = "stamp " + seconds(stamp) + " of step " + std::to_string(step) + " is " +
-                             seconds(off) + " s off that step's time on the timeline";
+    const std::string what = "stamp " + timelineSeconds(stamp) + " of step " + std::to_string(step) + " is " +
+                             timelineSeconds(off) + " s off that step's time on the timeline";
     if (!confirmed_)
     {
       a.verdict = Verdict::RESTART;
@@ -89,8 +84,8 @@ Timeline::Admission Timeline::admit(double stamp, long step, double now)
     if (!confirmed_ && (now > 0.0 ? anchor_stamp_ > now + kAgree : !stepped_))
     {
       a.verdict = Verdict::RESTART;
-      a.reason = "stamp " + seconds(stamp) + " is " + seconds(anchor_stamp_ - stamp) + " s before the stamp " +
-                 seconds(anchor_stamp_) + " that anchored the timeline ahead of ROS time, and nothing confirmed "
+      a.reason = "stamp " + timelineSeconds(stamp) + " is " + timelineSeconds(anchor_stamp_ - stamp) + " s before the stamp " +
+                 timelineSeconds(anchor_stamp_) + " that anchored the timeline ahead of ROS time, and nothing confirmed "
                  "that anchor: the timeline restarts on this message";
     }
     return a;

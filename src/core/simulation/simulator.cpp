@@ -12,58 +12,13 @@
 
 #include "networked_estimation/common/angles.hpp"
 #include "networked_estimation/common/error.hpp"
+#include "io/tokens.hpp"
 
 namespace networked_estimation
 {
 
 namespace
 {
-
-/// Splits on ':' (keeping empty fields).
-std::vector<std::string> splitColon(const std::string& text)
-{
-  std::vector<std::string> parts;
-  std::string::size_type start = 0;
-  while (true)
-  {
-    const std::string::size_type pos = text.find(':', start);
-    if (pos == std::string::npos)
-    {
-      parts.push_back(text.substr(start));
-      return parts;
-    }
-    parts.push_back(text.substr(start, pos - start));
-    start = pos + 1;
-  }
-}
-
-/// A whole token as a finite double (no surrounding spaces, no trailing characters).
-bool parseFinite(const std::string& token, double& out)
-{
-  if (token.empty() || std::isspace(static_cast<unsigned char>(token.front())))
-    return false;
-  errno = 0;
-  char* end = nullptr;
-  const double value = std::strtod(token.c_str(), &end);
-  if (end != token.c_str() + token.size() || errno == ERANGE || !std::isfinite(value))
-    return false;
-  out = value;
-  return true;
-}
-
-/// A whole token as a long integer.
-bool parseLong(const std::string& token, long& out)
-{
-  if (token.empty() || std::isspace(static_cast<unsigned char>(token.front())))
-    return false;
-  errno = 0;
-  char* end = nullptr;
-  const long value = std::strtol(token.c_str(), &end, 10);
-  if (end != token.c_str() + token.size() || errno == ERANGE)
-    return false;
-  out = value;
-  return true;
-}
 
 /// Square root S (S S' = P) of a symmetric positive semidefinite matrix, from the pivoted LDLT
 /// factorisation P = T' L D L' T; negative pivots (round-off) are clamped to zero.
@@ -154,18 +109,18 @@ Eigen::VectorXd ControlSequence::at(long k, int p) const
 
 ControlSequence ControlSequence::parse(const std::string& text, const std::string& what)
 {
-  const std::vector<std::string> parts = splitColon(text);
+  const std::vector<std::string> parts = tokens::split(text, ':');
   ControlSequence c;
   bool ok = false;
   if (parts[0] == "constant" && parts.size() == 2)
   {
     c.kind = Kind::CONSTANT;
-    ok = parseFinite(parts[1], c.value);
+    ok = tokens::parseFinite(parts[1], c.value);
   }
   else if (parts[0] == "step" && parts.size() == 3)
   {
     c.kind = Kind::STEP;
-    ok = parseLong(parts[1], c.step_at) && parseFinite(parts[2], c.value);
+    ok = tokens::parseLong(parts[1], c.step_at) && tokens::parseFinite(parts[2], c.value);
   }
   else if (parts[0] == "paper" && parts.size() == 1)
   {
@@ -176,7 +131,7 @@ ControlSequence ControlSequence::parse(const std::string& text, const std::strin
   else if (parts[0] == "paper" && parts.size() == 2)
   {
     c.kind = Kind::PAPER;
-    ok = parseFinite(parts[1], c.value);
+    ok = tokens::parseFinite(parts[1], c.value);
   }
   if (!ok)
     throw ConfigError(what + ": cannot parse control sequence '" + text +

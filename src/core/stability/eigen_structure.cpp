@@ -1,5 +1,6 @@
 // Eigen-structure helpers and FMO blocks (eigen_structure.hpp; docs/stability.md 1.3).
 #include "networked_estimation/stability/eigen_structure.hpp"
+#include "networked_estimation/common/angles.hpp"
 #include "networked_estimation/common/index_select.hpp"
 
 #include <algorithm>
@@ -12,8 +13,6 @@ namespace networked_estimation
 
 namespace
 {
-
-constexpr double kPi = 3.14159265358979323846;
 
 struct Cluster
 {

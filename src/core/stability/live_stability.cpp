@@ -8,18 +8,14 @@
 #include <stdexcept>
 
 #include "networked_estimation/stability/stability.hpp"
+#include "config/yaml_reader.hpp"
 
 namespace networked_estimation
 {
 namespace
 {
 
-std::string number(double v)
-{
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", v);
-  return buf;
-}
+std::string liveNumber(double v) { return detail::formatNumber(v, 6); }  // as %g
 
 std::string rate(const RateEstimate& e, const char* unit)
 {
@@ -44,17 +40,17 @@ std::string describeNeed(const SensorMargin& m)
     else if (m.band.converges_at == 0.0)
       out += ": any, the other sensors cover its modes";
     else
-      out += " >= " + number(m.band.converges_at);
+      out += " >= " + liveNumber(m.band.converges_at);
   }
   else
   {
     out += " in";
     for (const RateInterval& r : m.stable)
-      out += " [" + number(r.lower) + ", " + number(r.upper) + "]";
+      out += " [" + liveNumber(r.lower) + ", " + liveNumber(r.upper) + "]";
     if (m.stable.empty())
       out += " no interval";
   }
-  return out + " (now " + number(m.value) + ")";
+  return out + " (now " + liveNumber(m.value) + ")";
 }
 
 /// Margins need an estimate for every sensor.
@@ -288,13 +284,13 @@ LiveStabilityReport LiveStability::evaluate() const
   {
     const RateEstimate& r = js.sensors[0].arrival;
     add("quantity", thresholds_->quantity);
-    add("estimate", number(r.value));
-    add("95% lower", number(r.lower));
-    add("95% upper", number(r.upper));
+    add("estimate", liveNumber(r.value));
+    add("95% lower", liveNumber(r.lower));
+    add("95% upper", liveNumber(r.upper));
     add("samples", std::to_string(r.trials));
-    add("critical (necessary)", number(thresholds_->necessary));
-    add("critical (sufficient)", number(thresholds_->sufficient));
-    add("margin", number(r.value - thresholds_->sufficient));
+    add("critical (necessary)", liveNumber(thresholds_->necessary));
+    add("critical (sufficient)", liveNumber(thresholds_->sufficient));
+    add("margin", liveNumber(r.value - thresholds_->sufficient));
   }
   // Gan and Liu: evidence for any loss pattern (no i.i.d. or Markov assumption) from each scalar
   // sensor's window; A3 is very conservative, so a failure is no evidence of instability. The
@@ -331,11 +327,11 @@ LiveStabilityReport LiveStability::evaluate() const
       lambdas.push_back(it->second);
     }
     const ExcitationReport gl = gb.report(lambdas);
-    add(sensor.name + " Gan-Liu excitation", "lambda " + number(gl.lambda) + " (h = " + std::to_string(gl.h) +
-                                                 ", smallest block " + number(gl.lambda_block) + ")");
-    add(sensor.name + " Gan-Liu A3 (printed / proof)", "p = 1: " + number(gl.a3[0].printed) + " / " +
-                                                           number(gl.a3[0].proof) + "; p = 2: " +
-                                                           number(gl.a3[1].printed) + " / " + number(gl.a3[1].proof));
+    add(sensor.name + " Gan-Liu excitation", "lambda " + liveNumber(gl.lambda) + " (h = " + std::to_string(gl.h) +
+                                                 ", smallest block " + liveNumber(gl.lambda_block) + ")");
+    add(sensor.name + " Gan-Liu A3 (printed / proof)", "p = 1: " + liveNumber(gl.a3[0].printed) + " / " +
+                                                           liveNumber(gl.a3[0].proof) + "; p = 2: " +
+                                                           liveNumber(gl.a3[1].printed) + " / " + liveNumber(gl.a3[1].proof));
     add(sensor.name + " Gan-Liu verdict", toString(gl.verdict.kind) + ": " + gl.verdict.reason);
   }
   if (theorem1_)
@@ -344,7 +340,7 @@ LiveStabilityReport LiveStability::evaluate() const
     const bool failed = theorem1_->violations() > 0;
     add("Gan-Liu Theorem 1 (runtime invariant)", std::string(failed ? "FAILED" : "holds") + " over " +
                                                      std::to_string(t1.blocks) + " blocks (worst lhs - rhs " +
-                                                     number(t1.worst) + ")");
+                                                     liveNumber(t1.worst) + ")");
     if (failed && out.status.level == LinkStatus::Level::OK)
     {
       out.status.level = LinkStatus::Level::WARN;

@@ -1,5 +1,6 @@
 // The stability report of a model and its links (analyzeStability; docs/stability.md 2-4).
 #include "set_verdict.hpp"
+#include "networked_estimation/common/numbers.hpp"
 
 #include <cmath>
 #include <future>
@@ -14,24 +15,21 @@ using namespace stability_internal;
 namespace
 {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
 /// With a sensor schedule only Theorem 14 (cyclostationary form) applies: the common arrival rate
 /// at which the scheduled set turns stable (bisection on the verdict, which is monotone in a common
 /// i.i.d. rate); the bounds that assume every sensor transmits at every step are not computed.
 void scheduledRates(const Context& ctx, const SetData& d, RateAnalysis& ra)
 {
-  const double kNaNv = std::numeric_limits<double>::quiet_NaN();
   const std::string na = "not applicable: a sensor schedule (the bound assumes every sensor transmits at every step)";
-  ra.lower_bound = kNaNv;
-  ra.recovery_lower_bound = kNaNv;
-  ra.closed_form_upper = kNaNv;
+  ra.lower_bound = kNaN;
+  ra.recovery_lower_bound = kNaN;
+  ra.closed_form_upper = kNaN;
   ra.mare = CriticalBand();
   const std::size_t N = d.set.size();
   SensorMargin common;
   halfLine([&](double lambda) { return setVerdict(ctx, d, std::vector<LinkModel>(N, LinkModel::iid(lambda))).kind; },
            ctx.options->exact_tolerance, common);
-  ra.exact_rate = common.band.undecided_band || std::isnan(common.band.converges_at) ? kNaNv : common.band.converges_at;
+  ra.exact_rate = common.band.undecided_band || std::isnan(common.band.converges_at) ? kNaN : common.band.converges_at;
   if (std::isnan(common.band.converges_at) && common.band.diverges_at == 1.0)
     ra.exact_rate = std::numeric_limits<double>::infinity();
   std::vector<std::string> names;
