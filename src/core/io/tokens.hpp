@@ -1,11 +1,13 @@
-// Private to the core: a text split into fields, and a whole field read as a number, for the
-// option and file readers (--axis ranges, simulate's command and trace fields, CSV cells).
+// Private to the core: a text split into fields, a whole field read as a number (the option and
+// file readers: --axis ranges, simulate's command and trace fields, CSV cells), and a number
+// written into a message.
 #pragma once
 
 #include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -56,6 +58,15 @@ inline bool parseLong(const std::string& text, long& out)
     return false;
   out = v;
   return true;
+}
+
+/// `v` with `significant` digits as printf's %g writes it ("20", "0.05", "1e-09").
+inline std::string format(double v, int significant)
+{
+  std::ostringstream o;
+  o.precision(significant);
+  o << v;
+  return o.str();
 }
 
 }  // namespace tokens

@@ -1,6 +1,6 @@
 // The Estimator's input side: timeline, latency budget and sample assembly (online_stream.hpp).
 #include "networked_estimation/online/online_stream.hpp"
-#include "config/yaml_reader.hpp"
+#include "io/tokens.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -13,7 +13,7 @@ namespace
 
 constexpr long kStepsPerCall = 1000;  ///< steps taken per call at most (the inputs are not starved)
 
-std::string streamSeconds(double s) { return detail::formatNumber(s, 6); }
+std::string streamSeconds(double s) { return tokens::format(s, 6); }
 
 }  // namespace
 

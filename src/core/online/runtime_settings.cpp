@@ -5,14 +5,14 @@
 #include <sstream>
 
 #include "networked_estimation/common/error.hpp"
-#include "config/yaml_reader.hpp"
+#include "io/tokens.hpp"
 
 namespace networked_estimation
 {
 namespace
 {
 
-std::string settingNumber(double v) { return detail::formatNumber(v, 10); }
+std::string settingNumber(double v) { return tokens::format(v, 10); }
 
 void budgetFits(const std::string& source, const std::string& key, double v, const RuntimeLimits& limits)
 {

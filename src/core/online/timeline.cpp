@@ -1,7 +1,7 @@
 // The Estimator's timeline: stamps checked against ROS time, provisional anchors, restarts and the
 // catch-up work bound (timeline.hpp).
 #include "networked_estimation/online/timeline.hpp"
-#include "config/yaml_reader.hpp"
+#include "io/tokens.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -12,7 +12,7 @@ namespace networked_estimation
 namespace
 {
 
-std::string timelineSeconds(double s) { return detail::formatNumber(s, 10); }
+std::string timelineSeconds(double s) { return tokens::format(s, 10); }
 
 }  // namespace
 

@@ -8,14 +8,14 @@
 #include <stdexcept>
 
 #include "networked_estimation/stability/stability.hpp"
-#include "config/yaml_reader.hpp"
+#include "io/tokens.hpp"
 
 namespace networked_estimation
 {
 namespace
 {
 
-std::string liveNumber(double v) { return detail::formatNumber(v, 6); }  // as %g
+std::string liveNumber(double v) { return tokens::format(v, 6); }
 
 std::string rate(const RateEstimate& e, const char* unit)
 {
