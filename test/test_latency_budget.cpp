@@ -59,6 +59,26 @@ TEST(LatencyBudget, AdaptiveCoversTheDelaysSeen)
   EXPECT_NEAR(b.budget(), 0.206 + 0.01 + 0.5 * 0.206, 1e-12);
 }
 
+// The window's quantile is its nearest-rank 99th percentile, never its largest of two or more: at
+// every arrival, from the first to well past the 256 the window holds, the value of a full sort.
+TEST(LatencyBudget, TheQuantileIsTheWindowsNearestRank)
+{
+  ne::Rng rng(5);
+  ne::LatencyBudget b(1, adaptive(0.01, 1.0, 0.02));
+  std::vector<double> all;
+  for (int i = 0; i < 700; ++i)
+  {
+    all.push_back(delay(rng));
+    b.arrived(0, all.back(), 100.0 + 0.02 * i);
+    std::vector<double> window(all.end() - std::min<std::ptrdiff_t>(all.size(), ne::LatencyBudget::kWindow), all.end());
+    std::sort(window.begin(), window.end());
+    const std::size_t n = window.size();
+    const std::size_t rank =
+        n < 2 ? 0 : std::min(n - 2, static_cast<std::size_t>(std::ceil(ne::LatencyBudget::kQuantile * n)) - 1);
+    ASSERT_EQ(b.delay(0), window[rank]) << "after " << n << " delays";
+  }
+}
+
 // The bounds hold, and a fixed budget ignores the delays.
 TEST(LatencyBudget, BoundsAndFixed)
 {

@@ -37,6 +37,8 @@ void EstimatorNodelet::onInit()
         return in.type == InputType::NAVSATFIX;
       }))
     datum_pub_ = pnh.advertise<sensor_msgs::NavSatFix>("datum", 1, true);
+  heard_ = std::make_unique<std::atomic<std::uint64_t>[]>(model.sensors.size() + 1);  // the sensors, the command
+  heard_seen_.assign(model.sensors.size() + 1, 0);
   for (std::size_t i = 0; i < model.sensors.size(); ++i)
   {
     const SensorInput& in = inputs_[i];
@@ -44,11 +46,13 @@ void EstimatorNodelet::onInit()
     {
       subs_.push_back(subscribeEvents<Measurement>(in_nh, in.topic, queue_size_,
                                                    [this, i](const ros::MessageEvent<Measurement const>& e) {
+                                                     heard_[i].fetch_add(1, std::memory_order_relaxed);
                                                      onMeasurement(i, e.getConstMessage(), e.getReceiptTime());
                                                    }));
       continue;
     }
     SensorSink sink;
+    sink.heard = &heard_[i];
     sink.ok = [this, i](const ros::Time& stamp, const ros::Time& receipt, const double* y, std::size_t n,
                         const double* R) { offer(i, -1, stamp.toSec(), receipt, y, n, R); };
     // (An input's work ends in afterInput, which publishes what it made.)
@@ -69,10 +73,14 @@ void EstimatorNodelet::onInit()
     publishPending();
   }
   if (model.hasControl() && command_.type == InputType::CONTROL_INPUT)
-    cmd_sub_ = in_nh.subscribe(command_.topic, queue_size_, &EstimatorNodelet::onCommand, this, hints());
+    cmd_sub_ = in_nh.subscribe<ControlInput>(command_.topic, queue_size_, [this](const ControlInput::ConstPtr& c) {
+      heard_[inputs_.size()].fetch_add(1, std::memory_order_relaxed);
+      onCommand(c);
+    }, ros::VoidConstPtr(), hints());
   else if (model.hasControl())
   {
     SensorSink sink;
+    sink.heard = &heard_[inputs_.size()];
     sink.ok = [this](const ros::Time& stamp, const ros::Time&, const double* u, std::size_t n, const double*) {
       onHeldCommand(stamp, u, n);
     };
@@ -94,7 +102,9 @@ void EstimatorNodelet::onInit()
   {
     if (child_frame_id_ == base_link_frame_)
       frames();  // listen to tf from the start: base_link's parent decides what we publish
-    tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+    // /tf as tf2_ros::TransformBroadcaster advertises it, but sent as a shared message: in-process
+    // subscribers (our own tf input, other nodelets) get it without serialization.
+    tf_pub_ = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
   }
   startReconfigure(pnh);
   // The receive thread publishes the steps its input callbacks made on its next turn, and under

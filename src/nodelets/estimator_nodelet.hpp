@@ -34,7 +34,6 @@
 #include <ros/ros.h>
 #include <std_msgs/Float64.h>
 #include <tf2_ros/buffer.h>
-#include <tf2_ros/transform_broadcaster.h>
 #include <tf2/exceptions.h>
 
 #include <algorithm>
@@ -179,6 +178,7 @@ private:
   /// One estimate as the tf frame_id -> child_frame_id (with every estimate, as robot_localization
   /// sends its tf with every filter cycle; from publishOutputs).
   void publishTf(const Estimate& e);
+  void sendTf(const geometry_msgs::TransformStamped& t);
   /// /tf and /tf_static (InlineQueue): into the tf2 buffer, and base_link's parent from other
   /// publishers than ourselves (ForeignParent).
   void onTf(const ros::MessageEvent<tf2_msgs::TFMessage const>& e, bool static_tf);
@@ -194,7 +194,8 @@ private:
   /// The inputs whose topic is advertised with another type than configured (ROS then connects
   /// nothing: without this check the sensor would just look silent), e.g.
   /// "sensor 'gps': /fix is geometry_msgs/PointStamped, expected sensor_msgs/NavSatFix".
-  std::vector<std::string> wrongTypes() const;
+  /// Asked only for the inputs that heard no message since the last call (diagnostics' thread).
+  std::vector<std::string> wrongTypes();
 
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
   /// Per sensor: messages, losses, delay, disabled samples and rate; WARN for a sensor that lost more
@@ -219,6 +220,10 @@ private:
 
   std::string input_type_, frame_id_, child_frame_id_;
   std::vector<SensorInput> inputs_;
+  /// Messages received per input (the sensors, then the command; any thread) and as wrongTypes()
+  /// last saw them (the diagnostics' thread).
+  std::unique_ptr<std::atomic<std::uint64_t>[]> heard_;
+  std::vector<std::uint64_t> heard_seen_;
   SensorInput command_;
   StateMap state_map_;
   std::string world_frame_, base_link_frame_, odom_frame_;
@@ -244,7 +249,7 @@ private:
   ros::ServiceServer set_pose_srv_;
   std::atomic<unsigned long> set_pose_refused_{0};
   ros::Publisher estimate_pub_, trace_pub_, pose_pub_, odom_pub_;
-  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
+  ros::Publisher tf_pub_;  ///< /tf
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   Frames frames_;
   /// child_frame_id = base_link_frame: the transforms we sent, and base_link's parent from others;

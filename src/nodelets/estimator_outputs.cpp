@@ -86,7 +86,7 @@ void EstimatorNodelet::publishTf(const Estimate& e)
     for (std::size_t i = 0; i < positions_.size(); ++i)
       *xyz[i] = e.state[positions_[i]];
     t.transform.rotation.w = 1.0;
-    tf_->sendTransform(t);
+    sendTf(t);
     return;
   }
   // Driving base_link: its pose from ~state_mapping, and never a second parent.
@@ -136,7 +136,14 @@ void EstimatorNodelet::publishTf(const Estimate& e)
     std::lock_guard<std::mutex> lock(tf_mutex_);
     own_tf_.sent(t);  // before it can come back on /tf
   }
-  tf_->sendTransform(t);
+  sendTf(t);
+}
+
+void EstimatorNodelet::sendTf(const geometry_msgs::TransformStamped& t)
+{
+  tf2_msgs::TFMessage::Ptr m = boost::make_shared<tf2_msgs::TFMessage>();
+  m->transforms.push_back(t);
+  tf_pub_.publish(m);
 }
 
 void EstimatorNodelet::onTf(const ros::MessageEvent<tf2_msgs::TFMessage const>& e, bool static_tf)
@@ -171,13 +178,24 @@ void EstimatorNodelet::onTf(const ros::MessageEvent<tf2_msgs::TFMessage const>& 
     foreign_parent_.saw(t, base_link_frame_, own_tf_, publisher, wall, static_tf);
 }
 
-std::vector<std::string> EstimatorNodelet::wrongTypes() const
+std::vector<std::string> EstimatorNodelet::wrongTypes()
 {
-  ros::master::V_TopicInfo topics;
+  // An input that hears messages has the type it expects (roscpp connects no publisher of
+  // another): only the silent ones are looked up, and the master is not asked while all flow.
+  std::vector<bool> silent(heard_seen_.size());
+  bool any = false;
+  for (std::size_t i = 0; i < heard_seen_.size(); ++i)
+  {
+    const std::uint64_t n = heard_[i].load(std::memory_order_relaxed);
+    silent[i] = n == heard_seen_[i];
+    heard_seen_[i] = n;
+    any = any || (silent[i] && (i < inputs_.size() || stream_->online().model().hasControl()));
+  }
   std::vector<std::string> out;
-  if (!ros::master::getTopics(topics))
+  ros::master::V_TopicInfo topics;
+  if (!any || !ros::master::getTopics(topics))
     return out;
-  const ros::NodeHandle& nh = const_cast<EstimatorNodelet*>(this)->getNodeHandle();
+  const ros::NodeHandle& nh = getNodeHandle();
   auto check = [&](const std::string& who, const std::string& topic, const std::string& expected) {
     const std::string name = nh.resolveName(topic);
     for (const ros::master::TopicInfo& t : topics)
@@ -186,8 +204,9 @@ std::vector<std::string> EstimatorNodelet::wrongTypes() const
   };
   const Model& model = stream_->online().model();
   for (std::size_t i = 0; i < inputs_.size(); ++i)
-    check("sensor '" + model.sensors[i].name + "'", inputs_[i].topic, toString(inputs_[i].type));
-  if (model.hasControl())
+    if (silent[i])
+      check("sensor '" + model.sensors[i].name + "'", inputs_[i].topic, toString(inputs_[i].type));
+  if (model.hasControl() && silent[inputs_.size()])
     check("command", command_.topic, toString(command_.type));
   return out;
 }

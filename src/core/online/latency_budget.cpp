@@ -2,6 +2,7 @@
 #include "networked_estimation/online/latency_budget.hpp"
 
 #include <algorithm>
+#include <functional>
 #include <cmath>
 #include <limits>
 
@@ -69,13 +70,14 @@ void LatencyBudget::arrived(std::size_t sensor, double delay, double now)
   else
     s.delays[s.next] = delay;
   s.next = (s.next + 1) % kWindow;
-  scratch_.assign(s.delays.begin(), s.delays.end());
-  // The kQuantile-th (nearest rank), but never the largest of two or more.
-  const std::size_t n = scratch_.size();
+  // The kQuantile-th (nearest rank), but never the largest of two or more: the (n - rank)-th
+  // largest, found among the few largest (2 or 3 of the window's 256) without copying the window.
+  const std::size_t n = s.delays.size();
   const std::size_t rank =
       n < 2 ? 0 : std::min(n - 2, static_cast<std::size_t>(std::ceil(kQuantile * static_cast<double>(n))) - 1);
-  std::nth_element(scratch_.begin(), scratch_.begin() + static_cast<std::ptrdiff_t>(rank), scratch_.end());
-  s.quantile = scratch_[rank];
+  scratch_.resize(n - rank);
+  std::partial_sort_copy(s.delays.begin(), s.delays.end(), scratch_.begin(), scratch_.end(), std::greater<double>());
+  s.quantile = scratch_.back();
   update();
 }
 
