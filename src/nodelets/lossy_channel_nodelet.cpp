@@ -32,6 +32,7 @@
 #include "param_yaml.hpp"
 #include "dispatch_thread.hpp"
 #include "outbox.hpp"
+#include "sim_clock_watch.hpp"
 #include "channel_message_types.hpp"
 #include "lossy_channel_config.hpp"
 
@@ -45,6 +46,8 @@ class LossyChannelNodelet : public nodelet::Nodelet
 public:
   ~LossyChannelNodelet() override
   {
+    poll_hook_.reset();
+    clock_watch_.stop();
     dispatch_.stop();
     sub_.shutdown();  // while its queue exists
   }
@@ -80,6 +83,14 @@ private:
     diagnostics_->add("channel", this, &LossyChannelNodelet::diagnose);
     diag_timer_ = nh.createWallTimer(ros::WallDuration(0.5), [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
     // `in` is served by the channel's own thread, which also publishes the delayed deliveries.
+    // Sim time: the /clock tick that reaches the next delivery wakes the dispatch thread (no
+    // polling of the clock in between).
+    clock_watch_.start(nh);
+    if (clock_watch_.active())
+      poll_hook_ = std::make_unique<PollTurnHook>([this] {
+        if (clock_watch_.takeReached())
+          dispatch_.wake();
+      });
     dispatch_.start([this] { return deliveryWork(); });
     const auto q = static_cast<uint32_t>(queue_size_);
     if (type_.empty())  // any type: ShapeShifter, `out` advertised with the first message's type
@@ -115,7 +126,8 @@ private:
                  describe().c_str());
   }
 
-  double now() const { return (ros::Time::now() - t0_).toSec(); }
+  /// Seconds since the channel started, in ROS time (sim time: the latest /clock tick).
+  double now() const { return clock_watch_.now() - t0_.toSec(); }
 
   /// `in` on `queue`: the dispatch thread's, or (~type) its DirectQueue, where in-process
   /// publishers' messages are handled in their thread (callbacks may then run concurrently: mutex_
@@ -209,8 +221,8 @@ private:
       if (due == std::numeric_limits<double>::infinity())
         return due;
       const double wait = due - now();
-      if (wait > 0.0)  // wall-clock wait; under sim time the clock may run at another rate: re-check often
-        return ros::Time::isSimTime() ? std::min(wait, 0.0005) : wait;
+      if (wait > 0.0)  // wall time: the wait itself; sim time: until the tick that reaches it (or 0.5 s)
+        return clock_watch_.active() ? (clock_watch_.arm(t0_.toSec() + due) ? 0.5 : 0.0) : wait;
       armed_due_ = -std::numeric_limits<double>::infinity();  // runs again at once
       queueDue(now());
     }
@@ -333,6 +345,8 @@ private:
   std::function<void(const boost::shared_ptr<const void>&)> publish_;
   LinkMonitor monitor_{1000};
   ros::Time t0_;
+  SimClockWatch clock_watch_;
+  std::unique_ptr<PollTurnHook> poll_hook_;  ///< sim time: wakes the dispatch thread at the tick that reaches a delivery
   DispatchThread dispatch_;  ///< serves `in` and the delayed deliveries (before sub_: outlives it)
   ros::Subscriber sub_;
   ros::Publisher out_pub_, events_pub_;
