@@ -282,28 +282,6 @@ TEST(OnlineStream, TimeJumpsAndAFastClockDoNotGrind)
   EXPECT_GE(fast.s.timeResets(), 1u);
 }
 
-// A clock that went back is noticed at the next deadlines() even when every step was taken by the
-// inputs and deadlines() never ran before (the Estimator's inputs take the steps in the thread
-// that delivers them; its deadline thread may sleep through a whole stream).
-TEST(OnlineStream, AClockThatWentBackResetsAfterStepsTakenByInputsAlone)
-{
-  Stream st;
-  const double t0 = 100.0;
-  for (int k = 1; k <= 60; ++k)
-  {
-    const double now = t0 + kT * k;
-    st.offer(0, now, now);
-    st.offer(1, now, now);
-  }
-  EXPECT_GE(st.steps.size(), 59u);
-  EXPECT_EQ(st.s.timeResets(), 0u);
-  st.s.deadlines(Stream::clocks(t0 - 5.0));
-  EXPECT_EQ(st.s.timeResets(), 1u);
-  ASSERT_EQ(st.restarts.size(), 1u);
-  EXPECT_TRUE(has(st.restarts[0], "time jumped back by 6.2 s")) << st.restarts[0];
-  EXPECT_FALSE(st.s.online().started());
-}
-
 // The adaptive budget follows a sensor that arrives 30 ms after its stamps (the minimum budget is
 // 10 ms): nothing of it is dropped as late; with a fixed budget of 10 ms it loses nearly
 // everything, and its late fraction over the last 10 s says so. A sensor whose message disabled

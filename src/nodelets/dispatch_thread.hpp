@@ -1,18 +1,16 @@
-// Threads for a nodelet's inputs and timed work.
+// A nodelet's own input thread: it serves a callback queue that the nodelet's input subscriptions
+// use, and between messages runs the nodelet's timed work (the Estimator's deadlines, the
+// LossyChannel's delayed deliveries).
 //
-// DispatchThread: a nodelet's own thread. It serves a callback queue (the LossyChannel's input
-// subscription for messages from other processes) and between messages runs the nodelet's timed
-// work (the Estimator's deadlines, the LossyChannel's delayed deliveries) as the timeout of the
-// same wait: it wakes for the work only when its time has come.
+// Why: through the nodelet manager a message costs two thread hand-offs (the manager's dispatch
+// thread, then one of its workers), and a separate deadline thread woke once per step even when
+// the messages had already completed it. Here a message costs one hand-off (roscpp's receive
+// thread, or an in-process publisher, to this thread), and the timed work is the timeout of the
+// same wait: it wakes the thread only when a deadline passes with no message before it.
 //
-// Why not the nodelet manager's queue: through it a message costs two thread hand-offs (the
-// manager's dispatch thread, then one of its workers).
-//
-// DirectQueue: in-process publishers' messages handled in the publisher's own thread, as a
-// function call (messages from other processes still go to the dispatch thread). InlineQueue:
-// every message handled in the thread that delivers it, roscpp's receive thread included (the
-// Estimator's inputs: no hand-off at all); what such a callback makes is published through an
-// Outbox, by the receive thread on its next turn (PollTurnHook).
+// DirectQueue goes one step further for in-process publishers: their messages are handled in the
+// publisher's own thread, as a function call, with no hand-off at all (messages from other
+// processes still go to the dispatch thread: roscpp's receive thread must not run them, see there).
 #pragma once
 
 #include <ros/callback_queue.h>
@@ -83,39 +81,6 @@ public:
 
 private:
   ros::CallbackQueueInterface* queued_;
-};
-
-/// Calls every callback at once in the thread that delivers the message: roscpp's receive thread
-/// for messages from other processes, an in-process publisher's thread for the others. Such a
-/// callback runs with the subscription's lock held (and, from an in-process publisher, roscpp's
-/// publication lock): it must be short, and must not publish from the receive thread (see
-/// DirectQueue; publish through an Outbox and a PollTurnHook instead).
-class InlineQueue : public ros::CallbackQueueInterface
-{
-public:
-  void addCallback(const ros::CallbackInterfacePtr& callback, uint64_t) override { callNow(callback); }
-  void removeByID(uint64_t) override {}
-};
-
-/// Runs `f` on every turn of roscpp's receive (poll) thread, between its rounds of reading and
-/// writing sockets, with no subscription's lock held: where that thread may publish what its
-/// input callbacks (InlineQueue) made, without a hand-off to another thread. The messages it
-/// publishes are then written by the same thread in its next round, without waking it.
-/// (`f` is called very often: it should cost nothing when there is nothing to do.)
-class PollTurnHook
-{
-public:
-  explicit PollTurnHook(std::function<void()> f)
-      : connection_(ros::PollManager::instance()->addPollThreadListener(std::move(f)))
-  {
-  }
-  PollTurnHook(const PollTurnHook&) = delete;
-  PollTurnHook& operator=(const PollTurnHook&) = delete;
-  /// Waits for a turn in progress to end (call it before what `f` uses goes away).
-  ~PollTurnHook() { ros::PollManager::instance()->removePollThreadListener(connection_); }
-
-private:
-  boost::signals2::connection connection_;
 };
 
 class DispatchThread

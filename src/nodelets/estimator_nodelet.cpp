@@ -1,4 +1,4 @@
-// The Estimator nodelet (estimator_nodelet.hpp): parameters and inputs.
+// The Estimator nodelet (estimator_nodelet.hpp): parameters, inputs and the filter steps.
 #include "estimator_nodelet.hpp"
 
 #include <pluginlib/class_list_macros.hpp>
@@ -12,12 +12,10 @@ void EstimatorNodelet::onInit()
 {
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
-  // The inputs are handled in the thread that delivers them (InlineQueue); the Estimator's own
-  // thread takes the steps whose deadline passes; timers, tf and reconfigure stay on the nodelet's
-  // queue.
+  // The inputs are served by the Estimator's own thread (dispatch_thread.hpp), which also takes
+  // the steps whose deadline passes; timers, tf and reconfigure stay on the nodelet's queue.
   ros::NodeHandle in_nh(nh);
-  in_nh.setCallbackQueue(&inputs_queue_);
-  inRoscppPollThread();  // learnt now, where no roscpp lock is held (afterInput asks it)
+  in_nh.setCallbackQueue(dispatch_.queue());
   try
   {
     configure(pnh);
@@ -26,7 +24,6 @@ void EstimatorNodelet::onInit()
   {
     refuseLoad(getName(), std::string("Estimator not started: ") + e.what());
   }
-  stream_->after_step = [this](long k) { outbox_.push(stepLocked(k)); };
   estimate_pub_ = nh.advertise<Estimate>("estimate", 1000);
   trace_pub_ = nh.advertise<std_msgs::Float64>("covariance_trace", 1000);
   pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 100);
@@ -37,8 +34,6 @@ void EstimatorNodelet::onInit()
         return in.type == InputType::NAVSATFIX;
       }))
     datum_pub_ = pnh.advertise<sensor_msgs::NavSatFix>("datum", 1, true);
-  heard_ = std::make_unique<std::atomic<std::uint64_t>[]>(model.sensors.size() + 1);  // the sensors, the command
-  heard_seen_.assign(model.sensors.size() + 1, 0);
   for (std::size_t i = 0; i < model.sensors.size(); ++i)
   {
     const SensorInput& in = inputs_[i];
@@ -46,16 +41,13 @@ void EstimatorNodelet::onInit()
     {
       subs_.push_back(subscribeEvents<Measurement>(in_nh, in.topic, queue_size_,
                                                    [this, i](const ros::MessageEvent<Measurement const>& e) {
-                                                     heard_[i].fetch_add(1, std::memory_order_relaxed);
                                                      onMeasurement(i, e.getConstMessage(), e.getReceiptTime());
                                                    }));
       continue;
     }
     SensorSink sink;
-    sink.heard = &heard_[i];
     sink.ok = [this, i](const ros::Time& stamp, const ros::Time& receipt, const double* y, std::size_t n,
                         const double* R) { offer(i, -1, stamp.toSec(), receipt, y, n, R); };
-    // (An input's work ends in afterInput, which publishes what it made.)
     const std::string who = "sensor '" + model.sensors[i].name + "' (" + toString(in.type) + " on " + in.topic + ")";
     sink.bad = [this, who](const std::string& why) { reject(who + ": " + why); };
     sink.fallback = [this, who](const std::string& why) { covarianceFallback(who + ": " + why); };
@@ -70,17 +62,12 @@ void EstimatorNodelet::onInit()
   {
     const LocalEnu d(datum_[0], datum_[1], datum_[2]);
     publishDatum(d);
-    publishPending();
   }
   if (model.hasControl() && command_.type == InputType::CONTROL_INPUT)
-    cmd_sub_ = in_nh.subscribe<ControlInput>(command_.topic, queue_size_, [this](const ControlInput::ConstPtr& c) {
-      heard_[inputs_.size()].fetch_add(1, std::memory_order_relaxed);
-      onCommand(c);
-    }, ros::VoidConstPtr(), hints());
+    cmd_sub_ = in_nh.subscribe(command_.topic, queue_size_, &EstimatorNodelet::onCommand, this, hints());
   else if (model.hasControl())
   {
     SensorSink sink;
-    sink.heard = &heard_[inputs_.size()];
     sink.ok = [this](const ros::Time& stamp, const ros::Time&, const double* u, std::size_t n, const double*) {
       onHeldCommand(stamp, u, n);
     };
@@ -101,16 +88,22 @@ void EstimatorNodelet::onInit()
   if (publish_tf_)
   {
     if (child_frame_id_ == base_link_frame_)
+    {
       frames();  // listen to tf from the start: base_link's parent decides what we publish
-    // /tf as tf2_ros::TransformBroadcaster advertises it, but sent as a shared message: in-process
-    // subscribers (our own tf input, other nodelets) get it without serialization.
-    tf_pub_ = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
+      // With the message event (a plain callback would lose the publisher's name).
+      for (const bool static_tf : {false, true})
+      {
+        ros::SubscribeOptions o;
+        o.initByFullCallbackType<const ros::MessageEvent<tf2_msgs::TFMessage const>&>(
+            static_tf ? "/tf_static" : "/tf", 100,
+            [this, static_tf](const ros::MessageEvent<tf2_msgs::TFMessage const>& e) { onTf(e, static_tf); });
+        (static_tf ? tf_static_sub_ : tf_sub_) = nh.subscribe(o);
+      }
+    }
+    tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+    tf_timer_ = nh.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { tfTimer(); });
   }
   startReconfigure(pnh);
-  // The receive thread publishes the steps its input callbacks made on its next turn, and under
-  // sim time takes the steps whose deadline a /clock tick reached.
-  clock_watch_.start(nh);
-  poll_hook_ = std::make_unique<PollTurnHook>([this] { pollTurn(); });
   dispatch_.start([this] { return deadlineWork(); });
   std::string inputs;
   for (std::size_t i = 0; i < inputs_.size(); ++i)
@@ -173,21 +166,9 @@ const Frames& EstimatorNodelet::frames()
   if (tf_buffer_)
     return frames_;
   tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
-  // /tf and /tf_static into the buffer (as tf2_ros::TransformListener does) and, driving base_link,
-  // into base_link's parent from others (onTf), handled where they are delivered (InlineQueue): no
-  // thread woken per tf message, our own included (they come back at once, in our publish).
-  ros::NodeHandle tf_nh(getNodeHandle());
-  tf_nh.setCallbackQueue(&inputs_queue_);
-  for (const bool static_tf : {false, true})
-  {
-    ros::SubscribeOptions o;
-    // With the message event (a plain callback would lose the publisher's name).
-    o.initByFullCallbackType<const ros::MessageEvent<tf2_msgs::TFMessage const>&>(
-        static_tf ? "/tf_static" : "/tf", 100,
-        [this, static_tf](const ros::MessageEvent<tf2_msgs::TFMessage const>& e) { onTf(e, static_tf); });
-    o.transport_hints = hints();
-    (static_tf ? tf_static_sub_ : tf_sub_) = tf_nh.subscribe(o);
-  }
+  // tf messages on the nodelet's own callback queue (spin_thread = false): no dedicated listener
+  // thread waking 100 times a second when no tf flows.
+  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, getNodeHandle(), false);
   frames_.world = world_frame_;
   frames_.base = base_link_frame_;
   tf2_ros::Buffer* buffer = tf_buffer_.get();
@@ -229,6 +210,7 @@ void EstimatorNodelet::configure(ros::NodeHandle& pnh)
   trace_bound_ = c.runtime.trace_bound;
   queue_size_ = static_cast<uint32_t>(c.queue_size);
   stream_ = std::make_unique<OnlineStream>(c.model, settings_, c.online, c.timeline, c.runtime);
+  stream_->after_step = [this](long k) { publishLocked(stepLocked(k)); };
   stream_->on_restart = [this](const std::string& why) {
     if (live_)
       live_->clear();
@@ -307,35 +289,29 @@ void EstimatorNodelet::covarianceFallback(const std::string& why)
 void EstimatorNodelet::onDisabled(std::size_t sensor, const ros::Time& stamp, const ros::Time& receipt,
                                   const std::string& why)
 {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    const OfferResult r = stream_->disabled(sensor, stamp.toSec(), -1, clocks(receipt));
-    if (r.offer == Offer::REJECTED)
-      warnRejected("measurement", r);
-    else
-      NODELET_WARN_THROTTLE(10.0, "Estimator: sensor '%s': not fused: %s (%lu such messages so far; the sensor is "
-                            "not due at their steps)", stream_->online().model().sensors[sensor].name.c_str(),
-                            why.c_str(), static_cast<unsigned long>(stream_->online().counters().disabled_per_sensor[sensor]));
-  }
-  afterInput();
+  std::lock_guard<std::mutex> lock(mutex_);
+  const OfferResult r = stream_->disabled(sensor, stamp.toSec(), -1, clocks(receipt));
+  if (r.offer == Offer::REJECTED)
+    warnRejected("measurement", r);
+  else
+    NODELET_WARN_THROTTLE(10.0, "Estimator: sensor '%s': not fused: %s (%lu such messages so far; the sensor is "
+                          "not due at their steps)", stream_->online().model().sensors[sensor].name.c_str(), why.c_str(),
+                          static_cast<unsigned long>(stream_->online().counters().disabled_per_sensor[sensor]));
 }
 
 void EstimatorNodelet::offer(std::size_t sensor, long k, double stamp, const ros::Time& receipt, const double* y,
                              std::size_t size, const double* R)
 {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    const OfferResult r = stream_->measurement(sensor, stamp, k, y, size, R, clocks(receipt));
-    if (r.offer == Offer::REJECTED)
-      warnRejected("measurement", r);
-  }
-  afterInput();
+  std::lock_guard<std::mutex> lock(mutex_);
+  const OfferResult r = stream_->measurement(sensor, stamp, k, y, size, R, clocks(receipt));
+  if (r.offer == Offer::REJECTED)
+    warnRejected("measurement", r);
 }
 
 Clocks EstimatorNodelet::clocks(const ros::Time& receipt) const
 {
   Clocks c;
-  c.ros = receipt.isZero() ? clock_watch_.now() : receipt.toSec();
+  c.ros = receipt.isZero() ? ros::Time::now().toSec() : receipt.toSec();
   c.wall = ros::WallTime::now().toSec();
   c.rate = ros::Time::isSimTime() ? clock_rate_ : 1.0;
   return c;
@@ -349,47 +325,38 @@ void EstimatorNodelet::warnRejected(const char* what, const OfferResult& r)
 
 void EstimatorNodelet::onCommand(const ControlInput::ConstPtr& c)
 {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (c->step > static_cast<std::uint64_t>(std::numeric_limits<long>::max() / 2))
   {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (c->step > static_cast<std::uint64_t>(std::numeric_limits<long>::max() / 2))
-    {
-      rejectLocked("command step " + std::to_string(c->step) + " out of range");
-      return;
-    }
-    const OfferResult r =
-        stream_->command(static_cast<long>(c->step), c->header.stamp.toSec(), c->u.data(), c->u.size(), clocks());
-    if (r.offer == Offer::REJECTED)
-      warnRejected("command", r);
+    rejectLocked("command step " + std::to_string(c->step) + " out of range");
+    return;
   }
-  afterInput();
+  const OfferResult r =
+      stream_->command(static_cast<long>(c->step), c->header.stamp.toSec(), c->u.data(), c->u.size(), clocks());
+  if (r.offer == Offer::REJECTED)
+    warnRejected("command", r);
 }
 
 void EstimatorNodelet::onSchedule(const ScheduleStep::ConstPtr& sc)
 {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (sc->step > static_cast<std::uint64_t>(std::numeric_limits<long>::max() / 2))
   {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (sc->step > static_cast<std::uint64_t>(std::numeric_limits<long>::max() / 2))
-    {
-      rejectLocked("schedule step " + std::to_string(sc->step) + " out of range");
-      return;
-    }
-    const std::vector<bool> transmitting(sc->transmitting.begin(), sc->transmitting.end());
-    const OfferResult r = stream_->schedule(static_cast<long>(sc->step), sc->header.stamp.toSec(), transmitting, clocks());
-    if (r.offer == Offer::REJECTED)
-      warnRejected("schedule", r);
+    rejectLocked("schedule step " + std::to_string(sc->step) + " out of range");
+    return;
   }
-  afterInput();
+  const std::vector<bool> transmitting(sc->transmitting.begin(), sc->transmitting.end());
+  const OfferResult r = stream_->schedule(static_cast<long>(sc->step), sc->header.stamp.toSec(), transmitting, clocks());
+  if (r.offer == Offer::REJECTED)
+    warnRejected("schedule", r);
 }
 
 void EstimatorNodelet::onHeldCommand(const ros::Time& stamp, const double* u, std::size_t n)
 {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    const OfferResult r = stream_->heldCommand(stamp.toSec(), u, n, clocks());
-    if (r.offer == Offer::REJECTED)
-      warnRejected("command", r);
-  }
-  afterInput();
+  std::lock_guard<std::mutex> lock(mutex_);
+  const OfferResult r = stream_->heldCommand(stamp.toSec(), u, n, clocks());
+  if (r.offer == Offer::REJECTED)
+    warnRejected("command", r);
 }
 
 void EstimatorNodelet::reject(const std::string& why)
@@ -413,6 +380,82 @@ unsigned long EstimatorNodelet::rejectedLocked() const
   return static_cast<unsigned long>(stream_->online().counters().rejected + rejected_topic_ + refused);
 }
 
+Estimate::Ptr EstimatorNodelet::stepLocked(long k)
+{
+  const OnlineEstimator& online = stream_->online();
+  const Estimator& est = online.estimator();
+  Estimate::Ptr e = boost::make_shared<Estimate>();
+  e->header.stamp.fromSec(stream_->timeline().clock().stamp(k));
+  e->header.frame_id = frame_id_;
+  e->step = static_cast<std::uint64_t>(k);
+  e->algorithm = toString(settings_.algorithm);
+  e->gamma = online.lastGamma();
+  const Eigen::VectorXd& x = est.state();
+  const Eigen::MatrixXd& P = est.covariance();
+  const int n = static_cast<int>(x.size());
+  e->state.assign(x.data(), x.data() + n);
+  e->covariance.resize(static_cast<std::size_t>(n) * n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      e->covariance[static_cast<std::size_t>(i) * n + j] = P(i, j);  // row-major (REP-103)
+  e->covariance_trace = P.trace();
+  e->covariance_is_pseudo = settings_.algorithm == Algorithm::RSEIO;
+  const std::uint64_t resets = online.counters().divergence_resets;
+  if (live_)
+    live_->add(online.lastArrived(), online.lastDue(), online.lastGamma(), P, resets != resets_seen_);
+  resets_seen_ = resets;
+  const double q = est.commandArrivalProbability();
+  e->command_arrival_probability = std::isfinite(q) ? q : -1.0;
+  last_trace_ = e->covariance_trace;
+  return e;
+}
+
+double EstimatorNodelet::deadlineWork()
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!stream_->online().started())
+    return 0.05;
+  // Sim time: the clock's rate over the last half second (a bag at -r 4 runs 4 sim seconds per
+  // second), for the waits below and the stream's catch-up work bound.
+  const double now = ros::Time::now().toSec(), wall = ros::WallTime::now().toSec();
+  if (ros::Time::isSimTime())
+  {
+    if (wall_ref_ == 0.0 || now < sim_ref_)  // the first wait, or time went back
+    {
+      sim_ref_ = now;
+      wall_ref_ = wall;
+    }
+    else if (wall - wall_ref_ >= 0.5)
+    {
+      const double r = (now - sim_ref_) / (wall - wall_ref_);
+      clock_rate_ = r > 1e-3 && r < 1e6 ? r : 1e-3;  // paused: the 50 ms cap
+      sim_ref_ = now;
+      wall_ref_ = wall;
+    }
+  }
+  // Messages already queued first: they came before now, and whether they were in time is decided
+  // by their receipt time, not by when this thread gets to them (a busy machine).
+  if (!dispatch_.queue()->isEmpty() && ++deferred_ <= 10)
+    return 0.0;
+  deferred_ = 0;
+  // Steps whose deadline has passed (at most 1000 per lock hold, so that the inputs are not
+  // starved); time jumps restart the stream.
+  if (stream_->deadlines(clocks()))
+    return 0.0;
+  if (stream_->throttled())
+    return 0.005;  // the catch-up work bound: tokens come back at twice the rate ROS time needs
+  const double due = stream_->nextDeadline();
+  if (!std::isfinite(due))
+    return 0.05;  // restarted: waiting for the stream
+  // Wall time: wait until the deadline (a message that completes a step takes it at once, in its
+  // callback, and the wait is then set again for the next step: no wake-up per step). Sim time:
+  // the deadline is sim time away; the wait in wall time is that over the clock's rate, at least
+  // 2 ms (ROS time moves in /clock ticks) and at most 50 ms (a paused or restarted clock).
+  double wait = std::min(due - now, 0.05);
+  if (ros::Time::isSimTime())
+    wait = std::max(0.002, std::min((due - now) / clock_rate_, 0.05));
+  return std::max(0.0, wait);
+}
 }  // namespace networked_estimation
 
 PLUGINLIB_EXPORT_CLASS(networked_estimation::EstimatorNodelet, nodelet::Nodelet)

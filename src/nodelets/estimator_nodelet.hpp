@@ -1,18 +1,13 @@
 // Estimator nodelet: one estimator (kf, kfio, rseio, aoe, oe) on a measurement stream
-// (estimator_nodelet.cpp: parameters and inputs; estimator_steps.cpp: the steps and when they are
-// published; estimator_outputs.cpp: what it publishes).
+// (estimator_nodelet.cpp: parameters, inputs and steps; estimator_outputs.cpp: what it publishes).
 //
 // The input side is the core OnlineStream (online/online_stream.hpp): which stamps are believed and
 // when the timeline starts and restarts, the latency budget the sensors' delays call for, and the
 // OnlineEstimator's sample assembly: exactly one filter step per sample k, with gamma_k = 1 iff y_k
 // is in hand at the deadline stamp_k + budget. A step is taken as soon as everything it can use has
-// arrived (same result, lowest latency), otherwise at its deadline by the Estimator's own thread
-// (dispatch_thread.hpp), which sleeps until that deadline (in ROS time), or under sim time by
-// roscpp's receive thread after the /clock tick that reaches it (sim_clock_watch.hpp). The inputs are handled in the thread that
-// delivers them (InlineQueue: roscpp's receive thread, or an in-process publisher's), with no
-// hand-off; the steps they complete are published from an Outbox (outbox.hpp) after the lock is
-// released, by that thread, or by the receive thread on its next turn (PollTurnHook). The
-// nodelet only translates messages and parameters.
+// arrived (same result, lowest latency), otherwise at its deadline by the Estimator's own input
+// thread (dispatch_thread.hpp), whose wait for the next message ends at that deadline (in ROS
+// time). The nodelet only translates messages and parameters.
 //
 // Inputs: per sensor of the model, the topic, standard type and fields of its ~sensors block
 // (sensor_subscriptions.hpp; default `measurement` for one sensor or `measurement/<sensor>` of
@@ -34,7 +29,8 @@
 #include <ros/ros.h>
 #include <std_msgs/Float64.h>
 #include <tf2_ros/buffer.h>
-#include <tf2/exceptions.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
 
 #include <algorithm>
 #include <atomic>
@@ -61,8 +57,6 @@
 #include "tf_output.hpp"
 #include "sensor_subscriptions.hpp"
 #include "dispatch_thread.hpp"
-#include "outbox.hpp"
-#include "sim_clock_watch.hpp"
 #include <tf2_msgs/TFMessage.h>
 
 namespace networked_estimation
@@ -73,8 +67,6 @@ class EstimatorNodelet : public nodelet::Nodelet
 public:
   ~EstimatorNodelet() override
   {
-    poll_hook_.reset();  // waits for a turn of the receive thread that is publishing
-    clock_watch_.stop();
     dispatch_.stop();
     // Before the tf2 buffer the input callbacks use goes, and while their queue exists.
     for (ros::Subscriber& s : subs_)
@@ -106,14 +98,13 @@ private:
   /// (Built once, with the tf2 buffer and listener, on the first call.)
   const Frames& frames();
 
-  /// The ENU origin of the NavSatFix inputs, latched on ~datum and logged (pin it with ~datum):
-  /// queued for publishPending (it may come from an input callback).
+  /// The ENU origin of the NavSatFix inputs, latched on ~datum and logged (pin it with ~datum).
   void publishDatum(const LocalEnu& d);
 
   void configure(ros::NodeHandle& pnh);
 
 
-  // --- inputs (the thread that delivers them: InlineQueue) ---------------------------------------
+  // --- inputs (the dispatch thread) ---------------------------------------------------------------
 
   /// `receipt`: the ROS time roscpp received the message at (its lateness is judged by it).
   void onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m, const ros::Time& receipt);
@@ -125,27 +116,15 @@ private:
   /// A message without an estimate of the sensor's fields (Imu covariance -1): not fused, counted.
   void onDisabled(std::size_t sensor, const ros::Time& stamp, const ros::Time& receipt, const std::string& why);
 
-  /// k < 0: the step comes from the stamp (the sensor's own sample steps). The steps it completes
-  /// go to the outbox (in step order, whichever thread takes them).
+  /// k < 0: the step comes from the stamp (the sensor's own sample steps). Estimates are published
+  /// with the mutex held, so that they leave in step order whichever thread takes the step
+  /// (publish only queues the message; it never calls back into us).
   void offer(std::size_t sensor, long k, double stamp, const ros::Time& receipt, const double* y, std::size_t size,
              const double* R = nullptr);
 
   /// ROS time (or the receipt time of the message at hand), wall time and the measured rate of ROS
   /// time (mutex held).
   Clocks clocks(const ros::Time& receipt = ros::Time()) const;
-  /// After an input's work, with the mutex released: its steps published (by this thread, or by the
-  /// receive thread's next turn when this is it), the dispatch thread woken if the next deadline is
-  /// earlier than it waits for.
-  void afterInput();
-  /// A turn of roscpp's receive thread (PollTurnHook): publishes what its input callbacks made, and
-  /// under sim time takes the steps whose deadline a /clock tick reached.
-  void pollTurn();
-  /// What the steps left to publish (the outbox, a new datum), with no lock of ours held.
-  void publishPending();
-  /// Sets what the dispatch thread waits for to the next deadline (mutex held); true when it must
-  /// be woken to act on it now.
-  bool armLocked();
-
   /// Logs a refused input, naming it (throttled).
   void warnRejected(const char* what, const OfferResult& r);
 
@@ -169,33 +148,30 @@ private:
   /// The message of step k, just taken (mutex held).
   Estimate::Ptr stepLocked(long k);
 
-  /// Publishes one step's outputs (from the outbox: no lock of ours held).
-  void publishOutputs(const Estimate::Ptr& e);
+  /// Publishes one step's outputs (mutex held).
+  void publishLocked(const Estimate::Ptr& e);
 
   /// odometry/filtered of one estimate (~state_mapping, world_frame -> base_link_frame).
   void publishOdometry(const Estimate& e);
 
-  /// One estimate as the tf frame_id -> child_frame_id (with every estimate, as robot_localization
-  /// sends its tf with every filter cycle; from publishOutputs).
-  void publishTf(const Estimate& e);
-  void sendTf(const geometry_msgs::TransformStamped& t);
-  /// /tf and /tf_static (InlineQueue): into the tf2 buffer, and base_link's parent from other
-  /// publishers than ourselves (ForeignParent).
+  /// The latest estimate as the tf frame_id -> child_frame_id, 20 times a second, from the
+  /// manager's queue (tf is for viewing; sending it from the thread that takes the steps stalled
+  /// the manager's callback queues).
+  void tfTimer();
+  /// /tf and /tf_static: base_link's parent from other publishers than ourselves (ForeignParent).
   void onTf(const ros::MessageEvent<tf2_msgs::TFMessage const>& e, bool static_tf);
 
   /// Takes the steps whose deadline has passed (in ROS time) and restarts on a time jump (the
-  /// stream's deadlines()), then publishes them; returns the wall seconds until the next deadline
-  /// (the dispatch thread's wait).
+  /// stream's deadlines()); returns the wall seconds until the next deadline (the dispatch
+  /// thread's wait).
   double deadlineWork();
-  double deadlineWorkLocked();
 
   // --- diagnostics -------------------------------------------------------------------------------
 
   /// The inputs whose topic is advertised with another type than configured (ROS then connects
   /// nothing: without this check the sensor would just look silent), e.g.
   /// "sensor 'gps': /fix is geometry_msgs/PointStamped, expected sensor_msgs/NavSatFix".
-  /// Asked only for the inputs that heard no message since the last call (diagnostics' thread).
-  std::vector<std::string> wrongTypes();
+  std::vector<std::string> wrongTypes() const;
 
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
   /// Per sensor: messages, losses, delay, disabled samples and rate; WARN for a sensor that lost more
@@ -220,10 +196,6 @@ private:
 
   std::string input_type_, frame_id_, child_frame_id_;
   std::vector<SensorInput> inputs_;
-  /// Messages received per input (the sensors, then the command; any thread) and as wrongTypes()
-  /// last saw them (the diagnostics' thread).
-  std::unique_ptr<std::atomic<std::uint64_t>[]> heard_;
-  std::vector<std::uint64_t> heard_seen_;
   SensorInput command_;
   StateMap state_map_;
   std::string world_frame_, base_link_frame_, odom_frame_;
@@ -234,30 +206,23 @@ private:
   double trace_bound_ = std::numeric_limits<double>::infinity();
   uint32_t queue_size_ = 1000;
 
-  DispatchThread dispatch_;  ///< takes the steps at their deadlines (before the subscribers: outlives them)
-  InlineQueue inputs_queue_;  ///< the input subscriptions' (before them: outlives them)
-  /// Estimates to publish, in step order (publishOutputs).
-  Outbox<Estimate::Ptr> outbox_{[this](const Estimate::Ptr& e) { publishOutputs(e); }};
-  std::atomic<bool> poll_pending_{false};  ///< the receive thread made steps: its next turn publishes them
-  std::unique_ptr<PollTurnHook> poll_hook_;
-  SimClockWatch clock_watch_;  ///< sim time: the tick that reaches the next deadline
-  double wait_until_ = std::numeric_limits<double>::infinity();  ///< wall time: the deadline it sleeps until (mutex_)
-  std::mutex datum_mutex_;
-  sensor_msgs::NavSatFix::Ptr pending_datum_;  ///< to publish (datum_mutex_)
+  DispatchThread dispatch_;  ///< serves the inputs and the deadlines (before the subscribers: outlives them)
   std::vector<ros::Subscriber> subs_;
   ros::Subscriber cmd_sub_, schedule_sub_, tf_sub_, tf_static_sub_, set_pose_sub_;
   ros::ServiceServer set_pose_srv_;
   std::atomic<unsigned long> set_pose_refused_{0};
   ros::Publisher estimate_pub_, trace_pub_, pose_pub_, odom_pub_;
-  ros::Publisher tf_pub_;  ///< /tf
+  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   Frames frames_;
-  /// child_frame_id = base_link_frame: the transforms we sent, and base_link's parent from others;
-  /// the ROS time of the last tf message (a clock that went back clears the buffer).
+  /// child_frame_id = base_link_frame: the transforms we sent, and base_link's parent from others.
   std::mutex tf_mutex_;
-  ros::Time last_tf_update_;
   OwnTransforms own_tf_;
   ForeignParent foreign_parent_;
+  ros::WallTimer tf_timer_;
+  Estimate::ConstPtr last_estimate_;
+  ros::Time last_tf_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTimer diag_timer_;
 
@@ -270,6 +235,7 @@ private:
   /// Sim time: sim seconds per wall second, measured by the deadline loop (sim_ref_/wall_ref_).
   double clock_rate_ = 1.0, sim_ref_ = 0.0, wall_ref_ = 0.0;
   double last_trace_ = 0.0;
+  int deferred_ = 0;  ///< deadline work deferred for queued messages, in a row
   std::uint64_t rejected_topic_ = 0, last_processed_ = 0, covariance_fallbacks_ = 0;
   ros::WallTime last_diag_;
 };

@@ -9,23 +9,20 @@ namespace networked_estimation
 
 void EstimatorNodelet::publishDatum(const LocalEnu& d)
 {
-  sensor_msgs::NavSatFix::Ptr m = boost::make_shared<sensor_msgs::NavSatFix>();
-  m->header.stamp = ros::Time::now();
-  m->header.frame_id = frame_id_;
-  m->status.status = sensor_msgs::NavSatStatus::STATUS_FIX;
-  m->latitude = d.latitude();
-  m->longitude = d.longitude();
-  m->altitude = d.altitude();
-  m->position_covariance_type = sensor_msgs::NavSatFix::COVARIANCE_TYPE_UNKNOWN;
-  {
-    std::lock_guard<std::mutex> lock(datum_mutex_);
-    pending_datum_ = m;  // published by publishPending, after the input's work
-  }
+  sensor_msgs::NavSatFix m;
+  m.header.stamp = ros::Time::now();
+  m.header.frame_id = frame_id_;
+  m.status.status = sensor_msgs::NavSatStatus::STATUS_FIX;
+  m.latitude = d.latitude();
+  m.longitude = d.longitude();
+  m.altitude = d.altitude();
+  m.position_covariance_type = sensor_msgs::NavSatFix::COVARIANCE_TYPE_UNKNOWN;
+  datum_pub_.publish(m);
   NODELET_INFO("Estimator: NavSatFix datum (ENU origin) %.9f, %.9f, %.3f%s", d.latitude(), d.longitude(),
                d.altitude(), datum_.empty() ? " (the first valid fix; set ~datum to pin it)" : "");
 }
 
-void EstimatorNodelet::publishOutputs(const Estimate::Ptr& e)
+void EstimatorNodelet::publishLocked(const Estimate::Ptr& e)
 {
   {
     estimate_pub_.publish(e);
@@ -37,9 +34,9 @@ void EstimatorNodelet::publishOutputs(const Estimate::Ptr& e)
     }
     if (odom_pub_.getNumSubscribers() > 0)
       publishOdometry(*e);
-    if (publish_tf_)
-      publishTf(*e);
     const bool want_pose = pose_pub_.getNumSubscribers() > 0;
+    if (publish_tf_)
+      last_estimate_ = e;  // tf leaves from tfTimer() in the nodelet's own queue, not this thread
     if (!want_pose)
       return;
     const int n = static_cast<int>(e->state.size());
@@ -74,19 +71,27 @@ void EstimatorNodelet::publishOdometry(const Estimate& e)
       boost::make_shared<const nav_msgs::Odometry>(toOdometry(x, P, state_map_, e.header.stamp, world_frame_, base_link_frame_)));
 }
 
-void EstimatorNodelet::publishTf(const Estimate& e)
+void EstimatorNodelet::tfTimer()
 {
+  Estimate::ConstPtr e;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    e = last_estimate_;
+  }
+  if (!e || e->header.stamp == last_tf_)
+    return;
+  last_tf_ = e->header.stamp;
   geometry_msgs::TransformStamped t;
-  t.header = e.header;
+  t.header = e->header;
   t.child_frame_id = child_frame_id_;
   if (child_frame_id_ != base_link_frame_)
   {
     // The estimate's own frame: its position entries, no rotation.
     double* xyz[3] = {&t.transform.translation.x, &t.transform.translation.y, &t.transform.translation.z};
     for (std::size_t i = 0; i < positions_.size(); ++i)
-      *xyz[i] = e.state[positions_[i]];
+      *xyz[i] = e->state[positions_[i]];
     t.transform.rotation.w = 1.0;
-    sendTf(t);
+    tf_->sendTransform(t);
     return;
   }
   // Driving base_link: its pose from ~state_mapping, and never a second parent.
@@ -104,8 +109,8 @@ void EstimatorNodelet::publishTf(const Estimate& e)
     NODELET_WARN_THROTTLE(10.0, "Estimator: no tf: %s", plan.reason.c_str());
     return;
   }
-  const int n = static_cast<int>(e.state.size());
-  const Eigen::Map<const Eigen::VectorXd> x(e.state.data(), n);
+  const int n = static_cast<int>(e->state.size());
+  const Eigen::Map<const Eigen::VectorXd> x(e->state.data(), n);
   const geometry_msgs::Pose p = poseOf(x, state_map_);
   tf2::Transform world_base(tf2::Quaternion(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w),
                             tf2::Vector3(p.position.x, p.position.y, p.position.z));
@@ -136,66 +141,24 @@ void EstimatorNodelet::publishTf(const Estimate& e)
     std::lock_guard<std::mutex> lock(tf_mutex_);
     own_tf_.sent(t);  // before it can come back on /tf
   }
-  sendTf(t);
-}
-
-void EstimatorNodelet::sendTf(const geometry_msgs::TransformStamped& t)
-{
-  tf2_msgs::TFMessage::Ptr m = boost::make_shared<tf2_msgs::TFMessage>();
-  m->transforms.push_back(t);
-  tf_pub_.publish(m);
+  tf_->sendTransform(t);
 }
 
 void EstimatorNodelet::onTf(const ros::MessageEvent<tf2_msgs::TFMessage const>& e, bool static_tf)
 {
-  const std::string& publisher = e.getPublisherName();
-  const tf2_msgs::TFMessage::ConstPtr& m = e.getConstMessage();
-  // ROS time went back (a bag looped, a simulator restarted): what the buffer holds is of another
-  // run (tf2_ros::TransformListener does the same).
-  const ros::Time now = ros::Time::now();
-  {
-    std::lock_guard<std::mutex> lock(tf_mutex_);
-    if (now < last_tf_update_)
-      tf_buffer_->clear();
-    last_tf_update_ = now;
-  }
-  for (const geometry_msgs::TransformStamped& t : m->transforms)
-  {
-    try
-    {
-      tf_buffer_->setTransform(t, publisher, static_tf);
-    }
-    catch (const tf2::TransformException& ex)
-    {
-      NODELET_WARN_THROTTLE(10.0, "Estimator: tf from %s refused by tf2: %s", publisher.c_str(), ex.what());
-    }
-  }
-  if (child_frame_id_ != base_link_frame_)
-    return;
-  const double wall = ros::WallTime::now().toSec();
+  const double now = ros::WallTime::now().toSec();
   std::lock_guard<std::mutex> lock(tf_mutex_);
-  for (const geometry_msgs::TransformStamped& t : m->transforms)
-    foreign_parent_.saw(t, base_link_frame_, own_tf_, publisher, wall, static_tf);
+  for (const geometry_msgs::TransformStamped& t : e.getConstMessage()->transforms)
+    foreign_parent_.saw(t, base_link_frame_, own_tf_, e.getPublisherName(), now, static_tf);
 }
 
-std::vector<std::string> EstimatorNodelet::wrongTypes()
+std::vector<std::string> EstimatorNodelet::wrongTypes() const
 {
-  // An input that hears messages has the type it expects (roscpp connects no publisher of
-  // another): only the silent ones are looked up, and the master is not asked while all flow.
-  std::vector<bool> silent(heard_seen_.size());
-  bool any = false;
-  for (std::size_t i = 0; i < heard_seen_.size(); ++i)
-  {
-    const std::uint64_t n = heard_[i].load(std::memory_order_relaxed);
-    silent[i] = n == heard_seen_[i];
-    heard_seen_[i] = n;
-    any = any || (silent[i] && (i < inputs_.size() || stream_->online().model().hasControl()));
-  }
-  std::vector<std::string> out;
   ros::master::V_TopicInfo topics;
-  if (!any || !ros::master::getTopics(topics))
+  std::vector<std::string> out;
+  if (!ros::master::getTopics(topics))
     return out;
-  const ros::NodeHandle& nh = getNodeHandle();
+  const ros::NodeHandle& nh = const_cast<EstimatorNodelet*>(this)->getNodeHandle();
   auto check = [&](const std::string& who, const std::string& topic, const std::string& expected) {
     const std::string name = nh.resolveName(topic);
     for (const ros::master::TopicInfo& t : topics)
@@ -204,9 +167,8 @@ std::vector<std::string> EstimatorNodelet::wrongTypes()
   };
   const Model& model = stream_->online().model();
   for (std::size_t i = 0; i < inputs_.size(); ++i)
-    if (silent[i])
-      check("sensor '" + model.sensors[i].name + "'", inputs_[i].topic, toString(inputs_[i].type));
-  if (model.hasControl() && silent[inputs_.size()])
+    check("sensor '" + model.sensors[i].name + "'", inputs_[i].topic, toString(inputs_[i].type));
+  if (model.hasControl())
     check("command", command_.topic, toString(command_.type));
   return out;
 }

@@ -31,8 +31,6 @@
 #include "load_failure.hpp"
 #include "param_yaml.hpp"
 #include "dispatch_thread.hpp"
-#include "outbox.hpp"
-#include "sim_clock_watch.hpp"
 #include "channel_message_types.hpp"
 #include "lossy_channel_config.hpp"
 
@@ -46,8 +44,6 @@ class LossyChannelNodelet : public nodelet::Nodelet
 public:
   ~LossyChannelNodelet() override
   {
-    poll_hook_.reset();
-    clock_watch_.stop();
     dispatch_.stop();
     sub_.shutdown();  // while its queue exists
   }
@@ -83,14 +79,6 @@ private:
     diagnostics_->add("channel", this, &LossyChannelNodelet::diagnose);
     diag_timer_ = nh.createWallTimer(ros::WallDuration(0.5), [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
     // `in` is served by the channel's own thread, which also publishes the delayed deliveries.
-    // Sim time: the /clock tick that reaches the next delivery wakes the dispatch thread (no
-    // polling of the clock in between).
-    clock_watch_.start(nh);
-    if (clock_watch_.active())
-      poll_hook_ = std::make_unique<PollTurnHook>([this] {
-        if (clock_watch_.takeReached())
-          dispatch_.wake();
-      });
     dispatch_.start([this] { return deliveryWork(); });
     const auto q = static_cast<uint32_t>(queue_size_);
     if (type_.empty())  // any type: ShapeShifter, `out` advertised with the first message's type
@@ -126,8 +114,7 @@ private:
                  describe().c_str());
   }
 
-  /// Seconds since the channel started, in ROS time (sim time: the latest /clock tick).
-  double now() const { return clock_watch_.now() - t0_.toSec(); }
+  double now() const { return (ros::Time::now() - t0_).toSec(); }
 
   /// `in` on `queue`: the dispatch thread's, or (~type) its DirectQueue, where in-process
   /// publishers' messages are handled in their thread (callbacks may then run concurrently: mutex_
@@ -175,14 +162,14 @@ private:
     std::unique_lock<std::mutex> lock(mutex_);
     const ChannelRecord rec = deliveries_->offer(t, msg);
     monitor_.add(rec.outcome == ChannelOutcome::DELIVERED);
-    queueDue(t);
+    deliveries_->popDue(t, outbox_);
     // Called in a publisher's thread (DirectQueue), nothing else wakes the dispatch thread: tell it
     // when the next delivery is due before the time it waits for.
     const bool wake = !dispatch_.inThisThread() && channel_->nextDue() < armed_due_;
     lock.unlock();
     if (wake)
       dispatch_.wake();
-    outbox_.flush();
+    flush();
     if (events_pub_.getNumSubscribers() > 0)  // the event (and its stamp) only when wanted
       events_pub_.publish(toMessage(rec, stamp()));
   }
@@ -201,13 +188,34 @@ private:
     return m;
   }
 
-  /// The deliveries due at `t` into the outbox, in order (mutex_ held; published by
-  /// outbox_.flush() after it is released: `in` is a DirectQueue, whose callbacks run inside an
-  /// in-process publisher's publish, see outbox.hpp).
-  void queueDue(double t)
+  /// Publishes the outbox in order, without holding mutex_ (`in` is a DirectQueue: an in-process
+  /// publisher's thread runs onInput inside roscpp's publish, holding roscpp's publication lock, and
+  /// takes mutex_; a thread holding mutex_ while it publishes would deadlock with it). One thread
+  /// publishes at a time; a thread that finds another publishing leaves its messages to it.
+  void flush()
   {
-    deliveries_->popDue(t, due_);
-    outbox_.append(due_);
+    for (;;)
+    {
+      std::unique_lock<std::mutex> publishing(publishing_, std::try_to_lock);
+      if (!publishing.owns_lock())
+        return;
+      for (;;)
+      {
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          sending_.swap(outbox_);
+        }
+        if (sending_.empty())
+          break;
+        for (const auto& m : sending_)
+          publish_(m);
+        sending_.clear();
+      }
+      publishing.unlock();
+      std::lock_guard<std::mutex> lock(mutex_);  // pushed after our last look, while we held publishing_?
+      if (outbox_.empty())
+        return;
+    }
   }
 
   /// Publishes the deliveries that are due; returns the wall seconds until the next one (the
@@ -221,12 +229,12 @@ private:
       if (due == std::numeric_limits<double>::infinity())
         return due;
       const double wait = due - now();
-      if (wait > 0.0)  // wall time: the wait itself; sim time: until the tick that reaches it (or 0.5 s)
-        return clock_watch_.active() ? (clock_watch_.arm(t0_.toSec() + due) ? 0.5 : 0.0) : wait;
+      if (wait > 0.0)  // wall-clock wait; under sim time the clock may run at another rate: re-check often
+        return ros::Time::isSimTime() ? std::min(wait, 0.0005) : wait;
       armed_due_ = -std::numeric_limits<double>::infinity();  // runs again at once
-      queueDue(now());
+      deliveries_->popDue(now(), outbox_);
     }
-    outbox_.flush();
+    flush();
     return 0.0;
   }
 
@@ -345,8 +353,6 @@ private:
   std::function<void(const boost::shared_ptr<const void>&)> publish_;
   LinkMonitor monitor_{1000};
   ros::Time t0_;
-  SimClockWatch clock_watch_;
-  std::unique_ptr<PollTurnHook> poll_hook_;  ///< sim time: wakes the dispatch thread at the tick that reaches a delivery
   DispatchThread dispatch_;  ///< serves `in` and the delayed deliveries (before sub_: outlives it)
   ros::Subscriber sub_;
   ros::Publisher out_pub_, events_pub_;
@@ -358,9 +364,9 @@ private:
   bool reconfigure_ready_ = false;
   std::mutex mutex_;
   double armed_due_ = std::numeric_limits<double>::infinity();  ///< the dispatch thread waits for it (mutex_)
-  std::vector<boost::shared_ptr<const void>> due_;  ///< popped from deliveries_ (mutex_)
-  /// Due deliveries, published in order on `out` (publish_).
-  Outbox<boost::shared_ptr<const void>> outbox_{[this](const boost::shared_ptr<const void>& m) { publish_(m); }};
+  std::mutex publishing_;  ///< held by the one thread that publishes the outbox (flush)
+  std::vector<boost::shared_ptr<const void>> outbox_;   ///< due, not yet published (mutex_)
+  std::vector<boost::shared_ptr<const void>> sending_;  ///< being published (publishing_)
 
   bool advertised_ = false;
   bool has_header_ = false;

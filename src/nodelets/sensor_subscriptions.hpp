@@ -6,8 +6,6 @@
 
 #include <ros/ros.h>
 
-#include <atomic>
-#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -37,16 +35,7 @@ struct SensorSink
   std::function<void(const LocalEnu& datum)> datum;
   /// The model's frames and the tf2 lookup (frame_transforms.hpp); no lookup: frames are not used.
   Frames frames;
-  /// Counted at every message received, good or not (the diagnostics ask the master for the types
-  /// of the inputs that heard nothing); may be null.
-  std::atomic<std::uint64_t>* heard = nullptr;
 };
-
-inline void countHeard(const SensorSink& sink)
-{
-  if (sink.heard)
-    sink.heard->fetch_add(1, std::memory_order_relaxed);
-}
 
 template <class M>
 ros::Time stampOf(const M& m, const ros::Time&)
@@ -76,11 +65,7 @@ inline void deliver(const SensorInput& in, const MessageView& v, const ros::Time
                     const SensorSink& sink)
 {
   const std::size_t n = in.fields.size();
-  // The thread's own buffers (inputs are handled in the threads that deliver them): no allocation
-  // per message.
-  thread_local std::vector<double> y, R;
-  y.assign(n, 0.0);
-  R.assign(n * n, 0.0);
+  std::vector<double> y(n), R(n * n);
   std::string why;
   if (disabledBlock(in.type, v, in.fields, why))
   {
@@ -119,7 +104,6 @@ ros::Subscriber subscribeFields(ros::NodeHandle& nh, const SensorInput& in, uint
 {
   auto memory = std::make_shared<InputMemory>();
   return subscribeEvents<M>(nh, in.topic, queue, [in, sink, memory](const ros::MessageEvent<M const>& e) {
-    countHeard(sink);
     std::string why;
     M local = *e.getConstMessage();  // into the model's frames, then relative / without gravity
     if (!intoFrames(sink.frames, local, why) || !preprocess(in, *memory, local, why))
@@ -152,7 +136,6 @@ inline ros::Subscriber subscribeNavSatFix(ros::NodeHandle& nh, const SensorInput
   auto enu = std::make_shared<NavSatFixEnu>(datum);
   return subscribeEvents<sensor_msgs::NavSatFix>(
       nh, in.topic, queue, [in, sink, enu](const ros::MessageEvent<sensor_msgs::NavSatFix const>& e) {
-        countHeard(sink);
         const sensor_msgs::NavSatFix::ConstPtr m = e.getConstMessage();
         Eigen::Vector3d local;
         std::string why;

@@ -104,9 +104,6 @@ private:
   bool arrive(std::size_t sensor, double stamp, long step, const Clocks& now, OfferResult& r, double& position);
   /// A command's stamp checked by the timeline; false: refused (counted), `r` says why.
   bool admitCommand(double stamp, const Clocks& now, OfferResult& r);
-  /// ROS time as an input saw it: deadlines() compares the clock with the latest time seen by
-  /// anyone (a clock that went back is noticed even when only the inputs took the steps).
-  void saw(const Clocks& now);
   void restart(const std::string& why);
   void catchUp(const Clocks& now);
   void drainComplete();

@@ -28,14 +28,8 @@ OnlineStream::OnlineStream(const Model& model, const EstimatorSettings& settings
   refused_.assign(model.sensors.size(), 0);
 }
 
-void OnlineStream::saw(const Clocks& now)
-{
-  last_now_ = std::max(last_now_, now.ros);
-}
-
 bool OnlineStream::admit(std::size_t sensor, double stamp, long step, const Clocks& now, OfferResult& refusal)
 {
-  saw(now);
   const Timeline::Admission a = timeline_.admit(stamp, step, now.ros);
   std::string why = a.reason;
   if (a.verdict == Timeline::Verdict::ACCEPT)
@@ -147,7 +141,6 @@ OfferResult OnlineStream::disabled(std::size_t sensor, double stamp, long step, 
 
 bool OnlineStream::admitCommand(double stamp, const Clocks& now, OfferResult& r)
 {
-  saw(now);
   const Timeline::Admission a = timeline_.plausible(stamp, now.ros);
   if (a.verdict != Timeline::Verdict::REFUSE)
     return true;
