@@ -439,8 +439,12 @@ TEST(RealRobotGraph, ImuWithoutEstimate)
   // 20 Hz; the IMU's every 4th of the first 60 messages has no orientation estimate.
   const long N = 60;
   std::atomic<long> disabled{0};
+  const ros::Time t0 = ros::Time::now();
   PeriodicFeeder feeder(0.05, [&](long k) {
-    const ros::Time stamp = ros::Time::now();
+    // Stamped at its sample time on the 20 Hz grid, as a driver stamps its samples: a feeder
+    // thread that a busy machine delays publishes late (inside the 200 ms budget), not on the
+    // next step with a step left empty.
+    const ros::Time stamp = t0 + ros::Duration(0.05 * static_cast<double>(k - 1));
     sensor_msgs::Imu i;
     i.header.stamp = stamp;
     if (k % 4 == 0 && k <= N)
