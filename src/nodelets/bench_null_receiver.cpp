@@ -14,15 +14,6 @@
 namespace networked_estimation
 {
 
-/// Calls each callback at once in the delivering thread (for BenchNullReceiver's ~inline: its
-/// callback publishes nothing and takes no lock, so it may run in roscpp's receive thread).
-class InlineQueue : public ros::CallbackQueueInterface
-{
-public:
-  void addCallback(const ros::CallbackInterfacePtr& callback, uint64_t) override { callNow(callback); }
-  void removeByID(uint64_t) override {}
-};
-
 /// Receives ~topics and drops the messages (one hand-off each, to its own thread, as the Estimator;
 /// with ~inline, none: in roscpp's receive thread).
 class BenchNullReceiver : public nodelet::Nodelet

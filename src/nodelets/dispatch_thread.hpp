@@ -52,6 +52,17 @@ inline void callNow(const ros::CallbackInterfacePtr& callback)
     std::this_thread::yield();
 }
 
+/// A callback queue that calls every callback at once in the delivering thread, roscpp's receive
+/// thread included. Only for callbacks that publish nothing and take no lock that a publishing
+/// thread may hold (BenchNullReceiver's ~inline, SimClockWatch's ticks): roscpp's receive thread
+/// holds the subscription's lock while it delivers.
+class InlineQueue : public ros::CallbackQueueInterface
+{
+public:
+  void addCallback(const ros::CallbackInterfacePtr& callback, uint64_t) override { callNow(callback); }
+  void removeByID(uint64_t) override {}
+};
+
 /// A callback queue that calls a subscription's callback at once, in the thread that delivers the
 /// message: an in-process publisher's thread (no hand-off). Deliveries by roscpp's receive thread
 /// go to `queued` instead. That thread holds the subscription's lock while it delivers; were it to

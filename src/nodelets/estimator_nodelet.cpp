@@ -104,6 +104,7 @@ void EstimatorNodelet::onInit()
     tf_timer_ = nh.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { tfTimer(); });
   }
   startReconfigure(pnh);
+  clock_watch_.start(getNodeHandle(), [this] { dispatch_.wake(); });
   dispatch_.start([this] { return deadlineWork(); });
   std::string inputs;
   for (std::size_t i = 0; i < inputs_.size(); ++i)
@@ -311,7 +312,7 @@ void EstimatorNodelet::offer(std::size_t sensor, long k, double stamp, const ros
 Clocks EstimatorNodelet::clocks(const ros::Time& receipt) const
 {
   Clocks c;
-  c.ros = receipt.isZero() ? ros::Time::now().toSec() : receipt.toSec();
+  c.ros = receipt.isZero() ? clock_watch_.now() : receipt.toSec();
   c.wall = ros::WallTime::now().toSec();
   c.rate = ros::Time::isSimTime() ? clock_rate_ : 1.0;
   return c;
@@ -417,7 +418,7 @@ double EstimatorNodelet::deadlineWork()
     return 0.05;
   // Sim time: the clock's rate over the last half second (a bag at -r 4 runs 4 sim seconds per
   // second), for the waits below and the stream's catch-up work bound.
-  const double now = ros::Time::now().toSec(), wall = ros::WallTime::now().toSec();
+  const double now = clock_watch_.now(), wall = ros::WallTime::now().toSec();
   if (ros::Time::isSimTime())
   {
     if (wall_ref_ == 0.0 || now < sim_ref_)  // the first wait, or time went back
@@ -449,12 +450,11 @@ double EstimatorNodelet::deadlineWork()
     return 0.05;  // restarted: waiting for the stream
   // Wall time: wait until the deadline (a message that completes a step takes it at once, in its
   // callback, and the wait is then set again for the next step: no wake-up per step). Sim time:
-  // the deadline is sim time away; the wait in wall time is that over the clock's rate, at least
-  // 2 ms (ROS time moves in /clock ticks) and at most 50 ms (a paused or restarted clock).
-  double wait = std::min(due - now, 0.05);
-  if (ros::Time::isSimTime())
-    wait = std::max(0.002, std::min((due - now) / clock_rate_, 0.05));
-  return std::max(0.0, wait);
+  // ROS time moves only at /clock ticks, and the tick that reaches the deadline wakes this thread
+  // (sim_clock_watch.hpp); the wait is bounded at 50 ms all the same.
+  if (clock_watch_.active())
+    return clock_watch_.arm(due) ? 0.05 : 0.0;
+  return std::max(0.0, std::min(due - now, 0.05));
 }
 }  // namespace networked_estimation
 

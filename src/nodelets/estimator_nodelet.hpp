@@ -7,7 +7,8 @@
 // is in hand at the deadline stamp_k + budget. A step is taken as soon as everything it can use has
 // arrived (same result, lowest latency), otherwise at its deadline by the Estimator's own input
 // thread (dispatch_thread.hpp), whose wait for the next message ends at that deadline (in ROS
-// time). The nodelet only translates messages and parameters.
+// time; under sim time the /clock tick that reaches the deadline wakes it, sim_clock_watch.hpp).
+// The nodelet only translates messages and parameters.
 //
 // Inputs: per sensor of the model, the topic, standard type and fields of its ~sensors block
 // (sensor_subscriptions.hpp; default `measurement` for one sensor or `measurement/<sensor>` of
@@ -57,6 +58,7 @@
 #include "tf_output.hpp"
 #include "sensor_subscriptions.hpp"
 #include "dispatch_thread.hpp"
+#include "sim_clock_watch.hpp"
 #include <tf2_msgs/TFMessage.h>
 
 namespace networked_estimation
@@ -67,6 +69,7 @@ class EstimatorNodelet : public nodelet::Nodelet
 public:
   ~EstimatorNodelet() override
   {
+    clock_watch_.stop();  // no wake() from a tick after this
     dispatch_.stop();
     // Before the tf2 buffer the input callbacks use goes, and while their queue exists.
     for (ros::Subscriber& s : subs_)
@@ -207,6 +210,7 @@ private:
   uint32_t queue_size_ = 1000;
 
   DispatchThread dispatch_;  ///< serves the inputs and the deadlines (before the subscribers: outlives them)
+  SimClockWatch clock_watch_;  ///< sim time: wakes dispatch_ when a /clock tick reaches the next deadline
   std::vector<ros::Subscriber> subs_;
   ros::Subscriber cmd_sub_, schedule_sub_, tf_sub_, tf_static_sub_, set_pose_sub_;
   ros::ServiceServer set_pose_srv_;
