@@ -755,11 +755,14 @@ TEST(EstimatorGraph, TwistCommandsAreHeld)
     return meas.getNumSubscribers() > 0 && cmd.getNumSubscribers() > 0 && est.sub.getNumPublishers() > 0;
   }, 20.0));
   DiagnosticsProbe diag(nh, "base/estimator: estimator");
-  const int N = 60;
+  const int N = 30;
   auto speed = [](long k) { return 0.5 + 0.4 * std::sin(0.3 * static_cast<double>(k)); };
   auto value = [](long k) { return 0.02 * static_cast<double>(k) + 0.01 * std::cos(1.7 * static_cast<double>(k)); };
-  const ros::Time t0 = ros::Time::now();
-  PeriodicFeeder feeder(0.05, [&](long k) {
+  // A Twist has no stamp: a command goes to the step nearest its arrival (+-100 ms at this model's
+  // 0.2 s step). The feeder runs 90 ms ahead of the steps' stamps: a command sent with its step's
+  // measurement arrives for that step even when a busy machine delays it by up to 190 ms.
+  const ros::Time t0 = ros::Time::now() + ros::Duration(0.09);
+  PeriodicFeeder feeder(0.2, [&](long k) {
     if ((k - 1) % 5 == 0)
     {
       geometry_msgs::Twist t;
@@ -767,7 +770,7 @@ TEST(EstimatorGraph, TwistCommandsAreHeld)
       cmd.publish(t);
     }
     Measurement m;
-    m.header.stamp = t0 + ros::Duration(0.05 * static_cast<double>(k - 1));
+    m.header.stamp = t0 + ros::Duration(0.2 * static_cast<double>(k - 1));
     m.step = static_cast<std::uint64_t>(k);
     m.y = {value(k)};
     meas.publish(m);
