@@ -1,9 +1,11 @@
 // BenchNullReceiver: what receiving a stream costs in roscpp (bench_util.hpp has the set).
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
+#include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <topic_tools/shape_shifter.h>
 
+#include <algorithm>
 #include <atomic>
 #include <limits>
 #include <vector>
@@ -15,7 +17,10 @@ namespace networked_estimation
 {
 
 /// Receives ~topics and drops the messages (one hand-off each, to its own thread, as the Estimator;
-/// with ~inline, none: in roscpp's receive thread).
+/// with ~inline, none: in roscpp's receive thread). With ~relay (one of ~topics, nav_msgs/Odometry),
+/// that topic's messages are published again on `odometry/filtered` from the same thread: an
+/// estimator's traffic (one output per step) with no estimation, the floor of a node that
+/// receives a robot's inputs and publishes its outputs through roscpp.
 class BenchNullReceiver : public nodelet::Nodelet
 {
 public:
@@ -35,19 +40,41 @@ private:
       refuseLoad(getName(), "BenchNullReceiver not started: ~topics: expected a list of topics, found none");
     bool in_receive_thread = false;
     getPrivateNodeHandle().param("inline", in_receive_thread, false);
+    std::string relay;
+    getPrivateNodeHandle().param("relay", relay, std::string());
+    if (!relay.empty() && std::find(topics.begin(), topics.end(), relay) == topics.end())
+      refuseLoad(getName(), "BenchNullReceiver not started: ~relay: expected one of ~topics, found '" + relay + "'");
+    if (!relay.empty() && in_receive_thread)
+      refuseLoad(getName(), "BenchNullReceiver not started: ~relay and ~inline: roscpp's receive thread must not "
+                            "publish (dispatch_thread.hpp)");
     dispatch_.start([] { return std::numeric_limits<double>::infinity(); });
     ros::NodeHandle nh(getNodeHandle());
     nh.setCallbackQueue(in_receive_thread ? static_cast<ros::CallbackQueueInterface*>(&inline_) : dispatch_.queue());
+    if (!relay.empty())
+      relay_pub_ = getNodeHandle().advertise<nav_msgs::Odometry>("odometry/filtered", 100);
     for (const std::string& t : topics)
-      subs_.push_back(nh.subscribe<topic_tools::ShapeShifter>(
-          t, 1000, [this](const topic_tools::ShapeShifter::ConstPtr&) { ++received_; }, ros::VoidConstPtr(),
-          ros::TransportHints().tcpNoDelay()));
-    NODELET_INFO("BenchNullReceiver on %zu topics%s", topics.size(), in_receive_thread ? " (inline)" : "");
+    {
+      if (t == relay)
+        subs_.push_back(nh.subscribe<nav_msgs::Odometry>(
+            t, 1000,
+            [this](const nav_msgs::Odometry::ConstPtr& m) {
+              ++received_;
+              relay_pub_.publish(m);
+            },
+            ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
+      else
+        subs_.push_back(nh.subscribe<topic_tools::ShapeShifter>(
+            t, 1000, [this](const topic_tools::ShapeShifter::ConstPtr&) { ++received_; }, ros::VoidConstPtr(),
+            ros::TransportHints().tcpNoDelay()));
+    }
+    NODELET_INFO("BenchNullReceiver on %zu topics%s%s", topics.size(), in_receive_thread ? " (inline)" : "",
+                 relay.empty() ? "" : ("; " + relay + " relayed to " + nh.resolveName("odometry/filtered")).c_str());
   }
 
   InlineQueue inline_;
   DispatchThread dispatch_;
   std::vector<ros::Subscriber> subs_;
+  ros::Publisher relay_pub_;
   std::atomic<std::uint64_t> received_{0};
 };
 
