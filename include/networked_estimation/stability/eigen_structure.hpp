@@ -7,6 +7,7 @@
 #include <complex>
 #include <vector>
 
+#include "networked_estimation/common/eigenvalues.hpp"
 #include "networked_estimation/stability/verdict.hpp"
 
 namespace networked_estimation
@@ -14,10 +15,7 @@ namespace networked_estimation
 
 // Eigen-structure helpers
 
-/// Eigenvalues of A (complex, in the order of Eigen::EigenSolver).
-Eigen::VectorXcd eigenvalues(const Eigen::MatrixXd& A);
-/// rho(A) = max |lambda_i|.
-double spectralRadius(const Eigen::MatrixXd& A);
+// eigenvalues(A) and spectralRadius(A): networked_estimation/common/eigenvalues.hpp
 /// M(A) = prod_i max(1, |lambda_i|) (docs/stability.md 1.3).
 double mahlerMeasure(const Eigen::MatrixXd& A);
 /// h(A) = ln M(A).

@@ -1,4 +1,5 @@
 #include "networked_estimation/simulation/simulator.hpp"
+#include "networked_estimation/common/eigenvalues.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -52,8 +53,7 @@ double smallestNonZeroEigenvalue(const Eigen::MatrixXd& M)
 {
   if (M.size() == 0)
     return 0.0;
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(M, Eigen::EigenvaluesOnly);
-  const Eigen::VectorXd& ev = es.eigenvalues();  // ascending
+  const Eigen::VectorXd ev = symmetricEigenvalues(M);  // ascending
   const double tol = static_cast<double>(M.rows()) * std::numeric_limits<double>::epsilon() * ev(ev.size() - 1);
   for (Eigen::Index i = 0; i < ev.size(); ++i)
     if (ev(i) > tol)
@@ -189,8 +189,7 @@ PlantSimulator::PlantSimulator(const Model& model, std::uint64_t seed, ControlSe
     if (model.uncertainty[j].dC.size() > 0)
       c += std::abs(model.uncertainty[j].range) * infNorm(model.uncertainty[j].dC);
   const double sd_v = c > 0.0 && m > 0
-                          ? std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(
-                                                        model.R, Eigen::EigenvaluesOnly).eigenvalues()(0))) / c
+                          ? std::sqrt(std::max(0.0, symmetricEigenvalues(model.R)(0))) / c
                           : std::numeric_limits<double>::infinity();
   const double lw = nw > 0 ? smallestNonZeroEigenvalue(model.B * q_step * model.B.transpose()) : 0.0;
   const double sd_w = lw > 0.0 ? std::sqrt(lw) : std::numeric_limits<double>::infinity();

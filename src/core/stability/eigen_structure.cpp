@@ -86,18 +86,6 @@ std::string describe(const Verdict& verdict)
   return toString(verdict.kind) + ": " + verdict.reason;
 }
 
-Eigen::VectorXcd eigenvalues(const Eigen::MatrixXd& A)
-{
-  if (A.rows() == 0)
-    return Eigen::VectorXcd();
-  return Eigen::EigenSolver<Eigen::MatrixXd>(A, false).eigenvalues();
-}
-
-double spectralRadius(const Eigen::MatrixXd& A)
-{
-  return A.rows() == 0 ? 0.0 : eigenvalues(A).cwiseAbs().maxCoeff();
-}
-
 double mahlerMeasure(const Eigen::MatrixXd& A)
 {
   return std::exp(topologicalEntropy(A));
@@ -196,9 +184,9 @@ Verdict strongObservability(const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, 
     v.reason = "A is not diagonalizable (strong observability is defined for diagonalizable A)";
     return v;
   }
-  Eigen::EigenSolver<Eigen::MatrixXd> es(A);
-  const Eigen::VectorXcd ev = es.eigenvalues();
-  const Eigen::MatrixXcd Ct = C.cast<std::complex<double>>() * es.eigenvectors();
+  const EigenDecomposition es = eigenDecomposition(A);
+  const Eigen::VectorXcd& ev = es.values;
+  const Eigen::MatrixXcd Ct = C.cast<std::complex<double>>() * es.vectors;
   const int n = static_cast<int>(A.rows());
   std::vector<bool> done(n, false);
   for (int i = 0; i < n; ++i)

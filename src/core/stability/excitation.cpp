@@ -1,7 +1,6 @@
 // Gan and Liu's excitation condition (excitation.hpp).
 #include "networked_estimation/stability/excitation.hpp"
-
-#include <Eigen/Eigenvalues>
+#include "networked_estimation/common/eigenvalues.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -15,8 +14,7 @@ namespace
 
 double minEigenvalue(const Eigen::MatrixXd& S)
 {
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (S + S.transpose()), Eigen::EigenvaluesOnly);
-  return es.eigenvalues()(0);
+  return symmetricEigenvalues(0.5 * (S + S.transpose()))(0);
 }
 
 double spectralNorm(const Eigen::MatrixXd& A)
@@ -174,7 +172,7 @@ ExcitationReport ganLiuMarkov(const Eigen::MatrixXd& A, const Eigen::MatrixXd& c
   ExcitationReport rep;
   rep.h = h;
   rep.lambda_block = f.minCoeff();
-  rep.lambda = M.eigenvalues().cwiseAbs().maxCoeff();
+  rep.lambda = spectralRadius(M);
   conclude(rep, A, R, p_max, spectralNorm(A));
   return rep;
 }
@@ -285,8 +283,8 @@ void Theorem1Monitor::add(bool gamma, const Eigen::MatrixXd& P_next)
   // Block m complete: T_{m+1} = T_block_. The inequality holds for m >= 1.
   if (block_ >= 1)
   {
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (S_ + S_.transpose()), Eigen::EigenvaluesOnly);
-    const double a = (S_ * S_ * G_).trace() / (h_ * (1.0 + R_) * S_.trace() * (1.0 + es.eigenvalues().maxCoeff()));
+    const double top = symmetricEigenvalues(0.5 * (S_ + S_.transpose())).maxCoeff();
+    const double a = (S_ * S_ * G_).trace() / (h_ * (1.0 + R_) * S_.trace() * (1.0 + top));
     const double gap = T_block_ - ((1.0 - a) * growth_ * T_prev_ + b_A_);
     ++check_.blocks;
     if (gap > check_.worst)

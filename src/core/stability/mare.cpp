@@ -89,7 +89,7 @@ double Mare::certificateRadius(const Eigen::MatrixXd& X) const
     for (int i = 0; i < n; ++i)
       for (int j = 0; j < n; ++j)
         T.block(i * n, j * n, n, n) += M(i, j) * M;
-  return Eigen::EigenSolver<Eigen::MatrixXd>(T, false).eigenvalues().cwiseAbs().maxCoeff();
+  return spectralRadius(T);
 }
 
 namespace

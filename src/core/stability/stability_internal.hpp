@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "networked_estimation/common/eigenvalues.hpp"
 #include "networked_estimation/stability/exact_test.hpp"
 
 namespace networked_estimation
@@ -41,7 +42,7 @@ inline bool isPd(const Eigen::MatrixXd& S)
 /// lambda_min / lambda_max of a symmetric PSD matrix (0 for the zero matrix).
 inline double conditionRatio(const Eigen::MatrixXd& S)
 {
-  const Eigen::VectorXd ev = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(sym(S)).eigenvalues();
+  const Eigen::VectorXd ev = symmetricEigenDecomposition(sym(S)).values;
   const double mx = ev.maxCoeff();
   return mx > 0.0 ? ev.minCoeff() / mx : 0.0;
 }
@@ -52,7 +53,7 @@ inline double spectralRadiusSmall(const Eigen::MatrixXd& M)
 {
   if (M.rows() == 1)
     return std::abs(M(0, 0));
-  return Eigen::EigenSolver<Eigen::MatrixXd>(M, false).eigenvalues().cwiseAbs().maxCoeff();
+  return spectralRadius(M);
 }
 
 /// The growth of one link's operator over a window (product of D_s P), to the power `exponent`, and
