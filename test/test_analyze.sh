@@ -230,7 +230,11 @@ gnss, odom = d["links"][0]["margin"], d["links"][1]["margin"]
 ok = d["all_sensors"]["verdict"]["kind"] == "stable" and d["all_sensors"]["exact_rate"] == 0
 ok = ok and gnss["any_positive"] and gnss["converges_at"] == 0 and gnss["diverges_at"] == 0
 ok = ok and not odom["any_positive"] and odom["converges_at"] == 0 and d["dead_reckoned"] == ""
-ok = ok and d["sensors"][1]["dead_reckoned"].startswith("1 mode(s) with |lambda| >= 1 (1) of states 0 ")
+ok = ok and d["sensors"][1]["dead_reckoned"].startswith("1 mode(s) with |lambda| >= 1 (1) of state 0 ")
+# the velocity sensor alone: the position grows regardless of its link (unstable at every rate)
+ok = ok and d["sensors"][1]["verdict"]["kind"] == "unstable" and d["sensors"][1]["unbounded_at_every_rate"]
+ok = ok and d["sensors"][1]["links_verdict"]["kind"] == "stable" and d["sensors"][1]["dead_states"] == "state 0"
+ok = ok and d["sensors"][1]["observed"]["verdict"]["kind"] == "stable" and d["all_sensors"]["observed"] is None
 if not ok:
     print("FAIL: constant velocity margins", d["links"], d["sensors"][1]["dead_reckoned"])
     sys.exit(1)
@@ -240,8 +244,26 @@ grep -q "gnss: arrival rate 0.8, needs > 0 (any positive rate; unbounded at 0)" 
 grep -q "odom: arrival rate 1, needs 0 (bounded even without it)" "$TMP/out" || { echo "FAIL: needs 0"; cat "$TMP/out"; fail=1; }
 sed 's/  - {name: gnss, C: \[\[1, 0\]\], R: \[\[1\]\]}//' "$TMP/cv.yaml" >"$TMP/cv_vel.yaml"
 check "velocity only: dead-reckoned position" 0 "$BIN" --model "$TMP/cv_vel.yaml" --channel "$SRC/config/channels/bernoulli_0.2.yaml"
-grep -q "^dead-reckoned: 1 mode(s) with |lambda| >= 1 (1) of states 0 " "$TMP/out" || { echo "FAIL: dead-reckoned line"; cat "$TMP/out"; fail=1; }
-grep -q "verdict                         stable" "$TMP/out" || { echo "FAIL: velocity-only verdict"; cat "$TMP/out"; fail=1; }
+# The position's variance grows linearly whatever the link does: E[P] is unbounded, so the verdict is
+# unstable, the odometry's needed rate is none, and the links' verdict (the velocity) is stable.
+grep -q "^dead-reckoned: 1 mode(s) with |lambda| >= 1 (1) of state 0 " "$TMP/out" || { echo "FAIL: dead-reckoned line"; cat "$TMP/out"; fail=1; }
+grep -q "^  verdict                         unstable: state 0 grows regardless of the links" "$TMP/out" || { echo "FAIL: velocity-only verdict"; cat "$TMP/out"; fail=1; }
+grep -q "^  links' verdict                  stable" "$TMP/out" || { echo "FAIL: velocity-only links' verdict"; cat "$TMP/out"; fail=1; }
+grep -q "^  odom: arrival rate 0.8, needs: none (state 0 grows regardless of the links); the observed modes alone need 0" "$TMP/out" || { echo "FAIL: velocity-only needed rate"; cat "$TMP/out"; fail=1; }
+check "velocity only: no link design" 0 "$BIN" --model "$TMP/cv_vel.yaml" --design total_rate
+grep -q "not applicable: state 0 grows regardless of the links" "$TMP/out" || { echo "FAIL: velocity-only design"; cat "$TMP/out"; fail=1; }
+grep -q "least-cost rates" "$TMP/out" && { echo "FAIL: velocity-only design prints rates"; cat "$TMP/out"; fail=1; }
+check "velocity only: --verdict-only" 0 "$BIN" --model "$TMP/cv_vel.yaml" --channel "$SRC/config/channels/bernoulli_0.2.yaml" --verdict-only --json
+python3 - "$TMP/out" <<'PY' || fail=1
+import json, sys
+d = json.load(open(sys.argv[1]))
+m = d["links"][0]["margin"]
+ok = d["verdict"]["kind"] == "unstable" and d["links_verdict"]["kind"] == "stable" and d["dead_states"] == "state 0"
+ok = ok and m["converges_at"] is None and m["converges_at_observed"] == 0 and m["grows_regardless"] == "state 0"
+if not ok:
+    print("FAIL: --verdict-only velocity only", d)
+    sys.exit(1)
+PY
 
 if [ $fail = 0 ]; then echo "test_analyze: all passed"; fi
 exit $fail

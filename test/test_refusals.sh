@@ -236,7 +236,7 @@ check "analyze: a per-sensor needed rate of +infinity is written in words, never
   bash -c "[ $rc = 0 ] && grep -qF 's2: arrival rate 0.8, no stable rate: others fixed; unstable even at rate 1' '$WORK/out.txt' &&
     ! grep -qwE 'inf|nan' '$WORK/out.txt'"
 run_rc rc "$BIN/analyze" --model "$F/sched.yaml" --channel "s1=$F/b07.yaml" --channel "s2=$F/b.yaml" --json
-check "analyze --json: that rate is null, no stable interval; each sensor alone reports its dead-reckoned modes" \
+check "analyze --json: that rate is null, no stable interval; each sensor alone leaves modes dead-reckoned: unbounded at every rate" \
   /usr/bin/python3 -c '
 import json, sys
 d = json.load(open(sys.argv[1]))
@@ -244,7 +244,8 @@ m = {l["sensor"]: l["margin"] for l in d["links"]}
 s = d["sensors"]
 sys.exit(0 if m["s2"]["converges_at"] is None and m["s2"]["margin"] is None and m["s2"]["stable_intervals"] == []
          and m["s1"]["converges_at"] is not None and m["s1"]["margin"] < 0
-         and all(x["dead_reckoned"] and not x["unbounded_at_every_rate"] for x in s)
+         and all(x["dead_reckoned"] and x["unbounded_at_every_rate"] and x["verdict"]["kind"] == "unstable"
+                 and x["observed"]["verdict"]["kind"] == x["links_verdict"]["kind"] for x in s)
          and not d["all_sensors"]["dead_reckoned"] else 1)' "$WORK/out.txt"
 run_rc rc "$BIN/analyze" --model "$ROOT/config/models/unstable_two_links.yaml" --design total_rate --json
 check "analyze --design --json prints JSON: the design's rates per sensor" /usr/bin/python3 -c '

@@ -376,16 +376,24 @@ TEST(Stability, VerdictReasons)
   // NOT_APPLICABLE without a channel.
   EXPECT_EQ(analyzeStability(simpleModel(A, C), nullptr).model.verdict.kind, Verdict::Kind::NOT_APPLICABLE);
   // A mode that no sensor observes even without losses (c = [0 1] misses the 1.3): it grows
-  // whatever the links do and is reported apart (dead-reckoned); the verdict concerns the observed
-  // mode 0.5, which is stable at every rate (docs/stability.md 2.2).
+  // whatever the links do, so E[P] is unbounded at every rate: the verdict is unstable and names
+  // the state; the links' verdict concerns the observed mode 0.5, stable at every rate, and the
+  // thresholds of the observed modes are kept apart (docs/stability.md 2.2).
   const StabilityReport ur = analyzeStability(simpleModel(A, mat(1, 2, {0, 1})), &good);
   EXPECT_FALSE(ur.detectable);
   EXPECT_NE(ur.dead_reckoned.find("(1.3)"), std::string::npos) << ur.dead_reckoned;
-  EXPECT_NE(ur.dead_reckoned.find("states 0 "), std::string::npos) << ur.dead_reckoned;
+  EXPECT_NE(ur.dead_reckoned.find("of state 0 "), std::string::npos) << ur.dead_reckoned;
+  EXPECT_EQ(ur.dead_states, "state 0");
   EXPECT_EQ(ur.model.dead_reckoned, ur.dead_reckoned);
-  EXPECT_EQ(ur.model.verdict.kind, Verdict::Kind::STABLE) << ur.model.verdict.reason;
-  EXPECT_NE(ur.model.verdict.reason.find("observed modes"), std::string::npos);
-  EXPECT_NE(ur.model.verdict.reason.find("dead-reckoned"), std::string::npos);
+  EXPECT_EQ(ur.model.verdict.kind, Verdict::Kind::UNSTABLE) << ur.model.verdict.reason;
+  EXPECT_EQ(ur.model.verdict.reason.rfind("state 0 grows regardless of the links", 0), 0u) << ur.model.verdict.reason;
+  EXPECT_EQ(ur.model.links_verdict.kind, Verdict::Kind::STABLE) << ur.model.links_verdict.reason;
+  EXPECT_NE(ur.model.links_verdict.reason.find("observed modes"), std::string::npos);
+  EXPECT_TRUE(std::isinf(ur.model.exact_rate) && std::isinf(ur.model.sufficient_threshold));
+  EXPECT_TRUE(std::isnan(ur.model.margin));
+  ASSERT_EQ(ur.model.observed.size(), 1u);
+  EXPECT_EQ(ur.model.observed[0].verdict.kind, Verdict::Kind::STABLE);
+  EXPECT_EQ(ur.model.observed[0].exact_rate, 0.0);  // A is stable on the observed modes
   EXPECT_TRUE(analyzeStability(simpleModel(A, C), &good).dead_reckoned.empty());
   EXPECT_EQ(toString(Verdict::Kind::NOT_APPLICABLE), "not applicable");
 }
@@ -972,12 +980,12 @@ TEST(StabilityDesign, ClosedForms)
   const double near = designLinks(t3, DesignCost::TOTAL_RATE, 0.9999).rates[0];
   EXPECT_GT(near, 15.0 / 16.0);
   EXPECT_LT(near, 15.0 / 16.0 + 1e-4);
-  // An unstable mode no sensor observes (3 here) is dead-reckoned: named in the note, and the
-  // design concerns the observed mode 2 (rate 1 - g/4).
+  // An unstable mode no sensor observes (3 here) grows whatever the links do: no design keeps
+  // E[P] bounded, so none is given and the note names the state.
   const LinkDesign dr = designLinks(simpleModel(mat(2, 2, {2, 0, 0, 3}), mat(1, 2, {1, 0})), DesignCost::TOTAL_RATE, g);
-  EXPECT_TRUE(dr.applicable);
-  EXPECT_NEAR(dr.rates[0], 1 - g / 4, 1e-9);
-  EXPECT_NE(dr.note.find("dead-reckoned: 1 mode(s) with |lambda| >= 1 (3)"), std::string::npos) << dr.note;
+  EXPECT_FALSE(dr.applicable);
+  EXPECT_TRUE(dr.rates.empty());
+  EXPECT_EQ(dr.note.rfind("not applicable: state 1 grows regardless of the links", 0), 0u) << dr.note;
   // Not applicable: a schedule, a bad cap.
   EXPECT_FALSE(designLinks(t5, DesignCost::TOTAL_RATE, 1.0).applicable);
   Model sched = t5;
@@ -1140,13 +1148,22 @@ TEST(StabilityJordan, ConstantVelocityVerdictsAndMargins)
   EXPECT_EQ(rep.model.exact_rate, 0.0);
   EXPECT_EQ(rep.model.verdict.kind, Verdict::Kind::STABLE);
   EXPECT_TRUE(rep.links[0].margin.any_positive);
-  // Velocity only: the position is dead-reckoned (grows regardless of the links).
+  // Velocity only: the position is dead-reckoned (its variance grows linearly whatever the links
+  // do): unstable, and the sensor's needed rate is none; the velocity alone needs any positive rate.
   const Model vel = multiModel(mat(2, 2, {1, 0.1, 0, 1}), {mat(1, 2, {0, 1})});
   const StabilityReport rv = analyzeStability(vel, iidLinks({0.5}));
   EXPECT_FALSE(rv.dead_reckoned.empty());
-  EXPECT_NE(rv.dead_reckoned.find("states 0 "), std::string::npos) << rv.dead_reckoned;
-  EXPECT_EQ(rv.model.verdict.kind, Verdict::Kind::STABLE) << rv.model.verdict.reason;
+  EXPECT_NE(rv.dead_reckoned.find("(1) of state 0 "), std::string::npos) << rv.dead_reckoned;
+  EXPECT_EQ(rv.model.verdict.kind, Verdict::Kind::UNSTABLE) << rv.model.verdict.reason;
+  EXPECT_EQ(rv.model.links_verdict.kind, Verdict::Kind::STABLE) << rv.model.links_verdict.reason;
   EXPECT_EQ(SetVerdicts(vel, {0}).deadReckoned(), rv.dead_reckoned);
+  ASSERT_EQ(rv.links.size(), 1u);
+  const SensorMargin& vm = rv.links[0].margin;
+  EXPECT_TRUE(std::isnan(vm.band.converges_at)) << vm.note;
+  EXPECT_TRUE(std::isnan(vm.margin));
+  EXPECT_EQ(vm.grows_regardless, "state 0");
+  EXPECT_EQ(vm.converges_at_observed, 0.0) << vm.note;
+  EXPECT_EQ(vm.note.rfind("none: state 0 grows regardless of the links", 0), 0u) << vm.note;
 }
 
 // SetVerdicts computes the model's part once: the same verdicts and margins as the free functions.

@@ -35,6 +35,7 @@ from ._core import (  # noqa: F401
     montecarlo,
     score,
     simulate,
+    verdict,
 )
 
 
@@ -55,9 +56,10 @@ Bernoulli, GilbertElliott, Sensor = _by_name(Bernoulli), _by_name(GilbertElliott
 analyze, design, experiment_names = _by_name(analyze), _by_name(design), _by_name(experiment_names)
 load_replay_input, make_estimator = _by_name(load_replay_input), _by_name(make_estimator)
 merge, montecarlo, score, simulate = _by_name(merge), _by_name(montecarlo), _by_name(score), _by_name(simulate)
+verdict = _by_name(verdict)
 
 __all__ = [
     "DivergenceError", "Estimator", "Link", "Bernoulli", "GilbertElliott", "Model", "MonteCarloResult",
     "Sensor", "Shard", "analyze", "design", "experiment_names", "load_replay_input", "make_estimator",
-    "merge", "montecarlo", "score", "simulate",
+    "merge", "montecarlo", "score", "simulate", "verdict",
 ]

@@ -47,39 +47,47 @@ std::string intervals(const std::vector<RateInterval>& v)
   return out.empty() ? "none" : out;
 }
 
-void printSet(std::ostream& os, const RateAnalysis& r)
+void printSet(std::ostream& os, const RateAnalysis& r, const std::string& in = "  ")
 {
-  os << "[" << r.name << "]\n";
-  os << "  lower bound (necessary)         " << rate(r.lower_bound) << "\n";
-  os << "  MARE upper bound                diverges at " << rate(r.mare.diverges_at) << ", converges at "
+  if (in == "  ")
+    os << "[" << r.name << "]\n";
+  os << in << "lower bound (necessary)         " << rate(r.lower_bound) << "\n";
+  os << in << "MARE upper bound                diverges at " << rate(r.mare.diverges_at) << ", converges at "
      << rate(r.mare.converges_at) << (r.mare.undecided_band ? " (undecided band between)" : "") << "\n";
-  os << "  closed-form upper bound         " << rate(r.closed_form_upper) << "\n";
-  os << "  exact critical arrival rate     " << rate(r.exact_rate) << "  (" << r.exact_method << ")\n";
-  os << "  Markov: critical recovery rate  ";
+  os << in << "closed-form upper bound         " << rate(r.closed_form_upper) << "\n";
+  os << in << "exact critical arrival rate     " << rate(r.exact_rate) << "  (" << r.exact_method << ")\n";
+  os << in << "Markov: critical recovery rate  ";
   if (!r.recovery_stable.empty())
     os << "none (not a half-line): stable for r in " << intervals(r.recovery_stable);
   else
     os << rate(r.recovery_exact);
   os << " (necessary " << rate(r.recovery_lower_bound) << "; " << r.recovery_note << ")\n";
-  os << "  Lin et al.'s Theorem 5          " << describe(r.aoe_theorem5) << "\n";
-  os << "  verdict                         " << describe(r.verdict) << "\n";
+  os << in << "Lin et al.'s Theorem 5          " << describe(r.aoe_theorem5) << "\n";
+  os << in << "verdict                         " << describe(r.verdict) << "\n";
+  if (!r.observed.empty())
+    os << in << "links' verdict                  " << describe(r.links_verdict) << "\n";
   if (r.margin_quantity.rfind("per-sensor", 0) == 0)
-    os << "  margin                          per sensor, the other links fixed: see [per-sensor links]\n";
+    os << in << "margin                          per sensor, the other links fixed: see [per-sensor links]\n";
   else if (!r.stable_intervals.empty())
-    os << "  margin                          " << r.margin_quantity << " " << txt(r.channel_value) << ", stable for "
-       << intervals(r.stable_intervals) << ": distance to the nearest edge " << txt(r.margin)
+    os << in << "margin                          " << r.margin_quantity << " " << txt(r.channel_value)
+       << ", stable for " << intervals(r.stable_intervals) << ": distance to the nearest edge " << txt(r.margin)
        << (r.margin > 0 ? " (inside)" : " (outside)") << "\n";
   else if (unboundedAtEveryRate(r.sufficient_threshold))
-    os << "  margin                          none: no " << r.margin_quantity << " keeps E[P] bounded\n";
+    os << in << "margin                          none: no " << r.margin_quantity << " keeps E[P] bounded\n";
   else
-    os << "  margin                          " << r.margin_quantity << " " << txt(r.channel_value) << " - critical "
-       << txt(r.sufficient_threshold) << " = " << txt(r.margin) << "\n";
+    os << in << "margin                          " << r.margin_quantity << " " << txt(r.channel_value)
+       << " - critical " << txt(r.sufficient_threshold) << " = " << txt(r.margin) << "\n";
+  if (!r.observed.empty())
+  {
+    os << in << "observed modes only (what the links can change; " << growRegardless(r.dead_states) << "):\n";
+    printSet(os, r.observed.front(), in + "  ");
+  }
 }
 
-void printLinks(std::ostream& os, const StabilityReport& rep)
+void printLinks(std::ostream& os, const std::vector<SensorLinkReport>& links)
 {
   os << "[per-sensor links: the rate each sensor needs, the other sensors' links fixed]\n";
-  for (const SensorLinkReport& l : rep.links)
+  for (const SensorLinkReport& l : links)
   {
     const SensorMargin& m = l.margin;
     os << "  " << l.sensor << ": ";
@@ -88,6 +96,10 @@ void printLinks(std::ostream& os, const StabilityReport& rep)
     else if (!m.half_line)
       os << m.quantity << " " << txt(m.value) << ", stable for " << intervals(m.stable) << ", distance to the nearest edge "
          << txt(m.margin) << "\n    (" << m.note << ")\n";
+    else if (!m.grows_regardless.empty())
+      os << m.quantity << " " << txt(m.value) << ", needs: none (" << growRegardless(m.grows_regardless)
+         << "); the observed modes alone need " << rate(m.converges_at_observed)
+         << "\n    (" << m.note << ")\n";
     else if (std::isnan(m.band.converges_at))
       os << m.quantity << " " << txt(m.value) << ", no stable rate: " << m.note << "\n";
     else if (m.any_positive)
@@ -191,6 +203,10 @@ int main(int argc, char** argv)
                            false, false},
                           {"growth-cap", "G", "--design: the margin, |alpha_k|^2 Phi_k <= G (default 0.9, in (0, 1))",
                            false, false},
+                          {"verdict-only", "",
+                           "only the verdict of all sensors, the links' verdict and the rate each sensor needs (the "
+                           "same numbers as the full analysis, in a fraction of its time)",
+                           false, false},
                           {"at", "V1,...,Vn",
                            "a model with a built-in motion: the state to linearise it at (default its x0); the "
                            "verdicts are local",
@@ -212,7 +228,7 @@ int main(int argc, char** argv)
     const Model model = analysedModel(loaded, cl.has("at") ? &at : nullptr, "--at", local_note);
     if (cl.has("design"))
     {
-      for (const char* o : {"channel", "estimator", "trace", "block"})
+      for (const char* o : {"channel", "estimator", "trace", "block", "verdict-only"})
         if (cl.has(o))
           throw cli::UsageError(std::string("option '--") + o +
                                 "' is not for --design (the design chooses i.i.d. links for every sensor: analyze "
@@ -222,6 +238,26 @@ int main(int argc, char** argv)
     if (cl.has("growth-cap"))
       throw cli::UsageError("--growth-cap is only for --design");
     const SensorLinks links = resolveSensorLinks(model, cl.getAll("channel"));
+    if (cl.has("verdict-only"))
+    {
+      for (const char* o : {"estimator", "trace", "block"})
+        if (cl.has(o))
+          throw cli::UsageError(std::string("option '--") + o + "' is not for --verdict-only (run the full analysis)");
+      const VerdictReport v = verdictOnly(model, links.link);
+      if (cl.has("json"))
+      {
+        std::cout << verdictJson(model.name, v, links.origin);
+        return 0;
+      }
+      std::cout << "model " << model.name << local_note << "\n";
+      if (!v.dead_reckoned.empty())
+        std::cout << "dead-reckoned: " << v.dead_reckoned << "\n";
+      std::cout << "verdict: " << describe(v.verdict) << "\n";
+      std::cout << "links' verdict: " << describe(v.links_verdict) << "\n";
+      if (v.has_channel)
+        printLinks(std::cout, v.links);
+      return 0;
+    }
     EstimatorSettings est;
     const bool has_est = cl.has("estimator");
     if (has_est)
@@ -264,7 +300,8 @@ int main(int argc, char** argv)
     std::cout << "strong observability: " << describe(rep.strong_observability) << "\n";
     if (!rep.dead_reckoned.empty())
       std::cout << "dead-reckoned: " << rep.dead_reckoned
-                << " (the verdicts, thresholds and capacities below concern the observed modes)\n";
+                << " (no rate keeps E[P] bounded: the verdict is unstable; the links' verdict and the 'observed "
+                   "modes only' lines concern what the links can change)\n";
     if (model.schedule.active())
     {
       std::vector<std::string> names;
@@ -295,7 +332,7 @@ int main(int argc, char** argv)
       std::cout << "rseio: " << describe(rep.rseio) << "\n";
     printSet(std::cout, rep.model);
     if (rep.has_channel)
-      printLinks(std::cout, rep);
+      printLinks(std::cout, rep.links);
     if (model.sensors.size() > 1)
       for (const RateAnalysis& r : rep.sensors)
         printSet(std::cout, r);

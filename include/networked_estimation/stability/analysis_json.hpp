@@ -46,6 +46,11 @@ std::vector<TraceEvidence> traceEvidence(const Model& model, const std::vector<s
 std::string analysisJson(const StabilityReport& report, const std::vector<std::string>& origins,
                          const std::vector<TraceEvidence>& traces);
 
+/// analyze --verdict-only --json: the verdict of all sensors, the links' verdict, the dead-reckoned
+/// states and per sensor its link and the rate it needs (each sensor's link origin in `origins`).
+std::string verdictJson(const std::string& model_name, const VerdictReport& report,
+                        const std::vector<std::string>& origins);
+
 /// analyze --design --json: the model, the cost ("total_rate" or "capacity") and cap, and per
 /// sensor its least-cost rate and its least rate alone.
 std::string designJson(const Model& model, const LinkDesign& design, const std::string& cost);

@@ -3,7 +3,9 @@
 // intervals (i.i.d.: the arrival rate; Markov: the failure rate p and the recovery rate r, nothing
 // assumed), and the joint verdict from the estimated links through the same core test as analyze
 // (SetVerdicts, built once with the monitor: the model's part of the test is not redone). The
-// interval ends give a pessimistic and an optimistic set of links:
+// verdicts are the links' (the modes the sensors observe: dead-reckoned modes grow whatever the
+// links do and are named in the message, not counted as a link problem). The interval ends give a
+// pessimistic and an optimistic set of links:
 //   OK     the pessimistic links are stable (every link at the bad end of its interval),
 //   ERROR  even the optimistic links are unstable,
 //   WARN   otherwise (the intervals straddle the boundary, undecided, or too few samples).
@@ -33,7 +35,9 @@ struct JointLinkStatus
 {
   LinkStatus status;  ///< OK / WARN / ERROR and its message
   std::vector<SensorLinkEstimate> sensors;
-  Verdict pessimistic, optimistic, point;  ///< the verdicts at the interval ends and the estimates
+  /// The links' verdicts (SetVerdicts::linksVerdict: the modes the sensors observe) at the interval
+  /// ends and at the estimates.
+  Verdict pessimistic, optimistic, point;
   std::vector<LinkModel> pessimistic_links, optimistic_links, point_links;
 };
 

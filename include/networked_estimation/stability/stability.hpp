@@ -22,6 +22,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "networked_estimation/config/channel_settings.hpp"
@@ -57,9 +58,11 @@ struct RateAnalysis
   std::string name;
   std::vector<int> sensors;  ///< indices into Model::sensors
   /// Modes with |lambda| >= 1 that this set does not observe even when every message arrives: they
-  /// grow whatever the links do (docs/stability.md 2.2), so everything below, thresholds and
-  /// verdict, concerns the other (observed) modes. Empty when there are none.
+  /// grow whatever the links do (docs/stability.md 2.2). Empty when there are none. With such modes
+  /// no rate keeps E[P] bounded: the thresholds below are +infinity (none), the verdict unstable,
+  /// and `observed` holds the same analysis of the observed modes (what the links can change).
   std::string dead_reckoned;
+  std::string dead_states;  ///< the states of those modes by name ("x, y"), empty when none
   // i.i.d. arrivals at a common rate lambda on every sensor of the set
   double lower_bound = 0.0;  ///< necessary: 1 - rho^{-2/N} (Yang Theorem 1 / Sinopoli)
   double closed_form_upper = std::numeric_limits<double>::quiet_NaN();  ///< N = 1: 1 - 1/M^2; N > 1: Yang Thm 5 common rate
@@ -78,7 +81,8 @@ struct RateAnalysis
   Verdict aoe_theorem5;       ///< Lin et al.'s Theorem 5 test (one packet = this set of sensors)
   std::vector<BlockStructure> blocks;
   // the given channel
-  Verdict verdict;
+  Verdict verdict;        ///< E[P] bounded? (unstable whenever a mode grows regardless of the links)
+  Verdict links_verdict;  ///< the same on the modes the set observes: what the links can change
   std::string margin_quantity;  ///< "arrival rate" or "recovery rate"
   double channel_value = std::numeric_limits<double>::quiet_NaN();  ///< the link's arrival or recovery rate
   double necessary_threshold = std::numeric_limits<double>::quiet_NaN();  ///< below: unbounded
@@ -87,6 +91,8 @@ struct RateAnalysis
   /// The stable set of channel_value when it is not a half-line (then the thresholds are NaN and
   /// the margin is the distance to the nearest edge, positive inside).
   std::vector<RateInterval> stable_intervals;
+  /// With dead-reckoned modes: this analysis for the observed modes alone (one element), else empty.
+  std::vector<RateAnalysis> observed;
 };
 
 /// The rate one sensor needs, the other sensors' links fixed (docs/stability.md 4.3): the verdict
@@ -112,6 +118,12 @@ struct SensorMargin
   /// Stable at every positive rate and unstable at 0 (a mode on the unit circle that only this link
   /// covers): "needs > 0". The band is then [0, 0] and the margin the rate itself.
   bool any_positive = false;
+  /// Modes that no sensor observes grow whatever the links do (docs/stability.md 2.2): the states
+  /// they involve ("x, y"), empty when there are none. Then no rate keeps E[P] bounded (the band is
+  /// "unstable at 1", converges_at NaN) and what the observed modes alone need is
+  /// converges_at_observed (NaN when their stable set is not a half-line or there is none).
+  std::string grows_regardless;
+  double converges_at_observed = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// One sensor's link and what it needs.
@@ -142,6 +154,7 @@ struct StabilityReport
   /// detectable): they grow whatever the links do, and the link verdicts, thresholds, capacities and
   /// MARE concern the observed modes (docs/stability.md 2.2). Empty when there are none.
   std::string dead_reckoned;
+  std::string dead_states;  ///< the states of those modes by name ("x, y"), empty when none
   bool has_channel = false;       ///< some sensor has a channel
   bool uniform_links = true;      ///< every sensor has the same link (then `link` is that link)
   LinkModel link;                 ///< the channel of every sensor (uniform_links), else of sensor 0
@@ -189,6 +202,22 @@ StabilityReport analyzeStability(const Model& model, const std::vector<std::opti
 StabilityReport analyzeStability(const Model& model, const ChannelSettings* sensor_link,
                                  const EstimatorSettings* estimator = nullptr, const AnalysisOptions& options = {});
 
+/// The verdict of all the model's sensors and the rate each sensor needs, without the rest of the
+/// report (analyze --verdict-only, Python verdict()): the same numbers as analyzeStability's
+/// model.verdict, model.links_verdict and links[i].margin, at a fraction of its cost.
+struct VerdictReport
+{
+  Verdict verdict;        ///< E[P] bounded? (docs/stability.md 2.1)
+  Verdict links_verdict;  ///< on the modes the sensors observe: what the links can change
+  std::string dead_reckoned, dead_states;  ///< as StabilityReport's (empty when none)
+  bool has_channel = false;                ///< some sensor has a channel (else margins are empty)
+  std::vector<SensorLinkReport> links;     ///< per sensor: its link and the rate it needs (margin)
+};
+
+/// One link per sensor (links[i] for model.sensors[i]; none = lossless), as analyzeStability.
+VerdictReport verdictOnly(const Model& model, const std::vector<std::optional<ChannelSettings>>& links,
+                          const AnalysisOptions& options = {});
+
 /// For every sensor of the model with these links (one per sensor): the rate it needs, the other
 /// sensors' links fixed (the report's per-sensor margins, computed the same way).
 std::vector<SensorMargin> sensorMargins(const Model& model, const std::vector<LinkModel>& links,
@@ -204,11 +233,20 @@ public:
   SetVerdicts(const Model& model, const std::vector<int>& set, const AnalysisOptions& options = {});
   /// stabilityVerdict(model, set, links, options), links one per member of the set.
   Verdict verdict(const std::vector<LinkModel>& links) const;
-  /// sensorMargins(model, links, options); the set must be every sensor of the model.
-  std::vector<SensorMargin> margins(const std::vector<LinkModel>& links) const;
+  /// The links' verdict: the same on the modes the set observes (what the links can change).
+  Verdict linksVerdict(const std::vector<LinkModel>& links) const;
+  /// The verdict given the links' verdict (e.g. "not applicable: no channel given").
+  Verdict verdictGiven(const Verdict& links_verdict) const;
+  /// Both at once (the links' verdict is computed once): {verdict, links verdict}.
+  std::pair<Verdict, Verdict> verdicts(const std::vector<LinkModel>& links) const;
+  /// sensorMargins(model, links, options); the set must be every sensor of the model. links_only:
+  /// what the links' verdict needs (the observed modes), also with dead-reckoned modes.
+  std::vector<SensorMargin> margins(const std::vector<LinkModel>& links, bool links_only = false) const;
   /// The modes with |lambda| >= 1 that the set does not observe even when every message arrives
   /// (they grow whatever the links do; docs/stability.md 2.2), described; empty when there are none.
   const std::string& deadReckoned() const;
+  /// The states of those modes by name ("x, y"; "states 0, 1" without names), empty when none.
+  const std::string& deadStates() const;
   /// Theorem 14 decides every block (no fallback on the bounds is needed).
   bool exact() const;
   /// The FMO blocks with |alpha| >= 1 of the observed modes, with their kernel lattices (for the

@@ -27,6 +27,8 @@ struct Verdict
 std::string toString(Verdict::Kind kind);
 /// "<kind>: <reason>".
 std::string describe(const Verdict& verdict);
+/// "x, y grow regardless of the links" ("x grows ..." for one state): dead-reckoned states.
+std::string growRegardless(const std::string& states);
 
 /// Numerical tolerances (all relative unless stated).
 struct StabilityTolerances

@@ -113,6 +113,7 @@ void jlink(JsonWriter& w, const SensorLinkReport& l, const std::string& origin)
   w.member("value", m.value).member("half_line", m.half_line).member("diverges_at", m.band.diverges_at);
   w.member("converges_at", m.band.converges_at).member("undecided_band", m.band.undecided_band);
   w.member("any_positive", m.any_positive);
+  w.member("grows_regardless", m.grows_regardless).member("converges_at_observed", m.converges_at_observed);
   w.key("stable_intervals");
   jintervals(w, m.stable);
   w.member("scan_points", m.scan_points).member("margin", m.margin).member("note", m.note).endObject();
@@ -129,7 +130,7 @@ void jset(JsonWriter& w, const RateAnalysis& r)
   w.member("mare_undecided_band", r.mare.undecided_band);
   w.member("exact_rate", r.exact_rate).member("exact_method", r.exact_method);
   w.member("unbounded_at_every_rate", unboundedAtEveryRate(r.exact_rate));
-  w.member("dead_reckoned", r.dead_reckoned);
+  w.member("dead_reckoned", r.dead_reckoned).member("dead_states", r.dead_states);
   w.member("recovery_lower_bound", r.recovery_lower_bound).member("recovery_exact", r.recovery_exact);
   w.member("recovery_note", r.recovery_note).key("recovery_stable_intervals");
   jintervals(w, r.recovery_stable);
@@ -137,10 +138,17 @@ void jset(JsonWriter& w, const RateAnalysis& r)
   jverdict(w, r.aoe_theorem5);
   w.key("verdict");
   jverdict(w, r.verdict);
+  w.key("links_verdict");
+  jverdict(w, r.links_verdict);
   w.member("margin_quantity", r.margin_quantity).member("channel_value", r.channel_value);
   w.member("necessary_threshold", r.necessary_threshold).member("sufficient_threshold", r.sufficient_threshold);
   w.member("margin", r.margin).key("stable_intervals");
   jintervals(w, r.stable_intervals);
+  w.key("observed");
+  if (r.observed.empty())
+    w.null();
+  else
+    jset(w, r.observed.front());
   w.endObject();
 }
 
@@ -184,6 +192,7 @@ std::string analysisJson(const StabilityReport& rep, const std::vector<std::stri
   w.br(2).member("noise_excites_unstable_modes", rep.noise_excites_unstable_modes);
   w.br(2).member("detectable", rep.detectable);
   w.br(2).member("dead_reckoned", rep.dead_reckoned);
+  w.br(2).member("dead_states", rep.dead_states);
   w.br(2).key("channel");
   if (rep.has_channel)
   {
@@ -223,7 +232,26 @@ std::string analysisJson(const StabilityReport& rep, const std::vector<std::stri
   w.br(0).endObject();
   return w.text() + "\n";
 }
-
+std::string verdictJson(const std::string& model_name, const VerdictReport& rep, const std::vector<std::string>& origins)
+{
+  JsonWriter w;
+  w.beginObject();
+  w.br(2).member("model", model_name);
+  w.br(2).key("verdict");
+  jverdict(w, rep.verdict);
+  w.br(2).key("links_verdict");
+  jverdict(w, rep.links_verdict);
+  w.br(2).member("dead_reckoned", rep.dead_reckoned);
+  w.br(2).member("dead_states", rep.dead_states);
+  w.br(2).key("links").beginArray();
+  for (std::size_t i = 0; i < rep.links.size(); ++i)
+    jlink(w.br(4), rep.links[i], i < origins.size() ? origins[i] : "");
+  if (!rep.links.empty())
+    w.br(2);
+  w.endArray();
+  w.br(0).endObject();
+  return w.text() + "\n";
+}
 
 std::string designJson(const Model& model, const LinkDesign& d, const std::string& cost)
 {

@@ -159,9 +159,11 @@ JointLinkStatus JointLinkMonitor::evaluate() const
     }
     out.sensors.push_back(e);
   }
-  out.pessimistic = verdicts_.verdict(out.pessimistic_links);
-  out.optimistic = verdicts_.verdict(out.optimistic_links);
-  out.point = verdicts_.verdict(out.point_links);
+  // The links' verdicts: the level concerns what the links can change. Modes that no sensor observes
+  // (a robot's dead-reckoned position) grow whatever the links do; the message names them.
+  out.pessimistic = verdicts_.linksVerdict(out.pessimistic_links);
+  out.optimistic = verdicts_.linksVerdict(out.optimistic_links);
+  out.point = verdicts_.linksVerdict(out.point_links);
 
   std::ostringstream os;
   const std::string what = markov_ ? "links (p, r)" : "arrival rates";
@@ -188,6 +190,8 @@ JointLinkStatus JointLinkMonitor::evaluate() const
     os << "boundedness not guaranteed at these " << what << " (" << rates(out.sensors, markov_)
        << "): at the estimates " << toString(out.point.kind) << ", " << out.point.reason;
   }
+  if (!verdicts_.deadStates().empty())
+    os << "; dead-reckoned: " << growRegardless(verdicts_.deadStates()) << " (no sensor observes them)";
   out.status.message = os.str();
   return out;
 }

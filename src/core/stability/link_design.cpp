@@ -42,11 +42,18 @@ LinkDesign designLinks(const Model& model, DesignCost cost, double growth_cap)
     out.note = "not applicable: more than 12 sensors (the vertex enumeration is exponential)";
     return out;
   }
-  // The blocks of the modes the sensors observe (dead-reckoned modes grow whatever the links do).
+  // Modes that no sensor observes grow whatever the links do: no design keeps E[P] bounded.
   std::vector<int> all;
   for (std::size_t j = 0; j < S; ++j)
     all.push_back(static_cast<int>(j));
   const SetVerdicts verdicts(model, all);
+  if (!verdicts.deadReckoned().empty())
+  {
+    out.note = "not applicable: " + growRegardless(verdicts.deadStates()) +
+               ": no sensor observes them even when every message arrives, so no "
+               "rates keep E[P] bounded";
+    return out;
+  }
   const std::vector<BlockStructure>& blocks = verdicts.blocks();
   Polyhedron poly;
   for (const BlockStructure& b : blocks)
@@ -175,8 +182,6 @@ LinkDesign designLinks(const Model& model, DesignCost cost, double growth_cap)
   }
   out.note = "exact: vertex enumeration of the stable set of Theorem 14 (" + std::to_string(out.vertices) +
              " vertices), i.i.d. links, |alpha_k|^2 Phi_k <= " + std::to_string(growth_cap).substr(0, 4);
-  if (!verdicts.deadReckoned().empty())
-    out.note += "; dead-reckoned: " + verdicts.deadReckoned();
   return out;
 }
 

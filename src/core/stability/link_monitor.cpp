@@ -123,7 +123,8 @@ RateEstimate LinkMonitor::failureRate() const
 
 LinkThresholds linkThresholds(const StabilityReport& report, std::size_t min_samples)
 {
-  const RateAnalysis& ra = report.model;
+  // The links' thresholds: of the observed modes when some mode grows regardless of the links.
+  const RateAnalysis& ra = report.model.observed.empty() ? report.model : report.model.observed.front();
   LinkThresholds t;
   t.min_samples = min_samples;
   const bool markov = report.has_channel && report.link.kind == LinkModel::Kind::GILBERT_ELLIOTT;

@@ -250,12 +250,12 @@ LiveStabilityReport LiveStability::evaluate() const
     std::vector<SensorMargin> fresh;
     const std::vector<SensorMargin>* margins = &fresh;
     if (!options_.cache)
-      fresh = joint_.verdicts().margins(js.point_links);
+      fresh = joint_.verdicts().margins(js.point_links, true);
     else
     {
       if (!cache_->has_margins || !sameLinks(cache_->margin_links, js.point_links))
       {
-        cache_->margins = joint_.verdicts().margins(js.point_links);
+        cache_->margins = joint_.verdicts().margins(js.point_links, true);
         cache_->margin_links = js.point_links;
         cache_->has_margins = true;
       }

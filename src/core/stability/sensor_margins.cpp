@@ -1,6 +1,7 @@
 // The rate each sensor needs, the other links fixed (docs/stability.md 4.3): searches along one rate
 // and the per-sensor margins.
 #include "set_verdict.hpp"
+#include "networked_estimation/common/numbers.hpp"
 
 #include <cmath>
 #include <limits>
@@ -147,7 +148,11 @@ std::string intervals(const std::vector<RateInterval>& stable)
   return out.empty() ? "none" : out;
 }
 
-SensorMargin sensorMargin(const Context& ctx, const SetData& all, const std::vector<LinkModel>& links, int i)
+namespace
+{
+
+/// The rate sensor i needs for the modes the set observes (the links' verdict along its rate).
+SensorMargin linkMargin(const Context& ctx, const SetData& all, const std::vector<LinkModel>& links, int i)
 {
   const AnalysisOptions& opt = *ctx.options;
   SensorMargin m;
@@ -226,6 +231,38 @@ SensorMargin sensorMargin(const Context& ctx, const SetData& all, const std::vec
              (std::isnan(m.band.diverges_at) ? "not stable even at rate 1 (undecided there)"
                                              : "unstable even at rate 1: this sensor cannot make the set stable");
   }
+  return m;
+}
+
+}  // namespace
+
+SensorMargin sensorMargin(const Context& ctx, const SetData& all, const std::vector<LinkModel>& links, int i,
+                          bool links_only)
+{
+  SensorMargin m = linkMargin(ctx, all, links, i);
+  if (links_only || all.dead_reckoned.empty() || m.quantity.empty())
+    return m;
+  // Dead-reckoned modes grow whatever this link does: no rate keeps E[P] bounded. What the observed
+  // modes need is kept apart (converges_at_observed).
+  const std::string observed = m.note;
+  m.converges_at_observed = !m.half_line ? kNaN : m.any_positive ? 0.0 : m.band.converges_at;
+  m.grows_regardless = all.dead_states;
+  m.band = CriticalBand();
+  m.band.diverges_at = 1.0;
+  m.any_positive = false;
+  m.half_line = true;
+  m.stable.clear();
+  m.scan_points = 0;
+  m.margin = kNaN;
+  if (!all.dead_grow)
+  {
+    m.quantity.clear();
+    m.note = "not applicable: (A, B Q^1/2) has an uncontrollable mode with |lambda| >= 1, and no sensor observes " +
+             all.dead_states + " even when every message arrives";
+    return m;
+  }
+  m.note = "none: " + growRegardless(all.dead_states) + " (" + all.dead_modes +
+           " that no sensor observes even when every message arrives); the observed modes alone: " + observed;
   return m;
 }
 

@@ -2,6 +2,7 @@
 #include "set_verdict.hpp"
 
 #include <cmath>
+#include <complex>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
@@ -68,15 +69,46 @@ Eigen::MatrixXd invariantInside(Eigen::MatrixXd B, const Eigen::MatrixXd& A)
   return B;
 }
 
-/// "0, 2" of the states that make up span(B) (diagonal of the projection above 1 %).
-std::string statesOf(const Eigen::MatrixXd& B)
+/// The states span(V) involves (diagonal of its projection above 1 %; V orthonormal), by name: "x, y",
+/// or "states 0, 2" / "state 0" for a model that names none.
+std::string statesOf(const Model& model, const Eigen::MatrixXd& V)
 {
-  std::string out;
-  const Eigen::VectorXd weight = (B * B.transpose()).diagonal();
+  std::vector<int> idx;
+  const Eigen::VectorXd weight = V.rowwise().squaredNorm();
   for (Eigen::Index i = 0; i < weight.size(); ++i)
     if (weight[i] > 0.01)
-      out += (out.empty() ? "" : ", ") + std::to_string(i);
+      idx.push_back(static_cast<int>(i));
+  const bool named = static_cast<int>(model.states.size()) == model.n();
+  std::string out = named ? "" : idx.size() == 1 ? "state " : "states ";
+  for (std::size_t j = 0; j < idx.size(); ++j)
+    out += (j ? ", " : "") + (named ? model.states[static_cast<std::size_t>(idx[j])] : std::to_string(idx[j]));
   return out;
+}
+
+/// Orthonormal basis of the generalised eigenspace of the eigenvalues `growing` (those with
+/// |lambda| >= 1, conjugate pairs both listed) of An: the kernel of the real polynomial in An with
+/// those roots and multiplicities. Its dimension is the number of those eigenvalues, so the kernel
+/// is read off the smallest singular values and needs no rank tolerance.
+Eigen::MatrixXd growingSubspace(const Eigen::MatrixXd& An, const std::vector<std::complex<double>>& growing)
+{
+  const Eigen::Index k = An.rows();
+  const Eigen::Index g = static_cast<Eigen::Index>(growing.size());
+  if (g == k)
+    return Eigen::MatrixXd::Identity(k, k);
+  const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(k, k);
+  Eigen::MatrixXd P = I;
+  for (const std::complex<double>& l : growing)
+  {
+    if (l.imag() < 0.0)
+      continue;  // its conjugate's quadratic factor covers it
+    if (l.imag() > 0.0)
+      P = P * (An * An - 2.0 * l.real() * An + std::norm(l) * I);
+    else
+      P = P * (An - l.real() * I);
+    P /= std::max(P.norm(), 1e-300);  // scale only: the kernel is unchanged
+  }
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(P, Eigen::ComputeFullV);
+  return svd.matrixV().rightCols(g);
 }
 
 }  // namespace
@@ -117,21 +149,25 @@ SetData makeSet(const Context& ctx, const std::vector<int>& set)
     const Eigen::MatrixXd Uo = basis.rightCols(model.n() - Un.cols());
     const Eigen::MatrixXd An = Un.transpose() * model.A * Un;
     const Eigen::VectorXcd ev = eigenvalues(An);
+    std::vector<std::complex<double>> growing;
     std::ostringstream os;
-    int growing = 0;
-    os << "(";
+    double largest = 0.0;
     for (Eigen::Index i = 0; i < ev.size(); ++i)
       if (std::abs(ev[i]) >= 1.0 - ctx.options->tol.modulus)
       {
-        os << (growing ? ", " : "") << num(ev[i].real());
+        os << (growing.empty() ? "" : ", ") << num(ev[i].real());
         if (ev[i].imag() != 0.0)
           os << (ev[i].imag() > 0 ? "+" : "-") << num(std::abs(ev[i].imag())) << "i";
-        ++growing;
+        growing.push_back(ev[i]);
+        largest = std::max(largest, std::abs(ev[i]));
       }
-    os << ")";
-    d.dead_reckoned = std::to_string(growing) + " mode(s) with |lambda| >= 1 " + os.str() + " of states " +
-                      statesOf(Un) + " that no sensor observes even when every message arrives: grow regardless "
-                                     "of the links";
+    d.dead_states = statesOf(model, Un * growingSubspace(An, growing));
+    d.dead_modes = std::to_string(growing.size()) + " mode(s) with |lambda| >= 1 (" + os.str() + ")";
+    d.dead_reckoned = d.dead_modes + " of " + d.dead_states +
+                      " that no sensor observes even when every message arrives: grow regardless of the links";
+    // |lambda| > 1 grows from any initial covariance; on the unit circle the noise must drive it
+    // (else NOT_APPLICABLE, as for an observed mode the noise does not excite).
+    d.dead_grow = largest > 1.0 + ctx.options->tol.modulus || ctx.excited;
     d.unobserved = static_cast<int>(Un.cols());
     d.observed_basis = Uo;
     d.A = Uo.transpose() * model.A * Uo;
@@ -151,14 +187,33 @@ SetData makeSet(const Context& ctx, const std::vector<int>& set)
   return d;
 }
 
-/// The verdict of docs/stability.md 2.1 (steps 2-8) for the set with these links (one per member).
+/// The verdict of docs/stability.md 2.1 for the set with these links (one per member).
 Verdict setVerdict(const Context& ctx, const SetData& d, const std::vector<LinkModel>& links)
 {
-  Verdict v = linkVerdict(ctx, d, links);
-  if (!d.dead_reckoned.empty())
+  return setVerdictFrom(d, linkVerdict(ctx, d, links));
+}
+
+Verdict setVerdictFrom(const SetData& d, const Verdict& links_verdict)
+{
+  if (d.dead_reckoned.empty())
+    return links_verdict;
+  // Step 2: modes with |lambda| >= 1 that no sensor observes even when every message arrives.
+  Verdict v;
+  v.numbers = links_verdict.numbers;
+  v.numbers["dead-reckoned dimension"] = d.unobserved;
+  const std::string links = "; the links' verdict on the observed modes: " + describe(links_verdict);
+  if (d.dead_grow)
   {
-    v.reason += "; dead-reckoned: " + d.dead_reckoned;
-    v.numbers["dead-reckoned dimension"] = d.unobserved;
+    v.kind = Verdict::Kind::UNSTABLE;
+    v.reason = growRegardless(d.dead_states) + ": " + d.dead_modes +
+               " that no sensor observes even when every message arrives" + links;
+  }
+  else
+  {
+    v.kind = Verdict::Kind::NOT_APPLICABLE;
+    v.reason = "(A, B Q^1/2) has an uncontrollable mode with |lambda| >= 1, and no sensor observes " +
+               d.dead_states + " (" + d.dead_modes + ") even when every message arrives; the critical-rate "
+               "results assume (A, Q^1/2) controllable" + links;
   }
   return v;
 }
@@ -319,10 +374,30 @@ Verdict SetVerdicts::verdict(const std::vector<LinkModel>& links) const
   if (links.size() != impl_->data.set.size())
     throw std::invalid_argument("SetVerdicts: " + std::to_string(links.size()) + " links for a set of " +
                                 std::to_string(impl_->data.set.size()) + " sensors");
-  return setVerdict(impl_->ctx, impl_->data, links);
+  return verdicts(links).first;
 }
 
-std::vector<SensorMargin> SetVerdicts::margins(const std::vector<LinkModel>& links) const
+Verdict SetVerdicts::linksVerdict(const std::vector<LinkModel>& links) const
+{
+  if (links.size() != impl_->data.set.size())
+    throw std::invalid_argument("SetVerdicts: " + std::to_string(links.size()) + " links for a set of " +
+                                std::to_string(impl_->data.set.size()) + " sensors");
+  return linkVerdict(impl_->ctx, impl_->data, links);
+}
+
+std::pair<Verdict, Verdict> SetVerdicts::verdicts(const std::vector<LinkModel>& links) const
+{
+  Verdict lv = linksVerdict(links);
+  Verdict v = setVerdictFrom(impl_->data, lv);
+  return {std::move(v), std::move(lv)};
+}
+
+Verdict SetVerdicts::verdictGiven(const Verdict& links_verdict) const
+{
+  return setVerdictFrom(impl_->data, links_verdict);
+}
+
+std::vector<SensorMargin> SetVerdicts::margins(const std::vector<LinkModel>& links, bool links_only) const
 {
   const std::size_t S = impl_->model.sensors.size();
   if (impl_->data.set.size() != S)
@@ -332,13 +407,18 @@ std::vector<SensorMargin> SetVerdicts::margins(const std::vector<LinkModel>& lin
                                 std::to_string(S) + " sensors");
   std::vector<SensorMargin> out;
   for (std::size_t i = 0; i < S; ++i)
-    out.push_back(sensorMargin(impl_->ctx, impl_->data, links, static_cast<int>(i)));
+    out.push_back(sensorMargin(impl_->ctx, impl_->data, links, static_cast<int>(i), links_only));
   return out;
 }
 
 const std::string& SetVerdicts::deadReckoned() const
 {
   return impl_->data.dead_reckoned;
+}
+
+const std::string& SetVerdicts::deadStates() const
+{
+  return impl_->data.dead_states;
 }
 
 bool SetVerdicts::exact() const
@@ -349,6 +429,12 @@ bool SetVerdicts::exact() const
 const std::vector<BlockStructure>& SetVerdicts::blocks() const
 {
   return impl_->data.blocks;
+}
+
+std::string growRegardless(const std::string& states)
+{
+  const bool one = states.find(',') == std::string::npos;
+  return states + (one ? " grows" : " grow") + " regardless of the links";
 }
 
 Verdict stabilityVerdict(const Model& model, const std::vector<int>& set, const std::vector<LinkModel>& links,

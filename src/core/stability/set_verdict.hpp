@@ -52,17 +52,26 @@ struct SetData
   Eigen::MatrixXd observed_basis;  ///< n x n_o, empty when nothing was removed
   /// The modes with |lambda| >= 1 that no sensor of the set observes, described ("" when none).
   std::string dead_reckoned;
+  /// "2 mode(s) with |lambda| >= 1 (1, 1)": those modes alone.
+  std::string dead_modes;
+  /// The states those modes involve, by name ("x, y"; "states 0, 1" for a model without names).
+  std::string dead_states;
+  /// Some of those modes has |lambda| > 1, or the noise excites them: E[P] is unbounded whatever the
+  /// links do (false with dead-reckoned modes: every one is on the unit circle and not excited).
+  bool dead_grow = false;
   std::vector<BlockStructure> blocks;
   Schedule schedule;  ///< the model's schedule restricted to the set (kind NONE: none)
 };
 
 SetData makeSet(const Context& ctx, const std::vector<int>& set);
 
-/// The verdict of docs/stability.md 2.1 (steps 2-8) for the set with these links (one per member),
-/// with the dead-reckoned modes named in its reason.
+/// The verdict of docs/stability.md 2.1 for the set with these links (one per member): whether E[P]
+/// stays bounded. Dead-reckoned modes make it unstable whatever the links (step 2).
 Verdict setVerdict(const Context& ctx, const SetData& d, const std::vector<LinkModel>& links);
-/// The same without the dead-reckoning note: the verdict on the modes the set observes.
+/// The links' verdict: steps 3-8 on the modes the set observes, what the links can change.
 Verdict linkVerdict(const Context& ctx, const SetData& d, const std::vector<LinkModel>& links);
+/// setVerdict given the links' verdict `links_verdict` (already computed for the same links).
+Verdict setVerdictFrom(const SetData& d, const Verdict& links_verdict);
 
 /// Every block of the set has Theorem 14's Phi.
 bool exactAvailable(const SetData& d);
@@ -87,8 +96,10 @@ double intervalMargin(const std::vector<RateInterval>& stable, double value);
 /// "[a, b], [c, d]" or "none".
 std::string intervals(const std::vector<RateInterval>& stable);
 /// The rate sensor i needs in the set of all sensors, the others' links (links, one per sensor)
-/// fixed.
-SensorMargin sensorMargin(const Context& ctx, const SetData& all, const std::vector<LinkModel>& links, int i);
+/// fixed: to keep E[P] bounded ("none" with dead-reckoned modes, what the observed modes need then
+/// in converges_at_observed), or with links_only what the links' verdict needs (the observed modes).
+SensorMargin sensorMargin(const Context& ctx, const SetData& all, const std::vector<LinkModel>& links, int i,
+                          bool links_only = false);
 
 }  // namespace stability_internal
 }  // namespace networked_estimation

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <future>
+#include <tuple>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -27,7 +28,7 @@ void scheduledRates(const Context& ctx, const SetData& d, RateAnalysis& ra)
   ra.mare = CriticalBand();
   const std::size_t N = d.set.size();
   SensorMargin common;
-  halfLine([&](double lambda) { return setVerdict(ctx, d, std::vector<LinkModel>(N, LinkModel::iid(lambda))).kind; },
+  halfLine([&](double lambda) { return linkVerdict(ctx, d, std::vector<LinkModel>(N, LinkModel::iid(lambda))).kind; },
            ctx.options->exact_tolerance, common);
   ra.exact_rate = common.band.undecided_band || std::isnan(common.band.converges_at) ? kNaN : common.band.converges_at;
   if (std::isnan(common.band.converges_at) && common.band.diverges_at == 1.0)
@@ -42,6 +43,49 @@ void scheduledRates(const Context& ctx, const SetData& d, RateAnalysis& ra)
   ra.aoe_theorem5.reason = "a sensor schedule; Lin et al.'s Theorem 5 covers one packet sent at every step";
 }
 
+/// The Markov (recovery-rate) threshold of one sensor's link (SensorLinkReport::markov_note).
+std::string markovNote(const LinkModel& link)
+{
+  if (link.kind != LinkModel::Kind::GILBERT_ELLIOTT)
+    return "not applicable: no Gilbert-Elliott link (failure rate p unknown)";
+  if (!link.onOff())
+    return "not applicable: a hidden Gilbert-Elliott chain; the recovery rate does not determine the loss persistence";
+  return "the recovery rate this sensor needs is its margin (p = " + num(link.p) + ")";
+}
+
+/// A set with dead-reckoned modes (docs/stability.md 2.2): no rate keeps E[P] bounded, so every
+/// threshold of `ra` becomes +infinity (none) and its margin none; the analysis of the observed modes
+/// (what the links can change) moves to ra.observed.
+void setApartObserved(const SetData& d, RateAnalysis& ra)
+{
+  RateAnalysis obs = ra;
+  obs.verdict = ra.links_verdict;
+  ra.observed.assign(1, obs);
+  const std::string why = growRegardless(d.dead_states) + " (" + d.dead_modes +
+                          " that no sensor of the set observes even when every message arrives)";
+  ra.lower_bound = kInf;
+  ra.recovery_lower_bound = kInf;
+  ra.closed_form_upper = kInf;
+  ra.mare = CriticalBand();
+  ra.mare.diverges_at = 1.0;
+  ra.mare.converges_at = kInf;
+  ra.exact_rate = kInf;
+  ra.exact_method = why + ": unbounded at every rate";
+  ra.recovery_exact = kInf;
+  ra.recovery_note = why;
+  ra.recovery_stable.clear();
+  ra.aoe_theorem5 = Verdict();
+  ra.aoe_theorem5.kind = Verdict::Kind::NOT_APPLICABLE;
+  ra.aoe_theorem5.reason = "Lin et al.'s Theorem 5 assumes every mode with |lambda| >= 1 observed; " + why;
+  if (ra.margin_quantity.rfind("per-sensor", 0) != 0)
+  {
+    ra.necessary_threshold = kInf;
+    ra.sufficient_threshold = kInf;
+  }
+  ra.stable_intervals.clear();
+  ra.margin = kNaN;
+}
+
 RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const std::string& name)
 {
   const Model& model = *ctx.model;
@@ -54,6 +98,7 @@ RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const s
   const std::vector<Eigen::MatrixXd>& H = d.H;
   const bool stable_A = d.stable_A;
   ra.dead_reckoned = d.dead_reckoned;
+  ra.dead_states = d.dead_states;
   std::vector<LinkModel> links;
   for (int i : set)
     links.push_back(ctx.links[i]);
@@ -176,6 +221,12 @@ RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const s
           std::to_string(N) + " sensors on independent links; Lin et al.'s Theorem 5 covers one packet";
       ra.aoe_theorem5.numbers["p_t"] = aoeRecoveryThreshold(d.rho);
     }
+    else if (d.A.rows() == 0)
+    {
+      ra.aoe_theorem5.kind = Verdict::Kind::NOT_APPLICABLE;
+      ra.aoe_theorem5.reason = "the set observes no mode";
+      ra.aoe_theorem5.numbers["p_t"] = aoeRecoveryThreshold(d.rho);
+    }
     else if (link.kind == LinkModel::Kind::GILBERT_ELLIOTT && !link.onOff())
     {
       ra.aoe_theorem5.kind = Verdict::Kind::NOT_APPLICABLE;
@@ -190,7 +241,7 @@ RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const s
       const double fail = link.kind == LinkModel::Kind::IID ? 1.0 - link.arrival : link.p;
       const Sensor& s = model.sensors[set[0]];
       const Eigen::MatrixXd Cs = model.C.middleRows(s.offset, s.size);
-      ra.aoe_theorem5 = aoeTheorem5(d.A, d.observed_basis.size() ? Eigen::MatrixXd(Cs * d.observed_basis) : Cs, d.Qn,
+      ra.aoe_theorem5 = aoeTheorem5(d.A, d.unobserved > 0 ? Eigen::MatrixXd(Cs * d.observed_basis) : Cs, d.Qn,
                                     model.R.block(s.offset, s.offset, s.size, s.size), rec, fail, opt.tol);
     }
   }
@@ -231,39 +282,47 @@ RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const s
   ra.margin = ra.stable_intervals.empty() ? ra.channel_value - ra.sufficient_threshold
                                           : intervalMargin(ra.stable_intervals, ra.channel_value);
 
-  // Verdict for the links.
-  Verdict& v = ra.verdict;
+  // Verdict for the links (the observed modes), then whether E[P] is bounded.
+  Verdict& v = ra.links_verdict;
   if (!ctx.has_channel)
   {
     v.kind = Verdict::Kind::NOT_APPLICABLE;
     v.reason = "no channel given";
-    return ra;
   }
-  v = setVerdict(ctx, d, links);
-  if (uniform)
-    v.numbers[ra.margin_quantity] = ra.channel_value;
   else
-    for (std::size_t j = 0; j < links.size(); ++j)
-      v.numbers["arrival rate[" + model.sensors[set[j]].name + "]"] = links[j].arrivalRate();
-  if (uniform && v.numbers.count("max |alpha|^2 Phi"))
   {
-    std::ostringstream os;
-    if (std::isfinite(ra.sufficient_threshold))
-      os << " (" << ra.margin_quantity << " " << num(ra.channel_value) << " vs critical " << num(ra.sufficient_threshold)
-         << ")";
-    else if (!ra.stable_intervals.empty())
-      os << " (" << ra.margin_quantity << " " << num(ra.channel_value) << "; stable for " << intervals(ra.stable_intervals)
-         << ")";
-    v.reason += os.str();
+    v = linkVerdict(ctx, d, links);
+    if (uniform)
+      v.numbers[ra.margin_quantity] = ra.channel_value;
+    else
+      for (std::size_t j = 0; j < links.size(); ++j)
+        v.numbers["arrival rate[" + model.sensors[set[j]].name + "]"] = links[j].arrivalRate();
+    if (uniform && v.numbers.count("max |alpha|^2 Phi"))
+    {
+      std::ostringstream os;
+      if (std::isfinite(ra.sufficient_threshold))
+        os << " (" << ra.margin_quantity << " " << num(ra.channel_value) << " vs critical "
+           << num(ra.sufficient_threshold) << ")";
+      else if (!ra.stable_intervals.empty())
+        os << " (" << ra.margin_quantity << " " << num(ra.channel_value) << "; stable for "
+           << intervals(ra.stable_intervals) << ")";
+      v.reason += os.str();
+    }
   }
+  ra.verdict = setVerdictFrom(d, v);
+  if (!d.dead_reckoned.empty())
+    setApartObserved(d, ra);
   return ra;
 }
 
-std::string capacityNote(const StabilityReport& rep, bool any_markov)
+std::string capacityNote(const StabilityReport& rep, bool any_markov, const SetData& all)
 {
   const Capacity& c = rep.capacity;
   std::string out;
-  if (c.total <= c.lower)
+  if (!all.dead_reckoned.empty())
+    out = "no allocation of rates keeps E[P] bounded: " + growRegardless(all.dead_states) +
+          " (the capacities here are of the observed modes)";
+  else if (c.total <= c.lower)
     out = "c <= c_lower: E[P] diverges for every allocation of rates with this capacity (Yang et al. Theorem 2)";
   else if (c.total > c.upper)
     out = "c > c_upper: SOME allocation of rates with this capacity keeps E[P] bounded (Yang et al. Theorem 6); "
@@ -298,7 +357,15 @@ void mareAtRates(const Context& ctx, const SetData& all, const std::vector<doubl
   const Mare mare(all.A, all.Qn, all.H, rates);
   const MareResult mr = solveMare(mare, ctx.options->mare, true);
   rep.mare_at_rates_certificate = mr.certificate;
-  if (mr.status == MareResult::Status::CONVERGED)
+  if (mr.status == MareResult::Status::CONVERGED && !all.dead_reckoned.empty())
+  {
+    // On the quotient by the unobservable subspace: a bound for the observed modes only.
+    rep.mare_at_rates_trace = mr.X.trace();
+    rep.mare_at_rates = "converges on the observed modes only (certificate rho(T) = " + num(mr.certificate) +
+                        " < 1): their E[P] is bounded with trace <= " + num(rep.mare_at_rates_trace) + ", but " +
+                        growRegardless(all.dead_states);
+  }
+  else if (mr.status == MareResult::Status::CONVERGED)
   {
     rep.mare_at_rates_trace = mr.X.trace();
     rep.mare_at_rates = "converges (certificate rho(T) = " + num(mr.certificate) +
@@ -314,6 +381,50 @@ void mareAtRates(const Context& ctx, const SetData& all, const std::vector<doubl
 
 
 }  // namespace
+
+VerdictReport verdictOnly(const Model& model, const std::vector<std::optional<ChannelSettings>>& sensor_links,
+                          const AnalysisOptions& options)
+{
+  if (sensor_links.size() != model.sensors.size())
+    throw std::invalid_argument("verdictOnly: " + std::to_string(sensor_links.size()) + " links for " +
+                                std::to_string(model.sensors.size()) + " sensors");
+  VerdictReport out;
+  std::vector<int> all;
+  std::vector<LinkModel> links;
+  for (std::size_t i = 0; i < model.sensors.size(); ++i)
+  {
+    all.push_back(static_cast<int>(i));
+    links.push_back(sensor_links[i] ? LinkModel::fromSettings(*sensor_links[i]) : LinkModel::iid(1.0));
+    out.has_channel = out.has_channel || sensor_links[i].has_value();
+  }
+  const SetVerdicts sv(model, all, options);
+  out.dead_reckoned = sv.deadReckoned();
+  out.dead_states = sv.deadStates();
+  if (!out.has_channel)
+  {
+    Verdict none;
+    none.reason = "no channel given";
+    out.links_verdict = none;
+    out.verdict = sv.verdictGiven(none);  // unstable when some mode grows regardless of the links
+    return out;
+  }
+  std::tie(out.verdict, out.links_verdict) = sv.verdicts(links);
+  const std::vector<SensorMargin> margins = sv.margins(links);
+  for (std::size_t i = 0; i < model.sensors.size(); ++i)
+  {
+    SensorLinkReport lr;
+    lr.sensor = model.sensors[i].name;
+    lr.lossless = !sensor_links[i].has_value();
+    lr.link = links[i];
+    lr.arrival_rate = lr.link.arrivalRate();
+    lr.recovery_rate = lr.link.recoveryRate();
+    lr.capacity = kNaN;  // not computed here (analyze's report has it)
+    lr.margin = margins[i];
+    lr.markov_note = markovNote(lr.link);
+    out.links.push_back(lr);
+  }
+  return out;
+}
 
 StabilityReport analyzeStability(const Model& model, const ChannelSettings* sensor_link,
                                  const EstimatorSettings* estimator, const AnalysisOptions& options)
@@ -362,6 +473,7 @@ StabilityReport analyzeStability(const Model& model, const std::vector<std::opti
     all.push_back(static_cast<int>(i));
   const SetData all_set = makeSet(ctx, all);
   rep.dead_reckoned = all_set.dead_reckoned;
+  rep.dead_states = all_set.dead_states;
   if (ctx.has_channel)
   {
     rep.has_channel = true;
@@ -376,7 +488,7 @@ StabilityReport analyzeStability(const Model& model, const std::vector<std::opti
       rows.push_back(model.sensors[i].size);
     }
     rep.capacity = transmissionCapacity(all_set.A, rates, rows);
-    rep.capacity_note = capacityNote(rep, any_markov);
+    rep.capacity_note = capacityNote(rep, any_markov, all_set);
     if (model.schedule.active())
       rep.capacity_note += "; it ignores the sensor schedule";
     mareAtRates(ctx, all_set, rates, any_markov, rep);
@@ -416,13 +528,7 @@ StabilityReport analyzeStability(const Model& model, const std::vector<std::opti
       lr.capacity = i < rep.capacity.individual.size() ? rep.capacity.individual[i] : kNaN;
       if (options.per_sensor)
         lr.margin = margins[i].get();
-      if (lr.link.kind != LinkModel::Kind::GILBERT_ELLIOTT)
-        lr.markov_note = "not applicable: no Gilbert-Elliott link (failure rate p unknown)";
-      else if (!lr.link.onOff())
-        lr.markov_note = "not applicable: a hidden Gilbert-Elliott chain; the recovery rate does not determine the "
-                         "loss persistence";
-      else
-        lr.markov_note = "the recovery rate this sensor needs is its margin (p = " + num(lr.link.p) + ")";
+      lr.markov_note = markovNote(lr.link);
       rep.links.push_back(lr);
     }
   }
