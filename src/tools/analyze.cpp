@@ -52,8 +52,11 @@ void printSet(std::ostream& os, const RateAnalysis& r, const std::string& in = "
   if (in == "  ")
     os << "[" << r.name << "]\n";
   os << in << "lower bound (necessary)         " << rate(r.lower_bound) << "\n";
-  os << in << "MARE upper bound                diverges at " << rate(r.mare.diverges_at) << ", converges at "
-     << rate(r.mare.converges_at) << (r.mare.undecided_band ? " (undecided band between)" : "") << "\n";
+  if (!r.mare_note.empty())
+    os << in << "MARE upper bound                " << r.mare_note << "\n";
+  else
+    os << in << "MARE upper bound                diverges at " << rate(r.mare.diverges_at) << ", converges at "
+       << rate(r.mare.converges_at) << (r.mare.undecided_band ? " (undecided band between)" : "") << "\n";
   os << in << "closed-form upper bound         " << rate(r.closed_form_upper) << "\n";
   os << in << "exact critical arrival rate     " << rate(r.exact_rate) << "  (" << r.exact_method << ")\n";
   os << in << "Markov: critical recovery rate  ";

@@ -6,6 +6,10 @@
 //                           per-sensor verdicts and margins included: the work of
 //                           `analyze --model M --channel s1=A.yaml --channel s2=B.yaml ...`
 //   analyze_common/n/S      the same with one i.i.d. channel for every sensor
+//   analyze_scale/n/S/U     analyze_links at scale: n = 15 ... 200, a stable (U = 0: rho(A) = 0.99)
+//                           or unstable (U = 1: three unstable modes) A
+//   verdict_only/n/S/U      verdictOnly, the verdict and each sensor's needed rate (analyze
+//                           --verdict-only, Python verdict())
 //   live_evaluate/n/S/M/C   LiveStability::evaluate on a full window (M: i.i.d. 0 or Markov 1;
 //                           C: cache off 0, a second with new data, or on 1, a second without):
 //                           what the Estimator nodelet spends at most once a second
@@ -42,7 +46,9 @@ namespace networked_estimation
 namespace
 {
 
-Model randomUnstableModel(int n, int sensors, std::uint64_t seed)
+/// stable: every eigenvalue inside the unit circle, the largest 0.99; else three unstable real
+/// modes (1.05..1.4), the rest stable.
+Model randomUnstableModel(int n, int sensors, std::uint64_t seed, bool stable = false)
 {
   Rng rng(seed);
   Eigen::MatrixXd V(n, n);
@@ -52,7 +58,8 @@ Model randomUnstableModel(int n, int sensors, std::uint64_t seed)
   V += 2.0 * Eigen::MatrixXd::Identity(n, n);  // well conditioned
   Eigen::VectorXd eig(n);
   for (int i = 0; i < n; ++i)
-    eig[i] = i < 3 ? 1.05 + 0.15 * i + 0.05 * rng.uniform() : rng.uniform(-0.9, 0.9);
+    eig[i] = stable ? (i == 0 ? 0.99 : rng.uniform(-0.9, 0.9))
+                    : i < 3 ? 1.05 + 0.15 * i + 0.05 * rng.uniform() : rng.uniform(-0.9, 0.9);
   Model m;
   m.name = "random_n" + std::to_string(n);
   m.period = 0.1;
@@ -103,17 +110,50 @@ ChannelSettings onOffChannel(double p, double r)
   return c;
 }
 
+/// The links of analyze_links: even sensors i.i.d., odd sensors on/off Gilbert-Elliott.
+std::vector<std::optional<ChannelSettings>> mixedLinks(int S)
+{
+  std::vector<std::optional<ChannelSettings>> links;
+  for (int j = 0; j < S; ++j)
+    links.push_back(j % 2 == 0 ? iidChannel(0.6 + 0.35 * j / S) : onOffChannel(0.05 + 0.02 * j, 0.5 + 0.05 * j));
+  return links;
+}
+
 void analyzeLinks(benchmark::State& state)
 {
   const int n = static_cast<int>(state.range(0)), S = static_cast<int>(state.range(1));
   const Model m = randomUnstableModel(n, S, 7);
-  std::vector<std::optional<ChannelSettings>> links;
-  for (int j = 0; j < S; ++j)
-    links.push_back(j % 2 == 0 ? iidChannel(0.6 + 0.35 * j / S) : onOffChannel(0.05 + 0.02 * j, 0.5 + 0.05 * j));
+  const std::vector<std::optional<ChannelSettings>> links = mixedLinks(S);
   for (auto _ : state)
   {
     const StabilityReport rep = analyzeStability(m, links);
     benchmark::DoNotOptimize(rep.model.verdict.kind);
+  }
+}
+
+/// analyze at scale: n states, S sensors, a stable (U = 0) or unstable (U = 1) A.
+void analyzeScale(benchmark::State& state)
+{
+  const int n = static_cast<int>(state.range(0)), S = static_cast<int>(state.range(1));
+  const Model m = randomUnstableModel(n, S, 7, state.range(2) == 0);
+  const std::vector<std::optional<ChannelSettings>> links = mixedLinks(S);
+  for (auto _ : state)
+  {
+    const StabilityReport rep = analyzeStability(m, links);
+    benchmark::DoNotOptimize(rep.model.verdict.kind);
+  }
+}
+
+/// verdictOnly (analyze --verdict-only, Python verdict()): the verdict and each sensor's needed rate.
+void verdictScale(benchmark::State& state)
+{
+  const int n = static_cast<int>(state.range(0)), S = static_cast<int>(state.range(1));
+  const Model m = randomUnstableModel(n, S, 7, state.range(2) == 0);
+  const std::vector<std::optional<ChannelSettings>> links = mixedLinks(S);
+  for (auto _ : state)
+  {
+    const VerdictReport v = verdictOnly(m, links);
+    benchmark::DoNotOptimize(v.verdict.kind);
   }
 }
 
@@ -246,6 +286,25 @@ int main(int argc, char** argv)
       ->Args({4, 2})
       ->Args({10, 8})
       ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+  benchmark::RegisterBenchmark("analyze_scale", analyzeScale)
+      ->Args({15, 4, 0})
+      ->Args({15, 4, 1})
+      ->Args({50, 4, 0})
+      ->Args({50, 4, 1})
+      ->Args({100, 4, 0})
+      ->Args({100, 4, 1})
+      ->Args({200, 4, 0})
+      ->Args({200, 4, 1})
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+  benchmark::RegisterBenchmark("verdict_only", verdictScale)
+      ->Args({2, 1, 1})
+      ->Args({4, 2, 1})
+      ->Args({6, 3, 1})
+      ->Args({6, 3, 0})
+      ->Args({15, 4, 1})
+      ->Unit(benchmark::kMicrosecond)
       ->UseRealTime();
   benchmark::RegisterBenchmark("analyze_common", analyzeCommon)
       ->Args({10, 8})

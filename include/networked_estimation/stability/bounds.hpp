@@ -78,6 +78,12 @@ struct MareResult
 };
 /// MARE (18): g(X) = A X A' + Q - A X H'(W ⊙ (H X H' + I))^{-1} H X A' for whitened sensors H_i
 /// with i.i.d. arrival rates lambda_i (sensors with lambda_i = 0 contribute nothing).
+/// An upper bound on the spectral radius of the positive map T(Y) = sum_i M_i Y M_i' (docs/stability.md
+/// 3.2): lambda_max(Y^-1/2 T(Y) Y^-1/2) at power iterates Y of T, the least found; stops when the
+/// lower bound lambda_min is within rel_gap of it (relative) or after max_iterations.
+double positiveMapRadiusBound(const std::vector<Eigen::MatrixXd>& Ms, int max_iterations = 400,
+                              double rel_gap = 1e-6);
+
 class Mare
 {
 public:
@@ -88,8 +94,10 @@ public:
   /// Gain L(X) = A X H'(W ⊙ (H X H' + I))^{-1} Lambda^{-1} (n x m of the used sensors).
   Eigen::MatrixXd gain(const Eigen::MatrixXd& X) const;
   /// rho(T) with T = M0 ⊗ M0 + sum_i Mi ⊗ Mi at L = L(X) (docs/stability.md 3.2); < 1 certifies
-  /// condition (1) of Theorem 4.
+  /// condition (1) of Theorem 4. Exact (the n^2 x n^2 matrix) up to kKroneckerStates states; above,
+  /// the upper bound positiveMapRadiusBound (O(n^3) per iteration instead of O(n^6)).
   double certificateRadius(const Eigen::MatrixXd& X) const;
+  static constexpr int kKroneckerStates = 8;
   /// Stacked whitened H of the sensors with a positive rate.
   const Eigen::MatrixXd& stackedH() const { return H_; }
 

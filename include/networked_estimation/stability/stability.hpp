@@ -67,6 +67,7 @@ struct RateAnalysis
   double lower_bound = 0.0;  ///< necessary: 1 - rho^{-2/N} (Yang Theorem 1 / Sinopoli)
   double closed_form_upper = std::numeric_limits<double>::quiet_NaN();  ///< N = 1: 1 - 1/M^2; N > 1: Yang Thm 5 common rate
   CriticalBand mare;          ///< MARE threshold by bisection (NaN fields when A is stable)
+  std::string mare_note;      ///< why the MARE threshold was not computed (empty when it was)
   double exact_rate = std::numeric_limits<double>::quiet_NaN();  ///< Theorem 14, NaN when unavailable
   std::string exact_method;   ///< how exact_rate was obtained, or why it is unavailable
   // on/off Gilbert-Elliott links at a common recovery rate r with the links' failure rate p. When
@@ -170,7 +171,7 @@ struct StabilityReport
   double mare_at_rates_trace = std::numeric_limits<double>::quiet_NaN();
   double mare_at_rates_certificate = std::numeric_limits<double>::quiet_NaN();
   std::vector<SensorLinkReport> links;  ///< per sensor (empty without any channel)
-  EntropySplit entropy_split;
+  EntropySplit entropy_split;     ///< of the observed modes (not computed, default, when they are stable)
   RateAnalysis model;             ///< all sensors
   std::vector<RateAnalysis> sensors;  ///< each sensor alone (empty when options.per_sensor is false)
   Verdict rseio;                  ///< Zhou's Theorem 5 (NOT_APPLICABLE unless the estimator is rseio)
@@ -188,6 +189,11 @@ struct AnalysisOptions
   double exact_tolerance = 1e-7;      ///< margins and intervals decided by Theorem 14
   int scan_points = 200;              ///< scan of a rate whose stable set is not a half-line
   std::size_t lattice_cap = 512;      ///< kernel lattices larger than this are not computed (UNAVAILABLE)
+  /// The MARE's bisections and its bound at the rates are computed for sets of up to this many
+  /// (observed) states: each MARE solve costs up to max_iterations steps of O(n^3), seconds beyond
+  /// it. Larger sets report "not computed" there; a verdict that needs the MARE (Theorem 14 cannot
+  /// decide) still computes it.
+  int mare_max_states = 30;
   MareOptions mare;
   StabilityTolerances tol;
 };

@@ -127,7 +127,7 @@ void jset(JsonWriter& w, const RateAnalysis& r)
     w.value(s);
   w.endArray().member("lower_bound", r.lower_bound).member("closed_form_upper", r.closed_form_upper);
   w.member("mare_diverges_at", r.mare.diverges_at).member("mare_converges_at", r.mare.converges_at);
-  w.member("mare_undecided_band", r.mare.undecided_band);
+  w.member("mare_undecided_band", r.mare.undecided_band).member("mare_note", r.mare_note);
   w.member("exact_rate", r.exact_rate).member("exact_method", r.exact_method);
   w.member("unbounded_at_every_rate", unboundedAtEveryRate(r.exact_rate));
   w.member("dead_reckoned", r.dead_reckoned).member("dead_states", r.dead_states);

@@ -133,6 +133,8 @@ bool isDiagonalizable(const Eigen::MatrixXd& A, const StabilityTolerances& tol)
   const double scale = std::max(1.0, A.norm());
   for (const Cluster& c : clusters(eigenvalues(A), tol.eigen_cluster))
   {
+    if (c.multiplicity == 1)
+      continue;  // a simple eigenvalue has one eigenvector: no rank to check
     const int geometric = n - numericalRank(shifted(A, c.center), shiftTolerance(tol), scale);
     if (geometric < c.multiplicity)
       return false;
@@ -150,7 +152,14 @@ bool isObservable(const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, double rel
     O.middleRows(k * C.rows(), C.rows()) = blk;
     blk = blk * A;
   }
-  return numericalRank(O.cast<std::complex<double>>(), rel_tol) == n;
+  // A real matrix: its singular values in real arithmetic (a quarter of the complex SVD's work).
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(O);
+  const Eigen::VectorXd sv = svd.singularValues();
+  const double thr = rel_tol * (sv.size() ? sv[0] : 0.0);  // numericalRank's, with scale 0
+  int r = 0;
+  for (int i = 0; i < sv.size(); ++i)
+    r += sv[i] > thr ? 1 : 0;
+  return r == n;
 }
 
 bool modesControllable(const Eigen::MatrixXd& A, const Eigen::MatrixXd& G, double min_modulus, double rel_tol)

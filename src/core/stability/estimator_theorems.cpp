@@ -42,12 +42,7 @@ Verdict aoeTheorem5(const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, const Ei
     v.reason = "Assumption 1: (A, C) is not observable";
     return v;
   }
-  const Eigen::MatrixXd G = Eigen::LLT<Eigen::MatrixXd>(sym(Q)).matrixL();
-  if (!modesControllable(A, G, 0.0))
-  {
-    v.reason = "Assumption 1: (A, Q^1/2) is not controllable";
-    return v;
-  }
+  // (A, Q^1/2) is controllable: Q is positive definite (checked above), so Q^1/2 has full rank.
   if (!(recovery > 0.0 && recovery <= 1.0 && failure > 0.0 && failure <= 1.0))
   {
     v.reason = "Assumption 1: the recovery and failure rates must be in (0, 1]";

@@ -52,9 +52,16 @@ Eigen::MatrixXcd power(const Eigen::MatrixXcd& M, int k)
 std::vector<BlockStructure> analyseBlocks(const Eigen::MatrixXd& A, const std::vector<Eigen::MatrixXd>& H,
                                           const StabilityTolerances& tol, std::size_t lattice_cap)
 {
+  return analyseBlocks(A, fmoBlocks(A, 1.0, tol), H, tol, lattice_cap);
+}
+
+std::vector<BlockStructure> analyseBlocks(const Eigen::MatrixXd& A, const std::vector<FmoBlock>& blocks,
+                                          const std::vector<Eigen::MatrixXd>& H,
+                                          const StabilityTolerances& tol, std::size_t lattice_cap)
+{
   std::vector<BlockStructure> out;
   const std::size_t ns = H.size();
-  for (const FmoBlock& blk : fmoBlocks(A, 1.0, tol))
+  for (const FmoBlock& blk : blocks)
   {
     BlockStructure bs;
     bs.block = blk;

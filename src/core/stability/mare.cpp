@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "stability_internal.hpp"
@@ -84,12 +85,51 @@ double Mare::certificateRadius(const Eigen::MatrixXd& X) const
     if (sigma > 0.0)
       Ms.push_back(sigma * L.middleCols(offset_[i], size_[i]) * H_.middleRows(offset_[i], size_[i]));
   }
-  Eigen::MatrixXd T = Eigen::MatrixXd::Zero(n * n, n * n);
-  for (const auto& M : Ms)
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j)
-        T.block(i * n, j * n, n, n) += M(i, j) * M;
-  return spectralRadius(T);
+  if (n <= kKroneckerStates)
+  {
+    Eigen::MatrixXd T = Eigen::MatrixXd::Zero(n * n, n * n);
+    for (const auto& M : Ms)
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j)
+          T.block(i * n, j * n, n, n) += M(i, j) * M;
+    return spectralRadius(T);
+  }
+  return positiveMapRadiusBound(Ms);
+}
+
+double positiveMapRadiusBound(const std::vector<Eigen::MatrixXd>& Ms, int max_iterations, double rel_gap)
+{
+  // T(Y) = sum M Y M' maps the cone of positive semidefinite matrices into itself. For any Y > 0,
+  // T(Y) <= c Y with c = lambda_max(Y^-1/2 T(Y) Y^-1/2) gives T^k(Y) <= c^k Y, hence rho(T) <= c; and
+  // T(Y) >= c_min Y gives rho(T) >= c_min. Power iterates Y_{k+1} = T(Y_k) (normalised, kept
+  // definite) tighten both towards rho(T).
+  const Eigen::Index n = Ms.front().rows();
+  const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n, n);
+  Eigen::MatrixXd Y = I;
+  double best = std::numeric_limits<double>::infinity();
+  for (int k = 1; k <= max_iterations; ++k)
+  {
+    Eigen::MatrixXd Z = Eigen::MatrixXd::Zero(n, n);
+    for (const auto& M : Ms)
+      Z.noalias() += M * Y * M.transpose();
+    Z = sym(Z);
+    if (!Z.allFinite())
+      return best;
+    if (k % 5 == 0 || k == max_iterations)
+    {
+      const Eigen::LLT<Eigen::MatrixXd> llt(Y);
+      const Eigen::MatrixXd W = llt.matrixL().solve(llt.matrixL().solve(Z).transpose());
+      const Eigen::VectorXd ev = symmetricEigenvalues(sym(W));
+      best = std::min(best, ev.maxCoeff());
+      if (best - ev.minCoeff() <= rel_gap * best)
+        return best;
+    }
+    const double scale = Z.trace();
+    if (!(scale > 0.0))
+      return 0.0;  // T(Y) = 0 for a definite Y: T is nilpotent on the cone's interior
+    Y = Z / scale + 1e-12 * I;
+  }
+  return best;
 }
 
 namespace

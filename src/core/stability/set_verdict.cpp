@@ -181,7 +181,8 @@ SetData makeSet(const Context& ctx, const std::vector<int>& set)
     d.detectable = true;
   }
   d.stable_A = d.rho < 1.0;
-  d.blocks = analyseBlocks(d.A, d.H, ctx.options->tol, ctx.options->lattice_cap);
+  d.blocks = d.unobserved > 0 ? analyseBlocks(d.A, d.H, ctx.options->tol, ctx.options->lattice_cap)
+                              : analyseBlocks(d.A, ctx.fmo, d.H, ctx.options->tol, ctx.options->lattice_cap);
   if (model.schedule.active())
     d.schedule = restrictSchedule(model.schedule, set);
   return d;
@@ -340,6 +341,7 @@ Context modelContext(const Model& model, const AnalysisOptions& options)
   ctx.rho = spectralRadius(model.A);
   ctx.G = model.B * Eigen::LLT<Eigen::MatrixXd>(model.Q).matrixL().toDenseMatrix();
   ctx.excited = modesControllable(model.A, ctx.G, 1.0, 1e-9);
+  ctx.fmo = fmoBlocks(model.A, 1.0, options.tol);
   return ctx;
 }
 

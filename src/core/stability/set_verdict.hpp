@@ -27,6 +27,7 @@ struct Context
   double rho = 0.0;
   bool excited = true;                 ///< unstable modes controllable from the noise
   bool has_channel = false;            ///< some sensor has a channel
+  std::vector<FmoBlock> fmo;           ///< fmoBlocks(A) of the model, shared by its sets
   std::vector<LinkModel> links;        ///< per sensor (lossless: i.i.d. with arrival 1)
   std::vector<bool> lossless;
   const AnalysisOptions* options = nullptr;

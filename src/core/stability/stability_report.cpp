@@ -143,12 +143,17 @@ RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const s
         ra.exact_method += " " + b.reason + ";";
       ra.exact_method.pop_back();
     }
-    const EntropySplit split = entropySplit(d.A, H);
-    ra.closed_form_upper = stable_A ? 0.0 : split.common_rate;
+    // A stable A has no entropy to split (and its closed form is 0 at every size).
+    ra.closed_form_upper = stable_A ? 0.0 : entropySplit(d.A, H).common_rate;
 
     if (stable_A)
     {
       ra.mare.converges_at = 0.0;
+    }
+    else if (d.excited && d.A.rows() > opt.mare_max_states)
+    {
+      ra.mare_note = "not computed: " + std::to_string(d.A.rows()) + " states > " +
+                     std::to_string(opt.mare_max_states) + " (AnalysisOptions::mare_max_states)";
     }
     else if (d.excited)
     {
@@ -354,6 +359,12 @@ void mareAtRates(const Context& ctx, const SetData& all, const std::vector<doubl
     rep.mare_at_rates = "not applicable: the noise does not excite every unstable mode";
     return;
   }
+  if (all.A.rows() > ctx.options->mare_max_states)
+  {
+    rep.mare_at_rates = "not computed: " + std::to_string(all.A.rows()) + " states > " +
+                        std::to_string(ctx.options->mare_max_states) + " (AnalysisOptions::mare_max_states)";
+    return;
+  }
   const Mare mare(all.A, all.Qn, all.H, rates);
   const MareResult mr = solveMare(mare, ctx.options->mare, true);
   rep.mare_at_rates_certificate = mr.certificate;
@@ -493,7 +504,8 @@ StabilityReport analyzeStability(const Model& model, const std::vector<std::opti
       rep.capacity_note += "; it ignores the sensor schedule";
     mareAtRates(ctx, all_set, rates, any_markov, rep);
   }
-  rep.entropy_split = entropySplit(all_set.A, all_set.H);
+  if (!all_set.stable_A)
+    rep.entropy_split = entropySplit(all_set.A, all_set.H);
 
   // The sets are independent (analyseSet reads ctx only): the per-sensor analyses run in parallel
   // with the model's, a thread each (the MARE bisections dominate for unstable models).
