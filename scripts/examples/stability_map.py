@@ -22,8 +22,9 @@ model = ne.Model(name="rotation", A=[[0, -1.2], [1.2, 0]], Q=np.eye(2),
                  sensors=[ne.Sensor("s", C=[[1, 0]], R=[[1]])])
 kinds, colours = ["stable", "undecided", "unstable"], ["tab:green", "gold", "tab:red"]
 p = r = np.linspace(0.0125, 0.9875, 40)  # cell centres of a 40 x 40 grid on [0, 1]^2
-# the analysis' verdict for all the model's sensors together (here its one sensor), at every (p, r)
-verdict = [[ne.analyze(model, ne.GilbertElliott(p=a, r=b))["all_sensors"]["verdict"]["kind"] for a in p] for b in r]
+# the verdict for all the model's sensors together (here its one sensor), at every (p, r): verdict()
+# gives analyze()'s verdict without the rest of the report
+verdict = [[ne.verdict(model, ne.GilbertElliott(p=a, r=b))["verdict"]["kind"] for a in p] for b in r]
 fig, ax = plt.subplots(figsize=(6.5, 5))
 cells = ax.pcolormesh(p, r, [[kinds.index(v) for v in row] for row in verdict], cmap=ListedColormap(colours),
                       vmin=-0.5, vmax=2.5, shading="nearest")
