@@ -96,6 +96,41 @@ def test_analyze_equals_the_tool(model_file, args, links, settings):
     assert ours == json.loads(stdout)
 
 
+@pytest.mark.parametrize("model_file, args, links, settings", ANALYSES)
+def test_verdict_equals_the_tool_and_analyze(model_file, args, links, settings):
+    cmd = ["--model", MODELS / model_file, "--verdict-only", "--json"]
+    for a in args:
+        cmd += ["--channel", channel_arg(a)]
+    _, stdout, _ = tool("analyze", *cmd)
+    if isinstance(links, dict):
+        links = {k: str(CHANNELS / v) for k, v in links.items()}
+    elif links:
+        links = str(CHANNELS / links)
+    model = ne.Model.from_yaml(MODELS / model_file)
+    ours = ne.verdict(model, links)
+    assert ours == json.loads(stdout)
+    full = ne.analyze(model, links)  # the same verdicts and needed rates as the whole report
+    assert ours["verdict"]["kind"] == full["all_sensors"]["verdict"]["kind"]
+    assert ours["links_verdict"]["kind"] == full["all_sensors"]["links_verdict"]["kind"]
+    assert full["all_sensors"]["verdict"]["reason"].startswith(ours["verdict"]["reason"])
+    assert [v["margin"] for v in ours["links"]] == [v["margin"] for v in full["links"]]
+
+
+def test_verdict_names_what_grows_regardless_of_the_links():
+    # constant velocity, a velocity sensor only: the position's variance grows whatever the link does
+    model = ne.Model(name="cv", A=[[1, 0.1], [0, 1]], Q=np.diag([0.01, 0.1]), states=["x", "vx"],
+                     sensors=[ne.Sensor("odom", C=[[0, 1]], R=[[0.01]])])
+    v = ne.verdict(model, ne.Bernoulli(0.2))
+    assert v["verdict"]["kind"] == "unstable" and v["verdict"]["reason"].startswith("x grows regardless of the links")
+    assert v["links_verdict"]["kind"] == "stable" and v["dead_states"] == "x"
+    m = v["links"][0]["margin"]
+    assert m["converges_at"] is None and m["grows_regardless"] == "x" and m["converges_at_observed"] == 0
+    full = ne.analyze(model, ne.Bernoulli(0.2))["all_sensors"]
+    assert full["verdict"]["kind"] == "unstable" and full["unbounded_at_every_rate"]
+    assert full["observed"]["verdict"]["kind"] == "stable"
+    assert not ne.design(model)["design"]["applicable"]
+
+
 @pytest.mark.parametrize("cost", ["total_rate", "capacity"])
 def test_design_equals_the_tool(cost):
     _, stdout, _ = tool("analyze", "--model", MODELS / "unstable_two_links.yaml", "--design", cost, "--json")
