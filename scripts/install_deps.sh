@@ -5,11 +5,17 @@ PACKAGES=(
   build-essential cmake
   ros-core-dev libnodeletlib-dev libnodeletlib-tools python3-rostest rosbash python3-rosbag
   libtf2-ros-dev libtf2-eigen-dev libdiagnostic-updater-dev libtopic-tools-dev
-  libgeometry-msgs-dev libsensor-msgs-dev libnav-msgs-dev libros-rosgraph-msgs-dev libtf2-dev
+  libgeometry-msgs-dev libsensor-msgs-dev libnav-msgs-dev libros-rosgraph-msgs-dev libtf2-dev libtf2-msgs-dev
   libgeographiclib-dev libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   libyaml-cpp-dev libeigen3-dev nlohmann-json3-dev libgtest-dev googletest libbenchmark-dev
   python3-matplotlib python3-numpy catkin-lint
   pybind11-dev python3-dev python3-setuptools python3-pytest python3-yaml python3-distributed
+  # The ROS command line on the package's graphs (rostopic echo, rosservice call, dynparam):
+  # Debian packs each message package's Python side apart from its C++ headers, one for every
+  # package of a type the nodelets publish, subscribe to or serve (docs/ros_interface.md).
+  python3-rostopic python3-rosservice
+  python3-std-msgs python3-geometry-msgs python3-sensor-msgs python3-nav-msgs python3-diagnostic-msgs
+  python3-tf2-msgs python3-rosgraph-msgs
 )
 missing=()
 for p in "${PACKAGES[@]}"; do
