@@ -8,8 +8,10 @@
 set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 bash "$HERE/install_deps.sh"
-# Only what the demo runs: the nodelets, the summary node and the four tools below.
-bash "$HERE/build.sh" networked_estimation_nodelets estimate_summary simulate replay score analyze
+# Only what the demo runs: the nodelets, the summary node and the four tools below; and the
+# package's Python messages, which rostopic and rosservice load to show its topics and services.
+bash "$HERE/build.sh" networked_estimation_nodelets estimate_summary simulate replay score analyze \
+  networked_estimation_generate_messages_py
 source "$HERE/workspace.sh"
 BIN="$WS/devel/lib/networked_estimation"
 OUT="$WS/demo"

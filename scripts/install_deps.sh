@@ -1,16 +1,34 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages the package needs. Idempotent: does nothing when all are present.
+# Usage: scripts/install_deps.sh            what building the package and running its nodelets,
+#                                           tools, launch files and the demo need (scripts/demo.sh)
+#        scripts/install_deps.sh --tests    also what the tests need (scripts/test.sh), and the
+#                                           Python module's run time: every package package.xml names
 set -euo pipefail
 PACKAGES=(
   build-essential cmake
-  ros-core-dev libnodeletlib-dev libnodeletlib-tools python3-rostest rosbash python3-rosbag
+  ros-core-dev libnodeletlib-dev libnodeletlib-tools rosbash python3-rosbag
   libtf2-ros-dev libtf2-eigen-dev libdiagnostic-updater-dev libtopic-tools-dev
-  libgeometry-msgs-dev libsensor-msgs-dev libnav-msgs-dev libros-rosgraph-msgs-dev libtf2-dev
+  libgeometry-msgs-dev libsensor-msgs-dev libnav-msgs-dev libros-rosgraph-msgs-dev libtf2-dev libtf2-msgs-dev
   libgeographiclib-dev libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
-  libyaml-cpp-dev libeigen3-dev nlohmann-json3-dev libgtest-dev googletest libbenchmark-dev
-  python3-matplotlib python3-numpy catkin-lint
-  pybind11-dev python3-dev python3-setuptools python3-pytest python3-yaml python3-distributed
+  libyaml-cpp-dev libeigen3-dev nlohmann-json3-dev
+  pybind11-dev python3-dev python3-setuptools python3-yaml
+  # The ROS command line on the package's graphs (rostopic echo, rosservice call, dynparam):
+  # Debian packs each message package's Python side apart from its C++ headers, one for every
+  # package of a type the nodelets publish, subscribe to or serve (docs/ros_interface.md).
+  python3-rostopic python3-rosservice
+  python3-std-msgs python3-geometry-msgs python3-sensor-msgs python3-nav-msgs python3-diagnostic-msgs
+  python3-tf2-msgs python3-rosgraph-msgs
 )
+TEST_PACKAGES=(
+  python3-rostest libgtest-dev googletest libbenchmark-dev catkin-lint
+  python3-pytest python3-distributed python3-numpy python3-matplotlib
+)
+case "${1:-}" in
+  "") ;;
+  --tests) PACKAGES+=("${TEST_PACKAGES[@]}") ;;
+  *) echo "usage: install_deps.sh [--tests]  (found '$1')" >&2; exit 2 ;;
+esac
 missing=()
 for p in "${PACKAGES[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -3,7 +3,7 @@
 # Exits non-zero when any test fails; ctest's summary is the last thing printed.
 set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
-bash "$HERE/install_deps.sh"
+bash "$HERE/install_deps.sh" --tests
 bash "$HERE/build.sh" --tests
 source "$HERE/workspace.sh"
 set +u; source "$WS/devel/setup.bash"; set -u

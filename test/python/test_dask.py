@@ -7,8 +7,8 @@ import pytest
 
 import networked_estimation as ne
 
-# Debian's python3-distributed (scripts/install_deps.sh installs it; it has no rosdep key, so a ROS
-# workspace may lack it): without it this test is skipped, and pytest -rs prints why.
+# Debian's python3-distributed (scripts/install_deps.sh --tests installs it; it has no rosdep key, so
+# a ROS workspace may lack it): without it this test is skipped, and pytest -rs prints why.
 distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed "
                                   "(Debian: python3-distributed): the cluster recipe is not tested")
 Client, LocalCluster = distributed.Client, distributed.LocalCluster
