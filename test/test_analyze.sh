@@ -264,6 +264,28 @@ if not ok:
     print("FAIL: --verdict-only velocity only", d)
     sys.exit(1)
 PY
+check "--verdict-only refuses --estimator" 2 "$BIN" --model "$TMP/cv_vel.yaml" --verdict-only \
+  --estimator "$SRC/config/estimators/kfio.yaml"
+grep -q "option '--estimator' is not for --verdict-only" "$TMP/err" || { echo "FAIL: --verdict-only --estimator"; cat "$TMP/err"; fail=1; }
+check "--verdict-only refuses --design" 2 "$BIN" --model "$TMP/cv_vel.yaml" --verdict-only --design total_rate
+grep -q "option '--verdict-only' is not for --design" "$TMP/err" || { echo "FAIL: --verdict-only --design"; cat "$TMP/err"; fail=1; }
+# every example model and channel: --verdict-only gives the full report's verdict kinds and needed rates
+for m in "$SRC"/config/models/*.yaml; do
+  for c in "$SRC"/config/channels/bernoulli_0.2.yaml "$SRC"/config/channels/gilbert_elliott_bursty.yaml; do
+    "$BIN" --model "$m" --channel "$c" --json >"$TMP/full.json" 2>/dev/null &&
+      "$BIN" --model "$m" --channel "$c" --verdict-only --json >"$TMP/verdict.json" 2>/dev/null || { echo "FAIL: $m $c"; fail=1; continue; }
+    python3 - "$TMP/full.json" "$TMP/verdict.json" "$(basename "$m") $(basename "$c")" <<'PY' || fail=1
+import json, sys
+full, v = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+ok = v["verdict"]["kind"] == full["all_sensors"]["verdict"]["kind"]
+ok = ok and v["links_verdict"]["kind"] == full["all_sensors"]["links_verdict"]["kind"]
+ok = ok and [l["margin"] for l in v["links"]] == [l["margin"] for l in full["links"]]
+if not ok:
+    print("FAIL: --verdict-only differs from the full report for", sys.argv[3])
+    sys.exit(1)
+PY
+  done
+done
 
 if [ $fail = 0 ]; then echo "test_analyze: all passed"; fi
 exit $fail
