@@ -226,6 +226,20 @@ refuse "--accel-density on constant_acceleration" "option '--accel-density' is n
   make_model --motion constant_acceleration --rate 20 --jerk-density 1 --accel-density 1 --dims 2 \
   --sensor gps:position:1 --output "$OUT/m.yaml"
 
+# --- make_model --motion omni_2d: errors name the option as typed, not sensors[0].states --------------
+O=(--motion omni_2d --rate 20 --process-noise 0.01 --output "$OUT/m.yaml")
+refuse "omni --sensor without states" \
+  "omni model 'robot': --sensor 'odom::0.05' states: expected names of states of omni_2d (x, y, yaw, vx, vy, vyaw, ax, ay) separated by commas, found none" \
+  make_model "${O[@]}" --sensor odom::0.05
+refuse "omni --sensor with an empty state" "--sensor 'odom:vx,,vy:0.05' states: expected names of states of omni_2d" \
+  make_model "${O[@]}" --sensor odom:vx,,vy:0.05
+refuse "omni --sensor sigma 0" "--sensor 'odom:vx:0' sigma: expected finite standard deviations > 0, found 0" \
+  make_model "${O[@]}" --sensor odom:vx:0
+refuse "omni --sensor name twice" "--sensor 'odom:vy:1' name: duplicate sensor name 'odom' (also --sensor 'odom:vx:1' name)" \
+  make_model "${O[@]}" --sensor odom:vx:1 --sensor odom:vy:1
+refuse "omni --x0 wrong count" "omni model 'robot': --x0: expected 8 entries" make_model "${O[@]}" --sensor odom:vx:1 \
+  --x0 1,2
+
 # --- what replaced an inf or a text answer -------------------------------------------------------------
 # the scheduled example with s1's link too poor: s2 sees none of s1's modes, so no rate of s2's link
 # keeps E[P] bounded (its needed rate is +infinity), and each sensor alone leaves the other's modes

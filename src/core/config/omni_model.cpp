@@ -31,9 +31,10 @@ std::string list(const std::vector<double>& v)
 Model makeOmniModel(const OmniSpec& spec)
 {
   const std::string source = "omni model '" + spec.name + "'";
-  const auto fail = [&source](const std::string& key, const std::string& problem)
+  const auto name = [&spec](const std::string& key) { return spec.key_name ? spec.key_name(key) : key; };
+  const auto fail = [&source, &name](const std::string& key, const std::string& problem)
   {
-    throw ConfigError(message(source, 0, key, problem));
+    throw ConfigError(message(source, 0, name(key), problem));
   };
   Motion motion = Motion::LINEAR;
   try
@@ -109,7 +110,8 @@ Model makeOmniModel(const OmniSpec& spec)
     {
       if (spec.sensors[j].name == s.name)
       {
-        fail(key + ".name", "duplicate sensor name '" + s.name + "' (also " + indexKey("sensors", j) + ".name)");
+        fail(key + ".name", "duplicate sensor name '" + s.name + "' (also " + name(indexKey("sensors", j) + ".name") +
+                                ")");
       }
     }
     if (s.states.empty())
@@ -131,6 +133,15 @@ Model makeOmniModel(const OmniSpec& spec)
         {
           column = i;
         }
+      }
+      if (column < 0 && s.states[r].empty())
+      {
+        std::string given;
+        for (std::size_t j = 0; j < s.states.size(); ++j)
+          given += (j ? "," : "") + s.states[j];
+        fail(key + ".states", "expected names of states of " + spec.motion + " (" + joinList(names) +
+                                  ") separated by commas, found " +
+                                  (s.states.size() == 1 ? std::string("none") : "an empty name in '" + given + "'"));
       }
       if (column < 0)
       {
