@@ -192,6 +192,19 @@ TEST_F(EstimatorConfig, RefusalsNameTheKey)
   EXPECT_TRUE(has(error("{algorithm: ack_kf}"), "ack_kf needs nu_k"));
   EXPECT_TRUE(has(error("{algorithm: aoe}", control_), "control_link"));
   EXPECT_TRUE(has(error("", no_period_), "period: the model"));
+  // the model's period is held to ~period's range (it is the default of ~period); named, not found
+  // out through the budgets it sets (latency_budget_min is half a period)
+  for (const char* period : {"1e300", "3601"})
+  {
+    const std::string slow = write(std::string("slow") + period + ".yaml",
+                                   std::string("name: s\nperiod: ") + period +
+                                       "\nA: [[0.9]]\nQ: [[1]]\nC: [[1]]\nR: [[1]]\nx0: [0]\nP0: [[1]]\n");
+    EXPECT_EQ(error("", slow), "/est parameters: period: the model '" + slow + "' has period " +
+                                   (period[1] == 'e' ? "1e+300" : "3601") +
+                                   " s: expected a number of seconds in (0, 3600], the range of ~period (give "
+                                   "~period to override it)");
+    EXPECT_DOUBLE_EQ(parse("{period: 0.5}", slow).period, 0.5);  // ~period given: the model's is not used
+  }
   EXPECT_TRUE(has(error("{latency_budget: -0.1}"), "latency_budget: expected a number of seconds >= 0, found -0.1"));
   EXPECT_TRUE(has(error("{latency_budget: soon}"), "latency_budget: expected auto or a number of seconds, found 'soon'"));
   EXPECT_TRUE(has(error("{latency_budget: .nan}"), "latency_budget: expected a number of seconds >= 0, found nan"));

@@ -240,6 +240,23 @@ refuse "omni --sensor name twice" "--sensor 'odom:vy:1' name: duplicate sensor n
 refuse "omni --x0 wrong count" "omni model 'robot': --x0: expected 8 entries" make_model "${O[@]}" --sensor odom:vx:1 \
   --x0 1,2
 
+# --- a built-in motion's period: one step of it must be finite (named, not A(i,j) = nan) -----------
+"$BIN/make_model" --motion omni_2d --rate 20 --process-noise 0.01 --sensor odom:vx,vy,vyaw:0.05 \
+  --sensor gps:x,y:0.5 --name rover --output "$F/rover.yaml" >/dev/null
+sed 's/^period: .*/period: 1e300/' "$F/rover.yaml" >"$F/rover_1e300.yaml"
+P=$(grep -n '^period:' "$F/rover.yaml" | cut -d: -f1)
+refuse "a motion's period over which a step is not finite" \
+  "$F/rover_1e300.yaml:$P: period: expected a number of seconds over which one step of omni_2d is finite, found 1e+300 (its Jacobian F has period^2 / 2 terms: F(0,6) = inf)" \
+  analyze --model "$F/rover_1e300.yaml"
+refuse "a motion's period over which a step is not finite" "$F/rover_1e300.yaml:$P: period: expected a number of seconds" \
+  simulate --model "$F/rover_1e300.yaml" --steps 10 --seed 1 --out "$OUT"
+refuse "omni --rate at which a step is not finite" \
+  "omni model 'robot': --rate: its period 1 / rate: expected a number of seconds over which one step of omni_2d is finite" \
+  make_model --motion omni_2d --rate 1e-300 --process-noise 0.01 --sensor odom:vx:1 --output "$OUT/m.yaml"
+refuse "omni --rate at which the noise of a step is not finite" \
+  "omni model 'robot': --rate: its period 1 / rate: expected a number of seconds over which the process noise of a step, Q period, is finite, found 999999999.9999999 (Q(0,0) = 1e+300 per second)" \
+  make_model --motion omni_2d --rate 1e-9 --process-noise 1e300 --sensor odom:vx:1 --output "$OUT/m.yaml"
+
 # --- what replaced an inf or a text answer -------------------------------------------------------------
 # the scheduled example with s1's link too poor: s2 sees none of s1's modes, so no rate of s2's link
 # keeps E[P] bounded (its needed rate is +infinity), and each sensor alone leaves the other's modes

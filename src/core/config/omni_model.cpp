@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "config/motion_config.hpp"
 #include "config/yaml_reader.hpp"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/motion/motion.hpp"
@@ -83,6 +84,14 @@ Model makeOmniModel(const OmniSpec& spec)
       fail("process-noise", "expected finite variances per second > 0, found " + list(spec.process_noise));
     }
     model.Q(i, i) = q;
+  }
+
+  // the period: one step of it must be a finite step of the motion (before the sensors, so that a
+  // rate too low is named as such)
+  const std::string period_problem = motionPeriodProblem(model);
+  if (!period_problem.empty())
+  {
+    fail("rate", "its period 1 / rate: " + period_problem);
   }
 
   // sensors
