@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # Table-driven refusals of the options and file formats added since the first release: per-sensor
 # --channel NAME=FILE, --actuator-channel, the model's schedule, analyze --design / --growth-cap /
-# --trace, montecarlo --shard / merge / --axis, make_model's options. Each row is one malformed
-# value (empty, repeated, out of range, wrong type, unknown name, conflicting options): the tool
-# must exit 2, name the option or key as the user wrote it (the row's fixed string), print nothing
-# on stdout and write no file, and print no inf or nan. analyze's rows run again with --json: stderr
-# is then one JSON object {"error": ...} holding the same message, stdout still empty.
+# --trace, montecarlo --shard / merge / --axis, make_model's options, analyze --at and a built-in
+# motion's period. Each row is one malformed value (empty, repeated, out of range, wrong type,
+# unknown name, conflicting options): the tool must exit 2, name the option or key as the user
+# wrote it (the row's fixed string), print nothing on stdout and write no file, and print no inf or
+# nan. analyze's rows run again with --json: stderr is then one JSON object {"error": ...} holding
+# the same message, stdout still empty.
 #   usage: test_refusals.sh TOOLS_DIR REPO_ROOT
 # Prints "N passed, M failed" and exits non-zero when any check failed.
 set -euo pipefail
@@ -256,6 +257,15 @@ refuse "omni --rate at which a step is not finite" \
 refuse "omni --rate at which the noise of a step is not finite" \
   "omni model 'robot': --rate: its period 1 / rate: expected a number of seconds over which the process noise of a step, Q period, is finite, found 999999999.9999999 (Q(0,0) = 1e+300 per second)" \
   make_model --motion omni_2d --rate 1e-9 --process-noise 1e300 --sensor odom:vx:1 --output "$OUT/m.yaml"
+
+# --- analyze --at: the option and what it holds, not "linearisation of model ..." ---------------------
+sed 's/^period: .*/period: 10/' "$F/rover.yaml" >"$F/rover_slow.yaml"
+refuse "--at of the wrong size" \
+  "option '--at': expected a finite state of 8 values (omni_2d: x, y, yaw, vx, vy, vyaw, ax, ay), found 3 (1, 2, 3)" \
+  analyze --model "$F/rover.yaml" --at 1,2,3
+refuse "--at whose Jacobian overflows (1e308 m/s over 10 s)" \
+  "option '--at': the Jacobian of omni_2d there over 10 s is not finite (F(1,2) = inf): expected a state of smaller values, found [0, 0, 0, 1e+308, 0, 0, 0, 0]" \
+  analyze --model "$F/rover_slow.yaml" --at 0,0,0,1e308,0,0,0,0
 
 # --- what replaced an inf or a text answer -------------------------------------------------------------
 # the scheduled example with s1's link too poor: s2 sees none of s1's modes, so no rate of s2's link
