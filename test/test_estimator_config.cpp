@@ -192,6 +192,19 @@ TEST_F(EstimatorConfig, RefusalsNameTheKey)
   EXPECT_TRUE(has(error("{algorithm: ack_kf}"), "ack_kf needs nu_k"));
   EXPECT_TRUE(has(error("{algorithm: aoe}", control_), "control_link"));
   EXPECT_TRUE(has(error("", no_period_), "period: the model"));
+  // the model's period is held to ~period's range (it is the default of ~period); named, not found
+  // out through the budgets it sets (latency_budget_min is half a period)
+  for (const char* period : {"1e300", "3601"})
+  {
+    const std::string slow = write(std::string("slow") + period + ".yaml",
+                                   std::string("name: s\nperiod: ") + period +
+                                       "\nA: [[0.9]]\nQ: [[1]]\nC: [[1]]\nR: [[1]]\nx0: [0]\nP0: [[1]]\n");
+    EXPECT_EQ(error("", slow), "/est parameters: period: the model '" + slow + "' has period " +
+                                   (period[1] == 'e' ? "1e+300" : "3601") +
+                                   " s: expected a number of seconds in (0, 3600], the range of ~period (give "
+                                   "~period to override it)");
+    EXPECT_DOUBLE_EQ(parse("{period: 0.5}", slow).period, 0.5);  // ~period given: the model's is not used
+  }
   EXPECT_TRUE(has(error("{latency_budget: -0.1}"), "latency_budget: expected a number of seconds >= 0, found -0.1"));
   EXPECT_TRUE(has(error("{latency_budget: soon}"), "latency_budget: expected auto or a number of seconds, found 'soon'"));
   EXPECT_TRUE(has(error("{latency_budget: .nan}"), "latency_budget: expected a number of seconds >= 0, found nan"));
@@ -342,15 +355,33 @@ TEST_F(EstimatorConfig, SensorsBlockRefusalsNameTheKey)
   has(error("{sensors: [a, b]}", planar_), "sensors: expected a map from sensor names");
 }
 
+// The datum's refusals name the entry that is wrong and what it holds: a NaN or infinite entry as
+// YAML writes it (.nan, .inf) and as a ROS parameter arrives (the text nan / inf of a double), one
+// out of range, one that is not a number; a list of the wrong length names the list.
 TEST_F(EstimatorConfig, Datum)
 {
   EXPECT_TRUE(parse("").datum.empty());
   EXPECT_EQ(parse("{datum: [48.1, 11.5, 520]}").datum, (std::vector<double>{48.1, 11.5, 520.0}));
-  EXPECT_NE(error("{datum: [48.1, 11.5]}").find("/est parameters: datum: expected [latitude, longitude, altitude]"),
-            std::string::npos);
-  EXPECT_NE(error("{datum: [48.1, east, 3]}").find("datum: expected [latitude"), std::string::npos);
-  EXPECT_NE(error("{datum: [95, 11.5, 3]}").find("/est parameters: datum: expected [latitude in [-90, 90]"),
-            std::string::npos);
+  EXPECT_EQ(parse("{datum: [-90, 180, -10.5]}").datum, (std::vector<double>{-90.0, 180.0, -10.5}));
+  EXPECT_EQ(error("{datum: [48.1, 11.5]}"),
+            "/est parameters: datum: expected [latitude, longitude, altitude] (degrees, degrees, m), found 2 entries");
+  EXPECT_EQ(error("{datum: 48.1}"),
+            "/est parameters: datum: expected [latitude, longitude, altitude] (degrees, degrees, m), found '48.1'");
+  const std::vector<std::pair<std::string, std::string>> table = {
+      {"[48.1, east, 3]", "datum[1] (longitude): expected a number, found 'east'"},
+      {"[48.1, [1], 3]", "datum[1] (longitude): expected a number, found a list"},
+      {"[95, 11.5, 3]", "datum[0] (latitude): expected a finite number of degrees in [-90, 90], found 95"},
+      {"[-90.5, 11.5, 3]", "datum[0] (latitude): expected a finite number of degrees in [-90, 90], found -90.5"},
+      {"[48.1, 180.5, 3]", "datum[1] (longitude): expected a finite number of degrees in [-180, 180], found 180.5"},
+      {"[.nan, 11.5, 3]", "datum[0] (latitude): expected a finite number of degrees in [-90, 90], found .nan"},
+      {"[nan, 11.5, 3]", "datum[0] (latitude): expected a finite number of degrees in [-90, 90], found nan"},
+      {"[48.1, NaN, 3]", "datum[1] (longitude): expected a finite number of degrees in [-180, 180], found NaN"},
+      {"[48.1, 11.5, nan]", "datum[2] (altitude): expected a finite number of metres, found nan"},
+      {"[48.1, 11.5, .inf]", "datum[2] (altitude): expected a finite number of metres, found .inf"},
+      {"[48.1, 11.5, -inf]", "datum[2] (altitude): expected a finite number of metres, found -inf"},
+  };
+  for (const auto& row : table)
+    EXPECT_EQ(error("{datum: " + row.first + "}"), "/est parameters: " + row.second) << row.first;
 }
 
 TEST_F(EstimatorConfig, OdometryOutputSettings)

@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # Table-driven refusals of the options and file formats added since the first release: per-sensor
 # --channel NAME=FILE, --actuator-channel, the model's schedule, analyze --design / --growth-cap /
-# --trace, montecarlo --shard / merge / --axis, make_model's options. Each row is one malformed
-# value (empty, repeated, out of range, wrong type, unknown name, conflicting options): the tool
-# must exit 2, name the option or key as the user wrote it (the row's fixed string), print nothing
-# on stdout and write no file, and print no inf or nan. analyze's rows run again with --json: stderr
-# is then one JSON object {"error": ...} holding the same message, stdout still empty.
+# --trace, montecarlo --shard / merge / --axis, make_model's options, analyze --at and a built-in
+# motion's period. Each row is one malformed value (empty, repeated, out of range, wrong type,
+# unknown name, conflicting options): the tool must exit 2, name the option or key as the user
+# wrote it (the row's fixed string), print nothing on stdout and write no file, and print no inf or
+# nan. analyze's rows run again with --json: stderr is then one JSON object {"error": ...} holding
+# the same message, stdout still empty.
 #   usage: test_refusals.sh TOOLS_DIR REPO_ROOT
 # Prints "N passed, M failed" and exits non-zero when any check failed.
 set -euo pipefail
@@ -225,6 +226,46 @@ refuse "--p0-acceleration on constant_velocity" "option '--p0-acceleration' is o
 refuse "--accel-density on constant_acceleration" "option '--accel-density' is not for a constant_acceleration model" \
   make_model --motion constant_acceleration --rate 20 --jerk-density 1 --accel-density 1 --dims 2 \
   --sensor gps:position:1 --output "$OUT/m.yaml"
+
+# --- make_model --motion omni_2d: errors name the option as typed, not sensors[0].states --------------
+O=(--motion omni_2d --rate 20 --process-noise 0.01 --output "$OUT/m.yaml")
+refuse "omni --sensor without states" \
+  "omni model 'robot': --sensor 'odom::0.05' states: expected names of states of omni_2d (x, y, yaw, vx, vy, vyaw, ax, ay) separated by commas, found none" \
+  make_model "${O[@]}" --sensor odom::0.05
+refuse "omni --sensor with an empty state" "--sensor 'odom:vx,,vy:0.05' states: expected names of states of omni_2d" \
+  make_model "${O[@]}" --sensor odom:vx,,vy:0.05
+refuse "omni --sensor sigma 0" "--sensor 'odom:vx:0' sigma: expected finite standard deviations > 0, found 0" \
+  make_model "${O[@]}" --sensor odom:vx:0
+refuse "omni --sensor name twice" "--sensor 'odom:vy:1' name: duplicate sensor name 'odom' (also --sensor 'odom:vx:1' name)" \
+  make_model "${O[@]}" --sensor odom:vx:1 --sensor odom:vy:1
+refuse "omni --x0 wrong count" "omni model 'robot': --x0: expected 8 entries" make_model "${O[@]}" --sensor odom:vx:1 \
+  --x0 1,2
+
+# --- a built-in motion's period: one step of it must be finite (named, not A(i,j) = nan) -----------
+"$BIN/make_model" --motion omni_2d --rate 20 --process-noise 0.01 --sensor odom:vx,vy,vyaw:0.05 \
+  --sensor gps:x,y:0.5 --name rover --output "$F/rover.yaml" >/dev/null
+sed 's/^period: .*/period: 1e300/' "$F/rover.yaml" >"$F/rover_1e300.yaml"
+P=$(grep -n '^period:' "$F/rover.yaml" | cut -d: -f1)
+refuse "a motion's period over which a step is not finite" \
+  "$F/rover_1e300.yaml:$P: period: expected a number of seconds over which one step of omni_2d is finite, found 1e+300 (its Jacobian F has period^2 / 2 terms: F(0,6) = inf)" \
+  analyze --model "$F/rover_1e300.yaml"
+refuse "a motion's period over which a step is not finite" "$F/rover_1e300.yaml:$P: period: expected a number of seconds" \
+  simulate --model "$F/rover_1e300.yaml" --steps 10 --seed 1 --out "$OUT"
+refuse "omni --rate at which a step is not finite" \
+  "omni model 'robot': --rate: its period 1 / rate: expected a number of seconds over which one step of omni_2d is finite" \
+  make_model --motion omni_2d --rate 1e-300 --process-noise 0.01 --sensor odom:vx:1 --output "$OUT/m.yaml"
+refuse "omni --rate at which the noise of a step is not finite" \
+  "omni model 'robot': --rate: its period 1 / rate: expected a number of seconds over which the process noise of a step, Q period, is finite, found 999999999.9999999 (Q(0,0) = 1e+300 per second)" \
+  make_model --motion omni_2d --rate 1e-9 --process-noise 1e300 --sensor odom:vx:1 --output "$OUT/m.yaml"
+
+# --- analyze --at: the option and what it holds, not "linearisation of model ..." ---------------------
+sed 's/^period: .*/period: 10/' "$F/rover.yaml" >"$F/rover_slow.yaml"
+refuse "--at of the wrong size" \
+  "option '--at': expected a finite state of 8 values (omni_2d: x, y, yaw, vx, vy, vyaw, ax, ay), found 3 (1, 2, 3)" \
+  analyze --model "$F/rover.yaml" --at 1,2,3
+refuse "--at whose Jacobian overflows (1e308 m/s over 10 s)" \
+  "option '--at': the Jacobian of omni_2d there over 10 s is not finite (F(1,2) = inf): expected a state of smaller values, found [0, 0, 0, 1e+308, 0, 0, 0, 0]" \
+  analyze --model "$F/rover_slow.yaml" --at 0,0,0,1e308,0,0,0,0
 
 # --- what replaced an inf or a text answer -------------------------------------------------------------
 # the scheduled example with s1's link too poor: s2 sees none of s1's modes, so no rate of s2's link

@@ -640,5 +640,6 @@ TEST(SimulatorOutputs, TypesRatesAndScales)
   expectOutputsError("{sensors: {imu: {type: sensor_msgs/Imu, fields: [orientation.yaw], colour: red}}}", "colour");
   expectOutputsError("{sensors: {gps: {type: sensor_msgs/NavSatFix, fields: [east, north]}}}",
                      "plant: sensors.gps: sensor_msgs/NavSatFix needs a datum");
-  expectOutputsError("{datum: [95, 0, 0]}", "plant: datum: expected [latitude");
+  expectOutputsError("{datum: [95, 0, 0]}",
+                     "plant: datum[0] (latitude): expected a finite number of degrees in [-90, 90], found 95");
 }

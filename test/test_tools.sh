@@ -434,7 +434,7 @@ run_rc rc "$BIN/analyze" --model "$K/rover.yaml" --channel "$BERNOULLI"
 check "analyze of omni_2d: a local verdict" rc_and_grep "$rc" 0 "a local verdict, for its linearisation at x0" "$WORK/out.txt"
 run_rc rc "$BIN/analyze" --model "$K/rover.yaml" --at 1,2
 check "analyze --at of the wrong size: exit 2" rc_and_grep "$rc" 2 "expected a finite state of 8 values" "$WORK/err.txt"
-made_refused "omni: a state the motion does not have" "sensors\[0\].states: 'heading' is not a state of omni_2d" \
+made_refused "omni: a state the motion does not have" "'robot': --sensor 'compass:heading:0.1' states: 'heading' is not a state of omni_2d" \
   --motion omni_2d --rate 20 --process-noise 0.01 --sensor compass:heading:0.1
 made_refused "omni: --dims" "option '--dims' is not for a omni_2d model" --motion omni_2d --dims 2 --rate 20 \
   --process-noise 0.01 --sensor odom:vx:0.1

@@ -5,6 +5,7 @@
 #include "bindings.hpp"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/config/estimator_settings.hpp"
+#include "networked_estimation/motion/linearised_model.hpp"
 #include "networked_estimation/stability/analysis_json.hpp"
 
 namespace networked_estimation
@@ -54,6 +55,9 @@ Model analysedAt(const Model& loaded, py::handle at, const std::string& fn, std:
     return analysedModel(loaded, nullptr, "at", local_note);
   const DoubleArray a = asArray(at, 1, fn + ": at");
   const Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(a.data(), a.shape(0));
+  const std::string problem = linearisationStateProblem(loaded, x, loaded.period);
+  if (!problem.empty())
+    throw py::value_error(fn + ": at: " + problem);
   return analysedModel(loaded, &x, "at", local_note);
 }
 

@@ -4,6 +4,7 @@
 #include <pybind11/stl.h>
 
 #include <cmath>
+#include <limits>
 #include <memory>
 
 #include "bindings.hpp"
@@ -78,16 +79,59 @@ std::shared_ptr<PyEstimator> makePyEstimator(const std::shared_ptr<Model>& model
   return e;
 }
 
-void step(PyEstimator& e, py::handle y, bool gamma, py::handle u, int nu, py::handle R, double dt)
+/// step()'s gamma as run() takes Gamma: a bool (Python's or numpy's) or a number that is 0 or 1;
+/// anything else (2, 0.5, NaN, a string) is a ValueError rather than Python's truth value.
+bool gammaFlag(py::handle g)
+{
+  if (py::isinstance<py::bool_>(g))
+    return g.cast<bool>();
+  double v = std::numeric_limits<double>::quiet_NaN();
+  if (!py::isinstance<py::str>(g) && !py::isinstance<py::bytes>(g))
+  {
+    PyObject* f = PyNumber_Float(g.ptr());  // numpy's bool_ and numeric scalars, Python's int and float
+    if (f)
+    {
+      v = PyFloat_AsDouble(f);
+      Py_DECREF(f);
+    }
+    else
+      PyErr_Clear();
+  }
+  if (v != 0.0 && v != 1.0)
+    throw py::value_error("step(): gamma: expected 0 or 1 (or a bool), found " + py::repr(g).cast<std::string>());
+  return v == 1.0;
+}
+
+/// Whether y (m > 0 values) is NaN everywhere: no sensor arrived, which gamma = 1 contradicts.
+bool allMissing(const double* y, int m)
+{
+  for (int i = 0; i < m; ++i)
+    if (!std::isnan(y[i]))
+      return false;
+  return m > 0;
+}
+
+/// The refusal of a sample said to have arrived (gamma 1) whose y is NaN everywhere.
+std::string arrivedButEmpty(const std::string& y, const std::string& gamma)
+{
+  return y + ": every value is NaN (NaN marks a sensor that did not arrive) but " + gamma +
+         " is 1 (the sample arrived); give 0 for a sample of which no sensor arrived";
+}
+
+void step(PyEstimator& e, py::handle y, py::handle gamma_arg, py::handle u, int nu, py::handle R, double dt)
 {
   Sample& s = e.sample;
   const Model& model = *e.model;
+  const bool gamma = gammaFlag(gamma_arg);
   s.gamma = gamma;
   if (y.is_none())
     s.y.resize(0);
   else
   {
     const DoubleArray a = shaped(y, {model.m()}, "step(): y", "(m,) = (" + std::to_string(model.m()) + ",)");
+    if (gamma && allMissing(a.data(), model.m()))
+      throw py::value_error("step(): step " + std::to_string(e.estimator->steps() + 1) + ": " +
+                            arrivedButEmpty("y", "gamma"));
     s.y = Eigen::Map<const Eigen::VectorXd>(a.data(), model.m());
   }
   if (u.is_none())
@@ -165,6 +209,11 @@ py::tuple run(PyEstimator& e, py::handle Y, py::handle Gamma, py::handle U, py::
     for (Py_ssize_t k = 0; k < N; ++k)
     {
       s.gamma = gamma.data()[k] != 0.0;
+      if (s.gamma && allMissing(y.data() + k * m, m))
+      {
+        const std::string row = "[" + std::to_string(k) + "]";
+        throw InputError("run(): step " + std::to_string(k) + ": " + arrivedButEmpty("Y" + row, "Gamma" + row));
+      }
       s.y = Eigen::Map<const Eigen::VectorXd>(y.data() + k * m, m);
       if (has_u)
         s.u = Eigen::Map<const Eigen::VectorXd>(u.data() + k * p, p);
@@ -387,14 +436,15 @@ make_estimator(model, algorithm, **settings). It keeps its own copy of the model
       .def("step", &step, py::arg("y"), py::arg("gamma") = true, py::arg("u") = py::none(), py::arg("nu") = -1,
            py::arg("R") = py::none(), py::arg("dt") = 0.0,
            "One step k-1 -> k: y (m,) with NaN for the sensors that did not arrive, gamma whether the "
-           "sample arrived, u (p,) the command, nu whether it reached the actuator (ack_kf; -1 unknown), R "
-           "(m, m) this step's noise covariance (None: the model's), dt the step's duration (ekfio; 0: the "
-           "model's period). A ValueError leaves the estimate untouched; DivergenceError needs reset().")
+           "sample arrived (0/1 or a bool; with gamma 1 some sensor's values are not NaN), u (p,) the "
+           "command, nu whether it reached the actuator (ack_kf; -1 unknown), R (m, m) this step's noise "
+           "covariance (None: the model's), dt the step's duration (ekfio; 0: the model's period). A "
+           "ValueError leaves the estimate untouched; DivergenceError needs reset().")
       .def("run", &run, py::arg("Y"), py::arg("Gamma"), py::arg("U") = py::none(), py::arg("nu") = py::none(),
            py::arg("R") = py::none(), py::arg("dt") = py::none(),
            "Steps the whole sequence from the current estimate in C++ (the GIL released): Y (N, m), Gamma "
-           "(N,), optionally U (N, p), nu (N,), R (N, m, m), dt (N,). Returns (x (N, n), P (N, n, n), trace "
-           "(N,)), the estimate after every step.")
+           "(N,) of 0/1 or bools, optionally U (N, p), nu (N,), R (N, m, m), dt (N,). Returns (x (N, n), "
+           "P (N, n, n), trace (N,)), the estimate after every step.")
       .def_property_readonly("x", [](const PyEstimator& e) { return Eigen::VectorXd(e.estimator->state()); },
                              "x_{k|k} (a copy)")
       .def_property_readonly("P", [](const PyEstimator& e) { return Eigen::MatrixXd(e.estimator->covariance()); },

@@ -226,6 +226,9 @@ int main(int argc, char** argv)
                               "' is linear)");
       const std::vector<double> v = numberList(cl.get("at"), "option '--at'");
       at = Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
+      const std::string problem = linearisationStateProblem(loaded, at, loaded.period);
+      if (!problem.empty())
+        throw cli::UsageError("option '--at': " + problem);
     }
     std::string local_note;
     const Model model = analysedModel(loaded, cl.has("at") ? &at : nullptr, "--at", local_note);

@@ -88,6 +88,22 @@ const std::vector<std::string>& omniOnly()
   return keys;
 }
 
+/// The option a key of makeKinematicModel's and makeOmniModel's messages comes from, as the user
+/// typed it: "sensors[1].sigma" -> "--sensor 'imu:acceleration:0' sigma", "dims" -> "--dims".
+std::string optionOf(const std::string& key, const std::vector<std::string>& sensor_args)
+{
+  const std::string prefix = "sensors[";
+  if (key.compare(0, prefix.size(), prefix) == 0)
+  {
+    const std::string::size_type close = key.find(']');
+    const std::size_t i = static_cast<std::size_t>(std::strtoul(key.c_str() + prefix.size(), nullptr, 10));
+    const std::string field = close == std::string::npos || close + 2 > key.size() ? "" : key.substr(close + 2);
+    return "--sensor '" + (i < sensor_args.size() ? sensor_args[i] : std::string()) + "'" +
+           (field.empty() ? "" : " " + field);
+  }
+  return "--" + std::string(key == "sensors" ? "sensor" : key);
+}
+
 /// make_model --motion omni_2d | omni_3d.
 Model omniModel(const cli::CommandLine& cl, std::string& comment)
 {
@@ -101,8 +117,10 @@ Model omniModel(const cli::CommandLine& cl, std::string& comment)
   spec.name = cl.get("name", "robot");
   spec.rate = parseNumber(cl.get("rate"), "option '--rate'");
   spec.process_noise = parseNumbers(cl.get("process-noise"), "option '--process-noise'");
-  for (const std::string& s : cl.getAll("sensor"))
+  const std::vector<std::string> sensor_args = cl.getAll("sensor");
+  for (const std::string& s : sensor_args)
     spec.sensors.push_back(parseOmniSensor(s));
+  spec.key_name = [&sensor_args](const std::string& key) { return optionOf(key, sensor_args); };
   if (cl.has("x0"))
     spec.x0 = parseNumbers(cl.get("x0"), "option '--x0'");
   if (cl.has("p0"))
@@ -111,22 +129,6 @@ Model omniModel(const cli::CommandLine& cl, std::string& comment)
   const Model model = makeOmniModel(spec);
   comment += omniModelComment(spec);
   return model;
-}
-
-/// The option a key of makeKinematicModel's messages comes from, as the user typed it:
-/// "sensors[1].sigma" -> "--sensor 'imu:acceleration:0' sigma", "dims" -> "--dims".
-std::string optionOf(const std::string& key, const std::vector<std::string>& sensor_args)
-{
-  const std::string prefix = "sensors[";
-  if (key.compare(0, prefix.size(), prefix) == 0)
-  {
-    const std::string::size_type close = key.find(']');
-    const std::size_t i = static_cast<std::size_t>(std::strtoul(key.c_str() + prefix.size(), nullptr, 10));
-    const std::string field = close == std::string::npos || close + 2 > key.size() ? "" : key.substr(close + 2);
-    return "--sensor '" + (i < sensor_args.size() ? sensor_args[i] : std::string()) + "'" +
-           (field.empty() ? "" : " " + field);
-  }
-  return "--" + std::string(key == "sensors" ? "sensor" : key);
 }
 
 /// The command line as one shell line (arguments with special characters single-quoted).

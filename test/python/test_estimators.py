@@ -1,5 +1,6 @@
 # Estimators from Python: a step loop equals the batch run, run() equals the replay tool bit for bit,
 # refusals leave the estimate untouched, clone/reset, divergence, and the GIL released in run().
+import re
 import threading
 import time
 
@@ -114,6 +115,58 @@ def test_run_refusals_name_the_argument():
     with pytest.raises(ValueError, match=r"run\(\): step 3"):
         est.run(Y, np.ones(5))
     assert est.steps == 3  # the steps before the bad one are kept, as in a step() loop
+
+
+def test_gamma_is_0_1_or_a_bool_in_step_as_in_run():
+    # run() refuses a Gamma other than 0/1/bool; step() takes the same values, not Python's truth value
+    est = ne.make_estimator(zhou(), "kfio")
+    est.step([0.5], True)
+    x, P = est.x, est.P
+    for bad, shown in ((2, "2"), (0.5, "0.5"), (-1, "-1"), (float("nan"), "nan"), ("1", "'1'"), (None, "None")):
+        with pytest.raises(ValueError, match=r"^step\(\): gamma: expected 0 or 1 \(or a bool\), found "
+                                             + re.escape(shown) + "$"):
+            est.step([1.0], bad)
+    with pytest.raises(ValueError, match=r"^run\(\): Gamma\[1\]: expected 0 or 1"):
+        est.run([[1.0], [1.0]], [1, 0.5])
+    assert same(est.x, x) and same(est.P, P) and est.steps == 1  # refused before stepping
+    # what is taken: bools, numpy's bools and numbers 0 / 1, each the same as True / False
+    ref = est.clone()
+    ref.step([0.7], True)
+    ref.step([0.9], False)
+    for yes, no in ((1, 0), (1.0, 0.0), (np.True_, np.False_), (np.int64(1), np.float32(0))):
+        twin = est.clone()
+        twin.step([0.7], yes)
+        twin.step([0.9], no)
+        assert same(twin.x, ref.x) and same(twin.P, ref.P), (yes, no)
+
+
+def test_an_arrived_sample_with_every_value_nan_is_refused():
+    # NaN marks a sensor that did not arrive: y all NaN with gamma 1 says "arrived" and "nothing
+    # arrived" at once. Refused naming the step; gamma 0 with y all NaN is the usual loss.
+    m = ne.Model.from_yaml(MODELS / "planar_robot.yaml")
+    est = ne.make_estimator(m, "kfio")
+    y = np.full(m.m, np.nan)
+    y[0:2] = [0.1, 0.2]  # odom arrives: some sensor's values are numbers
+    est.step(y, True)
+    x, P = est.x, est.P
+    empty = np.full(m.m, np.nan)
+    with pytest.raises(ValueError, match=r"^step\(\): step 2: y: every value is NaN .* but gamma is 1"):
+        est.step(empty, True)
+    with pytest.raises(ValueError, match=r"^step\(\): step 2: y: every value is NaN"):
+        est.step(empty, 1)
+    assert same(est.x, x) and same(est.P, P) and est.steps == 1
+    est.step(empty, False)  # a loss: a prediction
+    assert est.steps == 2 and not est.last_updated
+    Y = np.tile(y, (4, 1))
+    Y[2] = np.nan
+    with pytest.raises(ValueError, match=r"^run\(\): step 2: Y\[2\]: every value is NaN .* but Gamma\[2\] is 1"):
+        est.run(Y, np.ones(4))
+    assert est.steps == 4  # the rows before the bad one are kept, as in a step() loop
+    x, P, trace = est.run(Y, [1, 1, 0, 1])  # the same row as a loss
+    assert np.isfinite(trace).all() and est.steps == 8
+    for algorithm, settings in (("kf", {}), ("rseio", {"mu": 0.8})):  # kf too (it would have only predicted)
+        with pytest.raises(ValueError, match=r"^run\(\): step 0: Y\[0\]: every value is NaN"):
+            ne.make_estimator(m, algorithm, **settings).run(np.full((1, m.m), np.nan), [True])
 
 
 def test_settings_refusals():

@@ -212,3 +212,33 @@ def test_a_motion_model_from_python(tmp_path):
     assert ours == theirs
     with pytest.raises(ValueError, match="expected a finite state of 8 values"):
         ne.analyze(m, at=[0.0, 1.0])
+
+
+def test_a_motion_period_whose_step_is_not_finite_is_refused():
+    # one step of the period must be a finite step of the motion (named, not the linearisation's A(i,j) = nan)
+    with pytest.raises(ValueError, match=r"period: expected a number of seconds over which one step of omni_2d is "
+                                         r"finite, found 1e\+300 \(its Jacobian F has period\^2 / 2 terms: "
+                                         r"F\(0,6\) = inf\)"):
+        ne.Model(name="rover", motion="omni_2d", period=1e300, Q=np.eye(8),
+                 sensors=[ne.Sensor("odom", C=np.eye(3, 8, 3), R=np.eye(3))])
+    with pytest.raises(ValueError, match=r"period: expected a number of seconds over which the process noise of a "
+                                         r"step, Q period, is finite, found 1e\+09 \(Q\(0,0\) = 1e\+300 per second\)"):
+        ne.Model(name="rover", motion="omni_2d", period=1e9, Q=np.eye(8) * 1e300,
+                 sensors=[ne.Sensor("odom", C=np.eye(3, 8, 3), R=np.eye(3))])
+
+
+def test_a_bad_state_to_linearise_at_is_named():
+    # `at` names itself and what it holds, in analyze() and design() alike (not "linearisation of model ...")
+    m = omni_2d()
+    with pytest.raises(ValueError, match=r"^analyze\(\): at: expected a finite state of 8 values \(omni_2d: x, y, "
+                                         r"yaw, vx, vy, vyaw, ax, ay\), found 3 \(1, 2, 3\)$"):
+        ne.analyze(m, at=[1.0, 2.0, 3.0])
+    with pytest.raises(ValueError, match=r"^design\(\): at: entry 3 \(vx\): expected a finite number, found nan$"):
+        ne.design(m, at=[0, 0, 0, np.nan, 0, 0, 0, 0])
+    # a finite state whose Jacobian over the period overflows: 1e308 m/s over 10 s
+    slow = ne.Model(name="slow", motion="omni_2d", period=10.0, Q=np.eye(8),
+                    sensors=[ne.Sensor("odom", C=np.eye(3, 8, 3), R=np.eye(3))])
+    with pytest.raises(ValueError, match=r"^analyze\(\): at: the Jacobian of omni_2d there over 10 s is not finite "
+                                         r"\(F\(1,2\) = inf\): expected a state of smaller values, found "
+                                         r"\[0, 0, 0, 1e\+308, 0, 0, 0, 0\]$"):
+        ne.analyze(slow, at=[0, 0, 0, 1e308, 0, 0, 0, 0])

@@ -979,7 +979,7 @@ TEST(EstimatorGraph, ForeignTypesAndBadParameters)
     ASSERT_LE(maxDiff(R.at(k).state, rref[k - 1].state), 1e-12) << "Range, step " << k;
   }
 
-  // The four refused estimators (their parameters are in the launch file), loaded through the
+  // The five refused estimators (their parameters are in the launch file), loaded through the
   // manager now that this test listens to /rosout: each load fails, with one FATAL naming the
   // problem. A FATAL logged before this test's /rosout connection to the manager was up is not
   // heard: such a load is made again (at most 6 times, 5 s each), so a busy machine that starts
@@ -997,7 +997,8 @@ TEST(EstimatorGraph, ForeignTypesAndBadParameters)
       {"/bad_policy/estimator", {"late_policy: expected drop or rewind, found 'later'"}},
       {"/bad_key/estimator", {"unknown parameter(s): latency_budjet"}},
       {"/bad_model/estimator", {"model: ", "no_such_model.yaml: cannot open file"}},
-      {"/bad_mu/estimator", {"mu"}}};
+      {"/bad_mu/estimator", {"mu"}},
+      {"/bad_datum/estimator", {"datum[0] (latitude): expected a finite number of degrees in [-90, 90], found nan"}}};
   for (const auto& r : refused)
   {
     auto heard = [&] {
@@ -1018,7 +1019,8 @@ TEST(EstimatorGraph, ForeignTypesAndBadParameters)
     }
     EXPECT_TRUE(heard()) << r.first << ": no FATAL naming " << r.second.front();
   }
-  for (const char* t : {"bad_policy/estimate", "bad_key/estimate", "bad_model/estimate", "bad_mu/estimate"})
+  for (const char* t :
+       {"bad_policy/estimate", "bad_key/estimate", "bad_model/estimate", "bad_mu/estimate", "bad_datum/estimate"})
   {
     Collector<Estimate> none(nh, t);
     ros::WallDuration(0.2).sleep();
@@ -1028,7 +1030,8 @@ TEST(EstimatorGraph, ForeignTypesAndBadParameters)
   const std::vector<std::string> loaded = loadedNodelets("/manager");
   EXPECT_TRUE(isLoaded(loaded, "/point/estimator")) << loaded.size();
   EXPECT_TRUE(isLoaded(loaded, "/range/estimator")) << loaded.size();
-  for (const char* n : {"/bad_policy/estimator", "/bad_key/estimator", "/bad_model/estimator", "/bad_mu/estimator"})
+  for (const char* n : {"/bad_policy/estimator", "/bad_key/estimator", "/bad_model/estimator", "/bad_mu/estimator",
+                        "/bad_datum/estimator"})
     EXPECT_FALSE(isLoaded(loaded, n)) << n;
 }
 

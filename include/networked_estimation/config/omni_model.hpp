@@ -2,6 +2,7 @@
 // 1.7b, docs/algorithms.md 7): what make_model writes for `--motion omni_2d | omni_3d`.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -28,10 +29,14 @@ struct OmniSpec
   std::vector<double> x0;              ///< empty: zeros; else n values
   std::vector<double> p0;              ///< P0's diagonal: empty (1 each), one value, or n values
   bool two_d_mode = false;             ///< omni_3d only
+  /// How a message names a key ("rate", "sensors[1].states", ...): make_model names the option the
+  /// user typed, as for a kinematic model. Empty: the key itself.
+  std::function<std::string(const std::string& key)> key_name;
 };
 
 /// Builds and validates (validateModel) the model. Throws ConfigError naming the option (motion,
-/// rate, process-noise, sensors[i].states / .sigma / .name, x0, p0, two-d-mode) and what was found.
+/// rate, process-noise, sensors[i].states / .sigma / .name, x0, p0, two-d-mode, each through
+/// spec.key_name when given) and what was found.
 Model makeOmniModel(const OmniSpec& spec);
 
 /// The comment describing the model: the motion, the state, the process noise, the sensors.

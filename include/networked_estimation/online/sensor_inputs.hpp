@@ -128,7 +128,9 @@ const std::vector<InputType>& commandInputTypes();
 InputField inputFieldFromString(InputType type, const std::string& name, const std::string& key);
 
 /// A NavSatFix datum [latitude, longitude, altitude] (degrees, degrees, m) from a YAML list;
-/// throws ConfigError naming `key` when it is not three numbers or out of range (LocalEnu's check).
+/// throws ConfigError naming `key` when it is not a list of three, or naming the entry ("<key>[0]
+/// (latitude): expected a finite number of degrees in [-90, 90], found nan") that is not a number,
+/// not finite (YAML's .nan / .inf, or a ROS parameter's nan / inf) or out of range.
 std::vector<double> parseDatum(const YAML::Node& node, const std::string& key);
 
 class ParamReader;

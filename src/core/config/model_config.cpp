@@ -179,6 +179,14 @@ Model parseModelImpl(const YAML::Node& node, const std::string& source)
                       model.nonlinear() ? "per second, one row per state of " + toString(model.motion)
                                         : countText("nw", nw) + (node["B"] ? ", the columns of B" : ", B = identity"));
   checkCovariance(in, q_node, "Q", "Q", model.Q, true);
+  if (model.nonlinear())
+  {
+    const std::string problem = motionPeriodProblem(model);
+    if (!problem.empty())
+    {
+      in.fail(node["period"], "period", problem);
+    }
+  }
 
   // C / R, or sensors
   const bool has_c = static_cast<bool>(node["C"]);

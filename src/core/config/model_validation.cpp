@@ -202,6 +202,14 @@ void validateModel(const Model& model, const std::string& source)
   const Eigen::Index nw = model.B.cols();
   checkSize("Q", model.Q, nw, nw, countText("nw", static_cast<int>(nw)) + ", the columns of B");
   checkCov("Q", "Q", model.Q, true);
+  if (model.nonlinear())
+  {
+    const std::string problem = motionPeriodProblem(model);
+    if (!problem.empty())
+    {
+      fail("period", problem);
+    }
+  }
 
   // C, R, sensors
   if (model.C.rows() == 0 || model.C.cols() != n)

@@ -3,6 +3,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
+
 #include "networked_estimation/common/error.hpp"
 
 namespace networked_estimation
@@ -111,6 +113,29 @@ std::pair<std::string, std::string> motionModelProblem(const Model& model)
   if (model.angles != motionAngles(model.motion))
     return {"angles", motion + "'s angles are " + angleList(model.motion)};
   return {};
+}
+
+std::string motionPeriodProblem(const Model& model)
+{
+  const int n = model.n();
+  const double dt = model.period;
+  if (!model.nonlinear() || !(dt > 0.0) || model.Q.rows() != n || model.Q.cols() != n)
+    return "";
+  const std::string found = ", found " + formatNumber(dt);
+  Eigen::VectorXd next;
+  Eigen::MatrixXd F;
+  propagate(model.motion, Eigen::VectorXd::Zero(n), dt, next, &F);
+  const std::string entry = nonFiniteEntry(F, "F");
+  if (!entry.empty())
+    return "expected a number of seconds over which one step of " + toString(model.motion) + " is finite" + found +
+           " (its Jacobian F has period^2 / 2 terms: " + entry + ")";
+  Eigen::Index big = 0;  // Q is positive definite: its largest entry is on its diagonal
+  model.Q.diagonal().maxCoeff(&big);
+  if (!std::isfinite(model.Q(big, big) * dt))
+    return "expected a number of seconds over which the process noise of a step, Q period, is finite" + found +
+           " (Q(" + std::to_string(big) + "," + std::to_string(big) + ") = " + formatNumber(model.Q(big, big)) +
+           " per second)";
+  return "";
 }
 
 }  // namespace detail

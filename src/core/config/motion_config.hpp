@@ -26,5 +26,11 @@ void readMotionNames(const Reader& in, const YAML::Node& node, Model& model);
 /// motion's states and angles, two_d_mode only for omni_3d, a period): {key, problem}, or empty.
 std::pair<std::string, std::string> motionModelProblem(const Model& model);
 
+/// For a motion model with its Q (n x n) and a period > 0: why one step of the period is not a
+/// finite step ("expected a number of seconds over which ..., found <period> (...)"), or "". The
+/// motion's Jacobian has period and period^2 / 2 terms (at the zero state, to blame the period and
+/// not x0), and the process noise of a step is Q period: each must stay finite.
+std::string motionPeriodProblem(const Model& model);
+
 }  // namespace detail
 }  // namespace networked_estimation

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "config/motion_config.hpp"
 #include "config/yaml_reader.hpp"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/motion/motion.hpp"
@@ -31,9 +32,10 @@ std::string list(const std::vector<double>& v)
 Model makeOmniModel(const OmniSpec& spec)
 {
   const std::string source = "omni model '" + spec.name + "'";
-  const auto fail = [&source](const std::string& key, const std::string& problem)
+  const auto name = [&spec](const std::string& key) { return spec.key_name ? spec.key_name(key) : key; };
+  const auto fail = [&source, &name](const std::string& key, const std::string& problem)
   {
-    throw ConfigError(message(source, 0, key, problem));
+    throw ConfigError(message(source, 0, name(key), problem));
   };
   Motion motion = Motion::LINEAR;
   try
@@ -84,6 +86,14 @@ Model makeOmniModel(const OmniSpec& spec)
     model.Q(i, i) = q;
   }
 
+  // the period: one step of it must be a finite step of the motion (before the sensors, so that a
+  // rate too low is named as such)
+  const std::string period_problem = motionPeriodProblem(model);
+  if (!period_problem.empty())
+  {
+    fail("rate", "its period 1 / rate: " + period_problem);
+  }
+
   // sensors
   if (spec.sensors.empty())
   {
@@ -109,7 +119,8 @@ Model makeOmniModel(const OmniSpec& spec)
     {
       if (spec.sensors[j].name == s.name)
       {
-        fail(key + ".name", "duplicate sensor name '" + s.name + "' (also " + indexKey("sensors", j) + ".name)");
+        fail(key + ".name", "duplicate sensor name '" + s.name + "' (also " + name(indexKey("sensors", j) + ".name") +
+                                ")");
       }
     }
     if (s.states.empty())
@@ -131,6 +142,15 @@ Model makeOmniModel(const OmniSpec& spec)
         {
           column = i;
         }
+      }
+      if (column < 0 && s.states[r].empty())
+      {
+        std::string given;
+        for (std::size_t j = 0; j < s.states.size(); ++j)
+          given += (j ? "," : "") + s.states[j];
+        fail(key + ".states", "expected names of states of " + spec.motion + " (" + joinList(names) +
+                                  ") separated by commas, found " +
+                                  (s.states.size() == 1 ? std::string("none") : "an empty name in '" + given + "'"));
       }
       if (column < 0)
       {

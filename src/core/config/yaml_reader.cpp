@@ -158,6 +158,24 @@ std::string finitenessProblem(const Eigen::MatrixXd& M, const std::string& label
   return "";
 }
 
+std::string nonFiniteEntry(const Eigen::MatrixXd& M, const std::string& label)
+{
+  for (const bool infinite : {true, false})
+  {
+    for (Eigen::Index i = 0; i < M.rows(); ++i)
+    {
+      for (Eigen::Index j = 0; j < M.cols(); ++j)
+      {
+        if (infinite ? std::isinf(M(i, j)) : std::isnan(M(i, j)))
+        {
+          return label + "(" + std::to_string(i) + "," + std::to_string(j) + ") = " + formatNumber(M(i, j));
+        }
+      }
+    }
+  }
+  return "";
+}
+
 /// Relative tolerance 1e-9 * (largest absolute entry).
 std::string symmetryProblem(const Eigen::MatrixXd& M, const std::string& label)
 {

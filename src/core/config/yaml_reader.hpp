@@ -44,6 +44,9 @@ int lineOf(const YAML::Node& node);
 // Checks on matrices, shared by parseModel (with line numbers) and validateModel (without).
 // Each returns the problem text, or "" when the matrix is fine.
 std::string finitenessProblem(const Eigen::MatrixXd& M, const std::string& label);
+/// "<label>(i,j) = inf" for M's first infinite entry (an overflow: the cause of a NaN made from
+/// it, e.g. 0 inf), else for its first NaN; "" when M is finite.
+std::string nonFiniteEntry(const Eigen::MatrixXd& M, const std::string& label);
 /// Relative tolerance 1e-9 * (largest absolute entry).
 std::string symmetryProblem(const Eigen::MatrixXd& M, const std::string& label);
 /// For a square, finite, symmetric M. strict: positive definite, smallest eigenvalue > 1e-12 *

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "io/tokens.hpp"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/estimators/estimator.hpp"
 #include "networked_estimation/config/param_reader.hpp"
@@ -159,6 +160,10 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   c.period = p.number("period", model.period, 0.0, 3600.0);
   if (!(c.period > 0.0))
     throw ConfigError(source + ": period: the model '" + c.model_file + "' has no period and none was given");
+  if (!(c.period <= 3600.0))  // the model's, which ~period would not have accepted
+    throw ConfigError(source + ": period: the model '" + c.model_file + "' has period " +
+                      tokens::format(c.period, 6) + " s: expected a number of seconds in (0, 3600], the range of "
+                      "~period (give ~period to override it)");
   RuntimeSettings& rt = c.runtime;
   rt.late_policy = p.text("late_policy", "drop");
   c.online.late_policy = latePolicyFromString(rt.late_policy, source);

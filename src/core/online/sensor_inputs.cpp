@@ -3,6 +3,10 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/config/param_reader.hpp"
 #include "networked_estimation/geodesy/local_enu.hpp"
@@ -273,16 +277,41 @@ void parseInputBlock(ParamReader& p, const std::string& key, const std::vector<I
 
 std::vector<double> parseDatum(const YAML::Node& d, const std::string& key)
 {
-  std::vector<double> datum;
-  bool ok = d.IsSequence() && d.size() == 3;
-  for (std::size_t i = 0; ok && i < 3; ++i)
+  if (!d.IsSequence() || d.size() != 3)
+    throw ConfigError(key + ": expected [latitude, longitude, altitude] (degrees, degrees, m), found " +
+                      (d.IsSequence() ? std::to_string(d.size()) + (d.size() == 1 ? " entry" : " entries")
+                       : d.IsScalar() ? "'" + d.Scalar() + "'"
+                       : d.IsMap()    ? std::string("a map")
+                                      : std::string("nothing")));
+  struct Entry
   {
+    const char* name;
+    double limit;  ///< |value| at most this (inf: any finite value)
+    const char* expected;
+  };
+  const Entry entries[3] = {{"latitude", 90.0, "a finite number of degrees in [-90, 90]"},
+                            {"longitude", 180.0, "a finite number of degrees in [-180, 180]"},
+                            {"altitude", std::numeric_limits<double>::infinity(), "a finite number of metres"}};
+  std::vector<double> datum;
+  for (std::size_t i = 0; i < 3; ++i)
+  {
+    const std::string at = key + "[" + std::to_string(i) + "] (" + entries[i].name + ")";
+    if (!d[i].IsScalar())
+      throw ConfigError(at + ": expected a number, found " + (d[i].IsSequence() ? "a list" : "a map"));
+    const std::string text = d[i].Scalar();
     double v = 0.0;
-    ok = d[i].IsScalar() && YAML::convert<double>::decode(d[i], v);
+    if (!YAML::convert<double>::decode(d[i], v))
+    {
+      // YAML's .nan / .inf decode above; "nan" and "inf" are how a NaN or infinite ROS parameter arrives
+      char* end = nullptr;
+      v = std::strtod(text.c_str(), &end);
+      if (text.empty() || end != text.c_str() + text.size())
+        throw ConfigError(at + ": expected a number, found '" + text + "'");
+    }
+    if (!std::isfinite(v) || !(std::fabs(v) <= entries[i].limit))
+      throw ConfigError(at + ": expected " + entries[i].expected + ", found " + text);
     datum.push_back(v);
   }
-  if (!ok)
-    throw ConfigError(key + ": expected [latitude, longitude, altitude] (degrees, degrees, m)");
   LocalEnu check(datum[0], datum[1], datum[2], key);
   return datum;
 }
