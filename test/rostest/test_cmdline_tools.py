@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The ROS command-line tools on the Estimator's graph (cmdline_tools.test), run as a user runs
 them, as subprocesses: rostopic echo of odometry/filtered, /diagnostics, /tf and an input topic,
-rostopic hz, rosservice call set_pose and dynparam get. Each check reads the tool's output, not
+rostopic hz, rosservice call set_pose, dynparam get and set. Each check reads the tool's output, not
 only its exit code. This process imports no message module itself: every message type is loaded by
 the tools, from the Python message packages the machine has (Debian: python3-nav-msgs, ...)."""
 import argparse
@@ -240,6 +240,21 @@ class CommandLineTools(unittest.TestCase):
         self.assertIs(config["adaptive_latency"], False)
         self.assertAlmostEqual(config["latency_budget"], self.params["latency_budget"])
         self.assertEqual(config["late_policy"], "drop")
+
+    def test_dynparam_set_refuses_and_keeps_the_settings(self):
+        # What a user types: a NaN trace_bound and a budget below 0. The server refuses each (its
+        # ERROR names the key: the rostest ReconfigureIsValidated reads it) and keeps the settings in
+        # use: no bound (shown as 1e300) and the parameters' fixed budget.
+        for key, value in (("trace_bound", "nan"), ("latency_budget", "-1"), ("latency_budget_min", "-5")):
+            code, out, err = run_tool("rosrun", "dynamic_reconfigure", "dynparam", "set", self.node + "/reconfigure",
+                                      key, value)
+            self.assertEqual(code, 0, "dynparam set %s %s failed (exit %d): %s %s" % (key, value, code, out, err))
+            code, out, err = run_tool("rosrun", "dynamic_reconfigure", "dynparam", "get", self.node + "/reconfigure")
+            self.assertEqual(code, 0, "dynparam get failed (exit %d): %s %s" % (code, out, err))
+            config = ast.literal_eval(out.strip())
+            self.assertEqual(config["trace_bound"], 1e300, "after %s = %s: %s" % (key, value, out))
+            self.assertAlmostEqual(config["latency_budget"], self.params["latency_budget"], msg=out)
+            self.assertGreaterEqual(config["latency_budget_min"], 0.0, out)
 
 
 if __name__ == "__main__":
