@@ -61,14 +61,32 @@ Model analysedAt(const Model& loaded, py::handle at, const std::string& fn, std:
   return analysedModel(loaded, &x, "at", local_note);
 }
 
+/// What analyze() and verdict() analyse: the model (a built-in motion linearised at `at`) and its
+/// sensors' links; `fn` ("analyze()") names the function in errors.
+struct Analysed
+{
+  Model model;
+  std::string local_note;
+  SensorLinks links;
+};
+
+Analysed analysed(const std::shared_ptr<Model>& loaded, py::handle at, py::handle links, const std::string& fn)
+{
+  if (!loaded)
+    throw py::type_error(fn + ": expected a Model");
+  Analysed a;
+  a.model = analysedAt(*loaded, at, fn, a.local_note);
+  a.links = sensorLinks(a.model, links, fn + ": links");
+  return a;
+}
+
 py::object analyze(const std::shared_ptr<Model>& loaded, py::handle links, py::handle estimator, py::handle at,
                    py::handle traces, int block)
 {
-  if (!loaded)
-    throw py::type_error("analyze(): expected a Model");
-  std::string local_note;
-  const Model model = analysedAt(*loaded, at, "analyze()", local_note);
-  const SensorLinks sl = sensorLinks(model, links, "analyze(): links");
+  const Analysed an = analysed(loaded, at, links, "analyze()");
+  const Model& model = an.model;
+  const std::string& local_note = an.local_note;
+  const SensorLinks& sl = an.links;
   EstimatorSettings est;
   const bool has_est = estimatorSettings(estimator, est);
   // traces: {sensor: arrivals (0/1 per step)}
@@ -113,17 +131,13 @@ py::object analyze(const std::shared_ptr<Model>& loaded, py::handle links, py::h
 
 py::object verdict(const std::shared_ptr<Model>& loaded, py::handle links, py::handle at)
 {
-  if (!loaded)
-    throw py::type_error("verdict(): expected a Model");
-  std::string local_note;
-  const Model model = analysedAt(*loaded, at, "verdict()", local_note);
-  const SensorLinks sl = sensorLinks(model, links, "verdict(): links");
+  const Analysed an = analysed(loaded, at, links, "verdict()");
   VerdictReport rep;
   {
     py::gil_scoped_release release;
-    rep = verdictOnly(model, sl.link);
+    rep = verdictOnly(an.model, an.links.link);
   }
-  return parseJson(verdictJson(model.name, rep, sl.origin));
+  return parseJson(verdictJson(an.model.name, rep, an.links.origin));
 }
 
 py::object design(const std::shared_ptr<Model>& loaded, const std::string& cost, double growth_cap, py::handle at)

@@ -131,30 +131,15 @@ void analyzeLinks(benchmark::State& state)
   }
 }
 
-/// analyze at scale: n states, S sensors, a stable (U = 0) or unstable (U = 1) A.
-void analyzeScale(benchmark::State& state)
+/// At scale: n states, S sensors, a stable (U = 0) or unstable (U = 1) A; `full` the whole report,
+/// else verdictOnly (analyze --verdict-only, Python verdict()): the verdict and each sensor's needed rate.
+void atScale(benchmark::State& state, bool full)
 {
   const int n = static_cast<int>(state.range(0)), S = static_cast<int>(state.range(1));
   const Model m = randomUnstableModel(n, S, 7, state.range(2) == 0);
   const std::vector<std::optional<ChannelSettings>> links = mixedLinks(S);
   for (auto _ : state)
-  {
-    const StabilityReport rep = analyzeStability(m, links);
-    benchmark::DoNotOptimize(rep.model.verdict.kind);
-  }
-}
-
-/// verdictOnly (analyze --verdict-only, Python verdict()): the verdict and each sensor's needed rate.
-void verdictScale(benchmark::State& state)
-{
-  const int n = static_cast<int>(state.range(0)), S = static_cast<int>(state.range(1));
-  const Model m = randomUnstableModel(n, S, 7, state.range(2) == 0);
-  const std::vector<std::optional<ChannelSettings>> links = mixedLinks(S);
-  for (auto _ : state)
-  {
-    const VerdictReport v = verdictOnly(m, links);
-    benchmark::DoNotOptimize(v.verdict.kind);
-  }
+    benchmark::DoNotOptimize(full ? analyzeStability(m, links).model.verdict.kind : verdictOnly(m, links).verdict.kind);
 }
 
 void analyzeCommon(benchmark::State& state)
@@ -287,7 +272,7 @@ int main(int argc, char** argv)
       ->Args({10, 8})
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
-  benchmark::RegisterBenchmark("analyze_scale", analyzeScale)
+  benchmark::RegisterBenchmark("analyze_scale", [](benchmark::State& st) { atScale(st, true); })
       ->Args({15, 4, 0})
       ->Args({15, 4, 1})
       ->Args({50, 4, 0})
@@ -298,7 +283,7 @@ int main(int argc, char** argv)
       ->Args({200, 4, 1})
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
-  benchmark::RegisterBenchmark("verdict_only", verdictScale)
+  benchmark::RegisterBenchmark("verdict_only", [](benchmark::State& st) { atScale(st, false); })
       ->Args({2, 1, 1})
       ->Args({4, 2, 1})
       ->Args({6, 3, 1})

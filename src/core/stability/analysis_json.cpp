@@ -120,6 +120,17 @@ void jlink(JsonWriter& w, const SensorLinkReport& l, const std::string& origin)
   w.member("markov_threshold", l.markov_note).endObject();
 }
 
+/// "links": one link object a sensor, each with its origin.
+void jlinks(JsonWriter& w, const std::vector<SensorLinkReport>& links, const std::vector<std::string>& origins)
+{
+  w.br(2).key("links").beginArray();
+  for (std::size_t i = 0; i < links.size(); ++i)
+    jlink(w.br(4), links[i], i < origins.size() ? origins[i] : "");
+  if (!links.empty())
+    w.br(2);
+  w.endArray();
+}
+
 void jset(JsonWriter& w, const RateAnalysis& r)
 {
   w.beginObject().member("name", r.name).key("sensors").beginArray();
@@ -207,12 +218,7 @@ std::string analysisJson(const StabilityReport& rep, const std::vector<std::stri
   }
   else
     w.null();
-  w.br(2).key("links").beginArray();
-  for (std::size_t i = 0; i < rep.links.size(); ++i)
-    jlink(w.br(4), rep.links[i], i < origins.size() ? origins[i] : "");
-  if (!rep.links.empty())
-    w.br(2);
-  w.endArray();
+  jlinks(w, rep.links, origins);
   w.br(2).member("estimator", rep.estimator);
   w.br(2).member("estimator_note", rep.estimator_note);
   w.br(2).key("rseio");
@@ -243,12 +249,7 @@ std::string verdictJson(const std::string& model_name, const VerdictReport& rep,
   jverdict(w, rep.links_verdict);
   w.br(2).member("dead_reckoned", rep.dead_reckoned);
   w.br(2).member("dead_states", rep.dead_states);
-  w.br(2).key("links").beginArray();
-  for (std::size_t i = 0; i < rep.links.size(); ++i)
-    jlink(w.br(4), rep.links[i], i < origins.size() ? origins[i] : "");
-  if (!rep.links.empty())
-    w.br(2);
-  w.endArray();
+  jlinks(w, rep.links, origins);
   w.br(0).endObject();
   return w.text() + "\n";
 }
