@@ -232,6 +232,10 @@ void EstimatorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
                   arrival);
   if (!wrong.empty())
     stat.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN, "wrong message type: %s", wrong.front().c_str());
+  // Messages refused for their stamp (stamp 0, ahead of ROS time...) and timeline restarts, over
+  // the last 10 s, naming the sensor and the reason.
+  for (const std::string& w : stream_->stampWarnings(now.toSec()))
+    stat.mergeSummary(diagnostic_msgs::DiagnosticStatus::WARN, w);
   stat.add("wrong type inputs", wrong.size());
   stat.add("algorithm", toString(settings_.algorithm));
   stat.add("steps", c.processed);
@@ -267,6 +271,8 @@ void EstimatorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   stat.add("divergence resets", c.divergence_resets);
   stat.add("time resets", stream_->timeResets());
   stat.add("timeline restarts", stream_->restarts());
+  if (!stream_->lastRestart().reason.empty())
+    stat.add("last timeline restart", stream_->lastRestart().reason);
   stat.add("stamps refused (commands, schedules)", stream_->refusedOther());
   stat.add("latency budget (s)", stream_->budget());
   stat.add("latency budget", stream_->runtime().adaptive_latency ? "auto" : "fixed");
@@ -288,6 +294,8 @@ void EstimatorNodelet::diagnoseSensors(diagnostic_updater::DiagnosticStatusWrapp
     stat.add(name + " messages", c.received_per_sensor[i] + stream_->refusedPerSensor()[i]);
     stat.add(name + " late dropped", c.late_dropped_per_sensor[i]);
     stat.add(name + " stamps refused", stream_->refusedPerSensor()[i]);
+    if (!stream_->lastRefused(i).reason.empty())
+      stat.add(name + " last stamp refused", stream_->lastRefused(i).reason);
     stat.add(name + " delay p99 (s)", delay);
     stat.add(name + " rate (Hz)", online.lattice(i).measuredRate(period));
     if (inputs_[i].type == InputType::IMU)
