@@ -432,7 +432,7 @@ double EstimatorNodelet::deadlineWork()
     else if (wall - wall_ref_ >= 0.5)
     {
       const double r = (now - sim_ref_) / (wall - wall_ref_);
-      clock_rate_ = r > 1e-3 && r < 1e6 ? r : 1e-3;  // paused: the 50 ms cap
+      clock_rate_ = r > 1e-3 && r < 1e6 ? r : 1e-3;  // paused: the smallest rate
       sim_ref_ = now;
       wall_ref_ = wall;
     }
