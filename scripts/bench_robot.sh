@@ -16,6 +16,13 @@
 #     idle under sim time (the bag's clock running, no input); and the floor: the same playback into
 #     a receiver that drops every message (BenchNullReceiver; with one hand-off per message, and in
 #     roscpp's receive thread), what roscpp alone costs per input.
+#  4. Idle after a bag ends: the Estimator (config/robot/jackal.yaml, tf on) and the null receiver
+#     side by side in one master, each in its own process, fed NE_BENCH_IDLE_BAG_SECONDS of
+#     test/data/test2.bag at -r 4; then, with no input, the CPU (utime + stime, and schedstat) of
+#     each over NE_BENCH_IDLE_SECONDS while the clock stands still (the bag ended: rosbag's /clock
+#     stops with it) and while a /clock runs on at 4x; NE_BENCH_IDLE_RUNS runs, medians and the
+#     ratio Estimator / null receiver.
+# NE_BENCH_ROBOT_PARTS selects the parts (default "1 2 3 4"), e.g. NE_BENCH_ROBOT_PARTS=4.
 # Builds nothing (scripts/build.sh first). Results: $WS/bench/robot.csv and a table on stdout; logs in
 # $WS/bench/robot_runs/.
 set -euo pipefail
@@ -25,13 +32,24 @@ source "$(dirname "${BASH_SOURCE[0]}")/bench_lib.sh"
 RATES="${NE_BENCH_ROBOT_RATES:-400 800 1600 3200}"
 SECONDS_PER_RUN="${NE_BENCH_ROBOT_SECONDS:-5}"
 BAG_SECONDS="${NE_BENCH_BAG_SECONDS:-120}"
+PARTS="${NE_BENCH_ROBOT_PARTS:-1 2 3 4}"
+IDLE_RUNS="${NE_BENCH_IDLE_RUNS:-3}"
+IDLE_SECONDS="${NE_BENCH_IDLE_SECONDS:-20}"
+IDLE_BAG_SECONDS="${NE_BENCH_IDLE_BAG_SECONDS:-20}"
+for p in $PARTS; do
+  case "$p" in 1|2|3|4) ;; *) echo "bench_robot: NE_BENCH_ROBOT_PARTS: expected parts 1 to 4, found '$p'" >&2; exit 2 ;; esac
+done
+for v in "$IDLE_RUNS" "$IDLE_SECONDS" "$IDLE_BAG_SECONDS"; do
+  [[ "$v" =~ ^[1-9][0-9]*$ ]] || { echo "bench_robot: NE_BENCH_IDLE_RUNS, _SECONDS and _BAG_SECONDS take a positive integer, found '$v'" >&2; exit 2; }
+done
+want() { [[ " $PARTS " == *" $1 "* ]]; }
 OUT="$WS/bench"
 RUNS="$OUT/robot_runs"
 CSV="$OUT/robot.csv"
 rm -rf "$RUNS"
 mkdir -p "$RUNS" "$ROS_LOG_DIR"
 LAUNCH_PID=""
-trap 'if [ -n "$LAUNCH_PID" ]; then stop_launch "$LAUNCH_PID"; fi' EXIT
+trap 'if [ -n "$LAUNCH_PID" ]; then stop_launch "$LAUNCH_PID"; fi; idle_cleanup' EXIT
 echo "label,rate_hz,inputs_hz,sent,received,median_us,p99_us,missed,late_dropped,accepted,expected_inputs" > "$CSV"
 
 # Waits for a result row in $1 (at most $2 s) while roslaunch $LAUNCH_PID runs, then stops it.
@@ -82,14 +100,19 @@ hop()  # label rate: the bare typed hop
 
 echo "== Robot graph benchmark (logs in $RUNS)"
 echo "load before: $(uptime)"
-echo "-- part 1: latency, Imu 200 Hz + Odometry 100 Hz + NavSatFix 10 Hz (n = 6), ${SECONDS_PER_RUN} s"
-hop bare_hop_200 200
-graph robot_200 200
-echo "-- part 2: highest total input rate with no missed step"
-for rate in $RATES; do
-  graph "robot_$rate" "$rate"
-done
+if want 1; then
+  echo "-- part 1: latency, Imu 200 Hz + Odometry 100 Hz + NavSatFix 10 Hz (n = 6), ${SECONDS_PER_RUN} s"
+  hop bare_hop_200 200
+  graph robot_200 200
+fi
+if want 2; then
+  echo "-- part 2: highest total input rate with no missed step"
+  for rate in $RATES; do
+    graph "robot_$rate" "$rate"
+  done
+fi
 
+if want 3; then
 echo "-- part 3: a recorded bag (Odometry 10 Hz + Imu 30 Hz, ${BAG_SECONDS} s), rosbag play --clock -r 4"
 MODEL="$RUNS/robot_odom_imu.yaml"
 python3 - "$(rospack find networked_estimation)/config/models/planar_robot.yaml" "$MODEL" <<'PY'
@@ -208,5 +231,14 @@ PY
 }
 floor queued false
 floor inline true
+fi
+
+if want 4; then
+  echo "-- part 4: idle after a bag ends, the Estimator (config/robot/jackal.yaml) beside the null receiver," \
+       "$IDLE_RUNS runs: ${IDLE_BAG_SECONDS} s of test2.bag at -r 4, then ${IDLE_SECONDS} s with the clock stopped and" \
+       "${IDLE_SECONDS} s with a /clock running at 4x, no input"
+  idle_after_bag "$REPO/test/data/test2.bag" "$REPO/config/robot/jackal.yaml" "$IDLE_RUNS" "$IDLE_SECONDS" \
+    "$IDLE_BAG_SECONDS" "$RUNS" "$CSV"
+fi
 echo "load after: $(uptime)"
 echo "results: $CSV"

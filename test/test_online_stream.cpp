@@ -3,6 +3,7 @@
 // the sample assembly. Time is simulated: ROS time and wall time advance in 1 ms ticks.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <string>
@@ -128,7 +129,9 @@ TEST(Timeline, StampsAreCheckedAgainstRosTime)
 
 // A first message within the bounds anchors the timeline only provisionally: a later message that
 // contradicts it restarts the timeline on itself. Once confirmed, a message whose stamp does not
-// fit its step (here by 5 s) is refused, and only five of them in a row restart it.
+// fit its step (here by 5 s) is refused, and only five of them in a row restart it. An anchor that
+// lies ahead of ROS time is confirmed by nothing, and a message in the present contradicts it when
+// more than kAhead (0.25 s) off it.
 TEST(Timeline, NoSingleMessageAnchorsOrMovesIt)
 {
   ne::Timeline t(timelineOptions(), 0.01);
@@ -153,6 +156,17 @@ TEST(Timeline, NoSingleMessageAnchorsOrMovesIt)
   a = t.admit(1005.0, 5, 1000.09);
   EXPECT_EQ(a.verdict, V::RESTART);
   EXPECT_TRUE(has(a.reason, "the 5th such message in a row")) << a.reason;
+  // An anchor 0.5 s ahead of ROS time: a message 0.4 s before it (named or not) contradicts it, and
+  // one just after it does not confirm it.
+  t.anchor(1, 1000.5);
+  EXPECT_EQ(t.admit(1000.52, -1, 1000.1).verdict, V::ACCEPT);
+  EXPECT_FALSE(t.confirmed());
+  EXPECT_EQ(t.admit(1000.1, -1, 1000.1).verdict, V::RESTART);
+  a = t.admit(1000.1, 1, 1000.1);
+  EXPECT_EQ(a.verdict, V::RESTART);
+  EXPECT_TRUE(has(a.reason, "stamp 1000.1 of step 1 is -0.4 s off that step's time")) << a.reason;
+  EXPECT_EQ(t.admit(1000.3, 1, 1000.1).verdict, V::ACCEPT);  // within 0.25 s
+  EXPECT_FALSE(t.confirmed());
   // Stamp-only: a message well before an anchor that is not ahead of ROS time is no contradiction
   // (the anchor was a plausible, older message); before one ahead of ROS time it is, even when a
   // step was taken on the anchor (a single sensor's message completes its step at once).
@@ -192,10 +206,11 @@ TEST(Timeline, CatchingUpIsBoundedPerWallSecond)
   EXPECT_EQ(fast.allowance(1.0, 4.0), 400);
 }
 
-// Item 7's test in the core: a fresh stream fed one poisoned first message, then a good stream,
-// publishes present-time estimates within a second, and takes no more steps than the time covered
-// (no grinding): stamp 0 and 1e6 s ahead are refused; 5 s ahead anchors provisionally and the good
-// stream restarts the timeline; 2 s behind is caught up at once (100 steps, within the work bound).
+// A fresh stream fed one poisoned first message, then a good stream, publishes present-time
+// estimates within a second, and takes no more steps than the time covered (no grinding): stamp 0
+// and 1e6 s ahead are refused; 5 s ahead anchors provisionally, the good stream restarts the
+// timeline and the poison counts as refused then; 2 s behind is caught up at once (100 steps,
+// within the work bound), the poison itself late.
 TEST(OnlineStream, APoisonedFirstMessageCannotHoldTheTimeline)
 {
   const double t0 = 2e6;
@@ -209,9 +224,9 @@ TEST(OnlineStream, APoisonedFirstMessageCannotHoldTheTimeline)
   // The poison 2 s behind is itself late: older than latency_budget_max (1 s).
   const Case cases[] = {{"stamp 0", 0.0, false, 1, 0, 0},
                         {"1e6 s ahead", t0 + 1e6, false, 1, 0, 0},
-                        {"5 s ahead", t0 + 5.0, false, 0, 1, 0},
+                        {"5 s ahead", t0 + 5.0, false, 1, 1, 0},
                         {"2 s behind", t0 - 2.0, false, 0, 0, 1},
-                        {"named, 5 s ahead", t0 + 5.0, true, 0, 1, 0},
+                        {"named, 5 s ahead", t0 + 5.0, true, 1, 1, 0},
                         {"named, 1e6 s ahead", t0 + 1e6, true, 1, 0, 0}};
   for (const Case& c : cases)
   {
@@ -226,6 +241,200 @@ TEST(OnlineStream, APoisonedFirstMessageCannotHoldTheTimeline)
     EXPECT_LE(st.steps.size(), 100u + 100u + 5u) << c.name;
     EXPECT_EQ(st.s.online().counters().late_dropped, c.late) << c.name;
   }
+}
+
+/// x_k = 0.9 x_{k-1} + w seen by one sensor "y" at the model's rate: each message completes its
+/// step at once.
+ne::Model oneSensorModel()
+{
+  ne::Model m = ne::test::scalarTwoSensorModel(0.9, "y", "unused");
+  m.C = Eigen::MatrixXd::Ones(1, 1);
+  m.R = Eigen::MatrixXd::Identity(1, 1);
+  m.sensors = {{"y", 0, 1}};
+  ne::validateModel(m, "one");
+  return m;
+}
+
+/// An OnlineStream that records, for every step, its stamp, the ROS time it was taken at and x.
+struct Recorder
+{
+  struct Step
+  {
+    long k;
+    double stamp, now, x;
+  };
+  ne::OnlineStream s;
+  double now = 0.0;  ///< ROS time of the call in progress
+  std::vector<Step> steps;
+
+  explicit Recorder(const ne::Model& m)
+    : s(m, Stream::settings(), ne::OnlineOptions(), timelineOptions(), adaptiveSettings())
+  {
+    s.after_step = [this](long k) {
+      steps.push_back({k, s.timeline().clock().stamp(k), now, s.online().estimator().state()(0)});
+    };
+  }
+  void offer(std::size_t sensor, double stamp, double at, long step, double y)
+  {
+    now = at;
+    s.measurement(sensor, stamp, step, &y, 1, nullptr, Stream::clocks(at));
+  }
+  /// A good stream from ROS time t0 for `seconds` in 1 ms ticks: every 20 ms from t0 + 0.1 each of
+  /// `sensors` sensors' sample (y_k = sin(0.3 k)) stamped 5 ms earlier, naming its step when
+  /// `named`. Returns the stamp of the latest step 1 s after the stream began (-1: none).
+  double good(double t0, double seconds, std::size_t sensors, bool named)
+  {
+    double at_one_second = -1.0;
+    const long ticks = std::lround(seconds * 1000.0);
+    for (long i = 0; i <= ticks; ++i)
+    {
+      now = t0 + 0.001 * static_cast<double>(i);
+      if (i >= 100 && (i - 100) % 20 == 0)
+      {
+        const long k = (i - 100) / 20 + 1;
+        for (std::size_t j = 0; j < sensors; ++j)
+          offer(j, t0 + 0.095 + kT * static_cast<double>(k - 1), now, named ? k : -1, std::sin(0.3 * k));
+      }
+      s.deadlines(Stream::clocks(now));
+      if (i == 1100)
+        at_one_second = steps.empty() ? -1.0 : steps.back().stamp;
+    }
+    return at_one_second;
+  }
+};
+
+// Issue 37 item 5: after a poisoned first message, the first good messages start the timeline. A
+// fresh stream on one sensor (whose message completes its step at once) and on two is fed one
+// poisoned first message, then 2 s of a good stream:
+// - no step is ever taken before ROS time reaches its stamp minus Timeline::kAhead (0.25 s): no
+//   estimate is stamped further ahead of ROS time;
+// - the steps are exactly those of the same good stream without the poison (stamps and x), so
+//   within 1 s of good input the estimates are in the present and on track;
+// - the poison is counted per sensor with its reason: refused at once (stamp 0, beyond
+//   max_stamp_ahead / max_stamp_behind), or when the good stream contradicts the anchor it made
+//   (ahead of ROS time within max_stamp_ahead, or any stamp that came before the clock: ROS time
+//   0 under sim time), then with a timeline restart.
+// A poison behind ROS time within max_stamp_behind is the one that keeps the timeline (a late
+// stream looks the same): its steps up to the present are taken at once, as losses, stamped in
+// the past (at most max_stamp_behind / period of them), and the estimates are in the present.
+TEST(OnlineStream, APoisonedFirstMessageNeverStartsTheTimeline)
+{
+  const double t0 = 2e6;
+  struct Case
+  {
+    const char* name;
+    double stamp, at;  ///< the poison's stamp, and ROS time when it arrives (0: no clock yet)
+    bool named;
+    std::uint64_t refused, restarts;
+    const char* reason;
+    bool same = true;  ///< the steps equal the reference's
+  };
+  const char* const contradicted = "anchored the timeline, and a later message contradicted it (stamp 2000000.095";
+  const Case cases[] = {
+      {"stamp 0", 0.0, t0, false, 1, 0, "stamp 0: not a sample time"},
+      {"1e6 s ahead", t0 + 1e6, t0, false, 1, 0, "(max_stamp_ahead 10 s)"},
+      {"5 s ahead", t0 + 5.0, t0, false, 1, 1, contradicted},
+      {"2.9 s ahead", t0 + 2.9, t0, false, 1, 1, contradicted},
+      {"0.9 s ahead", t0 + 0.9, t0, false, 1, 1, contradicted},
+      {"5 s behind", t0 - 5.0, t0, false, 1, 0, "(max_stamp_behind 3 s)"},
+      {"2.9 s behind", t0 - 2.9, t0, false, 0, 0, "", false},
+      {"named, 5 s ahead", t0 + 5.0, t0, true, 1, 1, contradicted},
+      {"named, 0.9 s ahead", t0 + 0.9, t0, true, 1, 1, contradicted},
+      {"1e6 s ahead, before the clock", t0 + 1e6, 0.0, false, 1, 1, contradicted},
+      {"0.5 s ahead, before the clock", t0 + 0.5, 0.0, false, 1, 1, contradicted},
+      {"named, 1e6 s ahead, before the clock", t0 + 1e6, 0.0, true, 1, 1, contradicted},
+      {"named, 0.5 s ahead, before the clock", t0 + 0.5, 0.0, true, 1, 1, contradicted}};
+  for (const std::size_t sensors : {std::size_t(1), std::size_t(2)})
+  {
+    const ne::Model model = sensors == 1 ? oneSensorModel() : ne::test::scalarTwoSensorModel(0.9, "a", "b");
+    for (const bool named : {false, true})
+    {
+      Recorder reference(model);
+      const double latest = reference.good(t0, 2.0, sensors, named);
+      EXPECT_GE(latest, t0 + 1.1 - 0.1) << "the reference's estimates are not in the present";
+      ASSERT_GE(reference.steps.size(), 95u);
+      for (const Case& c : cases)
+      {
+        if (c.named != named)
+          continue;
+        const std::string name = std::string(c.name) + ", " + std::to_string(sensors) + " sensor(s)";
+        Recorder r(model);
+        r.offer(0, c.stamp, c.at, named ? 1 : -1, 1e3);
+        const double at_one_second = r.good(t0, 2.0, sensors, named);
+        // (The first failure of each case is reported, then the next case runs.)
+        for (const Recorder::Step& st : r.steps)
+          if (!(st.stamp <= st.now + ne::Timeline::kAhead))
+          {
+            ADD_FAILURE() << name << ": step " << st.k << " stamped " << st.stamp - st.now << " s ahead of ROS time";
+            break;
+          }
+        EXPECT_GE(at_one_second, t0 + 1.1 - 0.1) << name << ": the estimate 1 s after the good stream began is stale";
+        if (c.same)
+        {
+          EXPECT_EQ(r.steps.size(), reference.steps.size()) << name;
+          for (std::size_t i = 0; i < std::min(r.steps.size(), reference.steps.size()); ++i)
+            if (r.steps[i].k != reference.steps[i].k || !(std::fabs(r.steps[i].stamp - reference.steps[i].stamp) <= 1e-9) ||
+                !(std::fabs(r.steps[i].x - reference.steps[i].x) <= 1e-12))
+            {
+              ADD_FAILURE() << name << ": step #" << i << " is step " << r.steps[i].k << " stamped " << std::fixed
+                            << r.steps[i].stamp - t0 << " s after t0, x = " << r.steps[i].x << "; without the poison: step "
+                            << reference.steps[i].k << " stamped " << reference.steps[i].stamp - t0 << ", x = "
+                            << reference.steps[i].x;
+              break;
+            }
+        }
+        else
+        {
+          const auto past = std::count_if(r.steps.begin(), r.steps.end(),
+                                          [&](const Recorder::Step& st) { return st.stamp < t0; });
+          EXPECT_LE(past, 150) << name << ": more steps before the good stream than max_stamp_behind holds";
+          EXPECT_LE(r.steps.size(), reference.steps.size() + 150u) << name;
+        }
+        EXPECT_EQ(r.s.refusedPerSensor()[0], c.refused) << name;
+        EXPECT_EQ(r.s.restarts(), c.restarts) << name;
+        EXPECT_TRUE(has(r.s.lastRefused(0).reason, c.reason)) << name << ": " << r.s.lastRefused(0).reason;
+        EXPECT_EQ(r.s.lastRefused(0).reason.empty(), c.refused == 0) << name;
+        EXPECT_EQ(r.s.lastRestart().reason.empty(), c.restarts == 0) << name;
+      }
+    }
+  }
+}
+
+// The diagnostics say what was refused, naming the sensor, with the count and the reason, for
+// kRecentSeconds of wall time after the last such message (then only the counters keep it); a
+// command refused for its stamp and a timeline restart likewise.
+TEST(OnlineStream, TheDiagnosticsSayWhatWasRefused)
+{
+  const double t0 = 2e6;
+  Stream st(adaptiveSettings());
+  EXPECT_TRUE(st.s.stampWarnings(100.0).empty());
+  const double y = 0.1;
+  st.s.measurement(1, 0.0, -1, &y, 1, nullptr, Stream::clocks(t0, 100.0));
+  st.s.measurement(1, t0 + 20.0, -1, &y, 1, nullptr, Stream::clocks(t0, 101.0));
+  std::vector<std::string> w = st.s.stampWarnings(101.5);
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_EQ(w[0], "sensor 'b': 2 messages refused for their stamp, the last 0.5 s ago: stamp 2000020 is 20 s ahead of "
+                  "ROS time 2000000 (max_stamp_ahead 10 s)");
+  EXPECT_EQ(st.s.refusedPerSensor()[1], 2u);
+  EXPECT_TRUE(st.s.stampWarnings(111.5).empty());  // 10.5 s later
+  // A command stamped 0 (no header stamp), once the timeline runs.
+  st.offer(0, t0, t0);
+  st.s.heldCommand(0.0, &y, 1, Stream::clocks(t0, 102.0));
+  w = st.s.stampWarnings(103.0);
+  ASSERT_EQ(w.size(), 2u);
+  EXPECT_EQ(w[1], "commands and schedules: 1 message refused for its stamp, the last 1 s ago: command: stamp 0: not "
+                  "a sample time (an unset header stamp?)");
+  // A restart: an anchor taken before the clock (ROS time 0), 1e6 s ahead of the first message
+  // that arrives with one.
+  Stream r(adaptiveSettings());
+  r.s.measurement(0, t0 + 1e6, -1, &y, 1, nullptr, Stream::clocks(0.0, 200.0));
+  r.s.measurement(0, t0, -1, &y, 1, nullptr, Stream::clocks(t0, 201.0));
+  w = r.s.stampWarnings(203.0);
+  ASSERT_EQ(w.size(), 2u);
+  EXPECT_TRUE(has(w[0], "sensor 'a': 1 message refused for its stamp, the last 2 s ago: stamp 3000000 anchored the "
+                        "timeline, and a later message contradicted it (stamp 2000000 is 1000000 s before")) << w[0];
+  EXPECT_TRUE(has(w[1], "timeline restarted 2 s ago: stamp 2000000 is 1000000 s before the stamp 3000000 that anchored "
+                        "the timeline ahead of ROS time")) << w[1];
 }
 
 // ROS time jumping forward by a day restarts the timeline at once (no step taken for the gap); a

@@ -413,9 +413,12 @@ Estimate::Ptr EstimatorNodelet::stepLocked(long k)
 
 double EstimatorNodelet::deadlineWork()
 {
+  // Nothing timed is due before a message, a wake() or (sim time) a /clock tick that reaches the
+  // armed time: those end the wait; the thread's own bound (1 s) is the only poll.
+  constexpr double kIdle = 1.0;
   std::lock_guard<std::mutex> lock(mutex_);
   if (!stream_->online().started())
-    return 0.05;
+    return kIdle;
   // Sim time: the clock's rate over the last half second (a bag at -r 4 runs 4 sim seconds per
   // second), for the waits below and the stream's catch-up work bound.
   const double now = clock_watch_.now(), wall = ros::WallTime::now().toSec();
@@ -429,7 +432,7 @@ double EstimatorNodelet::deadlineWork()
     else if (wall - wall_ref_ >= 0.5)
     {
       const double r = (now - sim_ref_) / (wall - wall_ref_);
-      clock_rate_ = r > 1e-3 && r < 1e6 ? r : 1e-3;  // paused: the 50 ms cap
+      clock_rate_ = r > 1e-3 && r < 1e6 ? r : 1e-3;  // paused: the smallest rate
       sim_ref_ = now;
       wall_ref_ = wall;
     }
@@ -447,13 +450,13 @@ double EstimatorNodelet::deadlineWork()
     return 0.005;  // the catch-up work bound: tokens come back at twice the rate ROS time needs
   const double due = stream_->nextDeadline();
   if (!std::isfinite(due))
-    return 0.05;  // restarted: waiting for the stream
+    return kIdle;  // restarted: waiting for the stream
   // Wall time: wait until the deadline (a message that completes a step takes it at once, in its
   // callback, and the wait is then set again for the next step: no wake-up per step). Sim time:
   // ROS time moves only at /clock ticks, and the tick that reaches the deadline wakes this thread
-  // (sim_clock_watch.hpp); the wait is bounded at 50 ms all the same.
+  // (sim_clock_watch.hpp), so no poll: a stopped clock (a bag that ended) costs nothing.
   if (clock_watch_.active())
-    return clock_watch_.arm(due) ? 0.05 : 0.0;
+    return clock_watch_.arm(due) ? kIdle : 0.0;
   return std::max(0.0, std::min(due - now, 0.05));
 }
 }  // namespace networked_estimation

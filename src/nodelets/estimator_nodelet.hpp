@@ -159,7 +159,8 @@ private:
 
   /// The latest estimate as the tf frame_id -> child_frame_id, 20 times a second, from the
   /// manager's queue (tf is for viewing; sending it from the thread that takes the steps stalled
-  /// the manager's callback queues).
+  /// the manager's callback queues). The timer stops at a tick with no new estimate, and the next
+  /// estimate starts it again.
   void tfTimer();
   /// /tf and /tf_static: base_link's parent from other publishers than ourselves (ForeignParent).
   void onTf(const ros::MessageEvent<tf2_msgs::TFMessage const>& e, bool static_tf);
@@ -174,7 +175,12 @@ private:
   /// The inputs whose topic is advertised with another type than configured (ROS then connects
   /// nothing: without this check the sensor would just look silent), e.g.
   /// "sensor 'gps': /fix is geometry_msgs/PointStamped, expected sensor_msgs/NavSatFix".
-  std::vector<std::string> wrongTypes() const;
+  /// Asks the master only about the command topic and the sensors that heard nothing since the
+  /// last report (one that receives has its type), at most every kWrongTypeSeconds (an idle
+  /// Estimator called the master every second); in between, the last answer stands. Takes the
+  /// mutex for the counts only (the diagnostics' thread).
+  std::vector<std::string> wrongTypes();
+  static constexpr double kWrongTypeSeconds = 5.0;
 
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
   /// Per sensor: messages, losses, delay, disabled samples and rate; WARN for a sensor that lost more
@@ -225,6 +231,7 @@ private:
   OwnTransforms own_tf_;
   ForeignParent foreign_parent_;
   ros::WallTimer tf_timer_;
+  bool tf_timer_idle_ = false;  ///< tf_timer_ stopped for want of a new estimate (mutex_)
   Estimate::ConstPtr last_estimate_;
   ros::Time last_tf_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
@@ -242,6 +249,10 @@ private:
   int deferred_ = 0;  ///< deadline work deferred for queued messages, in a row
   std::uint64_t rejected_topic_ = 0, last_processed_ = 0, covariance_fallbacks_ = 0;
   ros::WallTime last_diag_;
+  /// wrongTypes(): the sensors' messages at the last report, the last answer and when it was asked.
+  std::vector<std::uint64_t> heard_;
+  std::vector<std::string> wrong_;
+  ros::WallTime wrong_asked_;
 };
 
 }  // namespace networked_estimation

@@ -36,7 +36,14 @@ void EstimatorNodelet::publishLocked(const Estimate::Ptr& e)
       publishOdometry(*e);
     const bool want_pose = pose_pub_.getNumSubscribers() > 0;
     if (publish_tf_)
+    {
       last_estimate_ = e;  // tf leaves from tfTimer() in the nodelet's own queue, not this thread
+      if (tf_timer_idle_)  // stopped while no estimate came (mutex held by both)
+      {
+        tf_timer_idle_ = false;
+        tf_timer_.start();
+      }
+    }
     if (!want_pose)
       return;
     const int n = static_cast<int>(e->state.size());
@@ -77,9 +84,15 @@ void EstimatorNodelet::tfTimer()
   {
     std::lock_guard<std::mutex> lock(mutex_);
     e = last_estimate_;
+    if (!e || e->header.stamp == last_tf_)
+    {
+      // Nothing new (no input, a stopped clock): the timer stops until the next estimate starts
+      // it again, rather than waking the manager's threads 20 times a second for nothing.
+      tf_timer_.stop();
+      tf_timer_idle_ = true;
+      return;
+    }
   }
-  if (!e || e->header.stamp == last_tf_)
-    return;
   last_tf_ = e->header.stamp;
   geometry_msgs::TransformStamped t;
   t.header = e->header;
@@ -152,24 +165,46 @@ void EstimatorNodelet::onTf(const ros::MessageEvent<tf2_msgs::TFMessage const>& 
     foreign_parent_.saw(t, base_link_frame_, own_tf_, e.getPublisherName(), now, static_tf);
 }
 
-std::vector<std::string> EstimatorNodelet::wrongTypes() const
+std::vector<std::string> EstimatorNodelet::wrongTypes()
 {
+  const Model& model = stream_->online().model();
+  std::vector<bool> silent(inputs_.size(), true);
+  bool any = model.hasControl();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const bool first = heard_.size() != inputs_.size();
+    heard_.resize(inputs_.size(), 0);
+    for (std::size_t i = 0; i < inputs_.size(); ++i)
+    {
+      const std::uint64_t n = stream_->online().counters().received_per_sensor[i] + stream_->refusedPerSensor()[i];
+      silent[i] = first || n == heard_[i];
+      heard_[i] = n;
+      any = any || silent[i];
+    }
+  }
+  const ros::WallTime now = ros::WallTime::now();
+  if (!any)
+    wrong_.clear();
+  if (!any || (!wrong_asked_.isZero() && (now - wrong_asked_).toSec() < kWrongTypeSeconds))
+    return wrong_;
+  wrong_asked_ = now;
   ros::master::V_TopicInfo topics;
-  std::vector<std::string> out;
   if (!ros::master::getTopics(topics))
-    return out;
-  const ros::NodeHandle& nh = const_cast<EstimatorNodelet*>(this)->getNodeHandle();
+    return wrong_;
+  std::vector<std::string> out;
+  const ros::NodeHandle& nh = getNodeHandle();
   auto check = [&](const std::string& who, const std::string& topic, const std::string& expected) {
     const std::string name = nh.resolveName(topic);
     for (const ros::master::TopicInfo& t : topics)
       if (t.name == name && t.datatype != expected)
         out.push_back(who + ": " + name + " is " + t.datatype + ", expected " + expected);
   };
-  const Model& model = stream_->online().model();
   for (std::size_t i = 0; i < inputs_.size(); ++i)
-    check("sensor '" + model.sensors[i].name + "'", inputs_[i].topic, toString(inputs_[i].type));
+    if (silent[i])
+      check("sensor '" + model.sensors[i].name + "'", inputs_[i].topic, toString(inputs_[i].type));
   if (model.hasControl())
     check("command", command_.topic, toString(command_.type));
+  wrong_ = out;
   return out;
 }
 
@@ -197,6 +232,10 @@ void EstimatorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
                   arrival);
   if (!wrong.empty())
     stat.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN, "wrong message type: %s", wrong.front().c_str());
+  // Messages refused for their stamp (stamp 0, ahead of ROS time...) and timeline restarts, over
+  // the last 10 s, naming the sensor and the reason.
+  for (const std::string& w : stream_->stampWarnings(now.toSec()))
+    stat.mergeSummary(diagnostic_msgs::DiagnosticStatus::WARN, w);
   stat.add("wrong type inputs", wrong.size());
   stat.add("algorithm", toString(settings_.algorithm));
   stat.add("steps", c.processed);
@@ -232,6 +271,8 @@ void EstimatorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   stat.add("divergence resets", c.divergence_resets);
   stat.add("time resets", stream_->timeResets());
   stat.add("timeline restarts", stream_->restarts());
+  if (!stream_->lastRestart().reason.empty())
+    stat.add("last timeline restart", stream_->lastRestart().reason);
   stat.add("stamps refused (commands, schedules)", stream_->refusedOther());
   stat.add("latency budget (s)", stream_->budget());
   stat.add("latency budget", stream_->runtime().adaptive_latency ? "auto" : "fixed");
@@ -253,6 +294,8 @@ void EstimatorNodelet::diagnoseSensors(diagnostic_updater::DiagnosticStatusWrapp
     stat.add(name + " messages", c.received_per_sensor[i] + stream_->refusedPerSensor()[i]);
     stat.add(name + " late dropped", c.late_dropped_per_sensor[i]);
     stat.add(name + " stamps refused", stream_->refusedPerSensor()[i]);
+    if (!stream_->lastRefused(i).reason.empty())
+      stat.add(name + " last stamp refused", stream_->lastRefused(i).reason);
     stat.add(name + " delay p99 (s)", delay);
     stat.add(name + " rate (Hz)", online.lattice(i).measuredRate(period));
     if (inputs_[i].type == InputType::IMU)

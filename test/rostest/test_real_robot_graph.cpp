@@ -7,6 +7,8 @@
 //     SetPose (estimator_real_inputs.test): tf with child_frame_id base_link, stamps that must not
 //     anchor the timeline, runtime settings checked like the load, sensor_msgs/Imu's covariance
 //     -1, set_pose as a topic and a service, relative and differential poses (RelativeAndDifferential).
+//   APoisonedFirstMessageUnderSimTime (estimator_poisoned_sim.test): poisoned first stamps that
+//     arrive before the first /clock.
 //   PeerBagTest (estimator_peer_bag2*.test): one of robot_localization's bag tests through
 //     launch/peer_bag_test.launch, asserting what it asserts: the last /odometry/filtered position
 //     within ~tolerance of ~expected.
@@ -15,6 +17,7 @@
 #include <dynamic_reconfigure/Reconfigure.h>
 #include <geometry_msgs/PointStamped.h>
 #include <nav_msgs/Odometry.h>
+#include <rosgraph_msgs/Clock.h>
 #include <rosgraph_msgs/Log.h>
 #include <sensor_msgs/Imu.h>
 #include <tf2_msgs/TFMessage.h>
@@ -270,14 +273,40 @@ TEST(RealRobotGraph, OwnTfIsKeptAndGivesWay)
     EXPECT_LT(e.wall, given_way) << "odom -> base_link from the Estimator while another node publishes it";
 }
 
-// A fresh Estimator fed one poisoned first message, then a good stream at 20 Hz stamped with ROS
-// time, publishes present-time estimates within a second: a stamp of 0 and one 1e6 s ahead are
-// refused (counted); one 5 s ahead anchors the timeline only until the good stream contradicts it.
+/// The estimates of one Estimator fed a poisoned first message: none stamped more than 0.25 s
+/// (Timeline::kAhead) ahead of the ROS time it was received at (later than it was sent, so this is
+/// a looser check), and the last one within 0.2 s of `now` (in the present).
+void expectPresent(Collector<Estimate>& est, const std::string& name, double now)
+{
+  std::lock_guard<std::mutex> lock(est.mutex);
+  ASSERT_FALSE(est.msgs.empty()) << name << ": no estimate 1 s after the good stream began";
+  for (std::size_t i = 0; i < est.msgs.size(); ++i)
+    if (!(est.msgs[i].header.stamp.toSec() <= est.received_at[i].toSec() + 0.25))
+    {
+      ADD_FAILURE() << name << ": step " << est.msgs[i].step << " stamped "
+                    << est.msgs[i].header.stamp.toSec() - est.received_at[i].toSec() << " s ahead of ROS time";
+      break;
+    }
+  EXPECT_NEAR(est.msgs.back().header.stamp.toSec(), now, 0.2) << name;
+  EXPECT_LE(est.msgs.size(), 30u) << name << ": more steps than 1 s at 20 Hz (grinding?)";
+}
+
+// Issue 37 item 5 on the graph: a fresh Estimator fed one poisoned first message, then a good
+// stream at 20 Hz stamped with ROS time, starts its timeline on the good stream: no estimate is
+// stamped more than 0.25 s ahead of ROS time, the estimates are in the present within a second, and
+// the poison is counted and said: `y stamps refused` 1, `y last stamp refused` its reason, and the
+// status WARN "sensor 'y': 1 message refused for its stamp, ..." (for 10 s). Stamp 0 and 1e6 s
+// ahead (max_stamp_ahead) are refused at once; 5 s and 0.9 s ahead anchor the timeline
+// provisionally (no step taken: it lies ahead of ROS time) until the good stream contradicts it
+// (`timeline restarts` 1).
 TEST(RealRobotGraph, APoisonedFirstMessage)
 {
   ros::NodeHandle nh;
-  const std::vector<std::string> names = {"p_zero", "p_ahead", "p_near"};
-  const std::vector<double> offsets = {std::nan(""), 1e6, 5.0};  // NaN: stamp 0
+  const std::vector<std::string> names = {"p_zero", "p_ahead", "p_near", "p_close"};
+  const std::vector<double> offsets = {std::nan(""), 1e6, 5.0, 0.9};  // NaN: stamp 0
+  const std::string contradicted = "anchored the timeline, and a later message contradicted it";
+  const std::vector<std::string> reasons = {"stamp 0: not a sample time", "(max_stamp_ahead 10 s)", contradicted,
+                                            contradicted};
   std::vector<ros::Publisher> pubs;
   std::vector<std::unique_ptr<Collector<Estimate>>> est;
   std::vector<std::unique_ptr<DiagnosticsProbe>> diag;
@@ -312,20 +341,97 @@ TEST(RealRobotGraph, APoisonedFirstMessage)
     ros::WallDuration(1.0).sleep();
     const double now = ros::Time::now().toSec();
     for (std::size_t i = 0; i < names.size(); ++i)
-    {
-      std::lock_guard<std::mutex> lock(est[i]->mutex);
-      ASSERT_FALSE(est[i]->msgs.empty()) << names[i] << ": no estimate 1 s after the good stream began";
-      EXPECT_NEAR(est[i]->msgs.back().header.stamp.toSec(), now, 0.2) << names[i];
-      EXPECT_LE(est[i]->msgs.size(), 30u) << names[i] << ": more steps than 1 s at 20 Hz (grinding?)";
-    }
+      expectPresent(*est[i], names[i], now);
     ros::WallDuration(1.5).sleep();
   }
   for (std::size_t i = 0; i < names.size(); ++i)
   {
     ASSERT_TRUE(waitFor([&] { return !std::isnan(diag[i]->get("y stamps refused")); }, 5.0)) << names[i];
-    EXPECT_EQ(diag[i]->get("y stamps refused"), i < 2 ? 1.0 : 0.0) << names[i];
-    EXPECT_EQ(diag[i]->get("timeline restarts"), i == 2 ? 1.0 : 0.0) << names[i];
+    EXPECT_EQ(diag[i]->get("y stamps refused"), 1.0) << names[i];
+    EXPECT_EQ(diag[i]->get("timeline restarts"), i < 2 ? 0.0 : 1.0) << names[i];
     EXPECT_EQ(diag[i]->get("late dropped"), 0.0) << names[i];
+    EXPECT_NE(diag[i]->text("y last stamp refused").find(reasons[i]), std::string::npos)
+        << names[i] << ": " << diag[i]->text("y last stamp refused");
+    EXPECT_TRUE(diag[i]->levelIs(diagnostic_msgs::DiagnosticStatus::WARN)) << names[i] << ": " << diag[i]->lastMessage();
+    const std::string said = diag[i]->lastMessage();
+    EXPECT_NE(said.find("sensor 'y': 1 message refused for its stamp, the last "), std::string::npos)
+        << names[i] << ": " << said;
+    EXPECT_NE(said.find(reasons[i]), std::string::npos) << names[i] << ": " << said;
+  }
+}
+
+// The same under sim time, where a message that arrives before the first /clock (ROS time 0) cannot
+// be judged: it anchors the timeline provisionally, and the first good message (with a clock)
+// restarts it; no estimate is stamped ahead of ROS time meanwhile (none from the poison), and the
+// status says "sensor 'y': 1 message refused for its stamp, ...; timeline restarted ... s ago: ...".
+// A stamp of 0 is refused even then. The test
+// drives /clock itself, from 1000 s at real time (estimator_poisoned_sim.test).
+TEST(RealRobotGraph, APoisonedFirstMessageUnderSimTime)
+{
+  ros::NodeHandle nh;
+  ASSERT_TRUE(ros::Time::isSimTime());
+  const std::vector<std::string> names = {"s_zero", "s_ahead", "s_near"};
+  const double start = 1000.0;
+  const std::vector<double> stamps = {0.0, start + 1e6, start + 2.0};
+  ros::Publisher clock = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  std::vector<ros::Publisher> pubs;
+  std::vector<std::unique_ptr<Collector<Estimate>>> est;
+  std::vector<std::unique_ptr<DiagnosticsProbe>> diag;
+  for (const std::string& n : names)
+  {
+    pubs.push_back(nh.advertise<geometry_msgs::PointStamped>(n + "/measurement", 100));
+    est.push_back(std::make_unique<Collector<Estimate>>(nh, n + "/estimate"));
+    diag.push_back(std::make_unique<DiagnosticsProbe>(nh, n + "/estimator: estimator"));
+  }
+  ASSERT_TRUE(waitFor([&] {
+    for (std::size_t i = 0; i < names.size(); ++i)
+      if (pubs[i].getNumSubscribers() == 0 || est[i]->sub.getNumPublishers() == 0)
+        return false;
+    return clock.getNumSubscribers() >= names.size();
+  }, 20.0));
+  for (std::size_t i = 0; i < names.size(); ++i)
+  {
+    geometry_msgs::PointStamped poison;
+    poison.header.stamp.fromSec(stamps[i]);
+    poison.point.x = 1e3;
+    pubs[i].publish(poison);
+  }
+  ros::WallDuration(0.5).sleep();  // the poisons arrive before any clock
+  const ros::WallTime wall0 = ros::WallTime::now();
+  auto sim_now = [&] { return start + (ros::WallTime::now() - wall0).toSec(); };
+  {
+    PeriodicFeeder ticks(0.01, [&](long) {
+      rosgraph_msgs::Clock c;
+      c.clock.fromSec(sim_now());
+      clock.publish(c);
+    });
+    ASSERT_TRUE(waitFor([&] { return ros::Time::now().toSec() >= start; }, 5.0));
+    ros::WallDuration(0.1).sleep();
+    {
+      PeriodicFeeder feeder(0.05, [&](long) {
+        geometry_msgs::PointStamped m;
+        m.header.stamp = ros::Time::now();
+        m.point.x = 0.1;
+        for (ros::Publisher& p : pubs)
+          p.publish(m);
+      });
+      ros::WallDuration(1.0).sleep();
+      const double now = ros::Time::now().toSec();
+      for (std::size_t i = 0; i < names.size(); ++i)
+        expectPresent(*est[i], names[i], now);
+      ros::WallDuration(1.5).sleep();
+    }
+    for (std::size_t i = 0; i < names.size(); ++i)
+    {
+      ASSERT_TRUE(waitFor([&] { return !std::isnan(diag[i]->get("y stamps refused")); }, 5.0)) << names[i];
+      EXPECT_EQ(diag[i]->get("y stamps refused"), 1.0) << names[i];
+      EXPECT_EQ(diag[i]->get("timeline restarts"), i == 0 ? 0.0 : 1.0) << names[i];
+      const std::string said = diag[i]->lastMessage();
+      EXPECT_NE(said.find("sensor 'y': 1 message refused for its stamp, the last "), std::string::npos)
+          << names[i] << ": " << said;
+      if (i > 0)
+        EXPECT_NE(said.find("timeline restarted "), std::string::npos) << names[i] << ": " << said;
+    }
   }
 }
 

@@ -65,7 +65,9 @@ public:
   /// time went back or jumped forward past max_stamp_behind. Returns true when steps are still due
   /// (the caller comes back at once, after letting the inputs in).
   bool deadlines(const Clocks& now);
-  /// The ROS time of the next deadline (+inf before the timeline starts).
+  /// The ROS time at which the next step is due: its deadline, or, when everything it can use is in
+  /// hand, its stamp minus Timeline::kAhead (no step is taken earlier: no estimate is stamped more
+  /// than kAhead ahead of ROS time); +inf before the timeline starts.
   double nextDeadline() const;
   /// Whether the work bound held back a due step at the last deadlines() call.
   bool throttled() const { return throttled_; }
@@ -83,13 +85,33 @@ public:
   const LatencyBudget& latency() const { return latency_; }
   double budget() const { return timeline_.clock().budget(); }
 
-  /// Per sensor: messages refused for their stamp (Timeline). Timeline restarts (a contradicted
+  /// Per sensor: messages refused for their stamp (Timeline; a poisoned anchor counts at the
+  /// restart that discards it). Timeline restarts (a contradicted
   /// anchor), time resets (ROS time back, or forward past max_stamp_behind), and messages refused
   /// for their stamp that belong to no sensor (commands, schedules).
   const std::vector<std::uint64_t>& refusedPerSensor() const { return refused_; }
   std::uint64_t restarts() const { return restarts_; }
   std::uint64_t timeResets() const { return time_resets_; }
   std::uint64_t refusedOther() const { return refused_other_; }
+  /// The reason of the last refusal, restart, ... and the wall time (Clocks::wall) it happened at.
+  struct Event
+  {
+    std::string reason;  ///< empty: none yet
+    double wall = 0.0;
+  };
+  /// Per sensor: its last message refused for its stamp (Timeline's reason: stamp 0, too far ahead
+  /// or behind ROS time, off its step; or it anchored the timeline and a later message contradicted
+  /// it, counted at the restart); and the same for commands and schedules.
+  const Event& lastRefused(std::size_t sensor) const { return last_refused_[sensor]; }
+  const Event& lastRefusedOther() const { return last_refused_other_; }
+  /// The last timeline restart (a contradicted anchor, five misfits in a row).
+  const Event& lastRestart() const { return last_restart_; }
+  /// What the diagnostics warn about at wall time `wall` (s): per sensor that had a message refused
+  /// for its stamp over the last kRecentSeconds, "sensor '<name>': <n> messages refused for their
+  /// stamp, the last <t> s ago: <reason>" (n: since the start); the same for commands and
+  /// schedules; and "timeline restarted <t> s ago: <reason>".
+  std::vector<std::string> stampWarnings(double wall) const;
+  static constexpr double kRecentSeconds = 10.0;
   /// |stamp - its step's grid time| of the messages placed by their stamp: mean, max, count.
   double offsetMean() const { return offset_count_ ? offset_sum_ / static_cast<double>(offset_count_) : 0.0; }
   double offsetMax() const { return offset_max_; }
@@ -104,9 +126,14 @@ private:
   bool arrive(std::size_t sensor, double stamp, long step, const Clocks& now, OfferResult& r, double& position);
   /// A command's stamp checked by the timeline; false: refused (counted), `r` says why.
   bool admitCommand(double stamp, const Clocks& now, OfferResult& r);
+  /// Counts a message refused for its stamp (sensor: its index, or npos: a command or schedule).
+  void refuse(std::size_t sensor, const std::string& why, const Clocks& now);
   void restart(const std::string& why);
   void catchUp(const Clocks& now);
-  void drainComplete();
+  /// Takes the steps that are complete, from the next one on, while ROS time (`now`) allows.
+  void drainComplete(const Clocks& now);
+  /// The earliest ROS time step k may be taken at (its stamp minus Timeline::kAhead).
+  double gate(long k) const;
   void step();
   void offerHeld(long k);
   /// The step of a sensor's message and its delay recorded (the budget follows).
@@ -121,6 +148,9 @@ private:
   bool throttled_ = false;
   std::vector<std::uint64_t> refused_;
   std::uint64_t restarts_ = 0, time_resets_ = 0, refused_other_ = 0;
+  std::vector<Event> last_refused_;
+  std::size_t anchor_sensor_ = 0;  ///< the sensor of the message the timeline was anchored on
+  Event last_refused_other_, last_restart_;
   double offset_sum_ = 0.0, offset_max_ = 0.0;
   std::uint64_t offset_count_ = 0;
 };

@@ -6,10 +6,17 @@
 // - every message's stamp is checked against ROS time first: a stamp of 0 (or below), one more
 //   than max_ahead seconds ahead of ROS time or more than max_behind behind it is refused (the
 //   caller counts it), so a sensor with a broken clock never becomes the timeline;
-// - the first plausible message anchors the timeline provisionally. While nothing confirms it, a
-//   message that contradicts it (a named step whose stamp is more than kAgree off the grid; a stamp
-//   more than kAgree before an anchor that lies ahead of ROS time) restarts the timeline on
-//   itself. Once confirmed, a message whose stamp does not fit its named step is refused, and only
+// - the first plausible message anchors the timeline provisionally, and no step is taken before ROS
+//   time reaches its stamp minus kAhead (OnlineStream), so no estimate is ever stamped more than
+//   kAhead ahead of ROS time, whatever the anchor (kAhead leaves room for a simulated clock's ticks
+//   and for clocks a little apart);
+// - while nothing confirms the anchor, a message that contradicts it restarts the timeline on
+//   itself: a named step whose stamp is more than kAgree off the grid, or, when the anchor lies
+//   more than kAhead ahead of ROS time, a message in the present (a named step more than kAhead off
+//   the grid, a stamp more than kAhead before the anchor). A message cannot confirm an anchor that
+//   lies ahead of ROS time. So after a poisoned first message stamped ahead of ROS time (within
+//   max_ahead, or any stamp before the clock exists), the first good message starts the timeline.
+//   Once confirmed, a message whose stamp does not fit its named step is refused, and only
 //   kMisfitsToRestart of them in a row restart it (the stream itself jumped);
 // - ROS time going back (a looped bag) restarts it (the caller's time-jump reset), and so does a
 //   next deadline more than max_behind behind ROS time (time jumped forward, or the estimator
@@ -20,6 +27,7 @@
 //   max_behind backlog, kept as a token bucket.
 #pragma once
 
+#include <limits>
 #include <string>
 
 #include "networked_estimation/online/online_estimator.hpp"
@@ -40,6 +48,9 @@ public:
   /// A stamp fits its named step's grid time within this (s).
   static constexpr double kAgree = 1.0;
   static constexpr int kMisfitsToRestart = 5;
+  /// How far ahead of ROS time a step's stamp may be when it is taken, and an anchor may lie before
+  /// a message in the present contradicts it (s): a bag's /clock at -r 10 moves in 0.1 s ticks.
+  static constexpr double kAhead = 0.25;
 
   /// Options are not validated here (parseEstimatorNodeConfig does it).
   Timeline(const TimelineOptions& options, double latency_budget);
@@ -65,6 +76,10 @@ public:
   /// Anchors the grid on step k stamped `stamp`.
   void anchor(long k, double stamp);
   bool anchored() const { return clock_.anchored(); }
+  /// Whether a message agreed with the anchor (a restart before that discards a poisoned anchor).
+  bool confirmed() const { return confirmed_; }
+  /// The stamp the timeline was anchored on.
+  double anchorStamp() const { return anchor_stamp_; }
   /// A step was taken on this anchor (a stamp-only anchor is then kept).
   void stepped() { stepped_ = true; }
   /// Back to unanchored (a restart).
@@ -86,6 +101,9 @@ public:
   void setOptions(const TimelineOptions& options) { options_ = options; }
 
 private:
+  /// admit() after the check against ROS time: the verdict of the anchor and the grid.
+  Admission decide(double stamp, long step, double now);
+
   TimelineOptions options_;
   StepClock clock_;
   long first_step_ = 1;

@@ -26,10 +26,13 @@ OnlineStream::OnlineStream(const Model& model, const EstimatorSettings& settings
 {
   timeline_.clock().setBudget(latency_.budget());
   refused_.assign(model.sensors.size(), 0);
+  last_refused_.resize(model.sensors.size());
 }
 
 bool OnlineStream::admit(std::size_t sensor, double stamp, long step, const Clocks& now, OfferResult& refusal)
 {
+  const bool provisional = timeline_.anchored() && !timeline_.confirmed();
+  const double poisoned = timeline_.anchorStamp();
   const Timeline::Admission a = timeline_.admit(stamp, step, now.ros);
   std::string why = a.reason;
   if (a.verdict == Timeline::Verdict::ACCEPT)
@@ -41,8 +44,13 @@ bool OnlineStream::admit(std::size_t sensor, double stamp, long step, const Cloc
     if (a.verdict == Timeline::Verdict::RESTART)
     {
       ++restarts_;
+      last_restart_ = {why, now.wall};
+      if (provisional)  // the message that anchored it was poisoned: counted as refused, after the fact
+        refuse(anchor_sensor_, "stamp " + tokens::format(poisoned, 10) + " anchored the timeline, and a later message "
+                               "contradicted it (" + why + ")", now);
       restart(why);
     }
+    anchor_sensor_ = sensor;
     const long k = step >= 1 ? step : 1;
     timeline_.anchor(k, stamp);
     latency_.start(now.ros);
@@ -51,16 +59,25 @@ bool OnlineStream::admit(std::size_t sensor, double stamp, long step, const Cloc
     online_->start(k - 1 <= static_cast<long>(online_->options().history_length) ? 1 : k);
     return true;
   }
-  if (sensor < refused_.size())
-  {
-    ++refused_[sensor];
-    latency_.refused(sensor, now.ros);
-  }
-  else
-    ++refused_other_;
+  refuse(sensor, why, now);
   refusal.offer = Offer::REJECTED;
   refusal.reason = why;
   return false;
+}
+
+void OnlineStream::refuse(std::size_t sensor, const std::string& why, const Clocks& now)
+{
+  if (sensor < refused_.size())
+  {
+    ++refused_[sensor];
+    last_refused_[sensor] = {why, now.wall};
+    latency_.refused(sensor, now.ros);
+  }
+  else
+  {
+    ++refused_other_;
+    last_refused_other_ = {why, now.wall};
+  }
 }
 
 void OnlineStream::restart(const std::string& why)
@@ -124,7 +141,7 @@ OfferResult OnlineStream::measurement(std::size_t sensor, double stamp, long ste
                 : online_->offerSample(position, sensor, y, size, R);
   if (r.offer == Offer::LATE_DROPPED)
     latency_.lost(sensor, now.ros);
-  drainComplete();
+  drainComplete(now);
   return r;
 }
 
@@ -135,7 +152,7 @@ OfferResult OnlineStream::disabled(std::size_t sensor, double stamp, long step, 
   if (!arrive(sensor, stamp, step, now, r, position))
     return r;
   r = online_->offerDisabled(sensor, position, step >= 1 ? step : -1);
-  drainComplete();
+  drainComplete(now);
   return r;
 }
 
@@ -147,6 +164,7 @@ bool OnlineStream::admitCommand(double stamp, const Clocks& now, OfferResult& r)
   ++refused_other_;
   r.offer = Offer::REJECTED;
   r.reason = "command: " + a.reason;
+  last_refused_other_ = {r.reason, now.wall};
   return false;
 }
 
@@ -159,7 +177,7 @@ OfferResult OnlineStream::command(long step, double stamp, const double* u, std:
     return r;
   catchUp(now);
   r = online_->offerCommand(step, u, size);
-  drainComplete();
+  drainComplete(now);
   return r;
 }
 
@@ -175,7 +193,7 @@ OfferResult OnlineStream::heldCommand(double stamp, const double* u, std::size_t
     return r;
   catchUp(now);
   r = online_->offerCommand(timeline_.clock().stepAt(stamp), u, size);
-  drainComplete();
+  drainComplete(now);
   return r;
 }
 
@@ -199,7 +217,7 @@ OfferResult OnlineStream::schedule(long step, double stamp, const std::vector<bo
     return r;
   catchUp(now);
   r = online_->offerSchedule(step, transmitting);
-  drainComplete();
+  drainComplete(now);
   return r;
 }
 
@@ -214,10 +232,18 @@ void OnlineStream::step()
     after_step(k);
 }
 
-void OnlineStream::drainComplete()
+void OnlineStream::drainComplete(const Clocks& now)
 {
-  while (online_->nextComplete())
+  // A step whose data is all in hand is taken at once, but not before ROS time reaches its stamp
+  // minus Timeline::kAhead: no estimate is stamped further ahead of ROS time (deadlines() takes it
+  // then; nextDeadline() says when).
+  while (online_->started() && online_->nextComplete() && !(now.ros < gate(online_->nextStep())))
     step();
+}
+
+double OnlineStream::gate(long k) const
+{
+  return timeline_.clock().stamp(k) - Timeline::kAhead;
 }
 
 void OnlineStream::catchUp(const Clocks& now)
@@ -235,7 +261,7 @@ void OnlineStream::catchUp(const Clocks& now)
     }
     step();
     ++taken;
-    drainComplete();
+    drainComplete(now);
   }
   timeline_.spend(taken);
 }
@@ -259,7 +285,7 @@ bool OnlineStream::deadlines(const Clocks& now)
   timeline_.clock().setBudget(latency_.budget());
   if (timeline_.stale(online_->nextStep(), now.ros))
   {
-    const double behind = now.ros - nextDeadline();
+    const double behind = now.ros - timeline_.clock().deadline(online_->nextStep());
     ++time_resets_;
     restart("ROS time is " + streamSeconds(behind) + " s past the next step's deadline, more than max_stamp_behind " +
             streamSeconds(timeline_.options().max_behind) + " s (time jumped forward, or the estimator stalled): "
@@ -272,7 +298,30 @@ bool OnlineStream::deadlines(const Clocks& now)
 
 double OnlineStream::nextDeadline() const
 {
-  return online_->started() ? timeline_.clock().deadline(online_->nextStep()) : std::numeric_limits<double>::infinity();
+  if (!online_->started())
+    return std::numeric_limits<double>::infinity();
+  const long k = online_->nextStep();
+  const double deadline = timeline_.clock().deadline(k);
+  return online_->nextComplete() ? std::min(deadline, gate(k)) : deadline;
+}
+
+std::vector<std::string> OnlineStream::stampWarnings(double wall) const
+{
+  std::vector<std::string> out;
+  auto recent = [&](const Event& e) { return !e.reason.empty() && wall - e.wall <= kRecentSeconds; };
+  auto ago = [&](const Event& e) { return tokens::format(std::max(0.0, wall - e.wall), 2) + " s ago: " + e.reason; };
+  auto count = [](std::uint64_t n) {
+    return std::to_string(n) + (n == 1 ? " message refused for its stamp" : " messages refused for their stamp");
+  };
+  for (std::size_t i = 0; i < refused_.size(); ++i)
+    if (recent(last_refused_[i]))
+      out.push_back("sensor '" + online_->model().sensors[i].name + "': " + count(refused_[i]) + ", the last " +
+                    ago(last_refused_[i]));
+  if (recent(last_refused_other_))
+    out.push_back("commands and schedules: " + count(refused_other_) + ", the last " + ago(last_refused_other_));
+  if (recent(last_restart_))
+    out.push_back("timeline restarted " + ago(last_restart_));
+  return out;
 }
 
 void OnlineStream::setRuntime(const RuntimeSettings& runtime)

@@ -43,17 +43,26 @@ Timeline::Admission Timeline::admit(double stamp, long step, double now)
   Admission a = plausible(stamp, now);
   if (a.verdict == Verdict::REFUSE)
     return a;
+  return decide(stamp, step, now);
+}
+
+Timeline::Admission Timeline::decide(double stamp, long step, double now)
+{
+  Admission a;
   if (!clock_.anchored())
   {
     a.verdict = Verdict::ANCHOR;
     return a;
   }
+  // An anchor ahead of ROS time (taken without a clock: at ROS time 0 under sim time) is not
+  // confirmed by anything until ROS time reaches it, and the present contradicts it.
+  const bool ahead = !confirmed_ && now > 0.0 && anchor_stamp_ > now + kAhead;
   if (step >= 1)
   {
     const double off = stamp - clock_.stamp(step);
-    if (std::fabs(off) <= kAgree)
+    if (std::fabs(off) <= (ahead ? kAhead : kAgree))
     {
-      confirmed_ = true;
+      confirmed_ = confirmed_ || !ahead;
       misfits_ = 0;
       return a;
     }
@@ -77,20 +86,19 @@ Timeline::Admission Timeline::admit(double stamp, long step, double now)
     }
     return a;
   }
-  if (stamp < anchor_stamp_ - kAgree)
+  // Stamp-only: a message well before the anchor contradicts it when nothing confirmed the anchor
+  // and it lies ahead of ROS time (without a clock: when no step was taken on it yet).
+  const bool before = stamp < anchor_stamp_ - (ahead ? kAhead : kAgree);
+  if (before && !confirmed_ && (now > 0.0 ? ahead : !stepped_))
   {
-    // The anchor is contradicted when nothing confirmed it and it lies ahead of ROS time (without a
-    // clock: when no step was taken on it yet).
-    if (!confirmed_ && (now > 0.0 ? anchor_stamp_ > now + kAgree : !stepped_))
-    {
-      a.verdict = Verdict::RESTART;
-      a.reason = "stamp " + timelineSeconds(stamp) + " is " + timelineSeconds(anchor_stamp_ - stamp) + " s before the stamp " +
-                 timelineSeconds(anchor_stamp_) + " that anchored the timeline ahead of ROS time, and nothing confirmed "
-                 "that anchor: the timeline restarts on this message";
-    }
+    a.verdict = Verdict::RESTART;
+    a.reason = "stamp " + timelineSeconds(stamp) + " is " + timelineSeconds(anchor_stamp_ - stamp) + " s before the stamp " +
+               timelineSeconds(anchor_stamp_) + " that anchored the timeline ahead of ROS time, and nothing confirmed "
+               "that anchor: the timeline restarts on this message";
     return a;
   }
-  confirmed_ = true;
+  if (!before && !ahead)
+    confirmed_ = true;
   return a;
 }
 
