@@ -146,9 +146,13 @@ for ph in run["phases"]:
         continue
     for n in names:
         n_sent = u["sent"][n]
-        arrival = u["received"][n] / n_sent
         seen = b_snap["udp_%s_seen" % n] - a_snap["udp_%s_seen" % n]
         delivered = seen - (b_snap["udp_%s_dropped" % n] - a_snap["udp_%s_dropped" % n])
+        if seen == 0 or n_sent == 0:
+            check(False, "%s, udp, %s: the kernel counted %d datagrams, the robot sent %d" % (ph["name"], n, seen,
+                                                                                           n_sent))
+            continue
+        arrival = u["received"][n] / n_sent
         kernel = delivered / seen
         tol = 4.0 / n_sent
         check(abs(arrival - kernel) <= tol, "%s, udp, %s: arrival rate %.4f (%d of %d) vs the kernel's delivered "
@@ -172,7 +176,7 @@ for ph in run["phases"]:
     #     deviation s, each run an independent draw of it). The measured one must lie within
     #     m +- 4 s sqrt(1 + 1/40) (a new draw against a 40-run estimate; the time average of ~1000
     #     correlated steps is close to normal, so 4 s leaves ~1e-4 for a false alarm).
-    if ph["kind"] == "random":
+    if ph["kind"] == "random" and all(ph["counters"]["udp_%s_seen" % n] > 0 for n in names):
         c = ph["counters"]
         channels = {n: {"model": "bernoulli", "loss": c["udp_%s_dropped" % n] / c["udp_%s_seen" % n], "seed": 1}
                     for n in names}
