@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "networked_estimation/common/error.hpp"
+#include "networked_estimation/config/param_reader.hpp"
 #include "networked_estimation/online/estimator_node_config.hpp"
 
 namespace ne = networked_estimation;
@@ -479,6 +480,29 @@ TEST_F(EstimatorConfig, InputTransport)
   has(error("{command: {tcp_nodelay: 2}}", control_), "command.tcp_nodelay: expected true or false, found '2'");
   // A misspelt key is still refused, not taken for a transport setting.
   has(error("{sensors: {a: {transprot: udp}}}", planar_), "sensors.a: unknown parameter(s): transprot");
+  // A nodelet's own ~transport / ~tcp_nodelay (the LossyChannel's `in`): the same rules, the keys
+  // named after its parameters' source.
+  auto own = [](const std::string& yaml) {
+    ne::ParamReader p(YAML::Load(yaml), "/ch parameters");
+    return ne::parseInputTransport(p, "/ch parameters: ");
+  };
+  EXPECT_EQ(own("{model: bernoulli}").transport, ne::Transport::TCP);
+  EXPECT_EQ(own("{transport: udp, tcp_nodelay: false}").transport, ne::Transport::UDP);
+  EXPECT_FALSE(own("{transport: udp, tcp_nodelay: false}").tcp_nodelay);
+  for (const auto& bad : {std::make_pair("{transport: rudp}", "/ch parameters: transport: expected tcp or udp, found 'rudp'"),
+                          std::make_pair("{tcp_nodelay: on_and_off}",
+                                         "/ch parameters: tcp_nodelay: expected true or false, found 'on_and_off'")})
+  {
+    try
+    {
+      own(bad.first);
+      ADD_FAILURE() << "accepted: " << bad.first;
+    }
+    catch (const ne::ConfigError& e)
+    {
+      EXPECT_EQ(std::string(e.what()), bad.second);
+    }
+  }
 }
 
 // The robot template (config/robot_template.yaml, with its model inline) parses as it stands, and
