@@ -13,9 +13,9 @@
 #
 # test/real_link_check.py asserts, per phase: over udp each sensor's arrival rate agrees with the
 # delivered fraction of the kernel's counters, the latency budget stays under 50 ms, the squared
-# error agrees with montecarlo's prediction for the link the kernel made (random phases) and, in
-# the bursty phase, the live (p, r) with the toggler's chain; over tcp nothing is lost and the
-# budget adapts. Over the whole run: tcp received every message sent, udp exactly what the kernel
+# error agrees with montecarlo's prediction for the link the kernel made and the live link
+# verdict's (p, r) with the drops (random phases) and, in the bursty phase, the live (p, r) with
+# the toggler's chain; over tcp nothing is lost and the budget adapts. Over the whole run: tcp received every message sent, udp exactly what the kernel
 # let through.
 #
 # Usage: test_real_link.sh SETUP_BASH SOURCE_DIR WORK_DIR TOOLS_DIR
