@@ -6,12 +6,15 @@
 #   - a namespaced YAML imports as the flat one; two_d_mode gives omni_2d and the 8 x 8 blocks;
 #     differing rejection thresholds split an input; every key of a full ekf file is either named
 #     in an entry's comment or listed as "not supported: KEY (...)" on stderr and in the output;
-#   - each malformed input exits 2 naming the key, with nothing on stdout and no output file.
-#   usage: test_import_robot_localization.sh REPO_ROOT
+#   - each malformed input exits 2 naming the key, with nothing on stdout and no output file;
+#   - --check FILE (the check_params tool of TOOLS_DIR): the imported files and the hand-written
+#     config/peer_tests/jackal_bag2.yaml pass; a broken one exits 2 with the nodelet's load message.
+#   usage: test_import_robot_localization.sh REPO_ROOT TOOLS_DIR
 set -euo pipefail
 
-: "${1:?usage: test_import_robot_localization.sh REPO_ROOT}"
+: "${2:?usage: test_import_robot_localization.sh REPO_ROOT TOOLS_DIR}"
 ROOT=$(cd "$1" && pwd) WORK=$(mktemp -d "${TMPDIR:-/tmp}/test_import_rl.XXXXXX")
+export PATH="$(cd "$2" && pwd):$PATH"   # check_params, for --check
 trap 'rm -rf "$WORK"' EXIT
 source "$(dirname "${BASH_SOURCE[0]}")/check_lib.sh"
 IMPORT=("${PYTHON:-python3}" "$ROOT/scripts/import_robot_localization")
@@ -37,8 +40,15 @@ compare_bag2() {
 import sys, yaml
 got, hand = (yaml.safe_load(open(p)) for p in sys.argv[1:3])
 bad = []
+def num(v):  # PyYAML reads 1e-09 (no dot) as a string, as rosparam does not: compare numbers
+    if isinstance(v, list):
+        return [num(x) for x in v]
+    try:
+        return float(v) if isinstance(v, str) else v
+    except ValueError:
+        return v
 def same(what, a, b):
-    if a != b:
+    if num(a) != num(b):
         bad.append("%s: imported %r, hand-written %r" % (what, a, b))
 for k in ("algorithm", "world_frame", "base_link_frame", "odom_frame", "frame_id", "child_frame_id", "publish_tf",
           "state_mapping"):
@@ -188,12 +198,14 @@ PY
 }
 check "full file: the values (split thresholds, differential rows, queue, history in steps, x0, Q)" full_values
 
-# two_d_mode: omni_2d, 8 x 8 from the 15 x 15 (a 225-value matrix with distinct entries)
+# two_d_mode: omni_2d, 8 x 8 from the 15 x 15 (a positive definite 225-value matrix whose entries tell rows and columns apart)
 python3 - "$F/flat.yaml" "$F/two_d.yaml" <<'PY'
 import sys, yaml
 d = yaml.safe_load(open(sys.argv[1]))
 d["two_d_mode"] = True
-d["process_noise_covariance"] = [float(100 * min(i, j) + max(i, j)) for i in range(15) for j in range(15)]
+def q(i, j):  # min(i, j) + 1 is positive definite; the diagonal made distinct
+    return min(i, j) + 1 + (0.01 * i if i == j else 0.0)
+d["process_noise_covariance"] = [q(i, j) for i in range(15) for j in range(15)]
 yaml.safe_dump(d, open(sys.argv[2], "w"))
 PY
 run_rc rc "${IMPORT[@]}" "$F/two_d.yaml" --output "$WORK/two_d_out.yaml"
@@ -203,7 +215,9 @@ import sys, yaml
 d = yaml.safe_load(open(sys.argv[1]))
 m = d["model"]
 idx = [0, 1, 5, 6, 7, 11, 12, 13]  # x y yaw vx vy vyaw ax ay of the 15
-ok = m["motion"] == "omni_2d" and m["Q"] == [[float(100 * min(i, j) + max(i, j)) for j in idx] for i in idx] \
+def q(i, j):
+    return min(i, j) + 1 + (0.01 * i if i == j else 0.0)
+ok = m["motion"] == "omni_2d" and m["Q"] == [[q(i, j) for j in idx] for i in idx] \
     and all(len(r) == 8 for s in m["sensors"] for r in s["C"]) \
     and d["sensors"]["imu0"]["fields"] == ["orientation.yaw", "angular_velocity.z", "linear_acceleration.x",
                                            "linear_acceleration.y"] \
@@ -277,6 +291,29 @@ check "two ekf nodes, --node chooses one" [ "$rc" = 0 ]
 refuse "a missing file" "$F/nowhere.yaml: cannot read" "$F/nowhere.yaml"
 printf 'ekf_a: {frequency: 10}\nekf_b: {frequency: 20}\n' >"$F/two_ns.yaml"
 refuse "two namespaces without --node" "found nodes ekf_a, ekf_b: choose one with --node NAME" "$F/two_ns.yaml"
+
+# --- --check: the nodelet's checks offline --------------------------------------------------------
+for f in "$WORK/bag2.yaml" "$WORK/flat_out.yaml" "$WORK/two_d_out.yaml" "$ROOT/config/peer_tests/jackal_bag2.yaml"; do
+  run_rc rc "${IMPORT[@]}" --check "$f"
+  if [ "$rc" = 0 ] && grep -qF "the Estimator would start" "$WORK/out.txt"; then pass "--check $(basename "$f")"; else
+    fail "--check $(basename "$f") (exit $rc; stderr below)"
+    cat "$WORK/err.txt"
+  fi
+done
+check_refuses() {  # NAME PATTERN FILE
+  run_rc rc "${IMPORT[@]}" --check "$3"
+  if [ "$rc" = 2 ] && grep -qF -- "$2" "$WORK/err.txt"; then pass "--check refuses: $1"; else
+    fail "--check refuses: $1 (exit $rc, expected 2 and '$2'; stderr below)"
+    cat "$WORK/err.txt"
+  fi
+}
+sed 's/^algorithm: ekfio/algorithm: kfio/' "$WORK/bag2.yaml" >"$F/kfio.yaml"
+check_refuses "a motion with kfio" "Estimator not started: $F/kfio.yaml" "$F/kfio.yaml"
+sed 's/^      - twist.twist.linear.z /      - twist.twist.linear.q /' "$WORK/bag2.yaml" >"$F/field.yaml"
+check_refuses "an unknown field" "twist.twist.linear.q" "$F/field.yaml"
+sed 's/^late_policy: drop/late_policy: later/' "$WORK/bag2.yaml" >"$F/late.yaml"
+check_refuses "an unknown late_policy" "late_policy" "$F/late.yaml"
+check_refuses "a missing file" "$F/nowhere.yaml" "$F/nowhere.yaml"
 
 echo "$passed passed, $failed failed"
 [ "$failed" = 0 ]

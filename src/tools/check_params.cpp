@@ -1,0 +1,94 @@
+// check_params: validates an Estimator parameter file offline (no ROS master), with the checks and
+// the messages of the Estimator nodelet's load: the parameters parsed by the core's
+// parseEstimatorNodeConfig, the filter built as the nodelet builds it (OnlineStream) and, with
+// live_stability, its link verdicts' model. A refusal prints what the nodelet logs before it
+// refuses its load ("Estimator not started: <file>: <key>: ...") and exits 2.
+// import_robot_localization --check FILE runs it.
+#include <yaml-cpp/yaml.h>
+
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "cli.hpp"
+#include "networked_estimation/config/rate_schedule.hpp"
+#include "networked_estimation/motion/linearised_model.hpp"
+#include "networked_estimation/online/estimator_node_config.hpp"
+#include "networked_estimation/online/online_stream.hpp"
+#include "networked_estimation/online/sensor_lattice.hpp"
+#include "networked_estimation/stability/live_stability.hpp"
+
+using namespace networked_estimation;
+
+namespace
+{
+
+/// The nodelet's configure(), without its ROS side; throws ConfigError as it does.
+std::string check(const std::string& path)
+{
+  YAML::Node params;
+  try
+  {
+    params = YAML::LoadFile(path);
+  }
+  catch (const YAML::BadFile&)
+  {
+    throw ConfigError(path + ": cannot read the file");
+  }
+  catch (const YAML::Exception& e)
+  {
+    throw ConfigError(path + ": not YAML: " + e.what());
+  }
+  if (!params.IsMap())
+    throw ConfigError(path + ": expected a map of the Estimator's parameters");
+  // A rosparam file's keys become the private parameters; diagnostic_period belongs to
+  // diagnostic_updater (the nodelet leaves it out too).
+  params.remove("diagnostic_period");
+  const EstimatorNodeConfig c = parseEstimatorNodeConfig(params, path);
+  OnlineStream stream(c.model, c.settings, c.online, c.timeline, c.runtime);
+  std::vector<double> ratios;
+  for (double r : c.online.rate_ratio)
+    ratios.push_back(SensorLattice::whole(r));
+  std::string rates_note;
+  const Model stability_model = withSensorRates(linearisedModel(c.model, c.model.x0, c.period), ratios, &rates_note);
+  if (c.live_stability)
+  {
+    LiveStabilityOptions live;
+    live.window = c.stability_window;
+    live.markov = c.markov_link;
+    live.min_samples = c.stability_min_samples;
+    live.late_data_dropped = c.online.late_policy == LatePolicy::DROP;
+    LiveStability verdicts(stability_model, c.settings, live);
+  }
+  std::string summary = path + ": the Estimator would start: algorithm " + toString(c.settings.algorithm) +
+                        ", model '" + c.model.name + "' (" + std::to_string(c.model.n()) + " states, " +
+                        std::to_string(c.model.sensors.size()) + " sensors), period " + std::to_string(c.period) + " s";
+  if (!rates_note.empty())
+    summary += "\nwarning (as the nodelet logs it): Estimator: " + rates_note;
+  return summary;
+}
+
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  cli::CommandLine cl("check_params",
+                      "Checks an Estimator parameter file (a YAML of its private parameters, the model inline\n"
+                      "or named) as the Estimator nodelet checks its parameters at load, without ROS: exit 0\n"
+                      "when it would start, 2 with the nodelet's message when it would refuse to load.",
+                      {
+                          {"params", "FILE", "the Estimator parameter file", true, false},
+                      });
+  return cli::runTool(cl, argc, argv, [&]() -> int {
+    const std::string path = cl.get("params");
+    try
+    {
+      std::cout << check(path) << "\n";
+    }
+    catch (const ConfigError& e)
+    {
+      throw ConfigError(std::string("Estimator not started: ") + e.what());
+    }
+    return 0;
+  });
+}
