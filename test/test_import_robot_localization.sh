@@ -138,6 +138,31 @@ check "namespaced file imports (exit 0)" [ "$rc" = 0 ]
 check "namespaced = flat (but the header and the model's name)" \
   cmp -s <(grep -v -e '^# Estimator parameters' -e '^  name:' "$WORK/flat_out.yaml") \
          <(grep -v -e '^# Estimator parameters' -e '^  name:' "$WORK/ns_out.yaml")
+# the same keys from a launch file (<arg>, <rosparam command="load" file="$(arg ...)">, a <param>
+# that overrides) and from a ROS 2 file (ros__parameters): the same output
+cat >"$F/ekf.launch" <<XML
+<launch>
+  <arg name="config" default="$F/flat.yaml"/>
+  <arg name="rate" default="20"/>
+  <node pkg="robot_localization" type="ekf_localization_node" name="ekf_se" clear_params="true">
+    <rosparam command="load" file="\$(arg config)"/>
+    <param name="frequency" value="\$(arg rate)"/>
+  </node>
+  <node pkg="robot_localization" type="navsat_transform_node" name="navsat"/>
+</launch>
+XML
+run_rc rc "${IMPORT[@]}" "$F/ekf.launch" --output "$WORK/launch_out.yaml"
+check "launch file with rosparam load imports (exit 0)" [ "$rc" = 0 ]
+check "launch file = flat YAML (but the header and the model's name)" \
+  cmp -s <(grep -v -e '^# Estimator parameters' -e '^  name:' -e "navsat_transform_node node 'navsat'" "$WORK/flat_out.yaml") \
+         <(grep -v -e '^# Estimator parameters' -e '^  name:' -e "navsat_transform_node node 'navsat'" "$WORK/launch_out.yaml")
+check "launch file: its navsat_transform_node listed as not imported" \
+  grep -qF "not supported: navsat_transform_node node 'navsat' (not imported" "$WORK/err.txt"
+{ echo "ekf_filter_node:"; echo "  ros__parameters:"; sed 's/^/    /' "$F/flat.yaml"; } >"$F/ros2.yaml"
+run_rc rc "${IMPORT[@]}" "$F/ros2.yaml" --output "$WORK/ros2_out.yaml"
+check "ROS 2 file = flat YAML (but the header and the model's name)" \
+  cmp -s <(grep -v -e '^# Estimator parameters' -e '^  name:' "$WORK/flat_out.yaml") \
+         <(grep -v -e '^# Estimator parameters' -e '^  name:' "$WORK/ros2_out.yaml")
 every_key() {
   python3 - "$F/flat.yaml" "$WORK/flat_out.yaml" "$WORK/flat_err.txt" <<'PY'
 import re, sys, yaml
