@@ -7,8 +7,9 @@
 #     differing rejection thresholds split an input; every key of a full ekf file is either named
 #     in an entry's comment or listed as "not supported: KEY (...)" on stderr and in the output;
 #   - each malformed input exits 2 naming the key, with nothing on stdout and no output file;
-#   - --check FILE (the check_params tool of TOOLS_DIR): the imported files and the hand-written
-#     config/peer_tests/jackal_bag2.yaml pass; a broken one exits 2 with the nodelet's load message.
+#   - --check FILE (the check_params tool of TOOLS_DIR): the imported files and every Estimator
+#     parameter file of config/ (with what its launch file adds) pass; a broken one exits 2 with the
+#     nodelet's load message.
 #   usage: test_import_robot_localization.sh REPO_ROOT TOOLS_DIR
 set -euo pipefail
 
@@ -325,8 +326,22 @@ for f in "$WORK/bag2.yaml" "$WORK/flat_out.yaml" "$WORK/two_d_out.yaml" "$ROOT/c
     cat "$WORK/err.txt"
   fi
 done
-check_refuses() {  # NAME PATTERN FILE
-  run_rc rc "${IMPORT[@]}" --check "$3"
+# every Estimator parameter file of config/, with what its launch file adds
+check_config() {  # FILE [--set KEY=VALUE ...]
+  run_rc rc "${IMPORT[@]}" --check "$ROOT/$1" "${@:2}"
+  if [ "$rc" = 0 ] && grep -qF "the Estimator would start" "$WORK/out.txt"; then pass "--check $1"; else
+    fail "--check $1 (exit $rc; stderr below)"
+    cat "$WORK/err.txt"
+  fi
+}
+check_config config/robot_template.yaml
+check_config config/robot/jackal.yaml
+check_config config/robot/demo_robot.yaml --set "model=$ROOT/config/models/demo_robot.yaml" --set algorithm=kfio
+check_config config/robot/real_link.yaml --set "model=$ROOT/config/models/demo_robot.yaml" --set stability_window=1000
+check_config config/robot_template.yaml "$ROOT/config/estimators/ekfio.yaml" --set "model=$ROOT/config/models/planar_robot.yaml"
+check_config config/robot_template.yaml "$ROOT/config/estimators/rseio.yaml"
+check_refuses() {  # NAME PATTERN FILE [FILE... --set ...]
+  run_rc rc "${IMPORT[@]}" --check "${@:3}"
   if [ "$rc" = 2 ] && grep -qF -- "$2" "$WORK/err.txt"; then pass "--check refuses: $1"; else
     fail "--check refuses: $1 (exit $rc, expected 2 and '$2'; stderr below)"
     cat "$WORK/err.txt"
@@ -339,6 +354,10 @@ check_refuses "an unknown field" "twist.twist.linear.q" "$F/field.yaml"
 sed 's/^late_policy: drop/late_policy: later/' "$WORK/bag2.yaml" >"$F/late.yaml"
 check_refuses "an unknown late_policy" "late_policy" "$F/late.yaml"
 check_refuses "a missing file" "$F/nowhere.yaml" "$F/nowhere.yaml"
+check_refuses "ack_kf over a robot file (not on the graph)" "ack_kf" "$ROOT/config/robot_template.yaml" \
+  "$ROOT/config/estimators/ack_kf.yaml"
+check_refuses "a --set that is no KEY=VALUE" "option '--set': expected KEY=VALUE, found 'model'" \
+  "$ROOT/config/robot/demo_robot.yaml" --set model
 
 echo "$passed passed, $failed failed"
 [ "$failed" = 0 ]

@@ -2,8 +2,9 @@
 // the messages of the Estimator nodelet's load: the parameters parsed by the core's
 // parseEstimatorNodeConfig, the filter built as the nodelet builds it (OnlineStream) and, with
 // live_stability, its link verdicts' model. A refusal prints what the nodelet logs before it
-// refuses its load ("Estimator not started: <file>: <key>: ...") and exits 2.
-// import_robot_localization --check FILE runs it.
+// refuses its load ("Estimator not started: <file>: <key>: ...") and exits 2. Several files and
+// single parameters make up a node's parameters as a launch file does (--params A --params B
+// --set model=FILE). import_robot_localization --check FILE runs it.
 #include <yaml-cpp/yaml.h>
 
 #include <iostream>
@@ -23,8 +24,7 @@ using namespace networked_estimation;
 namespace
 {
 
-/// The nodelet's configure(), without its ROS side; throws ConfigError as it does.
-std::string check(const std::string& path)
+YAML::Node loadMap(const std::string& path)
 {
   YAML::Node params;
   try
@@ -41,6 +41,45 @@ std::string check(const std::string& path)
   }
   if (!params.IsMap())
     throw ConfigError(path + ": expected a map of the Estimator's parameters");
+  return params;
+}
+
+/// `from` loaded over `into`, as rosparam loads a second file into the same namespace: maps are
+/// merged key by key, anything else replaces.
+void mergeInto(YAML::Node into, const YAML::Node& from)
+{
+  for (const auto& kv : from)
+  {
+    const std::string key = kv.first.as<std::string>();
+    if (kv.second.IsMap() && into[key] && into[key].IsMap())
+      mergeInto(into[key], kv.second);
+    else
+      into[key] = YAML::Clone(kv.second);
+  }
+}
+
+/// The nodelet's configure(), without its ROS side, on the files loaded in order and then the
+/// single parameters (KEY=VALUE, as <param>); throws ConfigError as it does.
+std::string check(const std::vector<std::string>& files, const std::vector<std::string>& sets)
+{
+  const std::string path = files.front();
+  YAML::Node params = loadMap(path);
+  for (std::size_t i = 1; i < files.size(); ++i)
+    mergeInto(params, loadMap(files[i]));
+  for (const std::string& set : sets)
+  {
+    const std::string::size_type eq = set.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw cli::UsageError("option '--set': expected KEY=VALUE, found '" + set + "'");
+    try
+    {
+      params[set.substr(0, eq)] = YAML::Load(set.substr(eq + 1));
+    }
+    catch (const YAML::Exception& e)
+    {
+      throw cli::UsageError("option '--set': " + set + ": the value is not YAML: " + e.what());
+    }
+  }
   // A rosparam file's keys become the private parameters; diagnostic_period belongs to
   // diagnostic_updater (the nodelet leaves it out too).
   params.remove("diagnostic_period");
@@ -77,13 +116,18 @@ int main(int argc, char** argv)
                       "or named) as the Estimator nodelet checks its parameters at load, without ROS: exit 0\n"
                       "when it would start, 2 with the nodelet's message when it would refuse to load.",
                       {
-                          {"params", "FILE", "the Estimator parameter file", true, false},
+                          {"params", "FILE",
+                           "an Estimator parameter file; several are loaded in order, each over the ones before (as "
+                           "a launch file's <rosparam command=\"load\">s into one node), the messages naming the "
+                           "first",
+                           true, true},
+                          {"set", "KEY=VALUE", "one parameter after the files (as a <param>), VALUE in YAML", false,
+                           true},
                       });
   return cli::runTool(cl, argc, argv, [&]() -> int {
-    const std::string path = cl.get("params");
     try
     {
-      std::cout << check(path) << "\n";
+      std::cout << check(cl.getAll("params"), cl.getAll("set")) << "\n";
     }
     catch (const ConfigError& e)
     {
