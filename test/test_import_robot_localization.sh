@@ -178,18 +178,32 @@ if missing:
     bad.append("keys neither in a comment nor listed: %s" % missing)
 if unsupported != listed:
     bad.append("stderr lists %s, the output %s" % (unsupported, listed))
-want = ["sensor_timeout", "transform_time_offset", "transform_timeout", "print_diagnostics", "debug",
-        "publish_acceleration", "imu0_differential", "gravitational_acceleration", "use_control", "stamped_control",
+want = ["sensor_timeout", "imu0_differential", "gravitational_acceleration", "use_control", "stamped_control",
         "control_timeout", "control_config", "acceleration_limits", "deceleration_limits", "acceleration_gains",
-        "deceleration_gains", "reset_on_time_jump", "predict_to_current_time", "dynamic_process_noise_covariance",
-        "disabled_at_startup", "permit_corrected_publication", "my_own_key"]
+        "deceleration_gains", "predict_to_current_time", "dynamic_process_noise_covariance", "my_own_key"]
 if sorted(unsupported) != sorted(want):
     bad.append("not supported: expected %s, found %s" % (sorted(want), sorted(unsupported)))
+# keys without an equivalent whose value is what the Estimator does: noted, not listed
+same = re.findall(r"^#   (\w+): .* \(the Estimator's behaviour too\)$", out, re.M)
+want_same = ["transform_time_offset", "transform_timeout", "print_diagnostics", "debug", "publish_acceleration",
+             "reset_on_time_jump", "disabled_at_startup", "permit_corrected_publication"]
+if sorted(same) != sorted(want_same):
+    bad.append("noted as the Estimator's behaviour: expected %s, found %s" % (sorted(want_same), sorted(same)))
 print("\n".join(bad))
 sys.exit(1 if bad else 0)
 PY
 }
 check "full file: every key named in a comment; the unsupported ones listed on stderr and in the output" every_key
+# use_control false: the control keys are unused (as in robot_localization), noted and not listed
+sed -e 's/^use_control: true/use_control: false/' -e 's/^predict_to_current_time: true/predict_to_current_time: false/' \
+  "$F/flat.yaml" >"$F/no_control.yaml"
+run_rc rc "${IMPORT[@]}" "$F/no_control.yaml" --output "$WORK/no_control.yaml"
+check "use_control false: no control key listed as not supported" \
+  bash -c '! grep -E "^not supported: (use_control|stamped_control|control_|acceleration_|deceleration_|predict_to)" "$1"' _ "$WORK/err.txt"
+check "use_control false: the control keys noted as unused" \
+  [ "$(grep -c '(unused: use_control is false, in robot_localization too)' "$WORK/no_control.yaml")" = 7 ]
+check "use_control false: use_control and predict_to_current_time noted as the Estimator's behaviour" \
+  [ "$(grep -cE '^#   (use_control|predict_to_current_time): false \(the Estimator' "$WORK/no_control.yaml")" = 2 ]
 full_values() {
   python3 - "$WORK/flat_out.yaml" <<'PY'
 import sys, yaml
