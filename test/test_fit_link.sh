@@ -1,0 +1,120 @@
+#!/usr/bin/env bash
+# fit_link end to end (docs/ros_interface.md, "Measuring a link"): a trace CSV with a known loss
+# pattern fitted (the counts it must find), its channel file read by analyze and simulate,
+# robot_localization's bag (a link that lost nothing), and the refusals: exit 2, the problem named,
+# nothing on stdout, no file written.
+#   usage: test_fit_link.sh TOOLS_DIR REPO_ROOT
+# Prints "N passed, M failed" and exits non-zero when any check failed.
+set -euo pipefail
+
+: "${2:?usage: test_fit_link.sh TOOLS_DIR REPO_ROOT}"
+BIN=$(cd "$1" && pwd) ROOT=$(cd "$2" && pwd) WORK=$(mktemp -d "${TMPDIR:-/tmp}/test_fit_link.XXXXXX")
+trap 'rm -rf "$WORK"' EXIT
+source "$(dirname "${BASH_SOURCE[0]}")/check_lib.sh"
+BAG=$ROOT/test/data/test2.bag
+F=$WORK/in
+OUT=$WORK/out
+mkdir -p "$F"
+
+# --- fixtures -----------------------------------------------------------------------------------
+# A 10 Hz sender over 2000 slots: slot k lost when k mod 10 is 3 or 4, or k mod 97 is 0 (a burst of
+# two, and isolated losses); received 50 ms after its stamp, plus k mod 3 ms; seq k.
+awk 'BEGIN { print "stamp,receipt,seq";
+  for (k = 0; k < 2000; k++) { if (k % 10 == 3 || k % 10 == 4 || k % 97 == 0) continue;
+    s = 100 + k / 10; printf "%.6f,%.6f,%d\n", s, s + 0.05 + (k % 3) / 1000, k } }' >"$F/trace.csv"
+# What the slots must be: expected 1999 (slot 0 lost), received, the transitions (arrived -> lost
+# n01 ...) and the longest run of losses.
+read -r EXPECTED RECEIVED N01 N00 N10 N11 LONGEST < <(awk 'BEGIN {
+  for (k = 1; k < 2000; k++) { a = !(k % 10 == 3 || k % 10 == 4 || k % 97 == 0); n++; r += a;
+    run = a ? 0 : run + 1; if (run > longest) longest = run;
+    if (k > 1) { if (prev && a) n00++; if (prev && !a) n01++; if (!prev && a) n10++; if (!prev && !a) n11++ } prev = a }
+  print n, r, n01, n00, n10, n11, longest }')
+head -n 41 "$F/trace.csv" >"$F/short.csv"
+printf 'time,receipt\n1,2\n' >"$F/nostamp.csv"
+awk 'BEGIN { print "stamp,receipt"; srand(3); for (k = 0; k < 300; k++) { s = 100 + rand() * 30; printf "%.6f,%.6f\n", s, s + 0.01 } }' >"$F/irregular.csv"
+printf 'stamp,receipt\n1.0,1.1\n1.1,oops\n' >"$F/badcell.csv"
+printf 'not a bag\n' >"$F/not.bag"
+
+# refuse NAME PATTERN TOOL ARGS...: exit 2, PATTERN (a fixed string) on stderr, nothing on stdout,
+# no file under $OUT; with --json added, stderr is {"error": ...} with the same message (unless
+# JSON=0: the row is about --json itself).
+JSON=1
+refuse() {
+  local name=$1 pattern=$2 tool=$3
+  shift 3
+  rm -rf "$OUT"
+  run_rc rc "$BIN/$tool" "$@"
+  if [ "$rc" = 2 ] && grep -qF -- "$pattern" "$WORK/err.txt" && [ ! -s "$WORK/out.txt" ] && no_files "$OUT"; then
+    pass "$tool $name"
+  else
+    fail "$tool $name (exit $rc, expected 2 and '$pattern'; stderr, stdout below)"
+    cat "$WORK/err.txt" "$WORK/out.txt"
+  fi
+  [ "$JSON" = 1 ] || return 0
+  run_rc rc "$BIN/$tool" "$@" --json
+  if [ "$rc" = 2 ] && [ ! -s "$WORK/out.txt" ] && /usr/bin/python3 - "$WORK/err.txt" "$pattern" <<'PY'; then
+import json, sys
+d = json.load(open(sys.argv[1]))
+sys.exit(0 if list(d) == ["error"] and sys.argv[2] in d["error"] else 1)
+PY
+    pass "$tool $name --json"
+  else
+    fail "$tool $name --json (exit $rc; stderr below)"
+    cat "$WORK/err.txt"
+  fi
+}
+
+# --- a trace CSV with a known pattern -----------------------------------------------------------
+run_rc rc "$BIN/fit_link" --csv "$F/trace.csv" --json
+check "fit_link --csv: exit 0" [ "$rc" = 0 ]
+check "fit_link --csv: the slots and the maximum-likelihood p, r of the pattern" /usr/bin/python3 - "$WORK/out.txt" \
+  "$EXPECTED" "$RECEIVED" "$N00" "$N01" "$N10" "$N11" "$LONGEST" <<'PY'
+import json, sys
+l = json.load(open(sys.argv[1]))["links"][0]
+e, r, n00, n01, n10, n11, longest = map(int, sys.argv[2:])
+ok = (l["expected"] == e and l["received"] == r and l["slots_from"] == "header.seq"
+      and l["gilbert"]["p"]["value"] == n01 / (n00 + n01) and l["gilbert"]["r"]["value"] == n10 / (n10 + n11)
+      and abs(l["rate"] - 10) < 1e-6 and abs(l["delay"]["min"] - 0.05) < 1e-6 and abs(l["delay"]["max"] - 0.052) < 1e-6
+      and l["longest_burst"] == longest and l["duplicates"] == 0 and l["reordered"] == 0)
+sys.exit(0 if ok else 1)
+PY
+run_rc rc "$BIN/fit_link" --csv "$F/trace.csv" --output "$WORK/link.yaml"
+check "fit_link --output: a summary with the burst histogram" grep -q "burst lengths" "$WORK/out.txt"
+check "fit_link --output: the channel file, its intervals as comments" grep -q "^# 95 % intervals" "$WORK/link.yaml"
+run_rc rc "$BIN/analyze" --model "$ROOT/config/models/zhou_example.yaml" --channel "$WORK/link.yaml" --verdict-only
+check "analyze reads the fitted channel file" [ "$rc" = 0 ]
+run_rc rc "$BIN/simulate" --model "$ROOT/config/models/zhou_example.yaml" --channel "$WORK/link.yaml" --steps 50 \
+  --seed 1 --out "$WORK/sim"
+check "simulate reads the fitted channel file" [ "$rc" = 0 ]
+
+# --- robot_localization's bag: nothing lost ----------------------------------------------------
+run_rc rc "$BIN/fit_link" --bag "$BAG" --topic /imu/data --topic /jackal_velocity_controller/odom --json
+check "fit_link --bag, two topics: Bernoulli with no loss, 50 Hz, the odometry's delays within 32 ms" \
+  /usr/bin/python3 - "$WORK/out.txt" <<'PY'
+import json, sys
+imu, odom = json.load(open(sys.argv[1]))["links"]
+sys.exit(0 if all(l["lost"] == 0 and l["model"] == "bernoulli" and abs(l["rate"] - 50) < 0.1 for l in (imu, odom))
+         and odom["received"] == 3060 and imu["received"] == 3061 and odom["delay"]["max"] <= 0.0320001 else 1)
+PY
+
+# --- refusals ----------------------------------------------------------------------------------
+refuse "no source" "give exactly one of --bag, --csv and --events (found 0)" fit_link
+refuse "two sources" "give exactly one of --bag, --csv and --events (found 2)" fit_link --csv "$F/trace.csv" --bag "$BAG" --topic /imu/data
+refuse "--bag without --topic" "--bag needs --topic" fit_link --bag "$BAG"
+refuse "--topic without --bag" "--topic is for --bag" fit_link --csv "$F/trace.csv" --topic /x
+refuse "--rate not a number" "--rate: expected a positive number of Hz, found 'fast'" fit_link --csv "$F/trace.csv" --rate fast
+refuse "--rate 0" "--rate: expected a positive number of Hz, found '0'" fit_link --csv "$F/trace.csv" --rate 0
+refuse "--rate the stamps contradict" "--rate 20 Hz contradicts the header.seq numbers and stamps: they step by 0.1 s (10 Hz)" fit_link --csv "$F/trace.csv" --rate 20
+refuse "--clock unknown" "--clock: expected auto, same or different, found 'utc'" fit_link --csv "$F/trace.csv" --clock utc
+JSON=0 refuse "--series without --json" "--series is for --json" fit_link --csv "$F/trace.csv" --series
+refuse "--output with two topics" "--output writes one link: give one --topic" fit_link --bag "$BAG" --topic /imu/data --topic /jackal_velocity_controller/odom --output "$OUT/x.yaml"
+refuse "fewer than 50 messages" "40 messages, fewer than the 50 a fit needs" fit_link --csv "$F/short.csv" --output "$OUT/x.yaml"
+refuse "CSV without stamp" "stamp" fit_link --csv "$F/nostamp.csv"
+refuse "CSV bad cell" "$F/badcell.csv:3: receipt" fit_link --csv "$F/badcell.csv"
+refuse "stamps not periodic" "the stamps are not periodic" fit_link --csv "$F/irregular.csv"
+refuse "not a bag" "not a ROS bag" fit_link --bag "$F/not.bag" --topic /x
+refuse "no such topic" "no topic /gps in the bag (its topics: /imu/data, /jackal_velocity_controller/odom)" fit_link --bag "$BAG" --topic /gps
+refuse "missing file" "$F/nowhere.csv" fit_link --csv "$F/nowhere.csv"
+
+echo "$passed passed, $failed failed"
+[ "$failed" -eq 0 ]
