@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# fit_link end to end (docs/ros_interface.md, "Measuring a link"): a trace CSV with a known loss
-# pattern fitted (the counts it must find), its channel file read by analyze and simulate,
-# robot_localization's bag (a link that lost nothing), and the refusals: exit 2, the problem named,
+# fit_link and the measured links end to end (docs/ros_interface.md, "Measuring a link"): a trace
+# CSV with a known loss pattern fitted (the counts it must find), its channel file read by analyze
+# and simulate, robot_localization's bag (a link that lost nothing), analyze --bag on a lossy bag
+# against analyze --channel on the fitted file, and the refusals: exit 2, the problem named,
 # nothing on stdout, no file written.
 #   usage: test_fit_link.sh TOOLS_DIR REPO_ROOT
 # Prints "N passed, M failed" and exits non-zero when any check failed.
@@ -97,6 +98,56 @@ sys.exit(0 if all(l["lost"] == 0 and l["model"] == "bernoulli" and abs(l["rate"]
          and odom["received"] == 3060 and imu["received"] == 3061 and odom["delay"]["max"] <= 0.0320001 else 1)
 PY
 
+# --- analyze --bag against analyze --channel on the fitted file --------------------------------
+# A 10 Hz GNSS topic behind a Gilbert link (p 0.05, r 0.3), written by Python's rosbag; the model
+# unstable_two_links is bounded iff 1.5^2 (1 - r_gnss) loss_camera < 1. The camera's Bernoulli loss
+# is put between the thresholds of the fitted r and of its interval's low end: bounded at the fit,
+# not at the worst end.
+/usr/bin/python3 - "$F/gnss.bag" <<'PY'
+import random, sys
+import rosbag, rospy
+from sensor_msgs.msg import NavSatFix
+rng, lost = random.Random(7), False
+with rosbag.Bag(sys.argv[1], "w") as bag:
+    for k in range(20000):
+        lost = (rng.random() >= 0.3) if lost else (rng.random() < 0.05)
+        if not lost:
+            m = NavSatFix()
+            m.header.seq, m.header.stamp = k, rospy.Time.from_sec(500 + k / 10)
+            bag.write("/gps/fix", m, rospy.Time.from_sec(500 + k / 10 + 0.03))
+PY
+U=$ROOT/config/models/unstable_two_links.yaml
+run_rc rc "$BIN/fit_link" --bag "$F/gnss.bag" --topic /gps/fix --output "$WORK/gnss.yaml" --json
+cp "$WORK/out.txt" "$WORK/gnss.json"
+/usr/bin/python3 - "$WORK/gnss.json" "$F/camera.yaml" <<'PY'
+import json, sys
+g = json.load(open(sys.argv[1]))["links"][0]["gilbert"]["r"]
+fit, worst = 1 / (2.25 * (1 - g["value"])), 1 / (2.25 * (1 - g["lower"]))
+open(sys.argv[2], "w").write("model: bernoulli\nloss: %.6f\n" % ((fit + worst) / 2))
+PY
+run_rc rc "$BIN/analyze" --model "$U" --bag "$F/gnss.bag" --bag-topic gnss=/gps/fix --channel "camera=$F/camera.yaml" --json
+cp "$WORK/out.txt" "$WORK/bag.json"
+run_rc rc "$BIN/analyze" --model "$U" --channel "gnss=$WORK/gnss.yaml" --channel "camera=$F/camera.yaml" --json
+cp "$WORK/out.txt" "$WORK/file.json"
+check "analyze --bag gives the analysis of --channel on fit_link's file (the links' origins aside)" \
+  /usr/bin/python3 - "$WORK/bag.json" "$WORK/file.json" <<'PY'
+import json, sys
+b, f = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+m = b.pop("measured_links")
+for d in (b, f):
+    for l in d["links"]:
+        l.pop("origin", None)
+sys.exit(0 if b == f and b["all_sensors"]["links_verdict"]["kind"] == "stable" else 1)
+PY
+check "analyze --bag: bounded at the fit, not at its worst end" /usr/bin/python3 -c '
+import json, sys
+m = json.load(open(sys.argv[1]))["measured_links"]
+sys.exit(0 if m["summary"].startswith("bounded at the fit, not at its worst end") and m["at_fit"]["kind"] == "stable"
+         and m["at_worst_end"]["kind"] == "unstable" and not m["bounded_at_worst_end"] else 1)' "$WORK/bag.json"
+run_rc rc "$BIN/analyze" --model "$U" --bag "$F/gnss.bag" --bag-topic gnss=/gps/fix --channel "camera=$F/camera.yaml" --verdict-only
+check "analyze --bag --verdict-only: the measured links' verdict in words" \
+  grep -q "measured: bounded at the fit, not at its worst end: record longer or improve the link" "$WORK/out.txt"
+
 # --- refusals ----------------------------------------------------------------------------------
 refuse "no source" "give exactly one of --bag, --csv and --events (found 0)" fit_link
 refuse "two sources" "give exactly one of --bag, --csv and --events (found 2)" fit_link --csv "$F/trace.csv" --bag "$BAG" --topic /imu/data
@@ -115,6 +166,18 @@ refuse "stamps not periodic" "the stamps are not periodic" fit_link --csv "$F/ir
 refuse "not a bag" "not a ROS bag" fit_link --bag "$F/not.bag" --topic /x
 refuse "no such topic" "no topic /gps in the bag (its topics: /imu/data, /jackal_velocity_controller/odom)" fit_link --bag "$BAG" --topic /gps
 refuse "missing file" "$F/nowhere.csv" fit_link --csv "$F/nowhere.csv"
+
+A=(--model "$ROOT/config/models/tracking_2d.yaml")
+refuse "--topic without --bag" "option '--topic' is for --bag" analyze "${A[@]}" --topic /imu/data
+refuse "--bag-topic without --bag" "option '--bag-topic' is for --bag" analyze "${A[@]}" --bag-topic gnss=/imu/data
+refuse "--bag without a topic" "no sensor is given a topic" analyze "${A[@]}" --bag "$BAG"
+refuse "--bag-topic not SENSOR=TOPIC" "--bag-topic 'gnss': expected SENSOR=TOPIC" analyze "${A[@]}" --bag "$BAG" --bag-topic gnss
+refuse "--bag-topic unknown sensor" "'lidar' is not a sensor of model 'tracking_2d' (its sensors: gnss, camera)" analyze "${A[@]}" --bag "$BAG" --bag-topic lidar=/imu/data
+refuse "--bag-topic sensor twice" "sensor 'gnss' has a topic already" analyze "${A[@]}" --bag "$BAG" --bag-topic gnss=/imu/data --bag-topic gnss=/imu/data
+refuse "--bag-topic beside its --channel" "sensor 'gnss' has a --channel of its own already" analyze "${A[@]}" --bag "$BAG" --channel "gnss=$ROOT/config/channels/bernoulli_0.2.yaml" --bag-topic gnss=/imu/data
+refuse "--topic beside a plain --channel" "--topic /imu/data and a plain --channel both give every sensor a link" analyze "${A[@]}" --bag "$BAG" --channel "$ROOT/config/channels/bernoulli_0.2.yaml" --topic /imu/data
+refuse "--bag with --design" "option '--bag' is not for --design" analyze "${A[@]}" --bag "$BAG" --topic /imu/data --design total_rate
+refuse "--bag, no such topic" "no topic /gps in the bag" analyze "${A[@]}" --bag "$BAG" --topic /gps
 
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]
