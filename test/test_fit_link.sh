@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # fit_link and the measured links end to end (docs/ros_interface.md, "Measuring a link"): a trace
 # CSV with a known loss pattern fitted (the counts it must find), its channel file read by analyze
-# and simulate, robot_localization's bag (a link that lost nothing), analyze --bag on a lossy bag
+# and simulate, the trace itself as a channel (model: trace) in simulate, montecarlo and analyze,
+# robot_localization's bag (a link that lost nothing), analyze --bag on a lossy bag
 # against analyze --channel on the fitted file, and the refusals: exit 2, the problem named,
 # nothing on stdout, no file written.
 #   usage: test_fit_link.sh TOOLS_DIR REPO_ROOT
@@ -37,8 +38,8 @@ printf 'stamp,receipt\n1.0,1.1\n1.1,oops\n' >"$F/badcell.csv"
 printf 'not a bag\n' >"$F/not.bag"
 
 # refuse NAME PATTERN TOOL ARGS...: exit 2, PATTERN (a fixed string) on stderr, nothing on stdout,
-# no file under $OUT; with --json added, stderr is {"error": ...} with the same message (unless
-# JSON=0: the row is about --json itself).
+# no file under $OUT; for fit_link and analyze with --json added, stderr is {"error": ...} with the
+# same message (unless JSON=0: the row is about --json itself).
 JSON=1
 refuse() {
   local name=$1 pattern=$2 tool=$3
@@ -51,7 +52,7 @@ refuse() {
     fail "$tool $name (exit $rc, expected 2 and '$pattern'; stderr, stdout below)"
     cat "$WORK/err.txt" "$WORK/out.txt"
   fi
-  [ "$JSON" = 1 ] || return 0
+  [ "$JSON" = 1 ] && { [ "$tool" = fit_link ] || [ "$tool" = analyze ]; } || return 0
   run_rc rc "$BIN/$tool" "$@" --json
   if [ "$rc" = 2 ] && [ ! -s "$WORK/out.txt" ] && /usr/bin/python3 - "$WORK/err.txt" "$pattern" <<'PY'; then
 import json, sys
@@ -87,6 +88,38 @@ check "analyze reads the fitted channel file" [ "$rc" = 0 ]
 run_rc rc "$BIN/simulate" --model "$ROOT/config/models/zhou_example.yaml" --channel "$WORK/link.yaml" --steps 50 \
   --seed 1 --out "$WORK/sim"
 check "simulate reads the fitted channel file" [ "$rc" = 0 ]
+
+# --- the trace as a channel (model: trace) in simulate, montecarlo and analyze ------------------
+printf 'model: trace\ntrace: trace.csv\n' >"$F/trace_channel.yaml"  # relative to the channel file
+Z=$ROOT/config/models/zhou_example.yaml
+run_rc rc "$BIN/simulate" --model "$Z" --channel "$F/trace_channel.yaml" --steps 300 --seed 4 --out "$WORK/simtrace"
+check "simulate with a trace channel: exit 0" [ "$rc" = 0 ]
+check "simulate with a trace channel: its arrivals are the trace's, from the slot the seed chose" \
+  /usr/bin/python3 - "$WORK/simtrace/input.csv" <<'PY'
+import sys
+gamma = [int(line.split(",")[1]) for line in open(sys.argv[1]).read().splitlines()[1:]]
+slots = [0 if (k % 10 in (3, 4) or k % 97 == 0) else 1 for k in range(1, 2000)]  # slot 0 is k = 1
+n = len(slots)
+starts = [s for s in range(n) if all(gamma[i] == slots[(s + i) % n] for i in range(len(gamma)))]
+sys.exit(0 if len(gamma) == 300 and starts else 1)
+PY
+run_rc rc "$BIN/montecarlo" --experiment custom --model "$Z" --channel "$F/trace_channel.yaml" \
+  --settings "$ROOT/config/estimators/kfio.yaml" --runs 4 --steps 40 --threads 1 --out "$WORK/mctrace"
+check "montecarlo custom with a trace channel: exit 0 and its results" [ "$rc" = 0 -a -s "$WORK/mctrace/custom.csv" ]
+run_rc rc "$BIN/analyze" --model "$Z" --channel "$F/trace_channel.yaml" --verdict-only --json
+cp "$WORK/out.txt" "$WORK/trace_verdict.json"
+run_rc rc "$BIN/fit_link" --csv "$F/trace.csv" --json
+check "analyze with a trace channel: the link is the trace's fitted one (fit_link's r)" \
+  /usr/bin/python3 - "$WORK/trace_verdict.json" "$WORK/out.txt" <<'PY'
+import json, sys
+v, f = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))["links"][0]
+link = v["links"][0]
+sys.exit(0 if f["model"] == "gilbert" and link["recovery_rate"] == f["gilbert"]["r"]["value"] else 1)
+PY
+printf 'model: trace\ntrace: trace.csv\ndelay: 0.1\n' >"$F/trace_delay.yaml"
+printf 'model: trace\ntrace: nowhere.csv\n' >"$F/trace_missing.yaml"
+printf 'model: trace\n' >"$F/trace_none.yaml"
+printf 'model: trace\ntrace: %s\n' "$BAG" >"$F/trace_bag_notopic.yaml"
 
 # --- robot_localization's bag: nothing lost ----------------------------------------------------
 run_rc rc "$BIN/fit_link" --bag "$BAG" --topic /imu/data --topic /jackal_velocity_controller/odom --json
@@ -166,6 +199,10 @@ refuse "stamps not periodic" "the stamps are not periodic" fit_link --csv "$F/ir
 refuse "not a bag" "not a ROS bag" fit_link --bag "$F/not.bag" --topic /x
 refuse "no such topic" "no topic /gps in the bag (its topics: /imu/data, /jackal_velocity_controller/odom)" fit_link --bag "$BAG" --topic /gps
 refuse "missing file" "$F/nowhere.csv" fit_link --csv "$F/nowhere.csv"
+refuse "trace channel with delay" "$F/trace_delay.yaml:3: delay: key 'delay' does not apply to model trace" simulate --model "$Z" --channel "$F/trace_delay.yaml" --steps 5 --seed 1 --out "$OUT/sim"
+refuse "trace channel, missing trace file" "$F/trace_missing.yaml:2: trace: $F/nowhere.csv: cannot open" simulate --model "$Z" --channel "$F/trace_missing.yaml" --steps 5 --seed 1 --out "$OUT/sim"
+refuse "trace channel without trace" "model trace needs trace" montecarlo --experiment custom --model "$Z" --channel "$F/trace_none.yaml" --settings "$ROOT/config/estimators/kfio.yaml" --runs 2 --steps 5 --out "$OUT/mc"
+refuse "trace channel, a bag without trace_topic" "trace_topic must name the topic" analyze --model "$Z" --channel "$F/trace_bag_notopic.yaml"
 
 A=(--model "$ROOT/config/models/tracking_2d.yaml")
 refuse "--topic without --bag" "option '--topic' is for --bag" analyze "${A[@]}" --topic /imu/data

@@ -8,6 +8,7 @@
 // deviations sqrt(0.95 * 0.05 / R) of 0.95 (a false failure has probability below 5e-4). Point
 // estimates with a known standard error (SE) are checked within 5 SE.
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <cmath>
@@ -21,10 +22,12 @@
 #include "networked_estimation/channel/loss_model.hpp"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/common/random.hpp"
+#include "networked_estimation/config/channel_settings.hpp"
 #include "networked_estimation/io/ros_bag.hpp"
 #include "networked_estimation/link/link_estimates.hpp"
 #include "networked_estimation/link/link_fit.hpp"
 #include "networked_estimation/link/link_report.hpp"
+#include "networked_estimation/link/channel_trace.hpp"
 #include "networked_estimation/link/link_trace.hpp"
 #include "networked_estimation/stability/joint_link_monitor.hpp"
 #include "networked_estimation/stability/link_monitor.hpp"
@@ -664,4 +667,218 @@ TEST(LinkFit, TheJackalBagIsAPerfectLink)
   EXPECT_EQ(f.loss.chosen, "bernoulli");
   EXPECT_EQ(f.channel.loss, 0.0);
   EXPECT_LE(f.delay.max, 0.033);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The trace-driven channel (model: trace)
+
+namespace
+{
+
+/// A trace file (CSV) with a Gilbert loss pattern, delays of 10 to 14 ms and slot 5 received twice,
+/// and a channel file naming it by a path relative to the channel file.
+struct TraceFiles
+{
+  std::string csv, channel;
+  SlotTrace slots;  ///< what fit_link finds in the CSV
+};
+
+TraceFiles traceFiles(const std::string& name)
+{
+  TraceFiles f;
+  f.csv = tempPath(name + ".csv");
+  f.channel = tempPath(name + ".yaml");
+  std::vector<std::uint8_t> kept = gilbertElliott(0.05, 0.3, 1.0, 0.0, 31, 1000);
+  kept[0] = kept[5] = kept[999] = 1;
+  LinkRecord r = periodicRecord(kept, 0.05, 0.0, true);
+  for (std::size_t i = 0; i < r.receipt.size(); ++i)
+    r.receipt[i] += 0.010 + 0.001 * static_cast<double>(r.seq[i] % 5);
+  const std::size_t five = static_cast<std::size_t>(std::find(r.seq.begin(), r.seq.end(), 7u + 5u) - r.seq.begin());
+  r.stamp.push_back(r.stamp[five]);
+  r.receipt.push_back(r.receipt[five] + 0.2);
+  r.seq.push_back(r.seq[five]);
+  writeLinkCsv(r, f.csv);
+  std::ofstream(f.channel) << "model: trace\ntrace: " << f.csv.substr(f.csv.rfind('/') + 1) << "\nseed: 3\n";
+  f.slots = analyseLink(r, {});
+  return f;
+}
+
+}  // namespace
+
+TEST(TraceChannel, ReplaysTheRecordedLossesAndDelaysExactly)
+{
+  const TraceFiles f = traceFiles("replay");
+  const ChannelSettings s = loadChannelSettings(f.channel);
+  ASSERT_EQ(s.model, LossModelKind::TRACE);
+  ASSERT_TRUE(s.replay);
+  ASSERT_EQ(s.replay->slots(), f.slots.slots());
+  LossyChannel channel(s);
+  const std::size_t n = f.slots.slots();
+  std::vector<Delivery> out;
+  std::size_t delivered = 0;
+  for (std::size_t i = 0; i < 2 * n + 7; ++i)  // twice round and more: the trace loops
+  {
+    const double t = 0.05 * static_cast<double>(i);
+    const ChannelRecord rec = channel.offer(i, t);
+    const std::size_t k = i % n;
+    ASSERT_EQ(rec.outcome, f.slots.arrived[k] ? ChannelOutcome::DELIVERED : ChannelOutcome::DROPPED_MODEL) << i;
+    if (f.slots.arrived[k])
+    {
+      ASSERT_EQ(rec.sampled_delay, f.slots.delay[k]) << i;
+      ASSERT_EQ(rec.delay, f.slots.delay[k]) << i;  // in order: nothing held back
+      ASSERT_EQ(rec.duplicated, f.slots.copies[k] > 1) << i;
+    }
+    channel.popDue(t + 0.02, out);  // each due within 14 ms of its offer
+    for (const Delivery& d : out)
+    {
+      ASSERT_EQ(d.due, 0.05 * static_cast<double>(d.seq) + f.slots.delay[d.seq % n]);
+      ++delivered;
+    }
+  }
+  // Per round every received slot once and slot 5 (received twice) once more; the last 7 offers
+  // are slots 0 to 6 of a third round.
+  ASSERT_EQ(f.slots.copies[5], 2);
+  std::size_t third = 0;
+  for (std::size_t k = 0; k < 7; ++k)
+    third += f.slots.copies[k];
+  EXPECT_EQ(delivered, 2 * (f.slots.received() + 1) + third);
+  std::remove(f.csv.c_str());
+  std::remove(f.channel.c_str());
+}
+
+TEST(TraceChannel, SettingsAndRefusals)
+{
+  const TraceFiles f = traceFiles("settings");
+  const ChannelSettings s = loadChannelSettings(f.channel);
+  auto refusal = [](const std::string& yaml) -> std::string {
+    try
+    {
+      parseChannelSettings(YAML::Load(yaml), "chan.yaml");
+    }
+    catch (const ConfigError& e)
+    {
+      return e.what();
+    }
+    return "accepted";
+  };
+  EXPECT_NE(refusal("model: trace").find("model trace needs trace"), std::string::npos);
+  EXPECT_NE(refusal("model: trace\ntrace: " + f.csv + "\ndelay: 0.1").find("key 'delay' does not apply to model "
+                                                                           "trace"),
+            std::string::npos);
+  EXPECT_NE(refusal("model: trace\ntrace: " + f.csv + "\nloss: 0.1").find("key 'loss' applies only to model "
+                                                                          "bernoulli (model is trace)"),
+            std::string::npos);
+  EXPECT_NE(refusal("model: bernoulli\nloss: 0.1\ntrace: x.csv").find("key 'trace' applies only to model trace"),
+            std::string::npos);
+  const std::string missing = refusal("model: trace\ntrace: " + tempPath("nowhere.csv"));
+  EXPECT_NE(missing.find("chan.yaml:2: trace: "), std::string::npos) << missing;
+  EXPECT_NE(missing.find("nowhere.csv"), std::string::npos) << missing;
+  EXPECT_NE(refusal("model: trace\ntrace: " + f.csv + "\ntrace_topic: /gps").find("not a ROS bag, so trace_topic"),
+            std::string::npos);
+  const std::string bag = std::string(NE_SOURCE_DIR) + "/test/data/test2.bag";
+  EXPECT_NE(refusal("model: trace\ntrace: " + bag).find("trace_topic must name the topic"), std::string::npos);
+  EXPECT_NE(refusal("model: trace\ntrace: " + bag + "\ntrace_topic: /gps").find("no topic /gps in the bag"),
+            std::string::npos);
+  const ChannelSettings b = parseChannelSettings(YAML::Load("model: trace\ntrace: " + bag + "\ntrace_topic: /imu/data"),
+                                                 "chan.yaml");
+  EXPECT_EQ(b.replay->slots(), 3061u);
+  // Written back and read again: the same file; a runtime change keeps the loaded trace.
+  const ChannelSettings again = parseChannelSettings(toYaml(s), "again");
+  EXPECT_EQ(again.trace, s.trace);
+  EXPECT_EQ(again.replay->arrived, s.replay->arrived);
+  const ChannelSettings changed = mergeChannelSettings(s, YAML::Load("{reorder: true}"), "change");
+  EXPECT_EQ(changed.replay, s.replay);
+  EXPECT_TRUE(changed.reorder);
+  const ChannelSettings to_bernoulli = mergeChannelSettings(s, YAML::Load("{model: bernoulli, loss: 0.1}"), "change");
+  EXPECT_EQ(to_bernoulli.model, LossModelKind::BERNOULLI);
+  EXPECT_TRUE(to_bernoulli.trace.empty());
+  EXPECT_THROW(mergeChannelSettings(s, YAML::Load("{delay: 0.1}"), "change"), ConfigError);
+  std::remove(f.csv.c_str());
+  std::remove(f.channel.c_str());
+}
+
+TEST(TraceChannel, SimulatorsAndTheAnalysis)
+{
+  const TraceFiles f = traceFiles("sim");
+  const ChannelSettings s = loadChannelSettings(f.channel);
+  const std::size_t n = f.slots.slots();
+  // The simulators' loss model starts at the slot its seed chooses, and loops.
+  for (std::uint64_t seed : {0ull, 17ull, 123456789ull})
+  {
+    std::unique_ptr<LossModel> m = makeLossModel(s, seed);
+    for (std::size_t i = 0; i < n + 3; ++i)
+      ASSERT_EQ(m->nextLost(), f.slots.arrived[(seed + i) % n] == 0) << seed << " " << i;
+    m->reseed(seed + 1);
+    EXPECT_EQ(m->nextLost(), f.slots.arrived[(seed + 1) % n] == 0);
+  }
+  // The analysis takes the trace's fitted loss model, fit_link's.
+  const LossFit fit = fitLoss(f.slots.arrived);
+  const LinkModel expect = fittedLink(fit, IntervalEnd::POINT);
+  const LinkModel got = LinkModel::fromSettings(s);
+  EXPECT_EQ(got.kind, expect.kind);
+  EXPECT_EQ(got.arrival, expect.arrival);
+  EXPECT_EQ(got.p, expect.p);
+  EXPECT_EQ(got.r, expect.r);
+  std::remove(f.csv.c_str());
+  std::remove(f.channel.c_str());
+}
+
+TEST(TraceChannel, SeededChannelsUnchangedBitForBit)
+{
+  // Digests of 20 000 offers (outcomes, states, copies, delays, deliveries) of two seeded channels,
+  // computed with the code before model: trace existed (commit e6c4a26).
+  auto digest = [](const ChannelSettings& s) {
+    std::uint64_t h = 1469598103934665603ull;
+    auto add = [&h](const void* p, std::size_t n) {
+      const unsigned char* c = static_cast<const unsigned char*>(p);
+      for (std::size_t i = 0; i < n; ++i)
+      {
+        h ^= c[i];
+        h *= 1099511628211ull;
+      }
+    };
+    auto u = [&add](std::uint64_t x) { add(&x, 8); };
+    auto d = [&add](double x) { add(&x, 8); };
+    LossyChannel ch(s);
+    std::vector<Delivery> out;
+    for (int k = 0; k < 20000; ++k)
+    {
+      const double t = 0.01 * k;
+      const ChannelRecord r = ch.offer(static_cast<std::uint64_t>(k), t);
+      u(static_cast<std::uint64_t>(r.outcome));
+      u(static_cast<std::uint64_t>(r.state));
+      u(r.duplicated);
+      d(r.delay);
+      d(r.sampled_delay);
+      ch.popDue(t, out);
+      for (const Delivery& e : out)
+      {
+        u(e.seq);
+        u(e.duplicate);
+        d(e.due);
+      }
+    }
+    return h;
+  };
+  ChannelSettings ge;
+  ge.model = LossModelKind::GILBERT_ELLIOTT;
+  ge.p = 0.05;
+  ge.r = 0.4;
+  ge.loss_bad = 1.0;
+  ge.loss_good = 0.005;
+  ge.seed = 1;
+  ge.delay = 0.008;
+  ge.jitter = 0.004;
+  ge.distribution = DelayDistribution::PARETO;
+  ge.duplicate = 0.01;
+  ChannelSettings b;
+  b.model = LossModelKind::BERNOULLI;
+  b.loss = 0.2;
+  b.seed = 42;
+  b.delay = 0.05;
+  b.jitter = 0.02;
+  b.distribution = DelayDistribution::NORMAL;
+  b.reorder = true;
+  EXPECT_EQ(digest(ge), 0x782c20661bd13d2full);
+  EXPECT_EQ(digest(b), 0x8050bc5d0c94b3aeull);
 }

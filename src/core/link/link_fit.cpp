@@ -469,6 +469,7 @@ LinkModel fittedLink(const LossFit& f, IntervalEnd end)
 ChannelSettings settingsOf(const LinkModel& link, const ChannelSettings& base)
 {
   ChannelSettings s = base;
+  s.replay.reset();
   if (link.kind == LinkModel::Kind::IID)
   {
     s.model = LossModelKind::BERNOULLI;
