@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "networked_estimation/common/error.hpp"
+#include "networked_estimation/config/param_reader.hpp"
 #include "networked_estimation/online/estimator_node_config.hpp"
 
 namespace ne = networked_estimation;
@@ -437,6 +438,71 @@ TEST_F(EstimatorConfig, CommandInput)
   has(error("{command: {type: networked_estimation/ControlInput, fields: [u]}}", control_),
       "command.fields: networked_estimation/ControlInput has no field selection");
   has(error("{sensors: {b: {type: networked_estimation/ControlInput}}}", planar_), "sensors.b.type: unknown type");
+}
+
+// transport (tcp | udp) and tcp_nodelay per sensor and for the command: tcp with TCP_NODELAY unless
+// said otherwise, each block on its own, and every malformed value refused naming its key.
+TEST_F(EstimatorConfig, InputTransport)
+{
+  const ne::EstimatorNodeConfig d = parse("{sensors: {a: {topic: /odom}}}", planar_);
+  for (const ne::SensorInput& in : d.inputs)
+  {
+    EXPECT_EQ(in.transport.transport, ne::Transport::TCP) << in.topic;
+    EXPECT_TRUE(in.transport.tcp_nodelay) << in.topic;
+  }
+  EXPECT_EQ(d.command.transport.transport, ne::Transport::TCP);
+  const ne::EstimatorNodeConfig c =
+      parse("{sensors: {a: {topic: /odom, transport: udp}, b: {transport: tcp, tcp_nodelay: false}}}", planar_);
+  EXPECT_EQ(c.inputs[0].transport.transport, ne::Transport::UDP);
+  EXPECT_TRUE(c.inputs[0].transport.tcp_nodelay);  // the TCPROS fallback's
+  EXPECT_EQ(c.inputs[1].transport.transport, ne::Transport::TCP);
+  EXPECT_FALSE(c.inputs[1].transport.tcp_nodelay);
+  EXPECT_EQ(ne::toString(ne::Transport::UDP), "udp");
+  EXPECT_EQ(ne::toString(ne::Transport::TCP), "tcp");
+  const ne::EstimatorNodeConfig u = parse(
+      "{command: {topic: /cmd_vel, type: geometry_msgs/Twist, fields: [linear.x], transport: udp, tcp_nodelay: no}}",
+      control_);
+  EXPECT_EQ(u.command.transport.transport, ne::Transport::UDP);
+  EXPECT_FALSE(u.command.transport.tcp_nodelay);
+  EXPECT_EQ(u.inputs[0].transport.transport, ne::Transport::TCP);  // the sensor keeps its own
+  auto has = [](const std::string& text, const std::string& part) {
+    EXPECT_NE(text.find(part), std::string::npos) << text << "\n  expected: " << part;
+  };
+  has(error("{sensors: {b: {transport: sctp}}}", planar_),
+      "/est parameters: sensors.b.transport: expected tcp or udp, found 'sctp'");
+  has(error("{sensors: {b: {transport: UDP}}}", planar_), "sensors.b.transport: expected tcp or udp, found 'UDP'");
+  has(error("{sensors: {b: {transport: [udp]}}}", planar_), "sensors.b.transport: expected tcp or udp, found 'a list'");
+  has(error("{sensors: {a: {tcp_nodelay: maybe}}}", planar_),
+      "sensors.a.tcp_nodelay: expected true or false, found 'maybe'");
+  has(error("{sensors: {a: {tcp_nodelay: {x: 1}}}}", planar_), "sensors.a.tcp_nodelay: expected true or false, found 'a map'");
+  has(error("{command: {transport: unreliable}}", control_),
+      "/est parameters: command.transport: expected tcp or udp, found 'unreliable'");
+  has(error("{command: {tcp_nodelay: 2}}", control_), "command.tcp_nodelay: expected true or false, found '2'");
+  // A misspelt key is still refused, not taken for a transport setting.
+  has(error("{sensors: {a: {transprot: udp}}}", planar_), "sensors.a: unknown parameter(s): transprot");
+  // A nodelet's own ~transport / ~tcp_nodelay (the LossyChannel's `in`): the same rules, the keys
+  // named after its parameters' source.
+  auto own = [](const std::string& yaml) {
+    ne::ParamReader p(YAML::Load(yaml), "/ch parameters");
+    return ne::parseInputTransport(p, "/ch parameters: ");
+  };
+  EXPECT_EQ(own("{model: bernoulli}").transport, ne::Transport::TCP);
+  EXPECT_EQ(own("{transport: udp, tcp_nodelay: false}").transport, ne::Transport::UDP);
+  EXPECT_FALSE(own("{transport: udp, tcp_nodelay: false}").tcp_nodelay);
+  for (const auto& bad : {std::make_pair("{transport: rudp}", "/ch parameters: transport: expected tcp or udp, found 'rudp'"),
+                          std::make_pair("{tcp_nodelay: on_and_off}",
+                                         "/ch parameters: tcp_nodelay: expected true or false, found 'on_and_off'")})
+  {
+    try
+    {
+      own(bad.first);
+      ADD_FAILURE() << "accepted: " << bad.first;
+    }
+    catch (const ne::ConfigError& e)
+    {
+      EXPECT_EQ(std::string(e.what()), bad.second);
+    }
+  }
 }
 
 // The robot template (config/robot_template.yaml, with its model inline) parses as it stands, and

@@ -16,6 +16,7 @@
 #include "tf_output.hpp"
 #include "sensor_adapters.hpp"
 #include "sensor_writers.hpp"
+#include "transport_watch.hpp"
 
 namespace ne = networked_estimation;
 
@@ -841,4 +842,52 @@ TEST(SensorWriters, FixAtLocalEnuReadsBackThroughTheDatum)
   for (int i = 0; i < 4; ++i)
     EXPECT_EQ(Rback[i], R[i]) << i;
   EXPECT_EQ(f.position_covariance[8], ne::kUnmeasuredVariance);  // up: not measured
+}
+
+// transport: udp asks roscpp for UDPROS first and TCPROS second; tcp for TCPROS alone; tcp_nodelay
+// reaches the TCPROS connection either way.
+TEST(InputTransport, Hints)
+{
+  ne::InputTransport t;
+  ros::TransportHints h = ne::transportHints(t);
+  EXPECT_EQ(h.getTransports(), (std::vector<std::string>{"TCP"}));
+  EXPECT_TRUE(h.getTCPNoDelay());
+  t.transport = ne::Transport::UDP;
+  t.tcp_nodelay = false;
+  h = ne::transportHints(t);
+  EXPECT_EQ(h.getTransports(), (std::vector<std::string>{"UDP", "TCP"}));
+  EXPECT_FALSE(h.getTCPNoDelay());
+}
+
+// What an input's diagnostic says of its connections (this process's getBusInfo rows): UDPROS, a
+// fallback to TCPROS naming the publisher, in-process, none yet; other topics do not count.
+TEST(InputTransport, StatusFromTheBusInfo)
+{
+  ne::InputTransport udp;
+  udp.transport = ne::Transport::UDP;
+  const std::vector<ne::InboundLink> links = {{"/odom", "http://robot:4001/", "UDPROS"},
+                                              {"/fix", "http://py:4002/", "TCPROS"},
+                                              {"/fix", "http://robot:4001/", "UDPROS"},
+                                              {"/imu", "http://local:4003/", "INTRAPROCESS"},
+                                              {"/odom_other", "http://py:4002/", "TCPROS"}};
+  ne::TransportStatus s = ne::transportStatus(udp, "/odom", links);
+  EXPECT_EQ(s.text, "udp: UDPROS from 1 publisher");
+  EXPECT_TRUE(s.fallbacks.empty());
+  s = ne::transportStatus(udp, "/fix", links);
+  EXPECT_EQ(s.fallbacks, std::vector<std::string>{"http://py:4002/"});
+  EXPECT_EQ(s.text.find("udp: UDPROS from 1 publisher; TCPROS fallback from http://py:4002/ (the publisher cannot "
+                        "serve UDPROS, e.g. rospy, or another subscription of /fix in this process asked for TCPROS "
+                        "first)"),
+            0u)
+      << s.text;
+  s = ne::transportStatus(udp, "/imu", links);
+  EXPECT_EQ(s.text, "udp: in-process from 1 publisher (no network)");
+  EXPECT_TRUE(s.fallbacks.empty());
+  EXPECT_EQ(ne::transportStatus(udp, "/gps", links).text, "udp: no publisher connected");
+  // tcp: said as configured (nothing to fall back from).
+  ne::InputTransport tcp;
+  EXPECT_EQ(ne::transportStatus(tcp, "/fix", links).text, "tcp");
+  EXPECT_TRUE(ne::transportStatus(tcp, "/fix", links).fallbacks.empty());
+  tcp.tcp_nodelay = false;
+  EXPECT_EQ(ne::transportStatus(tcp, "/fix", links).text, "tcp (tcp_nodelay: false)");
 }

@@ -42,7 +42,8 @@ void EstimatorNodelet::onInit()
       subs_.push_back(subscribeEvents<Measurement>(in_nh, in.topic, queue_size_,
                                                    [this, i](const ros::MessageEvent<Measurement const>& e) {
                                                      onMeasurement(i, e.getConstMessage(), e.getReceiptTime());
-                                                   }));
+                                                   }, in.transport));
+      watchTransport(in_nh, i);
       continue;
     }
     SensorSink sink;
@@ -57,6 +58,7 @@ void EstimatorNodelet::onInit()
     sink.datum = [this](const LocalEnu& d) { publishDatum(d); };
     sink.frames = frames();
     subs_.push_back(subscribeSensor(in_nh, in, queue_size_, sink, datum_));
+    watchTransport(in_nh, i);
   }
   if (!datum_.empty())
   {
@@ -64,7 +66,8 @@ void EstimatorNodelet::onInit()
     publishDatum(d);
   }
   if (model.hasControl() && command_.type == InputType::CONTROL_INPUT)
-    cmd_sub_ = in_nh.subscribe(command_.topic, queue_size_, &EstimatorNodelet::onCommand, this, hints());
+    cmd_sub_ = in_nh.subscribe(command_.topic, queue_size_, &EstimatorNodelet::onCommand, this,
+                               transportHints(command_.transport));
   else if (model.hasControl())
   {
     SensorSink sink;
@@ -76,6 +79,9 @@ void EstimatorNodelet::onInit()
     sink.frames = frames();
     cmd_sub_ = subscribeSensor(in_nh, command_, queue_size_, sink, {});
   }
+  if (model.hasControl())
+    transports_.add("command (" + in_nh.resolveName(command_.topic) + ")", "command transport",
+                    in_nh.resolveName(command_.topic), command_.transport, cmd_sub_);
   if (model.schedule.kind == Schedule::Kind::RANDOM)
     schedule_sub_ = in_nh.subscribe("schedule", queue_size_, &EstimatorNodelet::onSchedule, this, hints());
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
@@ -112,6 +118,14 @@ void EstimatorNodelet::onInit()
               nh.resolveName(inputs_[i].topic) + ")";
   NODELET_INFO("Estimator %s on '%s' (n = %d): period %g s, %s; inputs: %s", toString(settings_.algorithm).c_str(),
                model.name.c_str(), model.n(), limits_.period, describe(stream_->runtime()).c_str(), inputs.c_str());
+}
+
+void EstimatorNodelet::watchTransport(ros::NodeHandle& nh, std::size_t i)
+{
+  const std::string& name = stream_->online().model().sensors[i].name;
+  const std::string topic = nh.resolveName(inputs_[i].topic);
+  transports_.add("sensor '" + name + "' (" + topic + ")", name + " transport", topic, inputs_[i].transport,
+                  subs_.back());
 }
 
 void EstimatorNodelet::startReconfigure(ros::NodeHandle& pnh)

@@ -12,7 +12,8 @@
 //
 // Inputs: per sensor of the model, the topic, standard type and fields of its ~sensors block
 // (sensor_subscriptions.hpp; default `measurement` for one sensor or `measurement/<sensor>` of
-// ~input_type: networked_estimation/Measurement, sensor_msgs/Range or geometry_msgs/PointStamped).
+// ~input_type: networked_estimation/Measurement, sensor_msgs/Range or geometry_msgs/PointStamped),
+// over the block's `transport` (TCPROS, or UDPROS with the TCPROS fallback: transport_watch.hpp).
 // The step of a message without a step number is its sensor's sample step nearest to its stamp
 // (SensorLattice); a sensor slower than the model is due only at its own steps. `command` (ControlInput, the
 // commands before the actuator link) for models with control, and `schedule` (ScheduleStep) for a
@@ -57,6 +58,7 @@
 #include "odometry_output.hpp"
 #include "tf_output.hpp"
 #include "sensor_subscriptions.hpp"
+#include "transport_watch.hpp"
 #include "dispatch_thread.hpp"
 #include "sim_clock_watch.hpp"
 #include <tf2_msgs/TFMessage.h>
@@ -105,6 +107,8 @@ private:
   void publishDatum(const LocalEnu& d);
 
   void configure(ros::NodeHandle& pnh);
+  /// Sensor i's subscription (the last in subs_) to the transport watch.
+  void watchTransport(ros::NodeHandle& nh, std::size_t i);
 
 
   // --- inputs (the dispatch thread) ---------------------------------------------------------------
@@ -219,6 +223,8 @@ private:
   SimClockWatch clock_watch_;  ///< sim time: wakes dispatch_ when a /clock tick reaches the next deadline
   std::vector<ros::Subscriber> subs_;
   ros::Subscriber cmd_sub_, schedule_sub_, tf_sub_, tf_static_sub_, set_pose_sub_;
+  /// The transport each input got (udp may fall back to TCPROS); the diagnostics' thread only.
+  TransportWatch transports_;
   ros::ServiceServer set_pose_srv_;
   std::atomic<unsigned long> set_pose_refused_{0};
   ros::Publisher estimate_pub_, trace_pub_, pose_pub_, odom_pub_;

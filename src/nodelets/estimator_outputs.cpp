@@ -213,6 +213,8 @@ void EstimatorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   const std::vector<std::string> wrong = wrongTypes();  // asks the master: outside the lock
   for (const std::string& w : wrong)
     NODELET_WARN_THROTTLE(10.0, "Estimator: wrong message type on an input topic: %s", w.c_str());
+  // Asks this process's bus info (udp inputs only, when their publishers changed): outside the lock.
+  transports_.update([this](const std::string& w) { NODELET_WARN("Estimator: %s", w.c_str()); });
   std::lock_guard<std::mutex> lock(mutex_);
   const OnlineEstimator& online = stream_->online();
   const OnlineCounters& c = online.counters();
@@ -276,6 +278,10 @@ void EstimatorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   stat.add("stamps refused (commands, schedules)", stream_->refusedOther());
   stat.add("latency budget (s)", stream_->budget());
   stat.add("latency budget", stream_->runtime().adaptive_latency ? "auto" : "fixed");
+  for (const std::string& who : transports_.fallbacks())
+    stat.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%s: udp fell back to TCPROS", who.c_str());
+  for (const auto& kv : transports_.values())
+    stat.add(kv.first, kv.second);
   diagnoseSensors(stat);
   stat.add("covariance trace", last_trace_);
   stat.add("trace bound", trace_bound_);

@@ -33,6 +33,8 @@
 #include "dispatch_thread.hpp"
 #include "channel_message_types.hpp"
 #include "lossy_channel_config.hpp"
+#include "transport_watch.hpp"
+#include "networked_estimation/config/param_reader.hpp"
 
 namespace networked_estimation
 {
@@ -56,7 +58,9 @@ private:
     const std::string source = pnh.getNamespace() + " parameters";
     try
     {
-      settings_ = parseChannelSettings(privateParameters(pnh, {"diagnostic_period", "queue_size", "type", "reconfigure"}), source);
+      settings_ = parseChannelSettings(privateParameters(pnh, {"diagnostic_period", "queue_size", "type", "reconfigure", "transport", "tcp_nodelay"}), source);
+      ParamReader transport_keys(privateParameters(pnh), source);  // ~transport, ~tcp_nodelay of `in`
+      transport_ = parseInputTransport(transport_keys, source + ": ");
       pnh.param("type", type_, std::string());
       if (!type_.empty() && std::string(kKnownTypes).find(type_.substr(type_.find('/') + 1)) == std::string::npos)
         throw ConfigError(source + ": type: expected one of " + std::string(kKnownTypes) +
@@ -118,13 +122,26 @@ private:
 
   /// `in` on `queue`: the dispatch thread's, or (~type) its DirectQueue, where in-process
   /// publishers' messages are handled in their thread (callbacks may then run concurrently: mutex_
-  /// serializes the engine).
+  /// serializes the engine). Over ~transport (tcp, or udp with the TCPROS fallback, which is said
+  /// once in the log and shown by the "input transport" diagnostic: transport_watch.hpp).
   void subscribeIn(ros::NodeHandle& nh, ros::SubscribeOptions& o, ros::CallbackQueueInterface* queue)
   {
     o.callback_queue = queue;
     o.allow_concurrent_callbacks = true;
-    o.transport_hints = ros::TransportHints().tcpNoDelay();
+    o.transport_hints = transportHints(transport_);
     sub_ = nh.subscribe(o);
+    const std::string in = nh.resolveName("in");
+    transports_.add("LossyChannel input (" + in + ")", "transport", in, transport_, sub_);
+    diagnostics_->add("input transport", [this](diagnostic_updater::DiagnosticStatusWrapper& stat) {
+      transports_.update([this](const std::string& w) { NODELET_WARN("%s", w.c_str()); });
+      const std::vector<std::string> fallbacks = transports_.fallbacks();
+      if (fallbacks.empty())
+        stat.summary(diagnostic_msgs::DiagnosticStatus::OK, transports_.values().front().second);
+      else
+        stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, fallbacks.front() + ": udp fell back to TCPROS");
+      for (const auto& kv : transports_.values())
+        stat.add(kv.first, kv.second);
+    });
   }
 
   std::string describe() const
@@ -355,6 +372,8 @@ private:
   ros::Time t0_;
   DispatchThread dispatch_;  ///< serves `in` and the delayed deliveries (before sub_: outlives it)
   ros::Subscriber sub_;
+  InputTransport transport_;     ///< ~transport, ~tcp_nodelay of `in`
+  TransportWatch transports_;   ///< the transport `in` got (the diagnostics' thread)
   ros::Publisher out_pub_, events_pub_;
   ros::ServiceServer set_srv_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;

@@ -14,6 +14,7 @@
 #include "frame_transforms.hpp"
 #include "input_preprocessing.hpp"
 #include "sensor_adapters.hpp"
+#include "transport_watch.hpp"
 
 namespace networked_estimation
 {
@@ -49,14 +50,16 @@ inline ros::Time stampOf(const std_msgs::Float64MultiArray&, const ros::Time& re
 inline ros::Time stampOf(const geometry_msgs::Twist&, const ros::Time& receipt) { return receipt; }
 
 /// A subscription whose callback gets the message event (publisher, receipt time), on the node
-/// handle's callback queue. (A callback taking a MessageEvent passed to subscribe() directly would
-/// be wrapped as a plain message callback, losing both.)
+/// handle's callback queue, over the input's transport (transportHints). (A callback taking a
+/// MessageEvent passed to subscribe() directly would be wrapped as a plain message callback, losing
+/// both.)
 template <class M, class F>
-ros::Subscriber subscribeEvents(ros::NodeHandle& nh, const std::string& topic, uint32_t queue, F f)
+ros::Subscriber subscribeEvents(ros::NodeHandle& nh, const std::string& topic, uint32_t queue, F f,
+                                const InputTransport& transport)
 {
   ros::SubscribeOptions o;
   o.initByFullCallbackType<const ros::MessageEvent<M const>&>(topic, queue, f);
-  o.transport_hints = ros::TransportHints().tcpNoDelay();
+  o.transport_hints = transportHints(transport);
   return nh.subscribe(o);
 }
 
@@ -127,7 +130,7 @@ ros::Subscriber subscribeFields(ros::NodeHandle& nh, const SensorInput& in, uint
           return;
       }
     deliver(in, v, stamp, e.getReceiptTime(), sink);
-  });
+  }, in.transport);
 }
 
 inline ros::Subscriber subscribeNavSatFix(ros::NodeHandle& nh, const SensorInput& in, uint32_t queue,
@@ -152,7 +155,7 @@ inline ros::Subscriber subscribeNavSatFix(ros::NodeHandle& nh, const SensorInput
         v.enu_cov = m->position_covariance.data();  // ENU already (sensor_msgs/NavSatFix)
         v.enu_cov_type = m->position_covariance_type;
         deliver(in, v, m->header.stamp, e.getReceiptTime(), sink);
-      });
+      }, in.transport);
 }
 
 /// A subscription of any type but networked_estimation/Measurement and ControlInput (which carry

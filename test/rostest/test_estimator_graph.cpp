@@ -739,6 +739,89 @@ TEST(EstimatorGraph, StandardTypesAtMixedRates)
   EXPECT_DOUBLE_EQ(datum.msgs.back().longitude, 11.575);
 }
 
+// transport: udp (estimator_transport.test): the test node's odometry (roscpp) comes over UDPROS;
+// the IMU of `rostopic pub` (rospy, which cannot serve UDPROS) falls back to TCPROS, and the
+// Estimator and the LossyChannel reading it each say so once in the log (not again at the next
+// check of their connections) and in their diagnostics (WARN, naming the input and the
+// publisher); the tcp input says tcp. Every input's messages arrive either way.
+TEST(EstimatorGraph, UdpInputsAndTheirFallback)
+{
+  ros::NodeHandle nh;
+  ros::Publisher odom = nh.advertise<nav_msgs::Odometry>("/odom", 1000);
+  ros::Publisher fix = nh.advertise<sensor_msgs::NavSatFix>("/fix", 1000);
+  std::mutex log_mutex;
+  std::map<std::string, int> told;  // fallback warnings by the nodelet that logged them
+  ros::Subscriber rosout = nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000, [&](const rosgraph_msgs::Log::ConstPtr& m) {
+    if (m->msg.find("transport udp, but the connection from") == std::string::npos)
+      return;
+    std::lock_guard<std::mutex> lock(log_mutex);
+    ++told[m->msg.find("sensor 'imu' (/imu)") != std::string::npos      ? "estimator imu"
+           : m->msg.find("LossyChannel input (/imu)") != std::string::npos ? "channel"
+                                                                           : m->msg];
+  });
+  auto toldCount = [&](const std::string& who) {
+    std::lock_guard<std::mutex> lock(log_mutex);
+    return told.count(who) ? told.at(who) : 0;
+  };
+  ASSERT_TRUE(waitFor([&] { return odom.getNumSubscribers() > 0 && fix.getNumSubscribers() > 0; }, 20.0));
+  DiagnosticsProbe diag(nh, "transport/estimator: estimator"), channel(nh, "transport/imu_link: input transport");
+  const ne::LocalEnu enu(48.137, 11.575, 520.0);
+  const ros::Time t0 = ros::Time::now();
+  PeriodicFeeder feeder(0.02, [&](long k) {
+    const ros::Time stamp = t0 + ros::Duration(0.02 * static_cast<double>(k));
+    nav_msgs::Odometry o;
+    o.header.stamp = stamp;
+    o.header.frame_id = "odom";
+    o.pose.pose.position.x = 0.01 * static_cast<double>(k);
+    o.pose.pose.orientation.w = 1.0;
+    odom.publish(o);
+    if (k % 25 == 0)
+    {
+      sensor_msgs::NavSatFix f;
+      f.header.stamp = stamp;
+      f.status.status = sensor_msgs::NavSatStatus::STATUS_FIX;
+      const Eigen::Vector3d lla = enu.reverse(Eigen::Vector3d(0.01 * static_cast<double>(k), 0.0, 0.0));
+      f.latitude = lla(0);
+      f.longitude = lla(1);
+      f.altitude = lla(2);
+      fix.publish(f);
+    }
+  });
+  // The Estimator: udp from roscpp is UDPROS, udp from rospy fell back, tcp is tcp (TCP_NODELAY off).
+  ASSERT_TRUE(waitFor([&] {
+    return diag.text("odom transport") == "udp: UDPROS from 1 publisher" &&
+           diag.text("imu transport").rfind("udp: TCPROS fallback from http://", 0) == 0;
+  }, 30.0)) << diag.text("odom transport") << " | " << diag.text("imu transport");
+  EXPECT_NE(diag.text("imu transport").find("(the publisher cannot serve UDPROS, e.g. rospy, or another subscription "
+                                            "of /imu in this process asked for TCPROS first)"),
+            std::string::npos)
+      << diag.text("imu transport");
+  EXPECT_EQ(diag.text("gps transport"), "tcp (tcp_nodelay: false)");
+  ASSERT_TRUE(waitFor([&] { return diag.lastMessage().find("sensor 'imu' (/imu): udp fell back to TCPROS") !=
+                                   std::string::npos; }, 5.0))
+      << diag.lastMessage();
+  EXPECT_TRUE(diag.levelIs(diagnostic_msgs::DiagnosticStatus::WARN)) << diag.lastMessage();
+  // The LossyChannel's input (~transport: udp) from the same rospy publisher.
+  ASSERT_TRUE(waitFor([&] { return channel.levelIs(diagnostic_msgs::DiagnosticStatus::WARN); }, 20.0))
+      << channel.lastMessage();
+  EXPECT_EQ(channel.lastMessage(), "LossyChannel input (/imu): udp fell back to TCPROS");
+  EXPECT_EQ(channel.text("transport").rfind("udp: TCPROS fallback from http://", 0), 0u) << channel.text("transport");
+  // Said once each: still once after the next periodic check of the connections (every 10 s).
+  ASSERT_TRUE(waitFor([&] { return toldCount("estimator imu") >= 1 && toldCount("channel") >= 1; }, 10.0));
+  ros::WallDuration(12.0).sleep();
+  EXPECT_EQ(toldCount("estimator imu"), 1);
+  EXPECT_EQ(toldCount("channel"), 1);
+  {
+    std::lock_guard<std::mutex> lock(log_mutex);
+    EXPECT_EQ(told.size(), 2u) << "an unexpected fallback warning: " << told.rbegin()->first;
+  }
+  // The data arrived over all three.
+  const std::map<std::string, std::string> d = diag.snapshot();
+  EXPECT_GT(std::stod(d.at("odom messages")), 500.0);
+  EXPECT_GT(std::stod(d.at("imu messages")), 50.0);
+  EXPECT_GT(std::stod(d.at("gps messages")), 10.0);
+}
+
 // Commands from /cmd_vel (estimator_cmd_vel.test): a geometry_msgs/Twist every 5th step, its
 // linear.x as u; an unstamped command goes to the step nearest its arrival (published in the same
 // tick as that step's measurement) and holds until the next one. The estimates equal kfio stepped

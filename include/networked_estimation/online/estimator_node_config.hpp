@@ -73,7 +73,7 @@ struct EstimatorNodeConfig
 /// max_stamp_ahead, max_stamp_behind, late_policy, history_length, max_future_steps,
 /// max_past_steps, input_type, frame_id, child_frame_id, position_indices, publish_tf, trace_bound,
 /// queue_size, live_stability, link_model, stability_window, stability_min_samples, sensors.<name>.{topic, type,
-/// fields, rate}, datum, command.{topic, type, fields}, world_frame, base_link_frame, odom_frame, state_mapping.{x, y, z, yaw, vx, vy, vz, yaw_rate}; diagnostic_period is left to
+/// fields, rate, transport, tcp_nodelay}, datum, command.{topic, type, fields, transport, tcp_nodelay}, world_frame, base_link_frame, odom_frame, state_mapping.{x, y, z, yaw, vx, vy, vz, yaw_rate}; diagnostic_period is left to
 /// diagnostic_updater). Throws ConfigError naming `source` and the key, also for an unknown key,
 /// a model file that cannot be read, an empty frame name, and ack_kf (the graph does not carry nu_k).
 EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std::string& source);

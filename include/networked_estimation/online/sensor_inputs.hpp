@@ -90,9 +90,31 @@ struct CovarianceSource
 /// quaternion component, or a type without covariances).
 CovarianceSource covarianceOf(InputType type, const InputField& field);
 
+/// How an input's messages cross the network (roscpp's transports): TCPROS (every message
+/// arrives, a lost packet arrives late, after TCP's retransmission) or UDPROS (a lost packet is a
+/// lost message, the others arrive at once). UDPROS needs a publisher that can serve it (roscpp,
+/// rosbag play); with any other (rospy) the subscription falls back to TCPROS.
+enum class Transport
+{
+  TCP,
+  UDP
+};
+
+/// "tcp" | "udp", the parameter's values.
+std::string toString(Transport t);
+
+/// An input's `transport` (default tcp) and `tcp_nodelay` (default true: TCPROS segments are sent
+/// at once, not coalesced by Nagle's algorithm; with udp it applies to the TCPROS fallback).
+struct InputTransport
+{
+  Transport transport = Transport::TCP;
+  bool tcp_nodelay = true;
+};
+
 struct SensorInput
 {
   std::string topic;
+  InputTransport transport;  ///< transport, tcp_nodelay
   InputType type = InputType::MEASUREMENT;
   std::vector<InputField> fields;  ///< the sensor's rows, in order (empty for MEASUREMENT)
   double rate = 0.0;               ///< nominal Hz (the model's rate by default)
@@ -134,9 +156,15 @@ InputField inputFieldFromString(InputType type, const std::string& name, const s
 std::vector<double> parseDatum(const YAML::Node& node, const std::string& key);
 
 class ParamReader;
-/// The topic, type (among `allowed`, default the first) and fields (`rows` of them, unless the
-/// type is taken whole) of one input block `key` (`what` names its rows in errors), read from `p`
-/// into `in` (its topic is the default). Throws ConfigError naming the key.
+/// `transport` (tcp | udp) and `tcp_nodelay` (true | false) read from `p` (defaults: tcp, true).
+/// Throws ConfigError naming `prefix` + the key ("<source>: sensors.gps." + "transport: expected
+/// tcp or udp, found 'sctp'").
+InputTransport parseInputTransport(ParamReader& p, const std::string& prefix);
+
+/// The topic, type (among `allowed`, default the first), fields (`rows` of them, unless the
+/// type is taken whole) and transport (parseInputTransport) of one input block `key` (`what` names
+/// its rows in errors), read from `p` into `in` (its topic is the default). Throws ConfigError
+/// naming the key.
 void parseInputBlock(ParamReader& p, const std::string& key, const std::vector<InputType>& allowed, int rows,
                      const std::string& what, SensorInput& in);
 

@@ -246,12 +246,43 @@ InputField inputFieldFromString(InputType type, const std::string& name, const s
   throw ConfigError(key + ": '" + name + "' is not a field of " + toString(type) + " (fields: " + names + ")");
 }
 
+std::string toString(Transport t)
+{
+  return t == Transport::UDP ? "udp" : "tcp";
+}
+
+InputTransport parseInputTransport(ParamReader& p, const std::string& prefix)
+{
+  InputTransport out;
+  // Read through the reader (so that rejectUnknown knows them); the messages name prefix + key
+  // ("...: sensors.gps.transport: ..." in a sensors block, "...: transport: ..." for a nodelet's own).
+  const YAML::Node transport = p.take("transport");
+  if (transport.IsDefined() && !transport.IsNull())
+  {
+    const std::string v = transport.IsScalar() ? transport.Scalar() : std::string(transport.IsMap() ? "a map" : "a list");
+    if (v == "udp")
+      out.transport = Transport::UDP;
+    else if (v != "tcp")
+      throw ConfigError(prefix + "transport: expected tcp or udp, found '" + v + "'");
+  }
+  const YAML::Node nodelay = p.take("tcp_nodelay");
+  if (nodelay.IsDefined() && !nodelay.IsNull())
+  {
+    if (!nodelay.IsScalar() || !YAML::convert<bool>::decode(nodelay, out.tcp_nodelay))
+      throw ConfigError(prefix + "tcp_nodelay: expected true or false, found '" +
+                        (nodelay.IsScalar() ? nodelay.Scalar() : std::string(nodelay.IsMap() ? "a map" : "a list")) +
+                        "'");
+  }
+  return out;
+}
+
 void parseInputBlock(ParamReader& p, const std::string& key, const std::vector<InputType>& allowed, int rows,
                 const std::string& what, SensorInput& in)
 {
   in.topic = p.text("topic", in.topic);
   if (in.topic.empty())
     throw ConfigError(key + ".topic: expected a topic name, found an empty string");
+  in.transport = parseInputTransport(p, key + ".");
   in.type = inputTypeFromString(p.text("type", toString(allowed.front())), key + ".type", allowed);
   const YAML::Node fields = p.take("fields");  // a null node when absent
   in.fields.clear();
