@@ -435,6 +435,31 @@ TEST(LinkTrace, SlotsFromSeqAndFromStamps)
   EXPECT_EQ(analyseLink(r, {}).arrived, trimmed(many_lost));
 }
 
+TEST(LinkTrace, SeqKeptWhenTheSendersStampsJitter)
+{
+  // A sender that stamps with its clock when it wakes (rospy.Rate at 200 Hz): each stamp up to a
+  // quarter period off its slot, so a step between two consecutive messages errs by up to half a
+  // period. header.seq still numbers the messages and is used; the stamps alone could not place them
+  // (a step of 1.5 periods is ambiguous).
+  const std::vector<std::uint8_t> kept = gilbertElliott(0.05, 0.3, 1.0, 0.0, 31, 3000);
+  LinkRecord r = periodicRecord(kept, 0.005, 0.02, true);
+  Rng rng(12);
+  for (double& s : r.stamp)
+    s += rng.uniform(-0.00125, 0.00125);
+  const SlotTrace t = analyseLink(r, {});
+  EXPECT_EQ(t.slots_from, "header.seq") << t.note;
+  EXPECT_EQ(t.arrived, trimmed(kept));
+  EXPECT_NEAR(t.period, 0.005, 1e-5);
+  // Numbers that do not follow the stamps (two publishers interleaved, each counting from 0) are
+  // still refused, and the note says so.
+  LinkRecord two = periodicRecord(std::vector<std::uint8_t>(400, 1), 0.005, 0.02, true);
+  for (std::size_t i = 0; i < two.seq.size(); ++i)
+    two.seq[i] = static_cast<std::uint32_t>(i % 2 == 0 ? i / 2 : 1000 + i / 2);
+  const SlotTrace u = analyseLink(two, {});
+  EXPECT_NE(u.slots_from, "header.seq");
+  EXPECT_NE(u.note.find("header.seq not used"), std::string::npos) << u.note;
+}
+
 TEST(LinkTrace, DuplicatesReorderingAndRate)
 {
   const std::vector<std::uint8_t> kept(500, 1);

@@ -236,7 +236,8 @@ SlotTrace analyseLink(const LinkRecord& rec, const TraceOptions& o)
   bool by_seq = false;
   if (o.use_seq && !rec.seq.empty())
   {
-    // header.seq: used when it increases with the stamps, one step per period.
+    // header.seq: used when it increases with the stamps (a copy keeps both), and the stamps step by
+    // about as many periods as the numbers (within half a period and a tenth: the sender's jitter).
     std::size_t agree = 0, pairs = 0;
     const double seq_span = static_cast<double>(rec.seq[by_stamp[n - 1]]) - static_cast<double>(rec.seq[by_stamp[0]]);
     const double seq_period = seq_span > 0 ? (rec.stamp[by_stamp[n - 1]] - rec.stamp[by_stamp[0]]) / seq_span : 0.0;
@@ -246,7 +247,7 @@ SlotTrace analyseLink(const LinkRecord& rec, const TraceOptions& o)
       const double ds = rec.stamp[b] - rec.stamp[a];
       const double dq = static_cast<double>(rec.seq[b]) - static_cast<double>(rec.seq[a]);
       ++pairs;
-      if (ds == 0.0 ? dq == 0.0 : (dq >= 1.0 && std::abs(ds / seq_period - dq) <= 0.25 * std::max(1.0, dq)))
+      if (ds == 0.0 ? dq == 0.0 : (dq >= 1.0 && std::abs(ds / seq_period - dq) <= 0.5 + 0.1 * dq))
         ++agree;
     }
     if (seq_period <= 0.0)
