@@ -6,12 +6,14 @@
 //
 // Finding the expected messages. The slots run from the first message received to the last (what
 // was lost before or after them cannot be seen). With header.seq, slot = seq - the first seq,
-// when the sequence numbers agree with the stamps in 99 % of the steps (increasing with them, the
-// stamps stepping by as many periods as the numbers within half a period and a tenth: a sender's
-// timing jitter); else they are not used and the summary says why. Otherwise from the stamps
-// against the period: the period is learnt from the stamps (the steps between consecutive distinct
-// stamps are whole multiples of it; --rate gives it instead, and a rate the stamps contradict is
-// refused), and each
+// when the sequence numbers increase with the stamps in 99 % of the steps, run from the first
+// stamp's number to the last's, and count the stamps' periods (one number per typical stamp step,
+// within 1 %; how far single steps go is not asked: a sender late by a few periods that catches up
+// still numbers its messages one by one); else they are not used and the summary says why (a
+// restart, several publishers, or a relay: every roscpp publisher writes its own count into
+// header.seq, which then hides the losses before it). Otherwise from the stamps against the period:
+// the period is learnt from the stamps (the steps between consecutive distinct stamps are whole
+// multiples of it; --rate gives it instead, and a rate the stamps contradict is refused), and each
 // message lies round(step / period) slots after the one before it, so stamp jitter of up to a fifth
 // of a period (a step then errs by less than 0.4 periods) and a slow drift of the sender's clock
 // are tolerated; more than 5 % of steps further than 0.4 periods from a whole number of periods

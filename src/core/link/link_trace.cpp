@@ -236,27 +236,64 @@ SlotTrace analyseLink(const LinkRecord& rec, const TraceOptions& o)
   bool by_seq = false;
   if (o.use_seq && !rec.seq.empty())
   {
-    // header.seq: used when it increases with the stamps (a copy keeps both), and the stamps step by
-    // about as many periods as the numbers (within half a period and a tenth: the sender's jitter).
+    // header.seq: used when it increases with the stamps (a copy keeps both) in 99 % of the steps,
+    // from the first stamp's number (the smallest) to the last's (the largest), and the numbers
+    // count the stamps' periods: over the whole record, one number per period of the typical step
+    // (the median of stamp step / number step) within 1 %. How far single steps go is not asked: a
+    // sender late by a few periods (a loaded machine) that then catches up still numbers its
+    // messages one by one. A restart (the numbers go back) or several publishers (interleaved
+    // numbers) break the order; a relay that numbers what it forwards (every roscpp publisher writes
+    // its own count into header.seq) hides the losses before it: its numbers then count fewer
+    // periods than the stamps (by the loss rate before it).
     std::size_t agree = 0, pairs = 0;
-    const double seq_span = static_cast<double>(rec.seq[by_stamp[n - 1]]) - static_cast<double>(rec.seq[by_stamp[0]]);
-    const double seq_period = seq_span > 0 ? (rec.stamp[by_stamp[n - 1]] - rec.stamp[by_stamp[0]]) / seq_span : 0.0;
-    for (std::size_t i = 1; i < n && seq_period > 0.0; ++i)
+    const std::uint32_t lo = *std::min_element(rec.seq.begin(), rec.seq.end());
+    const std::uint32_t hi = *std::max_element(rec.seq.begin(), rec.seq.end());
+    const bool first_to_last = rec.seq[by_stamp[0]] == lo && rec.seq[by_stamp[n - 1]] == hi;
+    std::vector<double> per_number;  // stamp step / number step
+    for (std::size_t i = 1; i < n && lo != hi; ++i)
     {
       const std::size_t a = by_stamp[i - 1], b = by_stamp[i];
       const double ds = rec.stamp[b] - rec.stamp[a];
       const double dq = static_cast<double>(rec.seq[b]) - static_cast<double>(rec.seq[a]);
       ++pairs;
-      if (ds == 0.0 ? dq == 0.0 : (dq >= 1.0 && std::abs(ds / seq_period - dq) <= 0.5 + 0.1 * dq))
+      if (ds == 0.0 ? dq == 0.0 : dq >= 1.0)
         ++agree;
+      if (ds > 0.0 && dq >= 1.0)
+        per_number.push_back(ds / dq);
     }
-    if (seq_period <= 0.0)
+    const double seq_period =
+        lo != hi ? (rec.stamp[by_stamp[n - 1]] - rec.stamp[by_stamp[0]]) / (static_cast<double>(hi) - lo) : 0.0;
+    // The typical step: the median of those within half a period of the numbers' period (a late
+    // message's long step and the short steps of catching up left out).
+    double typical = 0.0;
+    std::vector<double> near;
+    for (double d : per_number)
+      if (std::abs(d / seq_period - 1.0) <= 0.5)
+        near.push_back(d);
+    if (!near.empty())
+    {
+      const auto mid = near.begin() + static_cast<std::ptrdiff_t>(near.size() / 2);
+      std::nth_element(near.begin(), mid, near.end());
+      typical = *mid;
+    }
+    const bool counts_periods = seq_period > 0.0 && typical > 0.0 && std::abs(typical / seq_period - 1.0) <= 0.01;
+    if (lo == hi)
       t.note = "header.seq not used: it does not change (the publisher does not number its messages)";
-    else if (static_cast<double>(agree) < 0.99 * static_cast<double>(pairs))
+    else if (!first_to_last || static_cast<double>(agree) < 0.99 * static_cast<double>(pairs))
     {
       std::ostringstream os;
-      os << "header.seq not used: it agrees with the stamps in " << agree << " of " << pairs
-         << " steps (a publisher restarted, or several publishers)";
+      os << "header.seq not used: it increases with the stamps in " << agree << " of " << pairs << " steps";
+      if (!first_to_last)
+        os << " and does not run from the first stamp's number to the last's";
+      os << " (a publisher restarted, or several publishers)";
+      t.note = os.str();
+    }
+    else if (!counts_periods)
+    {
+      std::ostringstream os;
+      os << "header.seq not used: it numbers " << std::setprecision(4) << 100.0 * typical / seq_period
+         << " % of the stamps' periods (a relay that numbers what it forwards, as every roscpp publisher does, "
+            "hides the losses before it)";
       t.note = os.str();
     }
     else
