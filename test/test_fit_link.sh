@@ -140,8 +140,11 @@ PY
 import random, sys
 import rosbag, rospy
 from sensor_msgs.msg import NavSatFix
+from std_msgs.msg import Float64
 rng, lost = random.Random(7), False
 with rosbag.Bag(sys.argv[1], "w") as bag:
+    for k in range(100):  # a topic without a header: no stamps to fit
+        bag.write("/level", Float64(k), rospy.Time.from_sec(500 + k / 10))
     for k in range(20000):
         lost = (rng.random() >= 0.3) if lost else (rng.random() < 0.05)
         if not lost:
@@ -215,6 +218,8 @@ refuse "--bag-topic beside its --channel" "sensor 'gnss' has a --channel of its 
 refuse "--topic beside a plain --channel" "--topic /imu/data and a plain --channel both give every sensor a link" analyze "${A[@]}" --bag "$BAG" --channel "$ROOT/config/channels/bernoulli_0.2.yaml" --topic /imu/data
 refuse "--bag with --design" "option '--bag' is not for --design" analyze "${A[@]}" --bag "$BAG" --topic /imu/data --design total_rate
 refuse "--bag, no such topic" "no topic /gps in the bag" analyze "${A[@]}" --bag "$BAG" --topic /gps
+refuse "a bag topic without header stamps" "topic /level (std_msgs/Float64) has no header stamps" fit_link --bag "$F/gnss.bag" --topic /level
+refuse "--rate the bag's stamps contradict" "--rate 20 Hz contradicts the header.seq numbers and stamps: they step by 0.1 s (10 Hz)" fit_link --bag "$F/gnss.bag" --topic /gps/fix --rate 20
 
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]
