@@ -55,9 +55,13 @@ def out_name(out, index, count):
 
 
 def plot(link, out, dpi):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError as e:
+        raise InputError("%s needs matplotlib (%s): apt-get install python3-matplotlib, and run it with "
+                         "Debian's python3 (source scripts/workspace.sh)" % (sys.argv[0], e))
 
     arrived = link["series"]["arrived"]
     period = link["period"]
