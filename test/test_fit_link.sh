@@ -184,6 +184,24 @@ run_rc rc "$BIN/analyze" --model "$U" --bag "$F/gnss.bag" --bag-topic gnss=/gps/
 check "analyze --bag --verdict-only: the measured links' verdict in words" \
   grep -q "measured: bounded at the fit, not at its worst end: record longer or improve the link" "$WORK/out.txt"
 
+# The bag of the docs' example (test/data/gilbert_link.bag, recorded by link_fit_replay): the
+# numbers docs/stability.md (7.5) and docs/ros_interface.md show.
+run_rc rc "$BIN/fit_link" --bag "$ROOT/test/data/gilbert_link.bag" --topic /link_out --json
+check "the docs' example bag: 2000 expected, 272 lost, gilbert as the docs print it, header.seq refused" \
+  /usr/bin/python3 -c '
+import json, sys
+l = json.load(open(sys.argv[1]))["links"][0]
+g = l["gilbert"]
+ok = (l["expected"] == 2000 and l["lost"] == 272 and l["model"] == "gilbert"
+      and "a relay that numbers what it forwards" in l["note"]
+      and "%.4g %.4g %.4g %.4g" % (g["p"]["value"], g["p"]["lower"], g["r"]["value"], g["r"]["lower"])
+      == "0.05617 0.04626 0.3566 0.3021")
+sys.exit(0 if ok else 1)' "$WORK/out.txt"
+run_rc rc "$BIN/analyze" --model "$U" --bag "$ROOT/test/data/gilbert_link.bag" --bag-topic gnss=/link_out \
+  --channel "camera=$ROOT/config/channels/bernoulli_0.2.yaml" --verdict-only
+check "the docs' example: analyze --bag, bounded at the fit and at the worst end" \
+  grep -qF "measured: bounded at the fitted links and at the intervals' worst ends" "$WORK/out.txt"
+
 # --- refusals ----------------------------------------------------------------------------------
 refuse "no source" "give exactly one of --bag, --csv and --events (found 0)" fit_link
 refuse "two sources" "give exactly one of --bag, --csv and --events (found 2)" fit_link --csv "$F/trace.csv" --bag "$BAG" --topic /imu/data
