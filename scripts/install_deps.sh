@@ -12,6 +12,8 @@ PACKAGES=(
   libgeometry-msgs-dev libsensor-msgs-dev libnav-msgs-dev libros-rosgraph-msgs-dev libtf2-dev libtf2-msgs-dev
   libgeographiclib-dev libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   libyaml-cpp-dev libeigen3-dev nlohmann-json3-dev
+  # The core reads ROS bags itself (fit_link, analyze --bag, trace channels): bz2 and lz4 chunks.
+  libbz2-dev liblz4-dev
   pybind11-dev python3-dev python3-setuptools python3-yaml
   # The ROS command line on the package's graphs (rostopic echo, rosservice call, dynparam):
   # Debian packs each message package's Python side apart from its C++ headers, one for every

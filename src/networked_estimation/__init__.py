@@ -32,6 +32,7 @@ try:
         analyze,
         design,
         experiment_names,
+        fit_link,
         load_replay_input,
         make_estimator,
         merge,
@@ -63,12 +64,13 @@ else:
 
     Bernoulli, GilbertElliott, Sensor = _by_name(Bernoulli), _by_name(GilbertElliott), _by_name(Sensor)
     analyze, design, experiment_names = _by_name(analyze), _by_name(design), _by_name(experiment_names)
+    fit_link = _by_name(fit_link)
     load_replay_input, make_estimator = _by_name(load_replay_input), _by_name(make_estimator)
     merge, montecarlo = _by_name(merge), _by_name(montecarlo)
     score, simulate, verdict = _by_name(score), _by_name(simulate), _by_name(verdict)
 
 __all__ = [
     "DivergenceError", "Estimator", "Link", "Bernoulli", "GilbertElliott", "Model", "MonteCarloResult",
-    "Sensor", "Shard", "analyze", "design", "experiment_names", "load_replay_input", "make_estimator",
+    "Sensor", "Shard", "analyze", "design", "experiment_names", "fit_link", "load_replay_input", "make_estimator",
     "merge", "montecarlo", "score", "simulate", "verdict",
 ]

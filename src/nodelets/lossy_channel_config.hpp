@@ -39,16 +39,19 @@ inline YAML::Node toChanges(const LossyChannelConfig& c)
   y["model"] = c.model;
   if (c.model == "bernoulli")
     y["loss"] = c.loss;
-  else
+  else if (c.model != "trace")  // a trace keeps its file and replays its own delays
   {
     y["p"] = c.p;
     y["r"] = c.r;
     y["loss_bad"] = c.loss_bad;
     y["loss_good"] = c.loss_good;
   }
-  y["delay"] = c.delay;
-  y["jitter"] = c.jitter;
-  y["distribution"] = c.distribution;
+  if (c.model != "trace")
+  {
+    y["delay"] = c.delay;
+    y["jitter"] = c.jitter;
+    y["distribution"] = c.distribution;
+  }
   y["reorder"] = c.reorder;
   y["duplicate"] = c.duplicate;
   y["queue_limit"] = c.queue_limit;

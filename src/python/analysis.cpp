@@ -2,9 +2,15 @@
 // design() return what `analyze --json` and `analyze --design --json` print, parsed.
 #include <pybind11/stl.h>
 
+#include <cmath>
+
 #include "bindings.hpp"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/config/estimator_settings.hpp"
+#include "networked_estimation/io/atomic_file.hpp"
+#include "networked_estimation/link/link_fit.hpp"
+#include "networked_estimation/link/link_report.hpp"
+#include "networked_estimation/link/link_trace.hpp"
 #include "networked_estimation/motion/linearised_model.hpp"
 #include "networked_estimation/stability/analysis_json.hpp"
 
@@ -158,10 +164,100 @@ py::object design(const std::shared_ptr<Model>& loaded, const std::string& cost,
   return parseJson(designJson(model, d, cost));
 }
 
+/// fit_link(): the tool's fit and JSON, one link (a topic name, csv, events) or a list (a list of topics).
+py::object fitLink(py::handle bag, py::handle topic, py::handle csv, py::handle events, py::handle rate,
+                   const std::string& clock, py::handle output, bool series, int starts, std::uint64_t seed)
+{
+  const std::string fn = "fit_link()";
+  const int sources = (bag.is_none() ? 0 : 1) + (csv.is_none() ? 0 : 1) + (events.is_none() ? 0 : 1);
+  if (sources != 1)
+    throw py::value_error(fn + ": give exactly one of bag, csv and events (found " + std::to_string(sources) + ")");
+  if (bag.is_none() != topic.is_none())
+    throw py::value_error(fn + (bag.is_none() ? ": topic is for bag (a CSV or events file holds one link)"
+                                              : ": bag needs topic (a topic name or a list of them)"));
+  std::string path;
+  if (!asPath(bag.is_none() ? (csv.is_none() ? events : csv) : bag, path))
+    throw py::type_error(fn + ": " + (bag.is_none() ? (csv.is_none() ? "events" : "csv") : "bag") +
+                         ": expected a file path");
+  std::vector<std::string> topics;
+  const bool one = topic.is_none() || py::isinstance<py::str>(topic);
+  if (!topic.is_none())
+  {
+    if (py::isinstance<py::str>(topic))
+      topics.push_back(topic.cast<std::string>());
+    else if (py::isinstance<py::list>(topic) || py::isinstance<py::tuple>(topic))
+      for (const auto& t : topic)
+      {
+        if (!py::isinstance<py::str>(t))
+          throw py::type_error(fn + ": topic: expected a topic name or a list of them");
+        topics.push_back(t.cast<std::string>());
+      }
+    else
+      throw py::type_error(fn + ": topic: expected a topic name or a list of them");
+    if (topics.empty())
+      throw py::value_error(fn + ": topic: an empty list");
+  }
+  TraceOptions options;
+  if (!rate.is_none())
+  {
+    options.rate = rate.cast<double>();
+    if (!(options.rate > 0.0) || !std::isfinite(options.rate))
+      throw py::value_error(fn + ": rate: expected a positive number of Hz, found " + std::to_string(options.rate));
+    if (!events.is_none())
+      throw py::value_error(fn + ": rate is not for events (one slot per event)");
+  }
+  options.clock = clockModeOf(clock, fn + ": clock");
+  if (starts < 1 || starts > 1000)
+    throw py::value_error(fn + ": starts: expected 1 ... 1000, found " + std::to_string(starts));
+  std::string out;
+  if (!output.is_none() && !asPath(output, out))
+    throw py::type_error(fn + ": output: expected a file path");
+  if (!out.empty() && topics.size() > 1)
+    throw py::value_error(fn + ": output writes one link: give one topic");
+  FitOptions fit_options;
+  fit_options.ge_starts = starts;
+  fit_options.seed = seed;
+  std::string json;
+  {
+    py::gil_scoped_release release;
+    std::vector<SlotTrace> traces;
+    if (!events.is_none())
+      traces.push_back(readEventSlots(path));
+    else
+    {
+      const std::vector<LinkRecord> records =
+          bag.is_none() ? std::vector<LinkRecord>{readLinkCsv(path)} : readBagLinks(path, topics);
+      for (const LinkRecord& r : records)
+        traces.push_back(analyseLink(r, options));
+    }
+    std::vector<LinkFit> fits;
+    for (const SlotTrace& t : traces)
+      fits.push_back(networked_estimation::fitLink(t, fit_options));
+    if (!out.empty())
+    {
+      AtomicFile file(out);
+      file.stream() << fittedChannelYaml(fits.front());
+      file.commit();
+    }
+    json = linkFitsJson(fits, series);
+  }
+  py::object links = parseJson(json)["links"];
+  return one ? py::object(links[py::int_(0)]) : links;
+}
+
 }  // namespace
 
 void bindAnalysis(py::module& m)
 {
+  m.def("fit_link", &fitLink, py::arg("bag") = py::none(), py::arg("topic") = py::none(),
+        py::arg("csv") = py::none(), py::arg("events") = py::none(), py::arg("rate") = py::none(),
+        py::arg("clock") = "auto", py::arg("output") = py::none(), py::arg("series") = false, py::arg("starts") = 5,
+        py::arg("seed") = 1,
+        "The loss and delay models of a recorded link, as `fit_link --json` prints them (a dict; a list of "
+        "them for a list of topics): from a ROS bag's topic (bag=, topic=), a trace CSV (csv=: stamp, receipt "
+        "and optionally seq) or a LossyChannel's ~events (events=). rate: the expected rate in Hz (None: learnt); "
+        "clock: 'auto', 'same' or 'different'; output: write the fitted channel file; series: add the slots "
+        "(arrived, delay).");
   m.def("analyze", &analyze, py::arg("model"), py::arg("links") = py::none(), py::arg("estimator") = py::none(),
         py::arg("at") = py::none(), py::arg("traces") = py::none(), py::arg("block") = -1,
         "Stability analysis of `model` over its sensors' links, as `analyze --json` prints it (a dict): "

@@ -119,6 +119,8 @@ std::string describeLink(const ChannelSettings& s)
   std::ostringstream os;
   if (s.model == LossModelKind::BERNOULLI)
     os << "Bernoulli(loss=" << formatNumber(s.loss);
+  else if (s.model == LossModelKind::TRACE)
+    os << "Trace(trace=" << s.trace << (s.trace_topic.empty() ? "" : ", trace_topic=" + s.trace_topic);
   else
     os << "GilbertElliott(p=" << formatNumber(s.p) << ", r=" << formatNumber(s.r)
        << ", loss_good=" << formatNumber(s.loss_good) << ", loss_bad=" << formatNumber(s.loss_bad);
@@ -333,7 +335,9 @@ Link.from_yaml(path) reads a file.)doc")
           },
           py::arg("path"))
       .def_property_readonly("model", [](const ChannelSettings& s) {
-        return std::string(s.model == LossModelKind::BERNOULLI ? "bernoulli" : "gilbert_elliott");
+        return std::string(s.model == LossModelKind::BERNOULLI ? "bernoulli"
+                           : s.model == LossModelKind::TRACE   ? "trace"
+                                                               : "gilbert_elliott");
       })
       .def_readonly("loss", &ChannelSettings::loss)
       .def_readonly("p", &ChannelSettings::p)

@@ -10,6 +10,7 @@
 #include "networked_estimation/config/estimator_settings.hpp"
 #include "networked_estimation/config/sensor_links.hpp"
 #include "networked_estimation/io/arrival_trace.hpp"
+#include "networked_estimation/link/measured_links.hpp"
 #include "networked_estimation/motion/linearised_model.hpp"
 #include "networked_estimation/stability/analysis_json.hpp"
 #include "networked_estimation/stability/excitation.hpp"
@@ -176,6 +177,15 @@ std::vector<double> numberList(const std::string& text, const std::string& what)
   return out;
 }
 
+/// A JSON object's text with one more member at its end.
+std::string withMember(const std::string& object, const std::string& key, const std::string& value)
+{
+  std::string head = object.substr(0, object.find_last_of('}'));
+  while (!head.empty() && (head.back() == '\n' || head.back() == ' '))
+    head.pop_back();
+  return head + ",\n  \"" + key + "\": " + value + "\n}\n";
+}
+
 }  // namespace
 
 int main(int argc, char** argv)
@@ -186,7 +196,9 @@ int main(int argc, char** argv)
                       "Markov threshold on the recovery rate, the capacity, the verdict for the links and the\n"
                       "margin, for the model and for each sensor alone, and per sensor the rate it needs with the\n"
                       "other links fixed. Every sensor has its own link: --channel FILE for every sensor without one\n"
-                      "of its own, --channel NAME=FILE for sensor NAME (repeatable); a sensor with neither is lossless.",
+                      "of its own, --channel NAME=FILE for sensor NAME (repeatable); a sensor with neither is lossless.\n"
+                      "The link a robot has: --bag FILE --topic T (or --bag-topic SENSOR=TOPIC) fits it from a recorded\n"
+                      "bag (as fit_link does) and gives the verdict at the fit and at the ends of its 95 % intervals.",
                       {
                           {"model", "FILE", "model (YAML)", true, false},
                           {"channel", "[NAME=]FILE",
@@ -210,6 +222,14 @@ int main(int argc, char** argv)
                            "only the verdict of all sensors, the links' verdict and the rate each sensor needs (the "
                            "same numbers as the full analysis, in a fraction of its time)",
                            false, false},
+                          {"bag", "FILE",
+                           "a recorded ROS bag: the links of --topic / --bag-topic are fitted from it (fit_link's fit) "
+                           "and the verdict is also taken at the ends of the fits' 95 % intervals",
+                           false, false},
+                          {"topic", "T", "--bag: every sensor without a link of its own gets topic T's fitted link",
+                           false, false},
+                          {"bag-topic", "SENSOR=TOPIC", "--bag: sensor SENSOR gets TOPIC's fitted link (repeatable)",
+                           false, true},
                           {"at", "V1,...,Vn",
                            "a model with a built-in motion: the state to linearise it at (default its x0); the "
                            "verdicts are local",
@@ -234,7 +254,7 @@ int main(int argc, char** argv)
     const Model model = analysedModel(loaded, cl.has("at") ? &at : nullptr, "--at", local_note);
     if (cl.has("design"))
     {
-      for (const char* o : {"channel", "estimator", "trace", "block", "verdict-only"})
+      for (const char* o : {"channel", "estimator", "trace", "block", "verdict-only", "bag", "topic", "bag-topic"})
         if (cl.has(o))
           throw cli::UsageError(std::string("option '--") + o +
                                 "' is not for --design (the design chooses i.i.d. links for every sensor: analyze "
@@ -243,7 +263,16 @@ int main(int argc, char** argv)
     }
     if (cl.has("growth-cap"))
       throw cli::UsageError("--growth-cap is only for --design");
-    const SensorLinks links = resolveSensorLinks(model, cl.getAll("channel"));
+    SensorLinks links = resolveSensorLinks(model, cl.getAll("channel"));
+    // Measured links: fitted from the bag, in place of typed channel files.
+    std::vector<MeasuredLink> measured;
+    if (cl.has("bag"))
+      measured = fitBagLinks(model, cl.get("bag"), cl.get("topic"), cl.getAll("bag-topic"), links);
+    else if (cl.has("topic") || cl.has("bag-topic"))
+      throw cli::UsageError(std::string("option '--") + (cl.has("topic") ? "topic" : "bag-topic") +
+                            "' is for --bag (the bag whose topics give the links)");
+    const MeasuredVerdict measured_verdict =
+        measured.empty() ? MeasuredVerdict() : measuredVerdict(model, links, measured);
     if (cl.has("verdict-only"))
     {
       for (const char* o : {"estimator", "trace", "block"})
@@ -252,7 +281,9 @@ int main(int argc, char** argv)
       const VerdictReport v = verdictOnly(model, links.link);
       if (cl.has("json"))
       {
-        std::cout << verdictJson(model.name, v, links.origin);
+        const std::string json = verdictJson(model.name, v, links.origin);
+        std::cout << (measured.empty() ? json
+                                       : withMember(json, "measured_links", measuredJson(measured, measured_verdict)));
         return 0;
       }
       std::cout << "model " << model.name << local_note << "\n";
@@ -262,6 +293,8 @@ int main(int argc, char** argv)
       std::cout << "links' verdict: " << describe(v.links_verdict) << "\n";
       if (v.has_channel)
         printLinks(std::cout, v.links);
+      if (!measured.empty())
+        std::cout << measuredText(measured, measured_verdict);
       return 0;
     }
     EstimatorSettings est;
@@ -289,7 +322,9 @@ int main(int argc, char** argv)
     rep.estimator_note += local_note;
     if (cl.has("json"))
     {
-      std::cout << analysisJson(rep, links.origin, traces);
+      const std::string json = analysisJson(rep, links.origin, traces);
+      std::cout << (measured.empty() ? json
+                                     : withMember(json, "measured_links", measuredJson(measured, measured_verdict)));
       return 0;
     }
     std::cout << "model " << rep.model_name << ": n = " << model.n() << ", " << model.sensors.size() << " sensor(s)\n";
@@ -361,6 +396,8 @@ int main(int argc, char** argv)
         std::cout << "\n    verdict: " << describe(r.verdict) << "\n";
       }
     }
+    if (!measured.empty())
+      std::cout << measuredText(measured, measured_verdict);
     return 0;
   });
 }

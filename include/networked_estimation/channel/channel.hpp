@@ -5,7 +5,9 @@
 //
 // Per offer(seq, now), in this order:
 //  1. Loss.  The LossModel of the settings (makeLossModel) decides DROPPED_MODEL; its state()
-//     afterwards is reported in the event (0 good, 1 bad; always 0 for bernoulli).
+//     afterwards is reported in the event (0 good, 1 bad; always 0 for bernoulli and trace).
+//     A trace (model: trace) is replayed from its first slot: the i-th offer gets slot i's outcome
+//     (looping), and below its recorded delay and, for a slot received twice, a copy.
 //  2. Delay noise.  Exactly two uniforms u1, u2 are drawn from the delay stream on EVERY offer
 //     (dropped or not, whatever jitter and distribution are), and
 //        uniform: Z = 2 u1 - 1                                  (U[-1, 1], netem without a table)
@@ -185,6 +187,7 @@ private:
   };
 
   static void validate(const ChannelSettings& s);
+  std::unique_ptr<LossModel> makeLoss(std::uint64_t seed);
   static bool sameLossModel(const ChannelSettings& a, const ChannelSettings& b);
   void seedStreams();
   double drawDelay();
@@ -193,6 +196,7 @@ private:
 
   ChannelSettings settings_;
   std::unique_ptr<LossModel> loss_;
+  const TraceLoss* trace_ = nullptr;  ///< loss_ when the model is a trace
   std::uint64_t loss_generation_ = 0;
   Rng delay_rng_, dup_rng_;
 

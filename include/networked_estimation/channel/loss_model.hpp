@@ -2,6 +2,8 @@
 //   bernoulli:        each message lost independently with probability `loss`
 //   gilbert_elliott:  two-state Markov chain, p = P(good -> bad), r = P(bad -> good),
 //                     P(lost | bad) = loss_bad (netem 1-h), P(lost | good) = loss_good (netem 1-k).
+//   trace:            the losses of a recorded link, slot after slot, looping at its end
+//                     (link/channel_trace.hpp); the seed chooses the first slot.
 // The chain starts in its stationary law. Same seed + same number of calls = same outcomes.
 #pragma once
 
@@ -72,8 +74,29 @@ private:
   bool started_ = false;
 };
 
+/// The losses of a recorded link: call i gives slot (start + i) mod slots.
+class TraceLoss : public LossModel
+{
+public:
+  /// `start`: the first slot (taken mod the slots). The trace must have at least one slot.
+  TraceLoss(std::shared_ptr<const ChannelTrace> trace, std::size_t start);
+  bool nextLost() override;
+  int state() const override { return 0; }
+  double stationaryLossRate() const override;
+  double stationaryMeanBurstLength() const override;
+  /// Restarts at slot seed mod slots.
+  void reseed(std::uint64_t seed) override;
+  /// The slot of the last nextLost() (its delay and copies are the trace's).
+  std::size_t slot() const { return slot_; }
+  const ChannelTrace& trace() const { return *trace_; }
+
+private:
+  std::shared_ptr<const ChannelTrace> trace_;
+  std::size_t next_ = 0, slot_ = 0;
+};
+
 /// Builds the loss model of a channel configuration, seeded with `seed` (normally settings.seed,
-/// or a stream seed derived from it with deriveSeed).
+/// or a stream seed derived from it with deriveSeed). A trace starts at slot seed mod slots.
 std::unique_ptr<LossModel> makeLossModel(const ChannelSettings& settings, std::uint64_t seed);
 
 }  // namespace networked_estimation

@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 
 namespace YAML
@@ -14,10 +15,13 @@ class Node;
 namespace networked_estimation
 {
 
+struct ChannelTrace;
+
 enum class LossModelKind
 {
   BERNOULLI,
-  GILBERT_ELLIOTT
+  GILBERT_ELLIOTT,
+  TRACE  ///< a recorded link replayed message for message (link/channel_trace.hpp)
 };
 
 enum class DelayDistribution
@@ -43,9 +47,16 @@ struct ChannelSettings
   bool reorder = false;
   double duplicate = 0.0;
   std::size_t queue_limit = 1000;
+  // trace: the recorded link (its file, the bag's topic, the rate; loaded with the settings)
+  std::string trace;
+  std::string trace_topic;
+  double trace_rate = 0.0;  ///< Hz; 0: learnt from the stamps
+  std::shared_ptr<const ChannelTrace> replay;
 };
 
-/// Parses and validates channel settings. Throws ConfigError naming the key.
+/// Parses and validates channel settings. Throws ConfigError naming the key. A relative `trace`
+/// file is taken from the current directory (parseChannelSettings) or from the channel file's
+/// (loadChannelSettings).
 ChannelSettings parseChannelSettings(const YAML::Node& node, const std::string& source);
 ChannelSettings loadChannelSettings(const std::string& path);
 

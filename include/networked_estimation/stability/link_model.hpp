@@ -28,7 +28,7 @@ struct LinkModel
 
   static LinkModel iid(double arrival_rate);
   static LinkModel gilbertElliott(double p, double r, double loss_bad = 1.0, double loss_good = 0.0);
-  /// bernoulli: arrival = 1 - loss; gilbert_elliott: the chain.
+  /// bernoulli: arrival = 1 - loss; gilbert_elliott: the chain; trace: the model fitted to it.
   static LinkModel fromSettings(const ChannelSettings& settings);
 
   /// GE with loss_bad = 1 and loss_good = 0: the arrival indicator itself is a two-state Markov chain.

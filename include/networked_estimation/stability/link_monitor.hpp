@@ -1,5 +1,6 @@
 // Live link diagnostics: windowed arrival and recovery rates with confidence intervals, and their
-// classification against the stability thresholds of stability.hpp. O(1) per sample.
+// classification against the stability thresholds of stability.hpp. O(1) per sample. The counts
+// and the estimates are link/link_estimates.hpp's, the same as the offline fit's (fit_link).
 #pragma once
 
 #include <cstddef>
@@ -7,23 +8,12 @@
 #include <string>
 #include <vector>
 
+#include "networked_estimation/link/link_estimates.hpp"
+
 namespace networked_estimation
 {
 
 struct StabilityReport;
-
-/// A proportion estimated from `trials` Bernoulli trials with a 95 % confidence interval.
-struct RateEstimate
-{
-  double value = 0.0;  ///< successes / trials (NaN without trials)
-  double lower = 0.0;  ///< 95 % Wilson score interval
-  double upper = 1.0;
-  std::size_t successes = 0, trials = 0;
-};
-
-/// 95 % Wilson score interval for `successes` out of `trials` (z = 1.959964); [0, 1] and value NaN
-/// without trials.
-RateEstimate wilsonInterval(std::size_t successes, std::size_t trials, double z = 1.959963984540054);
 
 /// Sliding window over the last `window` arrival indicators.
 class LinkMonitor
@@ -41,20 +31,24 @@ public:
   void clear();
 
   /// Samples in the window (<= window).
-  std::size_t samples() const { return count_; }
-  std::size_t arrivals() const { return arrivals_; }
+  std::size_t samples() const { return counts_.samples; }
+  std::size_t arrivals() const { return counts_.arrivals; }
   /// Transitions (k-1, k) of consecutive steps with both samples in the window and sample k-1 lost.
-  std::size_t lossTransitions() const { return lost_prev_; }
-  std::size_t recoveries() const { return recovered_; }
+  std::size_t lossTransitions() const { return counts_.after_loss; }
+  std::size_t recoveries() const { return counts_.recovered; }
   /// Transitions (k-1, k) with both samples in the window and sample k-1 arrived, and those of
   /// them where sample k was lost.
-  std::size_t arrivalTransitions() const { return transitions_ - lost_prev_; }
-  std::size_t failures() const { return failed_; }
+  std::size_t arrivalTransitions() const { return counts_.after_arrival; }
+  std::size_t failures() const { return counts_.failed; }
+  /// The counts of the window (link_estimates.hpp).
+  const ArrivalCounts& counts() const { return counts_; }
   /// Samples seen since construction / clear().
   std::uint64_t total() const { return total_; }
   /// The indicators in the window, oldest first.
   std::vector<bool> window() const;
 
+  /// The three estimates of the window (estimateLink).
+  LinkEstimate estimates() const { return estimateLink(counts_); }
   /// P(arrived), Wilson interval over the window.
   RateEstimate arrivalRate() const;
   /// P(arrived at k | lost at k-1), Wilson interval over the transitions in the window.
@@ -65,7 +59,7 @@ public:
 private:
   std::vector<std::uint8_t> ring_;  ///< bit 0: arrived; bit 1: follows the previous entry's step
   std::size_t head_ = 0;  ///< index of the oldest sample
-  std::size_t count_ = 0, arrivals_ = 0, transitions_ = 0, lost_prev_ = 0, recovered_ = 0, failed_ = 0;
+  ArrivalCounts counts_;
   std::uint64_t total_ = 0;
 };
 

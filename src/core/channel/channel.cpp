@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "networked_estimation/common/error.hpp"
+#include "networked_estimation/link/channel_trace.hpp"
 
 namespace networked_estimation
 {
@@ -55,6 +56,11 @@ void LossyChannel::validate(const ChannelSettings& s)
   {
     requireProbability(s.loss, "loss");
   }
+  else if (s.model == LossModelKind::TRACE)
+  {
+    if (!s.replay || s.replay->slots() == 0)
+      throw ConfigError("channel settings: trace: no recorded messages to replay (" + s.trace + ")");
+  }
   else
   {
     requireProbability(s.p, "p");
@@ -75,6 +81,8 @@ bool LossyChannel::sameLossModel(const ChannelSettings& a, const ChannelSettings
     return false;
   if (a.model == LossModelKind::BERNOULLI)
     return a.loss == b.loss;
+  if (a.model == LossModelKind::TRACE)
+    return a.replay == b.replay;
   return a.p == b.p && a.r == b.r && a.loss_bad == b.loss_bad && a.loss_good == b.loss_good;
 }
 
@@ -85,9 +93,20 @@ LossyChannel::LossyChannel(const ChannelSettings& s) : settings_(s)
   seedStreams();
 }
 
+std::unique_ptr<LossModel> LossyChannel::makeLoss(std::uint64_t seed)
+{
+  // A trace is replayed from its first slot, whatever the seed.
+  trace_ = nullptr;
+  if (settings_.model != LossModelKind::TRACE)
+    return makeLossModel(settings_, seed);
+  auto trace = std::make_unique<TraceLoss>(settings_.replay, 0);
+  trace_ = trace.get();
+  return trace;
+}
+
 void LossyChannel::seedStreams()
 {
-  loss_ = makeLossModel(settings_, deriveSeed(settings_.seed, 0));
+  loss_ = makeLoss(deriveSeed(settings_.seed, 0));
   loss_generation_ = 0;
   delay_rng_.reseed(deriveSeed(settings_.seed, 1));
   dup_rng_.reseed(deriveSeed(settings_.seed, 2));
@@ -105,7 +124,7 @@ void LossyChannel::reconfigure(const ChannelSettings& s)
   else if (!sameLossModel(s, old))
   {
     ++loss_generation_;
-    loss_ = makeLossModel(settings_, deriveSeed(deriveSeed(s.seed, 0), loss_generation_));
+    loss_ = makeLoss(deriveSeed(deriveSeed(s.seed, 0), loss_generation_));
   }
 }
 
@@ -156,8 +175,13 @@ ChannelRecord LossyChannel::offer(std::uint64_t seq, double now)
   const std::uint64_t order = offers_++;
   const bool lost = loss_->nextLost();
   ev.state = loss_->state();
-  const double d = drawDelay();
-  const bool want_copy = dup_rng_.uniform() < settings_.duplicate;
+  double d = drawDelay();
+  bool want_copy = dup_rng_.uniform() < settings_.duplicate;
+  if (trace_)  // the recorded delay and copies of this slot (the streams still drawn as always)
+  {
+    d = trace_->trace().delay[trace_->slot()];
+    want_copy = want_copy || trace_->trace().copies[trace_->slot()] > 1;
+  }
 
   ++counters_.received;
   ++stat_offers_;

@@ -1,6 +1,10 @@
 #include "networked_estimation/channel/loss_model.hpp"
 
+#include <algorithm>
 #include <limits>
+
+#include "networked_estimation/common/error.hpp"
+#include "networked_estimation/link/channel_trace.hpp"
 
 namespace networked_estimation
 {
@@ -108,6 +112,50 @@ void GilbertElliottLoss::reseed(std::uint64_t seed)
 }
 
 // ---------------------------------------------------------------------------------------------
+// TraceLoss
+
+TraceLoss::TraceLoss(std::shared_ptr<const ChannelTrace> trace, std::size_t start) : trace_(std::move(trace))
+{
+  if (!trace_ || trace_->slots() == 0)
+    throw ConfigError("channel settings: trace: no recorded messages to replay");
+  next_ = start % trace_->slots();
+}
+
+bool TraceLoss::nextLost()
+{
+  slot_ = next_;
+  next_ = next_ + 1 == trace_->slots() ? 0 : next_ + 1;
+  return trace_->arrived[slot_] == 0;
+}
+
+double TraceLoss::stationaryLossRate() const
+{
+  const std::size_t n = trace_->slots();
+  return static_cast<double>(n - static_cast<std::size_t>(std::count(trace_->arrived.begin(), trace_->arrived.end(),
+                                                                      std::uint8_t(1)))) /
+         static_cast<double>(n);
+}
+
+double TraceLoss::stationaryMeanBurstLength() const
+{
+  // The trace repeats: its runs of losses, counting one that wraps around once.
+  const std::vector<std::uint8_t>& a = trace_->arrived;
+  std::size_t lost = 0, starts = 0;
+  for (std::size_t k = 0; k < a.size(); ++k)
+  {
+    lost += a[k] ? 0 : 1;
+    starts += (!a[k] && a[k == 0 ? a.size() - 1 : k - 1]) ? 1 : 0;
+  }
+  return meanBurstLength(static_cast<double>(lost) / static_cast<double>(a.size()),
+                         static_cast<double>(starts) / static_cast<double>(a.size()));
+}
+
+void TraceLoss::reseed(std::uint64_t seed)
+{
+  next_ = static_cast<std::size_t>(seed % trace_->slots());
+}
+
+// ---------------------------------------------------------------------------------------------
 
 std::unique_ptr<LossModel> makeLossModel(const ChannelSettings& settings, std::uint64_t seed)
 {
@@ -116,6 +164,10 @@ std::unique_ptr<LossModel> makeLossModel(const ChannelSettings& settings, std::u
     case LossModelKind::GILBERT_ELLIOTT:
       return std::make_unique<GilbertElliottLoss>(settings.p, settings.r, settings.loss_bad,
                                                   settings.loss_good, seed);
+    case LossModelKind::TRACE:
+      if (!settings.replay)
+        throw ConfigError("channel settings: model trace without its loaded trace (" + settings.trace + ")");
+      return std::make_unique<TraceLoss>(settings.replay, static_cast<std::size_t>(seed % settings.replay->slots()));
     case LossModelKind::BERNOULLI:
     default:
       return std::make_unique<BernoulliLoss>(settings.loss, seed);

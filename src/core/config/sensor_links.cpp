@@ -13,7 +13,8 @@ bool sameSettings(const ChannelSettings& a, const ChannelSettings& b)
   return a.model == b.model && a.loss == b.loss && a.p == b.p && a.r == b.r && a.loss_bad == b.loss_bad &&
          a.loss_good == b.loss_good && a.seed == b.seed && a.delay == b.delay && a.jitter == b.jitter &&
          a.distribution == b.distribution && a.reorder == b.reorder && a.duplicate == b.duplicate &&
-         a.queue_limit == b.queue_limit;
+         a.queue_limit == b.queue_limit && a.trace == b.trace && a.trace_topic == b.trace_topic &&
+         a.trace_rate == b.trace_rate;
 }
 
 std::string sensorList(const Model& model)

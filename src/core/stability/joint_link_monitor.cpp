@@ -10,14 +10,6 @@ namespace networked_estimation
 namespace
 {
 
-/// On/off Gilbert-Elliott link with failure p and recovery r, kept inside (0, 1] so that the chain
-/// is defined (an interval end of exactly 0 for r would be a link that never recovers).
-LinkModel onOff(double p, double r)
-{
-  const double tiny = 1e-9;
-  return LinkModel::gilbertElliott(std::min(1.0, std::max(tiny, p)), std::min(1.0, std::max(tiny, r)));
-}
-
 std::string rates(const std::vector<SensorLinkEstimate>& sensors, bool markov)
 {
   std::ostringstream os;
@@ -125,38 +117,23 @@ JointLinkStatus JointLinkMonitor::evaluate() const
   for (std::size_t s = 0; s < monitors_.size(); ++s)
   {
     const LinkMonitor& m = monitors_[s];
+    // The estimates and the links at the ends of their intervals: link_estimates.hpp, the same
+    // functions as the offline fit (fit_link, analyze --bag).
+    const LinkEstimate le = m.estimates();
     SensorLinkEstimate e;
     e.sensor = model_.sensors[s].name;
-    e.arrival = m.arrivalRate();
-    e.recovery = m.recoveryRate();
-    e.failure = m.failureRate();
-    // Markov: a link that lost nothing in the window has no recovery trials; it counts by its
-    // failure trials, and its recovery rate is taken as 1 (isolated losses at most: no loss was seen).
-    const std::size_t trials =
-        markov_ ? (e.recovery.trials ? std::min(e.recovery.trials, e.failure.trials) : e.failure.trials)
-                : e.arrival.trials;
+    e.arrival = le.arrival;
+    e.recovery = le.recovery;
+    e.failure = le.failure;
+    const std::size_t trials = linkTrials(le, markov_);
     if (trials < fewest)
     {
       fewest = trials;
       fewest_sensor = e.sensor;
     }
-    if (markov_)
-    {
-      const double r_low = e.recovery.trials ? e.recovery.lower : 1.0;
-      const double r_high = e.recovery.trials ? e.recovery.upper : 1.0;
-      const double r_point = e.recovery.trials ? e.recovery.value : 1.0;
-      const double p_point = e.failure.trials ? e.failure.value : 0.5;
-      out.pessimistic_links.push_back(onOff(e.failure.upper, r_low));
-      out.optimistic_links.push_back(onOff(e.failure.lower, r_high));
-      out.point_links.push_back(onOff(p_point, r_point));
-    }
-    else
-    {
-      const double point = e.arrival.trials ? e.arrival.value : 0.0;
-      out.pessimistic_links.push_back(LinkModel::iid(e.arrival.lower));
-      out.optimistic_links.push_back(LinkModel::iid(e.arrival.upper));
-      out.point_links.push_back(LinkModel::iid(point));
-    }
+    out.pessimistic_links.push_back(linkAt(le, markov_, IntervalEnd::PESSIMISTIC));
+    out.optimistic_links.push_back(linkAt(le, markov_, IntervalEnd::OPTIMISTIC));
+    out.point_links.push_back(linkAt(le, markov_, IntervalEnd::POINT));
     out.sensors.push_back(e);
   }
   // The links' verdicts: the level concerns what the links can change. Modes that no sensor observes

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "networked_estimation/link/channel_trace.hpp"
 #include "stability_internal.hpp"
 
 namespace networked_estimation
@@ -32,6 +33,8 @@ LinkModel LinkModel::gilbertElliott(double p_, double r_, double loss_bad_, doub
 
 LinkModel LinkModel::fromSettings(const ChannelSettings& s)
 {
+  if (s.model == LossModelKind::TRACE && s.replay)  // the loss model fitted to the trace (fit_link's)
+    return fromSettings(s.replay->fitted);
   if (s.model == LossModelKind::BERNOULLI)
     return iid(1.0 - s.loss);
   return gilbertElliott(s.p, s.r, s.loss_bad, s.loss_good);

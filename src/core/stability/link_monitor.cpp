@@ -12,30 +12,6 @@
 namespace networked_estimation
 {
 
-RateEstimate wilsonInterval(std::size_t successes, std::size_t trials, double z)
-{
-  // Wilson score interval: the set of p whose score test |phat - p| / sqrt(p (1 - p) / n) <= z
-  // accepts; unlike the Wald interval it stays inside [0, 1] and keeps its coverage near 0 and 1.
-  RateEstimate e;
-  e.successes = successes;
-  e.trials = trials;
-  if (trials == 0)
-  {
-    e.value = std::numeric_limits<double>::quiet_NaN();
-    return e;
-  }
-  const double n = static_cast<double>(trials);
-  const double p = static_cast<double>(successes) / n;
-  const double z2 = z * z;
-  const double denom = 1.0 + z2 / n;
-  const double center = (p + z2 / (2.0 * n)) / denom;
-  const double half = z / denom * std::sqrt(p * (1.0 - p) / n + z2 / (4.0 * n * n));
-  e.value = p;
-  e.lower = std::max(0.0, center - half);
-  e.upper = std::min(1.0, center + half);
-  return e;
-}
-
 LinkMonitor::LinkMonitor(std::size_t window)
 {
   if (window < 2)
@@ -45,7 +21,8 @@ LinkMonitor::LinkMonitor(std::size_t window)
 
 void LinkMonitor::clear()
 {
-  head_ = count_ = arrivals_ = transitions_ = lost_prev_ = recovered_ = failed_ = 0;
+  head_ = 0;
+  counts_ = ArrivalCounts();
   total_ = 0;
 }
 
@@ -53,72 +30,47 @@ void LinkMonitor::add(bool arrived, bool follows_previous)
 {
   constexpr std::uint8_t ARRIVED = 1, FOLLOWS = 2;
   const std::size_t w = ring_.size();
-  if (count_ == w)
+  if (counts_.samples == w)
   {
     // Evict the oldest sample and the transition (oldest, second oldest) when they were
     // consecutive steps.
     const bool old = (ring_[head_] & ARRIVED) != 0;
     const std::uint8_t second = ring_[(head_ + 1) % w];
-    arrivals_ -= old ? 1 : 0;
+    counts_.removeSample(old);
     if (second & FOLLOWS)
-    {
-      --transitions_;
-      const bool next = (second & ARRIVED) != 0;
-      if (!old)
-      {
-        --lost_prev_;
-        recovered_ -= next ? 1 : 0;
-      }
-      else
-      {
-        failed_ -= next ? 0 : 1;
-      }
-    }
+      counts_.removeTransition(old, (second & ARRIVED) != 0);
     head_ = (head_ + 1) % w;
-    --count_;
   }
-  const bool transition = count_ > 0 && follows_previous;
+  const std::size_t count = counts_.samples;
+  const bool transition = count > 0 && follows_previous;
   if (transition)
-  {
-    ++transitions_;
-    const bool last = (ring_[(head_ + count_ - 1) % w] & ARRIVED) != 0;
-    if (!last)
-    {
-      ++lost_prev_;
-      recovered_ += arrived ? 1 : 0;
-    }
-    else
-    {
-      failed_ += arrived ? 0 : 1;
-    }
-  }
-  ring_[(head_ + count_) % w] = static_cast<std::uint8_t>((arrived ? ARRIVED : 0) | (transition ? FOLLOWS : 0));
-  ++count_;
-  arrivals_ += arrived ? 1 : 0;
+    counts_.addTransition((ring_[(head_ + count - 1) % w] & ARRIVED) != 0, arrived);
+  ring_[(head_ + count) % w] = static_cast<std::uint8_t>((arrived ? ARRIVED : 0) | (transition ? FOLLOWS : 0));
+  counts_.addSample(arrived);
   ++total_;
 }
 
 std::vector<bool> LinkMonitor::window() const
 {
-  std::vector<bool> out(count_);
-  for (std::size_t i = 0; i < count_; ++i)
+  std::vector<bool> out(counts_.samples);
+  for (std::size_t i = 0; i < counts_.samples; ++i)
     out[i] = (ring_[(head_ + i) % ring_.size()] & 1) != 0;
   return out;
 }
 
 RateEstimate LinkMonitor::arrivalRate() const
 {
-  return wilsonInterval(arrivals_, count_);
+  return arrivalEstimate(counts_);
 }
 
 RateEstimate LinkMonitor::recoveryRate() const
 {
-  return wilsonInterval(recovered_, lost_prev_);
+  return recoveryEstimate(counts_);
 }
 
 RateEstimate LinkMonitor::failureRate() const
 {
-  return wilsonInterval(failed_, arrivalTransitions());
+  return failureEstimate(counts_);
 }
 
 LinkThresholds linkThresholds(const StabilityReport& report, std::size_t min_samples)
