@@ -4,6 +4,7 @@
 Usage: real_link_check.py WORK SOURCE_DIR TOOLS_DIR   (TOOLS_DIR holds montecarlo)
 Prints one line per check (ok / FAIL) and exits 1 when any failed.
 """
+import bisect
 import json
 import math
 import os
@@ -253,6 +254,92 @@ for ph in run["phases"]:
         # takes all three at once (the trace channel of a recorded run is what can replay that).
         print("note: %s, udp: squared error %.4f (montecarlo's links are independent per sensor: not compared)" %
               (ph["name"], u["mse"]))
+
+# 5. Recorded across the real link (the bursty phase's bag, recorded at the base station over udp
+#    by `rosbag record --udp`): fit_link finds the odometry's expected messages from header.seq and
+#    fits the link; the trace channel (model: trace) replays that bag.
+for ph in run["phases"]:
+    if ph["kind"] != "bursty" or not ph.get("record"):
+        continue
+    bag = os.path.join(work, ph["name"] + ".bag")
+    if not os.path.isfile(bag):
+        check(False, "%s: the base station's bag %s was recorded" % (ph["name"], bag))
+        continue
+    p = subprocess.run([os.path.join(tools, "fit_link"), "--bag", bag, "--topic", "/odom", "--json", "--series"],
+                       capture_output=True, text=True)
+    check(p.returncode == 0, "%s: fit_link --bag on the recorded bag: exit %d %s" % (ph["name"], p.returncode,
+                                                                                     p.stderr.strip()[-300:]))
+    if p.returncode != 0:
+        continue
+    fit = json.loads(p.stdout)["links"][0]
+    slots, t0, period = fit["expected"], fit["first_stamp"], fit["period"]
+    arrived = [int(c) for c in fit["series"]["arrived"]]
+    # 5a. The base station's arrival sequence, independently of the bag: the robot's own record of
+    #     the odometry it sent over the fit's slots (one message per slot, stamps 20 ms apart), each
+    #     dropped by the kernel exactly when the toggler's chain was bad at its send time (the chain
+    #     switches half a step away from the samples: no sample sits on a switch). The bag's slots
+    #     must be that sequence, message for message: no tolerance.
+    sent_odom = sorted(sent.get("odom", []))
+    window = [s for s in sent_odom if t0 - period / 2 <= s < t0 + (slots - 0.5) * period]
+    chain = []
+    with open(os.path.join(work, "toggler.csv")) as f:
+        f.readline()
+        for line in f:
+            name, boundary, wall, bad = line.strip().split(",")
+            if name == ph["name"]:
+                chain.append((float(boundary), int(bad)))
+    switches = [b for b, _ in chain]
+    kernel = []
+    for s in window:
+        i = bisect.bisect_right(switches, s) - 1
+        kernel.append(None if i < 0 else 1 - chain[i][1])
+    check(len(window) == slots, "%s: fit_link's %d expected messages are the %d the robot sent over them" %
+          (ph["name"], slots, len(window)))
+    differ = sum(1 for a, k in zip(arrived, kernel) if a != k)
+    check(len(window) == slots and differ == 0, "%s: the bag's arrivals are the toggler chain's, message for "
+          "message (%d of %d differ)" % (ph["name"], differ, slots))
+    # 5b. The fitted Gilbert link against the toggler's chain. The chain drawn over the bag's slots
+    #     gives p and r by the same counts (n01 / (n00 + n01), n10 / (n10 + n11)), so the fit must
+    #     equal them exactly when 5a holds. The toggler's nominal p, r (seed 36: the same chain every
+    #     run) must lie in the fit's 95 % interval; printed, and asserted on the Wilson interval of the
+    #     fit's own counts widened to z = 4 as in 3d (a pass/fail test must not fail one run in 20).
+    g = fit["gilbert"]
+    pairs = list(zip(kernel, kernel[1:])) if None not in kernel else []
+    n00 = sum(1 for a, b in pairs if a == 1 and b == 1)
+    n01 = sum(1 for a, b in pairs if a == 1 and b == 0)
+    n10 = sum(1 for a, b in pairs if a == 0 and b == 1)
+    n11 = sum(1 for a, b in pairs if a == 0 and b == 0)
+    for key, nominal, drawn in (("p", ph["p"], n01 / max(1, n00 + n01)), ("r", ph["r"], n10 / max(1, n10 + n11))):
+        est = g[key]
+        check(abs(est["value"] - drawn) < 1e-12, "%s: fit_link's %s = %.4f, the chain the toggler drew over the bag's "
+              "slots %.4f" % (ph["name"], key, est["value"], drawn))
+        lo, hi = wilson(est["successes"], est["trials"], 4.0)
+        inside = est["lower"] <= nominal <= est["upper"]
+        check(lo <= nominal <= hi, "%s: the toggler's %s = %.3f in fit_link's [%.4f, %.4f] (z = 4; its 95 %% interval "
+              "[%.4f, %.4f] %s it)" % (ph["name"], key, nominal, lo, hi, est["lower"], est["upper"],
+                                         "holds" if inside else "misses"))
+    # 5c. The trace channel replaying that bag (model: trace, trace: the bag, trace_topic: /odom) in
+    #     simulate, one step per slot: a replay starts at the slot its seed chooses and loops, so its
+    #     arrivals must be the base station's sequence turned round to one start (and that start must
+    #     be the only one that fits: the sequence has no period of its own).
+    channel = os.path.join(work, "bursty_trace.yaml")
+    with open(channel, "w") as f:
+        yaml.safe_dump({"model": "trace", "trace": bag, "trace_topic": "/odom"}, f)
+    out = os.path.join(work, "replay")
+    p = subprocess.run([os.path.join(tools, "simulate"), "--model", os.path.join(src, "config", "models",
+                        "zhou_example.yaml"), "--channel", channel, "--steps", str(slots), "--seed", "3", "--out", out],
+                       capture_output=True, text=True)
+    check(p.returncode == 0, "%s: simulate with the bag as a trace channel: exit %d %s" %
+          (ph["name"], p.returncode, p.stderr.strip()[-300:]))
+    if p.returncode != 0:
+        continue
+    with open(os.path.join(out, "input.csv")) as f:
+        header = f.readline().strip().split(",")
+        gamma = [int(line.split(",")[header.index("gamma")]) for line in f if line.strip()]
+    starts = [s for s in range(slots) if len(gamma) == slots and all(gamma[i] == kernel[(s + i) % slots]
+                                                                       for i in range(slots))]
+    check(len(starts) == 1, "%s: the trace channel replays the base station's %d arrivals in order (from slot %s)" %
+          (ph["name"], slots, starts[0] if len(starts) == 1 else "none" if not starts else "several"))
 
 # 4. Over tcp the budget adapts to the retransmissions' delays: far above what udp needs once
 #    packets are lost (every lost segment is resent after at least a retransmission timeout).

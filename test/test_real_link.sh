@@ -9,14 +9,17 @@
 # drop rule along a Gilbert-Elliott chain (p = 0.02, r = 0.1 per 20 ms step, the plant's: seeded,
 # its switches half a step away from the samples). The bursty phase is also recorded at the base
 # station over udp (rosbag record --udp) into WORK/bursty.bag, with the chain the toggler drew in
-# WORK/toggler.csv: a later check can fit the link from that bag (fit_link) and compare.
+# WORK/toggler.csv: fit_link fits the link from that bag and a trace channel replays it.
 #
 # test/real_link_check.py asserts, per phase: over udp each sensor's arrival rate agrees with the
 # delivered fraction of the kernel's counters, the latency budget stays under 50 ms, the squared
 # error agrees with montecarlo's prediction for the link the kernel made and the live link
 # verdict's (p, r) with the drops (random phases) and, in the bursty phase, the live (p, r) with
-# the toggler's chain; over tcp nothing is lost and the budget adapts. Over the whole run: tcp received every message sent, udp exactly what the kernel
-# let through.
+# the toggler's chain; over tcp nothing is lost and the budget adapts. Over the whole run: tcp
+# received every message sent, udp exactly what the kernel let through. On the bursty phase's bag:
+# fit_link's expected messages are those the robot sent, received or lost as the toggler's chain
+# said, its Gilbert p and r are the drawn chain's and hold the toggler's, and a trace channel of
+# the bag replays the base station's arrivals.
 #
 # Usage: test_real_link.sh SETUP_BASH SOURCE_DIR WORK_DIR TOOLS_DIR
 # Needs root, iproute2 and nftables: where a network namespace cannot be made (not root, a container
