@@ -224,11 +224,20 @@ TEST(MonteCarlo, OutputFormats)
   summarise(r);
   EXPECT_EQ(r.cases[0].series[0].time_average, 2.0);
   EXPECT_EQ(r.cases[0].series[0].final_value, 3.0);
-  EXPECT_EQ(experimentCsv(r), "case,series,x,mean,sd,n\nc,S,1,1,0.5,3\nc,S,2,3,0,3\n");
+  // se = sd / sqrt(n); no quantiles computed: empty cells
+  EXPECT_EQ(experimentCsv(r), "case,series,x,mean,sd,n,se,p5,p25,median,p75,p95\nc,S,1,1,0.5,3,0.2886751346,,,,,\n"
+                              "c,S,2,3,0,3,0,,,,,\n");
   const std::string json = experimentJson(r);
   EXPECT_NE(json.find("\"y_label\": \"a \\\"quoted\\\" \\\\ label\""), std::string::npos) << json;
   EXPECT_NE(json.find("\"line\\nbreak\""), std::string::npos);
   EXPECT_NE(json.find("\"time_average\": 2, \"final\": 3, \"window\": [1, 2]"), std::string::npos) << json;
+  // the standard error at x = 1 is 29 % of the mean: not estimable, the plots take the median
+  EXPECT_FALSE(r.cases[0].series[0].mean_estimable);
+  EXPECT_NE(json.find("\"final_se\": 0, \"growth\": null, \"statistic\": \"median\", \"mean_note\": \"mean not "
+                      "estimable: its standard error is 29 % of it at x = 1\""),
+            std::string::npos)
+      << json;
+  EXPECT_NE(json.find("\"thresholds\": [],"), std::string::npos) << json;
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -291,7 +291,7 @@ TEST(Sweep, RunsThatCannotBeCountedAreRecordedNotAveraged)
     EXPECT_TRUE(std::isnan(c.err_avg_sd));
   }
   const std::string csv = experimentCsv(r);
-  EXPECT_NE(csv.find(",kfio,70,0,70,,,,,,,,,stable\n"), std::string::npos) << csv;
+  EXPECT_NE(csv.find(",kfio,70,0,70,,,,,,,,,stable,,,,,,,,,,,\n"), std::string::npos) << csv;
   EXPECT_NE(experimentJson(r).find("\"incomplete_cells\": 2"), std::string::npos);
   EXPECT_EQ(csv.find("nan"), std::string::npos);
   EXPECT_EQ(csv.find("inf"), std::string::npos);

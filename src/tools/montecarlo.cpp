@@ -2,7 +2,9 @@
 // DIR/<experiment>.csv and DIR/<experiment>.json (montecarlo.hpp has the output contract).
 // With --shard K/N it computes one shard and writes DIR/<experiment>.shard-K-of-N.json instead;
 // `montecarlo merge DIR...` merges the shards into the unsharded outputs (montecarlo_shards.hpp).
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <sstream>
 #include <unistd.h>
@@ -142,8 +144,9 @@ int main(int argc, char** argv)
     names += (names.empty() ? "" : ", ") + n;
   cli::CommandLine cl(
       "montecarlo",
-      "Runs a Monte Carlo experiment and writes DIR/NAME.csv (case,series,x,mean,sd,n) and DIR/NAME.json\n"
-      "(metadata, assumptions, per-series summaries); zhou_fig2 also writes DIR/zhou_fig2_samples.csv.\n"
+      "Runs a Monte Carlo experiment and writes DIR/NAME.csv (case,series,x,mean,sd,n,se,p5,p25,median,p75,p95\n"
+      "and P_gt_M per --threshold M) and DIR/NAME.json (metadata, assumptions, per-series summaries with standard\n"
+      "errors and the growth exponent of log value); zhou_fig2 also writes DIR/zhou_fig2_samples.csv.\n"
       "Results do not depend on --threads. Experiments: " +
           names +
           ".\nOn a cluster: with --shard K/N it computes only shard K of N (of every Monte Carlo call of the\n"
@@ -158,6 +161,10 @@ int main(int argc, char** argv)
           "estimator diverged or the plant crossed the rounding floor (then no mean: a sweep never stops on\n"
           "them), and the point's analytic verdict; DIR/sweep.json adds the critical curve of the last axis (for\n"
           "each value of the first). plot_montecarlo.py draws it as a heat map. Schedules are not swept.\n"
+          "Unstable plants, long horizons: --experiment covariance (or custom --covariance-only) runs only the\n"
+          "estimators' random Riccati recursion on the links' arrivals (no plant, so no rounding floor, any --steps)\n"
+          "and writes DIR/covariance.csv: tr P_k per step and estimator (kf, kfio, ack_kf, rseio); sweep\n"
+          "--covariance-only fills the tr P columns of every grid point alone.\n"
           "Exit codes: 0 ok, 2 bad arguments or files, 3 an estimator diverged, or a run's plant state\n"
           "crossed the rounding floor (the message names the run and the step: use fewer --steps; not sweep).",
       {
@@ -167,17 +174,25 @@ int main(int argc, char** argv)
           {"seed", "S", "seed (default 1)", false, false},
           {"threads", "J", "worker threads (default: hardware concurrency)", false, false},
           {"out", "DIR", "output directory (created when missing)", true, false},
-          {"model", "FILE", "custom, sweep: model file (YAML)", false, false},
+          {"covariance-only", "",
+           "custom, sweep: the estimators' covariance recursion on the links' arrivals alone, no plant (custom: the "
+           "experiment covariance)",
+           false, false},
+          {"model", "FILE", "custom, covariance, sweep: model file (YAML)", false, false},
           {"channel", "[NAME=]FILE",
-           "custom, sweep: sensor link channel settings (YAML) for every sensor, or NAME=FILE for sensor NAME; a sensor "
+           "custom, covariance, sweep: sensor link channel settings (YAML) for every sensor, or NAME=FILE for sensor NAME; a sensor "
            "with neither is lossless",
            false, true},
-          {"actuator-channel", "FILE", "custom, sweep: controller-to-actuator channel settings (default: lossless)",
+          {"actuator-channel", "FILE", "custom, covariance, sweep: controller-to-actuator channel settings (default: lossless)",
            false, false},
-          {"settings", "S1,S2,...", "custom, sweep: estimator settings files, comma-separated", false, false},
+          {"settings", "S1,S2,...", "custom, covariance, sweep: estimator settings files, comma-separated", false, false},
           {"axis", "SENSOR.PARAM=LO:HI:N",
            "sweep: a grid axis, N values from LO to HI (PARAM: arrival_rate or recovery_rate, values in [0, 1]); "
            "once or twice",
+           false, true},
+          {"threshold", "M",
+           "also report P(value > M), the fraction of runs above M, of every value (a column P_gt_M; sweep: of tr "
+           "P_T, trP_P_gt_M); repeatable, at most 16",
            false, true},
           {"shard", "K/N",
            "compute shard K of N (1 <= K <= N) only and write DIR/NAME.shard-K-of-N.json (merge with montecarlo "
@@ -200,13 +215,31 @@ int main(int argc, char** argv)
     cfg.seed = cl.getUint64("seed", 1);
     cfg.threads = static_cast<int>(cl.getLong("threads", 0, 1, 1024));
     const bool sweep = cfg.experiment == "sweep";
-    const bool custom = cfg.experiment == "custom" || sweep;
+    const bool custom = takesCustomInputs(cfg.experiment);
     for (const char* key : {"model", "settings"})
       if (custom && !cl.has(key))
         throw cli::UsageError("experiment " + cfg.experiment + " needs --" + key);
-    for (const char* key : {"model", "channel", "actuator-channel", "settings"})
+    for (const char* key : {"model", "channel", "actuator-channel", "settings", "covariance-only"})
       if (!custom && cl.has(key))
-        throw cli::UsageError(std::string("option '--") + key + "' is only for --experiment custom or sweep");
+        throw cli::UsageError(std::string("option '--") + key + "' is only for --experiment custom, covariance or sweep");
+    cfg.covariance_only = cl.has("covariance-only");
+    for (const std::string& t : cl.getAll("threshold"))
+    {
+      double m = 0.0;
+      char* end = nullptr;
+      m = std::strtod(t.c_str(), &end);
+      if (t.empty() || end != t.c_str() + t.size() || !std::isfinite(m))
+        throw cli::UsageError("option '--threshold': expected a finite number, found '" + t + "'");
+      cfg.thresholds.push_back(m);
+    }
+    try
+    {
+      canonicalConfig(cfg);  // the thresholds' count and repeats
+    }
+    catch (const ConfigError& e)
+    {
+      throw cli::UsageError(e.what());
+    }
     if (sweep && !cl.has("axis"))
       throw cli::UsageError("experiment sweep needs --axis SENSOR.PARAM=LO:HI:N (once or twice)");
     if (!sweep && cl.has("axis"))
@@ -253,7 +286,7 @@ int main(int argc, char** argv)
                    sf.wall_seconds, path.c_str());
       return 0;
     }
-    const ExperimentResult result = runExperiment(cfg, &progress);
+    const ExperimentResult result = runExperiment(cfg, &progress);  // custom --covariance-only: covariance
     writeExperiment(result, cl.get("out"));
     std::fprintf(stderr, "montecarlo: %s: %ld runs x %ld steps%s on %d threads in %.2f s -> %s/%s.csv\n",
                  result.experiment.c_str(), result.runs, result.steps,

@@ -48,6 +48,26 @@ def test_custom_equals_the_tool(tmp_path):
     assert r.csv() == (tmp_path / "custom.csv").read_text()
 
 
+def test_covariance_only_equals_the_tool(tmp_path):
+    # the tool's custom --covariance-only and montecarlo(custom, covariance_only=True) both run the
+    # experiment covariance: tr P per step of kfio and rseio, no plant
+    files = dict(model=MODELS / "scheduled_example.yaml", channels={"s1": CHANNELS / "bernoulli_0.2.yaml"},
+                 settings=[ESTIMATORS / "kfio.yaml", ESTIMATORS / "rseio.yaml"])
+    tool("montecarlo", "--experiment", "custom", "--covariance-only", "--runs", 90, "--steps", 400, "--out", tmp_path,
+         "--model", files["model"], "--channel", f"s1={files['channels']['s1']}",
+         "--settings", ",".join(map(str, files["settings"])))
+    r = ne.montecarlo("custom", runs=90, steps=400, covariance_only=True, **files)
+    assert r.experiment == "covariance"
+    assert r.csv() == (tmp_path / "covariance.csv").read_text()
+    assert ne.montecarlo("covariance", runs=90, steps=400, **files).csv() == r.csv()
+    series = r.cases[0]["series"]
+    assert list(series) == ["kfio", "rseio"] and len(series["kfio"]["mean"]) == 400
+    with pytest.raises(ValueError, match="covariance_only is only for the experiments custom, covariance and sweep"):
+        ne.montecarlo("zhou_fig1", covariance_only=True)
+    with pytest.raises(ValueError, match="estimator 'aoe'"):
+        ne.montecarlo("covariance", runs=2, steps=2, model=files["model"], settings=[ESTIMATORS / "aoe.yaml"])
+
+
 def test_shards_merge_to_the_unsharded_run(tmp_path):
     whole = ne.montecarlo("zhou_fig2", runs=300, steps=30, seed=2)
     shards = [ne.montecarlo("zhou_fig2", runs=300, steps=30, seed=2, shard=(k, 3)) for k in (1, 2, 3)]
@@ -77,7 +97,7 @@ def test_montecarlo_refusals():
         ne.merge([one, pickle.loads(pickle.dumps(one))])
     with pytest.raises(ValueError, match=r"needs model= and settings="):
         ne.montecarlo("custom", runs=10)
-    with pytest.raises(ValueError, match=r"model is only for the experiments custom and sweep"):
+    with pytest.raises(ValueError, match=r"model is only for the experiments custom, covariance and sweep"):
         ne.montecarlo("zhou_fig1", model=MODELS / "zhou_example.yaml")
     with pytest.raises(ValueError, match=r"shard: expected \(k, n\) with 1 <= k <= n"):
         ne.montecarlo("zhou_fig1", runs=10, shard=(0, 3))
@@ -110,11 +130,15 @@ def test_sweep_equals_the_tool_and_its_arrays_are_the_csv(tmp_path):
     assert r.csv() == text
     sw = r.sweep
     assert sw["axes"] == ["gnss.arrival_rate", "camera.recovery_rate"] and sw["values"].shape == (12, 2)
+    header = text.splitlines()[0].split(",")
+    col = {h: i for i, h in enumerate(header)}
     rows = [line.split(",") for line in text.splitlines()[1:]]
     for row in rows:
         point, name = int(row[0]), row[5]
         cells = sw["estimators"][name]
         assert [float(row[3]), float(row[4])] == list(sw["values"][point])
-        assert int(row[6]) == cells["n"][point] and row[-1] == sw["verdicts"][point]
+        assert int(row[6]) == cells["n"][point] and row[col["verdict"]] == sw["verdicts"][point]
         assert float(row[9]) == pytest.approx(cells["trP_mean"][point], rel=1e-9)  # the CSV prints 10 digits
+        for key in ("trP_median", "trP_p95", "growth"):
+            assert float(row[col[key]]) == pytest.approx(cells[key][point], rel=1e-9)
     assert ne.montecarlo("zhou_fig1", runs=64, steps=5).sweep is None

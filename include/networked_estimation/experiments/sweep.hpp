@@ -98,6 +98,14 @@ struct SweepCell
   double err_mean = std::nan(""), err_sd = std::nan("");
   double trP_avg_mean = std::nan(""), trP_avg_sd = std::nan("");
   double err_avg_mean = std::nan(""), err_avg_sd = std::nan("");
+  // Heavy tails (docs/formats.md, "Heavy tails"): quantiles of tr P_T over the runs, the fraction of
+  // runs with tr P_T above each threshold (SweepResult::thresholds), the median of the final squared
+  // error, and the growth exponent of log tr P_k over the last half (mean and sd over the runs).
+  double trP_p5 = std::nan(""), trP_p25 = std::nan(""), trP_median = std::nan(""), trP_p75 = std::nan(""),
+         trP_p95 = std::nan("");
+  std::vector<double> trP_exceed;
+  double err_median = std::nan("");
+  double growth = std::nan(""), growth_sd = std::nan("");
 };
 
 struct SweepResult
@@ -108,6 +116,7 @@ struct SweepResult
   std::vector<std::vector<double>> point_values;  ///< per point, the value of each axis
   std::vector<SweepCell> cells;                   ///< point-major: cells[point * estimators + j]
   SweepAnalysis analysis;
+  std::vector<double> thresholds;                 ///< --threshold
 };
 
 /// `point,i1,i2,<axis 1>,<axis 2>,estimator,n,diverged,floored,trP_mean,...,verdict` rows.

@@ -150,7 +150,10 @@ Moments linRuns(const RunConfig& rc, const LinParams& lp)
       }
     };
   };
-  return runMonteCarlo(rc.runs, 4 * static_cast<std::size_t>(T), rc.threads, factory, rc.progress);
+  CallStatistics stats = callStatistics(rc);
+  for (std::size_t j = 0; j < 4; ++j)
+    addSpan(stats, j * static_cast<std::size_t>(T), stepAxis(T), 1.0, static_cast<double>(T));
+  return runMonteCarlo(rc.runs, 4 * static_cast<std::size_t>(T), rc.threads, factory, rc.progress, nullptr, &stats);
 }
 
 std::vector<std::string> commonAssumptions()
@@ -174,6 +177,9 @@ void setPoint(SeriesResult& s, std::size_t i, const Moments& m, std::size_t v)
   s.mean[i] = m.mean[v];
   s.sd[i] = m.sd[v];
   s.n = m.n;
+  if (s.exceed.size() != m.thresholds.size() || (s.p5.empty() && !m.sketches.empty()))
+    resizeTails(s, s.mean.size(), m);
+  setTails(s, i, m, v);
 }
 
 SeriesResult sweepSeries(const std::string& name, const std::vector<double>& x)

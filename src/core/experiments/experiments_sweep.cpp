@@ -5,6 +5,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <memory>
 #include <sstream>
 
@@ -207,7 +208,11 @@ std::string sweepCsv(const SweepResult& sw)
 {
   std::ostringstream os;
   os << "point,i1,i2,x1,x2,estimator,n,diverged,floored,trP_mean,trP_sd,err_mean,err_sd,trP_avg_mean,trP_avg_sd,"
-        "err_avg_mean,err_avg_sd,verdict\n";
+        "err_avg_mean,err_avg_sd,verdict,trP_se,trP_p5,trP_p25,trP_median,trP_p75,trP_p95,err_se,err_median,growth,"
+        "growth_low,growth_high";
+  for (double t : sw.thresholds)
+    os << ",trP_" << thresholdColumn(t);
+  os << '\n';
   const long n2 = sw.axes.size() > 1 ? sw.axes[1].count : 1;
   for (long p = 0; p < sw.points; ++p)
   {
@@ -221,7 +226,15 @@ std::string sweepCsv(const SweepResult& sw)
       for (double x : {c.trP_mean, c.trP_sd, c.err_mean, c.err_sd, c.trP_avg_mean, c.trP_avg_sd, c.err_avg_mean,
                        c.err_avg_sd})
         os << ',' << sweepNumber(x, "");
-      os << ',' << sw.analysis.verdicts[static_cast<std::size_t>(p)] << '\n';
+      os << ',' << sw.analysis.verdicts[static_cast<std::size_t>(p)];
+      const double rn = std::sqrt(static_cast<double>(c.n));
+      const double half = 1.96 * c.growth_sd / rn;  // the 95 % interval of the mean over the runs
+      for (double x : {c.trP_sd / rn, c.trP_p5, c.trP_p25, c.trP_median, c.trP_p75, c.trP_p95, c.err_sd / rn,
+                       c.err_median, c.growth, c.growth - half, c.growth + half})
+        os << ',' << sweepNumber(x, "");
+      for (std::size_t t = 0; t < sw.thresholds.size(); ++t)
+        os << ',' << (t < c.trP_exceed.size() ? sweepNumber(c.trP_exceed[t], "") : "");
+      os << '\n';
     }
   }
   return os.str();
@@ -272,8 +285,28 @@ namespace
 {
 
 // Per run, grid point and estimator (point-major): tr P_T, |x_T - xhat_T|^2, their means over the
-// last half, diverged (0/1); then one value per run: floored (0/1).
-constexpr std::size_t kStats = 5;
+// last half, diverged (0/1), the growth exponent of log tr P_k over the last half; then one value
+// per run: floored (0/1).
+constexpr std::size_t kStats = 6;
+
+/// The least-squares slope of log tr P_k over k = half+1 .. T as weights: sum of w_k log tr P_k.
+std::vector<double> growthWeights(long T, long half)
+{
+  std::vector<double> w;
+  const double km = 0.5 * static_cast<double>(half + 1 + T);
+  double sxx = 0.0;
+  for (long k = half + 1; k <= T; ++k)
+    sxx += (static_cast<double>(k) - km) * (static_cast<double>(k) - km);
+  for (long k = half + 1; k <= T; ++k)
+    w.push_back(sxx > 0.0 ? (static_cast<double>(k) - km) / sxx : std::nan(""));
+  return w;
+}
+
+/// Adds tr P_k's term of the growth exponent (NaN once a trace is not finite and positive).
+inline void addGrowth(double& g, double w, double trace)
+{
+  g += trace > 0.0 && trace <= std::numeric_limits<double>::max() ? w * std::log(trace) : std::nan("");
+}
 
 }  // namespace
 
@@ -287,6 +320,7 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
     sweep->axes.push_back(parseSweepAxis(arg));
   resolveSweepAxes(sweep->axes, model, su.links.link);
   sweep->estimators = su.names;
+  sweep->thresholds = cfg.thresholds;
   const std::vector<SweepAxis>& axes = sweep->axes;
   for (double a : axes[0].values)
     for (double b : axes.size() > 1 ? axes[1].values : std::vector<double>{0.0})
@@ -298,6 +332,7 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
   if (rc.progress)
     rc.progress->setTotal(rc.runs);
   const long T = rc.steps, half = T / 2;
+  const std::vector<double> gw = growthWeights(T, half);
   const std::size_t nf = su.settings.size(), np = static_cast<std::size_t>(sweep->points);
   const std::size_t values = kStats * nf * np + 1;
   const std::uint64_t seed = rc.seed;
@@ -310,24 +345,98 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
   LossyRunOptions plant_options = su.options;
   plant_options.sensor_links.clear();
   const bool noise_on_loss = su.options.noise_on_loss;
+  const bool covariance_only = cfg.covariance_only;
+  if (covariance_only)
+    covarianceOnlyEstimators(model, su.settings, su.names);  // refuses aoe, oe, ekfio before any run
+  // covariance only: each point's arrivals (its links and the schedule) without the plant
+  std::vector<LossyRunOptions> point_options;
+  for (const auto& l : point_links)
+  {
+    point_options.push_back(su.options);
+    point_options.back().sensor_links = l;
+  }
   // Run r at every point is `simulate --seed S+r` with that point's links (common random numbers
   // across the grid), replayed by every estimator as in the custom experiment. One Monte Carlo call
   // of all the points: per run, the plant once, then each point's links and estimators.
-  WorkerFactory factory = [&model, &settings, &plant_options, &point_links, T, half, nf, np, values, noise_on_loss,
-                           seed]() -> RunFunction {
+  WorkerFactory factory = [&model, &settings, &plant_options, &point_links, &point_options, &su, &gw, T, half, nf,
+                           np, values, noise_on_loss, covariance_only, seed]() -> RunFunction {
     struct Worker
     {
       std::vector<std::unique_ptr<Estimator>> est;
+      std::vector<ArrivalDraws> arrivals;  // per grid point, covariance only
       std::vector<SensorLinkSet> links;  // per grid point
       std::optional<LossyRun> plant;     // restarted for every run: no allocation per run
       std::vector<SimulatedSample> traj;
       std::vector<std::vector<bool>> on;
       std::vector<char> alive;
-      std::vector<double> trP_sum, err_sum;
+      std::vector<double> trP_sum, err_sum, growth;
       std::vector<int> angles;  // the model's: their errors wrapped
       Sample sample;
     };
     auto w = std::make_shared<Worker>();
+    if (covariance_only)
+    {
+      w->est = covarianceOnlyEstimators(model, settings, su.names);
+      for (const LossyRunOptions& o : point_options)
+        w->arrivals.emplace_back(model, o);
+      w->alive.assign(nf, 1);
+      w->trP_sum.assign(nf, 0.0);
+      w->growth.assign(nf, 0.0);
+      return [w, &gw, T, half, nf, np, values, seed](long r, double* out) {
+        std::fill(out, out + values, 0.0);
+        const std::uint64_t rs = seed + static_cast<std::uint64_t>(r);
+        for (std::size_t p = 0; p < np; ++p)
+        {
+          ArrivalDraws& arrivals = w->arrivals[p];
+          arrivals.restart(rs);
+          for (std::size_t j = 0; j < nf; ++j)
+          {
+            w->est[j]->reset();
+            w->alive[j] = 1;
+            w->trP_sum[j] = w->growth[j] = 0.0;
+          }
+          for (long k = 1; k <= T; ++k)
+          {
+            const Sample& sample = arrivals.next();
+            for (std::size_t j = 0; j < nf; ++j)
+            {
+              if (!w->alive[j])
+                continue;
+              try
+              {
+                w->est[j]->step(sample);
+              }
+              catch (const DivergenceError&)
+              {
+                w->alive[j] = 0;
+                continue;
+              }
+              if (k > half)
+              {
+                const double trace = w->est[j]->covariance().trace();
+                w->trP_sum[j] += trace;
+                addGrowth(w->growth[j], gw[static_cast<std::size_t>(k - half - 1)], trace);
+              }
+            }
+          }
+          for (std::size_t j = 0; j < nf; ++j)
+          {
+            double* o = out + kStats * (p * nf + j);
+            if (w->alive[j])
+            {
+              o[0] = w->est[j]->covariance().trace();
+              o[2] = w->trP_sum[j] / static_cast<double>(T - half);
+              o[5] = w->growth[j];
+            }
+            if (!w->alive[j] || !(std::isfinite(o[0]) && std::isfinite(o[2])))
+            {
+              std::fill(o, o + kStats, 0.0);
+              o[4] = 1.0;  // diverged: P left the doubles
+            }
+          }
+        }
+      };
+    }
     for (const EstimatorSettings& s : settings)
       w->est.push_back(makeEstimator(model, s));
     for (const auto& l : point_links)
@@ -338,9 +447,10 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
     w->alive.assign(nf, 1);
     w->trP_sum.assign(nf, 0.0);
     w->err_sum.assign(nf, 0.0);
+    w->growth.assign(nf, 0.0);
     w->angles = model.angles;
     w->sample = w->plant->received();
-    return [w, T, half, nf, np, values, seed](long r, double* out) {
+    return [w, &gw, T, half, nf, np, values, seed](long r, double* out) {
       std::fill(out, out + values, 0.0);
       const std::uint64_t rs = seed + static_cast<std::uint64_t>(r);
       LossyRun& plant = *w->plant;
@@ -366,7 +476,7 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
         {
           w->est[j]->reset();
           w->alive[j] = 1;
-          w->trP_sum[j] = w->err_sum[j] = 0.0;
+          w->trP_sum[j] = w->err_sum[j] = w->growth[j] = 0.0;
         }
         for (long k = 1; k <= T; ++k)
         {
@@ -391,8 +501,10 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
             }
             if (k > half)
             {
-              w->trP_sum[j] += e.covariance().trace();
+              const double trace = e.covariance().trace();
+              w->trP_sum[j] += trace;
               w->err_sum[j] += squaredError(s.x, e.state(), w->angles);
+              addGrowth(w->growth[j], gw[static_cast<std::size_t>(k - half - 1)], trace);
             }
           }
         }
@@ -407,6 +519,7 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
             o[1] = squaredError(last.x, e.state(), w->angles);
             o[2] = w->trP_sum[j] / static_cast<double>(T - half);
             o[3] = w->err_sum[j] / static_cast<double>(T - half);
+            o[5] = w->growth[j];
           }
           if (!w->alive[j] ||
               !(std::isfinite(o[0]) && std::isfinite(o[1]) && std::isfinite(o[2]) && std::isfinite(o[3])))
@@ -419,8 +532,10 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
     };
   };
 
-  const Moments m = runMonteCarlo(rc.runs, values, rc.threads, factory, rc.progress);
+  const CallStatistics stats = callStatistics(rc);
+  const Moments m = runMonteCarlo(rc.runs, values, rc.threads, factory, rc.progress, nullptr, &stats);
   const long floored = std::lround(m.mean[values - 1] * static_cast<double>(m.n));
+  const std::size_t nt = m.thresholds.size();
   for (std::size_t p = 0; p < np; ++p)
     for (std::size_t j = 0; j < nf; ++j)
     {
@@ -433,12 +548,26 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
       {
         c.trP_mean = m.mean[o];
         c.trP_sd = m.sd[o];
-        c.err_mean = m.mean[o + 1];
-        c.err_sd = m.sd[o + 1];
         c.trP_avg_mean = m.mean[o + 2];
         c.trP_avg_sd = m.sd[o + 2];
-        c.err_avg_mean = m.mean[o + 3];
-        c.err_avg_sd = m.sd[o + 3];
+        const QuantileSketch& q = m.sketches.at(o);
+        c.trP_p5 = q.quantile(0.05);
+        c.trP_p25 = q.quantile(0.25);
+        c.trP_median = q.quantile(0.5);
+        c.trP_p75 = q.quantile(0.75);
+        c.trP_p95 = q.quantile(0.95);
+        for (std::size_t t = 0; t < nt; ++t)
+          c.trP_exceed.push_back(m.exceed.at(o * nt + t));
+        c.growth = m.mean[o + 5];
+        c.growth_sd = m.sd[o + 5];
+        if (!covariance_only)  // no plant: no errors
+        {
+          c.err_mean = m.mean[o + 1];
+          c.err_sd = m.sd[o + 1];
+          c.err_avg_mean = m.mean[o + 3];
+          c.err_avg_sd = m.sd[o + 3];
+          c.err_median = m.sketches.at(o + 1).quantile(0.5);
+        }
       }
       sweep->cells.push_back(c);
     }
@@ -466,6 +595,10 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
       "verdicts and the critical curve: the core stability analysis (analyze's verdict and per-sensor margin) at "
       "each point's links",
   };
+  if (covariance_only)
+    res.assumptions.push_back("covariance only: no plant; every estimator runs its covariance recursion on the "
+                              "arrivals of run r at the point (those of `simulate --seed S+r`), so the err columns "
+                              "are empty and no run is floored; diverged = runs where P left the doubles");
   res.notes = {"DIR/sweep.csv has one row per (grid point, estimator); DIR/sweep.json's \"sweep\" has the axes, "
                "the per-point verdicts and the critical curve (docs/formats.md, section 8)"};
   res.sweep = sweep;

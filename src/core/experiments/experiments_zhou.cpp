@@ -85,7 +85,7 @@ void stepFilters(const std::vector<std::unique_ptr<Estimator>>& est, const std::
 /// filter-major, T per filter. Run r: plant seed deriveSeed(rs, 0), channel seed deriveSeed(rs, 1)
 /// with rs = deriveSeed(seed, r).
 Moments squaredErrorRuns(const RunConfig& rc, const Model& model, const ChannelSettings& channel,
-                         const std::vector<ErrorFilter>& filters)
+                         const std::vector<ErrorFilter>& filters, double window0, double window1)
 {
   const long T = rc.steps;
   const std::uint64_t seed = rc.seed;
@@ -123,7 +123,10 @@ Moments squaredErrorRuns(const RunConfig& rc, const Model& model, const ChannelS
       }
     };
   };
-  return runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress);
+  CallStatistics stats = callStatistics(rc);
+  for (std::size_t j = 0; j < nf; ++j)
+    addSpan(stats, j * static_cast<std::size_t>(T), stepAxis(T), window0, window1);
+  return runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress, nullptr, &stats);
 }
 
 std::string stem(const std::string& path)
@@ -169,7 +172,7 @@ ExperimentResult zhouFig1(const RunConfig& rc)
         {settingsOf(Algorithm::RSEIO, 0.8), true},    {settingsOf(Algorithm::RSEIO, 0.8), false},
         {settingsOf(Algorithm::RSEIO, 0.95), true},   {settingsOf(Algorithm::RSEIO, 0.95), false},
     };
-    const Moments m = squaredErrorRuns(rc, model, channel, filters);
+    const Moments m = squaredErrorRuns(rc, model, channel, filters, w0, w1);
     addCase("delta1_mu0.8", "delta = 1, mu = 0.8", m, {0, 1, 2, 3});
     addCase("delta1_mu0.95", "delta = 1, mu = 0.95", m, {0, 1, 4, 5});
   }
@@ -181,7 +184,7 @@ ExperimentResult zhouFig1(const RunConfig& rc)
         {settingsOf(Algorithm::RSEIO, 0.8), true},
         {settingsOf(Algorithm::RSEIO, 0.8), false},
     };
-    const Moments m = squaredErrorRuns(rc, model, channel, filters);
+    const Moments m = squaredErrorRuns(rc, model, channel, filters, w0, w1);
     addCase("delta10_mu0.8", "delta = 10, mu = 0.8", m, {0, 1, 2, 3});
   }
 
@@ -244,7 +247,8 @@ ExperimentResult zhouFig2(const RunConfig& rc)
     };
     SampleSet samples;
     samples.case_name = names[c];
-    const Moments m = runMonteCarlo(rc.runs, 4, rc.threads, factory, rc.progress, &samples.values);
+    const CallStatistics stats = callStatistics(rc);
+    const Moments m = runMonteCarlo(rc.runs, 4, rc.threads, factory, rc.progress, &samples.values, &stats);
     CaseResult cr;
     cr.name = names[c];
     cr.title = "P_0|0 = " + fmt(p0s[c]) + " I";
@@ -326,7 +330,11 @@ ExperimentResult customExperiment(const RunConfig& rc)
       }
     };
   };
-  const Moments m = runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress);
+  CallStatistics stats = callStatistics(rc);
+  for (std::size_t j = 0; j < nf; ++j)
+    addSpan(stats, j * static_cast<std::size_t>(T), stepAxis(T), 1.0, static_cast<double>(T));
+  const Moments m =
+      runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress, nullptr, &stats);
   ExperimentResult res;
   CaseResult c;
   c.name = model.name.empty() ? stem(cfg.model_path) : model.name;
