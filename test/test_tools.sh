@@ -231,6 +231,13 @@ check "montecarlo --actuator-channel on a model without control: exit 2 naming i
   rc_and_grep "$rc" 2 "model 'tracking_2d' has no control" "$WORK/err.txt"
 run_rc rc "$BIN/montecarlo" --experiment zhou_fig1 --channel "$BURSTY" --out "$L/mc4"
 check "--channel is only for the custom experiment: exit 2" rc_and_grep "$rc" 2 "only for --experiment custom" "$WORK/err.txt"
+# the progress counts the runs of every Monte Carlo set (lin_fig3: one per grid point) and says so
+run_rc rc "$BIN/montecarlo" --experiment lin_fig3 --runs 64 --steps 3 --threads 1 --out "$L/mc5"
+check "montecarlo progress of several sets: runs x sets (lin_fig3, 27 grid points)" \
+  rc_and_grep "$rc" 0 "montecarlo: 100% \\(1728/1728 runs = 64 runs x 27 sets\\)" "$WORK/err.txt"
+run_rc rc "$BIN/montecarlo" --experiment custom --model "$TRACK" --settings "$EST/kfio.yaml" --runs 64 --steps 3 \
+  --out "$L/mc6"
+check "montecarlo progress of one set: the runs" rc_and_grep "$rc" 0 "montecarlo: 100% \\(64/64 runs\\)" "$WORK/err.txt"
 
 # --- stability maps: montecarlo --experiment sweep --------------------------------------------
 # The README's command (Stability maps), as written there but for the output directory: a 20 x 20

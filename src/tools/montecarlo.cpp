@@ -30,11 +30,22 @@ std::vector<std::string> splitComma(const std::string& text)
   return out;
 }
 
-/// Progress on stderr: an in-place bar on a terminal, plain lines every 10 % otherwise.
+/// Progress on stderr: an in-place bar on a terminal, plain lines every 10 % otherwise. The counter
+/// counts the runs of every Monte Carlo set of the experiment (a case, a grid point of lin_fig2):
+/// with `runs` per set, a total above it is shown as runs x sets.
 class ProgressPrinter
 {
 public:
-  ProgressPrinter() : tty_(isatty(2) != 0) {}
+  explicit ProgressPrinter(long runs) : tty_(isatty(2) != 0), runs_(runs) {}
+
+  /// "(1000/2000 runs)", or "(1000/2000 runs = 100 runs x 20 sets)" for several sets.
+  std::string count(long done, long total) const
+  {
+    std::string text = "(" + std::to_string(done) + "/" + std::to_string(total) + " runs";
+    if (runs_ > 0 && total > runs_ && total % runs_ == 0)
+      text += " = " + std::to_string(runs_) + " runs x " + std::to_string(total / runs_) + " sets";
+    return text + ")";
+  }
 
   void operator()(long done, long total)
   {
@@ -47,8 +58,8 @@ public:
         return;
       last_ = percent;
       const int width = 30, fill = width * percent / 100;
-      std::fprintf(stderr, "\rmontecarlo: [%s%s] %3d%% (%ld/%ld runs)", std::string(fill, '#').c_str(),
-                   std::string(width - fill, ' ').c_str(), percent, done, total);
+      std::fprintf(stderr, "\rmontecarlo: [%s%s] %3d%% %s", std::string(fill, '#').c_str(),
+                   std::string(width - fill, ' ').c_str(), percent, count(done, total).c_str());
       if (done >= total)
         std::fprintf(stderr, "\n");
       std::fflush(stderr);
@@ -59,13 +70,14 @@ public:
       if (decile <= last_)
         return;
       last_ = decile;
-      std::fprintf(stderr, "montecarlo: %d%% (%ld/%ld runs)\n", percent, done, total);
+      std::fprintf(stderr, "montecarlo: %d%% %s\n", percent, count(done, total).c_str());
       std::fflush(stderr);
     }
   }
 
 private:
   bool tty_;
+  long runs_;
   int last_ = 0;
 };
 
@@ -272,7 +284,9 @@ int main(int argc, char** argv)
     if (cl.has("shard") && !parseShardSpec(cl.get("shard"), shard, shards))
       throw cli::UsageError("option '--shard': expected K/N with integers 1 <= K <= N <= 1000000, found '" +
                             cl.get("shard") + "'");
-    ProgressPrinter printer;
+    long default_runs = 0, default_steps = 0;
+    experimentDefaults(cfg.experiment, default_runs, default_steps);
+    ProgressPrinter printer(cfg.runs > 0 ? cfg.runs : default_runs);
     ProgressCounter progress([&printer](long done, long total) { printer(done, total); });
     if (shards > 0)
     {

@@ -288,7 +288,9 @@ ExperimentResult linFig2(const RunConfig& rc)
     const double pt = 1.0 - 1.0 / (rhos[c] * rhos[c]);
     CaseResult cr;
     cr.name = names[c];
-    cr.title = "rho_A = " + fmt(rhos[c]) + ", p_t = " + fmt(pt) + ", p2 = q1 = q2 = 0.5";
+    char pt_text[32];
+    std::snprintf(pt_text, sizeof pt_text, "%.4f", pt);  // 0.4000, not the 0.40000516 of %.10g
+    cr.title = "rho_A = " + fmt(rhos[c]) + ", p_t = " + pt_text + ", p2 = q1 = q2 = 0.5";
     for (int i = 0; i < points; ++i)
       cr.x.push_back(pt + 0.02 + (1.0 - pt - 0.02) * i / (points - 1));
     SeriesResult oe = sweepSeries("OE tr E[P_" + std::to_string(T) + "]", cr.x);
