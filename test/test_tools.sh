@@ -417,6 +417,10 @@ run_rc rc "$BIN/make_model" "${CV[@]}" --dims 2 --output "$K/missing_dir/cv.yaml
 check "make_model to a folder that does not exist: exit 2" rc_and_grep "$rc" 2 "cannot create output file" "$WORK/err.txt"
 run_rc rc "$BIN/make_model" --help
 check "make_model --help: exit code 0 and usage" rc_and_grep "$rc" 0 "usage: make_model" "$WORK/out.txt"
+# the section of docs/algorithms.md it cites for ekfio is the one headed ekfio
+ekfio_section=$(tr '\n' ' ' <"$WORK/out.txt" | grep -oE 'for ekfio; docs/algorithms.md +[0-9]+' | grep -oE '[0-9]+$' || true)
+check "make_model --help cites the section of algorithms.md on ekfio (found '$ekfio_section')" \
+  grep -qE "^## $ekfio_section\\. .ekfio.:" "$ROOT/docs/algorithms.md"
 
 # --- a robot motion (omni_2d) and ekfio: make_model, simulate, replay, score, analyze -------------
 # A rover driving at 1 m/s and turning at 0.8 rad/s (x0), its odometry and IMU in its own frame, a
