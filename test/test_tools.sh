@@ -50,6 +50,21 @@ for alg in kf kfio rseio; do
   check "replay $alg writes header + 2000 rows" [ "$(lines "$Z/$alg.csv")" = 2001 ]
 done
 check "replay output header" [ "$(head -1 "$Z/kf.csv")" = "k,gamma,x1,x2,P11,P12,P21,P22,trace" ]
+# an algorithm name wherever Python takes one: the same output as its settings file
+run_rc rc "$BIN/replay" --model "$ZHOU" --settings kfio --input "$Z/input.csv" --output "$Z/kfio_by_name.csv"
+check "replay --settings kfio (a name) = the file's output" rc_and_grep "$rc" 0 . "$Z/kfio_by_name.csv"
+check "replay --settings kfio (a name): byte-identical to --settings kfio.yaml" cmp -s "$Z/kfio.csv" "$Z/kfio_by_name.csv"
+run_rc rc "$BIN/analyze" --model "$ZHOU" --channel "$BERNOULLI" --estimator rseio --json
+check "analyze --estimator rseio (a name) exits 0 and analyses rseio" \
+  rc_and_grep "$rc" 0 '"estimator": "rseio"' "$WORK/out.txt"
+run_rc rc "$BIN/montecarlo" --experiment custom --model "$ZHOU" --channel "$BERNOULLI" --settings kfio,rseio \
+  --runs 64 --steps 10 --out "$Z/mc_names"
+"$BIN/montecarlo" --experiment custom --model "$ZHOU" --channel "$BERNOULLI" --settings "$EST/kfio.yaml" \
+  --runs 64 --steps 10 --out "$Z/mc_files" 2>/dev/null
+check "montecarlo --settings kfio,rseio (names): series kfio and rseio" \
+  rc_and_grep "$rc" 0 '^zhou_example,rseio,10,' "$Z/mc_names/custom.csv"
+check "montecarlo --settings kfio (a name) = its file's series" \
+  cmp -s <(grep ',kfio,' "$Z/mc_names/custom.csv") <(grep ',kfio,' "$Z/mc_files/custom.csv")
 
 run_rc rc "$BIN/score" --truth "$Z/truth.csv" --estimate kf="$Z/kf.csv" --estimate kfio="$Z/kfio.csv" \
   --estimate rseio="$Z/rseio.csv"

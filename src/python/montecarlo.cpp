@@ -3,12 +3,17 @@
 #include <pybind11/stl.h>
 
 #include <cmath>
+#include <algorithm>
 #include <exception>
+#include <sstream>
 #include <limits>
 #include <functional>
 
 #include "bindings.hpp"
 #include "networked_estimation/common/error.hpp"
+#include "networked_estimation/config/channel_settings.hpp"
+#include "networked_estimation/config/estimator_settings.hpp"
+#include "networked_estimation/config/model_writer.hpp"
 #include "networked_estimation/experiments/montecarlo.hpp"
 #include "networked_estimation/experiments/montecarlo_shards.hpp"
 #include "networked_estimation/experiments/sweep.hpp"
@@ -20,30 +25,67 @@ namespace python
 namespace
 {
 
-std::vector<std::string> pathList(py::handle o, const std::string& what)
+/// A settings entry: an algorithm name or a settings file (as the tool's --settings), or a dict of
+/// settings keys given as text (its label: the dict's "name", else its algorithm, made distinct).
+void addSettings(py::handle o, MonteCarloConfig& cfg)
 {
-  std::vector<std::string> out;
   std::string one;
-  if (o.is_none())
-    return out;
   if (asPath(o, one))
-    return {one};
-  if (!py::isinstance<py::list>(o) && !py::isinstance<py::tuple>(o))
-    throw py::type_error(what + ": expected a file path or a list of them, found " +
-                         std::string(Py_TYPE(o.ptr())->tp_name) +
-                         " (the shards check the files' contents: write a Link with its to_yaml() to a file)");
-  for (const auto& item : o)
   {
-    if (!asPath(item, one))
-      throw py::type_error(what + ": expected a file path or a list of them");
-    out.push_back(one);
+    cfg.settings_paths.push_back(one);
+    return;
   }
-  return out;
+  if (!py::isinstance<py::dict>(o))
+    throw py::type_error("montecarlo(): settings: expected an algorithm name, a settings file, a dict of settings "
+                         "or a list of them, found " + std::string(Py_TYPE(o.ptr())->tp_name));
+  py::dict d = py::reinterpret_borrow<py::dict>(o).attr("copy")();
+  std::string label;
+  if (d.contains("name"))
+  {
+    label = py::str(d["name"]).cast<std::string>();
+    PyDict_DelItemString(d.ptr(), "name");
+  }
+  const YAML::Node node = toYaml(d, "montecarlo(): settings");
+  parseEstimatorSettings(node, "montecarlo(): settings");  // its own errors, naming the key
+  if (label.empty())
+  {
+    label = node["algorithm"] ? node["algorithm"].as<std::string>() : "kfio";
+    const std::string base = label;
+    for (int i = 2; cfg.inline_inputs.count(label) ||
+                    std::find(cfg.settings_paths.begin(), cfg.settings_paths.end(), label) != cfg.settings_paths.end();
+         ++i)
+      label = base + "_" + std::to_string(i);
+  }
+  YAML::Emitter e;
+  e << node;
+  cfg.inline_inputs[label] = std::string(e.c_str()) + "\n";
+  cfg.settings_paths.push_back(label);
 }
 
-/// channels=: a file (every sensor), {sensor: file, '*': file} or a list of the tool's --channel
-/// arguments ("FILE", "NAME=FILE").
-std::vector<std::string> channelArgs(py::handle o)
+/// A channel argument's FILE: a file path, or a Link given as text (labelled "<Link K: ...>").
+std::string channelFile(py::handle o, MonteCarloConfig& cfg, const std::string& what)
+{
+  std::string path;
+  if (asPath(o, path))
+    return path;
+  const ChannelSettings link = linkOf(o, what);
+  YAML::Emitter e;
+  e << toYaml(link);
+  const std::string text = std::string(e.c_str()) + "\n";
+  for (const auto& kv : cfg.inline_inputs)
+    if (kv.second == text && kv.first.compare(0, 6, "<Link ") == 0)
+      return kv.first;  // the same link twice: one text
+  int links = 0;
+  for (const auto& kv : cfg.inline_inputs)
+    links += kv.first.compare(0, 6, "<Link ") == 0 ? 1 : 0;
+  const std::string label = "<Link " + std::to_string(links + 1) + ": " + describeLink(link) + ">";
+  cfg.inline_inputs[label] = text;
+  return label;
+}
+
+/// channels=: a file or a Link (every sensor), {sensor: file or Link, '*': file or Link} or a list of the
+/// tool's --channel arguments ("FILE", "NAME=FILE").
+std::vector<std::string> channelArgs(py::handle o, MonteCarloConfig& cfg)
 {
   std::vector<std::string> out;
   if (o.is_none())
@@ -52,16 +94,26 @@ std::vector<std::string> channelArgs(py::handle o)
   {
     for (const auto& item : py::reinterpret_borrow<py::dict>(o))
     {
-      std::string path;
       const std::string key = item.first.is_none() ? "*" : py::str(item.first).cast<std::string>();
-      if (!asPath(item.second, path))
-        throw py::type_error("montecarlo(): channels['" + key +
-                             "']: expected a channel file (the shards check the files' contents)");
-      out.push_back(key == "*" ? path : key + "=" + path);
+      const std::string file = channelFile(item.second, cfg, "montecarlo(): channels['" + key + "']");
+      out.push_back(key == "*" ? file : key + "=" + file);
     }
     return out;
   }
-  return pathList(o, "montecarlo(): channels");
+  if (py::isinstance<py::list>(o) || py::isinstance<py::tuple>(o))
+  {
+    for (const auto& item : o)
+    {
+      std::string arg;
+      if (!asPath(item, arg))
+        throw py::type_error("montecarlo(): channels: a list holds the tool's --channel arguments (\"FILE\", "
+                             "\"NAME=FILE\"); give Link objects as {sensor: Link} or one Link for every sensor");
+      out.push_back(arg);
+    }
+    return out;
+  }
+  out.push_back(channelFile(o, cfg, "montecarlo(): channels"));
+  return out;
 }
 
 /// A Python progress callback called from the worker threads (with the GIL); its first exception
@@ -142,15 +194,26 @@ MonteCarloConfig config(const std::string& experiment, long runs, long steps, st
   if (!custom)
     return cfg;
   if (model.is_none() || settings.is_none())
-    throw py::value_error("montecarlo(): experiment " + experiment + " needs model= and settings= (files)");
+    throw py::value_error("montecarlo(): experiment " + experiment + " needs model= and settings=");
+  // Objects go in as their canonical text, which the shards hash and carry (MonteCarloConfig::inline_inputs).
   if (!asPath(model, cfg.model_path))
-    throw py::type_error("montecarlo(): model: expected a model file (the shards check the files' contents)");
-  cfg.channel_args = channelArgs(channels);
+  {
+    const std::shared_ptr<Model> m = modelOf(model, "montecarlo(): model");
+    std::ostringstream os;
+    writeModelYaml(os, *m, "montecarlo() model");
+    cfg.model_path = "<Model '" + m->name + "'>";
+    cfg.inline_inputs[cfg.model_path] = os.str();
+  }
+  cfg.channel_args = channelArgs(channels, cfg);
   if (!actuator_channel.is_none() && !asPath(actuator_channel, cfg.actuator_channel_path))
     throw py::type_error("montecarlo(): actuator_channel: expected a channel file");
-  cfg.settings_paths = pathList(settings, "montecarlo(): settings");
+  if (py::isinstance<py::list>(settings) || py::isinstance<py::tuple>(settings))
+    for (const auto& item : settings)
+      addSettings(item, cfg);
+  else
+    addSettings(settings, cfg);
   if (cfg.settings_paths.empty())
-    throw py::value_error("montecarlo(): settings: expected one or more estimator settings files");
+    throw py::value_error("montecarlo(): settings: expected one or more estimators");
   if (sweep)
   {
     if (axes.is_none())
@@ -465,8 +528,10 @@ them all.)doc")
       py::arg("shard") = py::none(), py::arg("covariance_only") = false, py::arg("thresholds") = py::none(),
       "Runs a Monte Carlo experiment (experiment_names()) exactly as the montecarlo tool with the same "
       "arguments: runs, steps (0: the experiment's default), seed, threads (0: all cores); custom, covariance "
-      "and sweep take model (a file), channels (a file, {sensor: file} or the tool's --channel arguments), "
-      "actuator_channel and settings (files), sweep also axes ['SENSOR.PARAM=LO:HI:N']. covariance_only=True "
+      "and sweep take model (a Model or a file), channels (a Link or file, {sensor: Link or file} or the tool's "
+      "--channel arguments), actuator_channel (a file) and settings (an algorithm name, a settings file, a dict "
+      "of settings with an optional 'name', or a list of them; objects go in as their text, which shards hash "
+      "and carry), sweep also axes ['SENSOR.PARAM=LO:HI:N']. covariance_only=True "
       "(custom, sweep; the experiment covariance always) runs the estimators' covariance recursion on the links' "
       "arrivals alone, without the plant (the tool's --covariance-only). thresholds=[M, ...] adds the tail "
       "probabilities P(value > M) (the tool's --threshold). progress(done, total) is called as blocks finish. "

@@ -197,7 +197,9 @@ int main(int argc, char** argv)
            false, true},
           {"actuator-channel", "FILE", "custom, covariance, sweep: controller-to-actuator channel settings (default: lossless)",
            false, false},
-          {"settings", "S1,S2,...", "custom, covariance, sweep: estimator settings files, comma-separated", false, false},
+          {"settings", "S1,S2,...",
+           "custom, covariance, sweep: estimator settings files or algorithm names (kfio, rseio, ...), comma-separated",
+           false, false},
           {"axis", "SENSOR.PARAM=LO:HI:N",
            "sweep: a grid axis, N values from LO to HI (PARAM: arrival_rate or recovery_rate, values in [0, 1]); "
            "once or twice",

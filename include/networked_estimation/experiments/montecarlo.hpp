@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -301,6 +302,10 @@ struct MonteCarloConfig
   std::vector<std::string> settings_paths;
   /// sweep only: the --axis options, SENSOR.PARAM=LO:HI:N (sweep.hpp).
   std::vector<std::string> axis_args;
+  /// Inputs given as text rather than as files (Python's Model, Link and settings objects): the
+  /// model path, a --channel FILE or a settings entry that is a key here is read from its text (a
+  /// model or channel file's YAML, or estimator settings), and the shards hash and carry the text.
+  std::map<std::string, std::string> inline_inputs;
   /// custom and sweep: --covariance-only, the estimators' random Riccati recursion driven by the
   /// links' arrivals alone (no plant: any horizon, no rounding floor); only for the estimators whose
   /// P does not depend on the data (Estimator::setCovarianceOnly).

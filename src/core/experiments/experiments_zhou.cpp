@@ -1,5 +1,8 @@
 // Experiments zhou_fig1, zhou_fig2 (Zhou's example, Section IV of the paper) and custom.
+#include <map>
 #include <memory>
+
+#include <yaml-cpp/yaml.h>
 
 #include "experiments/montecarlo_experiments.hpp"
 #include "networked_estimation/common/angles.hpp"
@@ -270,13 +273,37 @@ ExperimentResult zhouFig2(const RunConfig& rc)
   return res;
 }
 
+namespace
+{
+
+/// The YAML of an input given as text (MonteCarloConfig::inline_inputs), its errors naming `label`.
+YAML::Node inlineYaml(const std::string& label, const std::string& text)
+{
+  try
+  {
+    return YAML::Load(text);
+  }
+  catch (const YAML::Exception& e)
+  {
+    throw ConfigError(label + ": not valid YAML: " + e.what());
+  }
+}
+
+}  // namespace
+
 CustomSetup loadCustomSetup(const MonteCarloConfig& cfg, const std::string& experiment)
 {
   if (cfg.model_path.empty() || cfg.settings_paths.empty())
     throw ConfigError("experiment " + experiment + ": needs a model and at least one settings file");
+  const std::map<std::string, std::string>& text = cfg.inline_inputs;
   CustomSetup su;
-  su.model = loadModel(cfg.model_path);
-  su.links = resolveSensorLinks(su.model, cfg.channel_args);
+  const auto model_text = text.find(cfg.model_path);
+  su.model = model_text != text.end() ? parseModel(inlineYaml(cfg.model_path, model_text->second), cfg.model_path)
+                                      : loadModel(cfg.model_path);
+  su.links = resolveSensorLinks(su.model, cfg.channel_args, [&text](const std::string& file) {
+    const auto it = text.find(file);
+    return it != text.end() ? parseChannelSettings(inlineYaml(file, it->second), file) : loadChannelSettings(file);
+  });
   su.options.sensor_links = su.links.link;
   if (su.model.hasControl())
     su.options.control = ControlSequence::parse("paper", "control");  // simulate's default sequence
@@ -288,10 +315,19 @@ CustomSetup loadCustomSetup(const MonteCarloConfig& cfg, const std::string& expe
   }
   for (const std::string& p : cfg.settings_paths)
   {
-    su.settings.push_back(loadEstimatorSettings(p));
+    // settings given as text, an algorithm name (named after itself), or a file (named after its stem)
+    const auto it = text.find(p);
+    su.settings.push_back(it != text.end() ? parseEstimatorSettings(inlineYaml(p, it->second), p)
+                                           : estimatorSettingsArgument(p));
     makeEstimator(su.model, su.settings.back());  // validates the combination before any run
-    su.names.push_back(stem(p));
+    su.names.push_back(it != text.end() || isAlgorithmName(p) ? p : stem(p));
   }
+  for (std::size_t j = 0; j < su.names.size(); ++j)
+    for (std::size_t i = 0; i < j; ++i)
+      if (su.names[i] == su.names[j])
+        throw ConfigError("experiment " + experiment + ": two estimators named '" + su.names[j] + "' (settings '" +
+                          cfg.settings_paths[i] + "' and '" + cfg.settings_paths[j] +
+                          "'): the series need distinct names");
   return su;
 }
 

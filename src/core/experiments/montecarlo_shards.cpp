@@ -14,6 +14,7 @@
 #include <set>
 
 #include "networked_estimation/common/error.hpp"
+#include "networked_estimation/config/estimator_settings.hpp"
 
 namespace networked_estimation
 {
@@ -140,8 +141,19 @@ std::vector<ShardInput> hashInputs(const MonteCarloConfig& config)
   std::vector<ShardInput> v;
   if (!takesCustomInputs(config.experiment))
     return v;
-  auto add = [&v](const std::string& option, const std::string& path) {
-    if (!path.empty())
+  // an input given as text (a Python object) hashes its text, an algorithm name the text it stands for
+  auto add = [&v, &config](const std::string& option, const std::string& path) {
+    if (path.empty())
+      return;
+    const auto it = config.inline_inputs.find(path);
+    if (it != config.inline_inputs.end())
+      v.push_back({option, path, hex64(fnv1a(kFnvBasis, it->second.data(), it->second.size()))});
+    else if (option == "--settings" && isAlgorithmName(path))
+    {
+      const std::string text = "algorithm: " + path + "\n";
+      v.push_back({option, path, hex64(fnv1a(kFnvBasis, text.data(), text.size()))});
+    }
+    else
       v.push_back({option, path, hashFile(option, path)});
   };
   add("--model", config.model_path);

@@ -216,6 +216,13 @@ std::string shardJson(const ShardFile& s)
     w.br(2).member("axes", c.axis_args);
   if (c.covariance_only)
     w.br(2).member("covariance_only", true);
+  if (!c.inline_inputs.empty())
+  {
+    w.br(2).key("inline_inputs").beginObject();
+    for (const auto& kv : c.inline_inputs)
+      w.br(4).member(kv.first, kv.second);
+    w.br(2).endObject();
+  }
   if (!c.thresholds.empty())
   {
     w.br(2).key("thresholds").beginArray();
@@ -262,7 +269,7 @@ ShardFile parseShard(const std::string& text, const std::string& path)
                      ", this montecarlo reads version " + std::to_string(kVersion));
   top.keys({"format", "version", "experiment", "runs", "steps", "seed", "shard", "shards", "block_runs", "model",
             "channel", "actuator_channel", "settings", "inputs", "fingerprint", "threads", "wall_seconds", "calls"},
-           {"axes", "covariance_only", "thresholds"});
+           {"axes", "covariance_only", "thresholds", "inline_inputs"});
   c.experiment = top["experiment"].string();
   c.runs = top["runs"].integer(1, 100000000);
   c.steps = top["steps"].integer(1, 100000000);
@@ -280,6 +287,14 @@ ShardFile parseShard(const std::string& text, const std::string& path)
     c.covariance_only = top["covariance_only"].boolean();
   if (top.json().count("thresholds"))
     c.thresholds = top["thresholds"].numbers();
+  if (top.json().count("inline_inputs"))
+  {
+    const JsonField f = top["inline_inputs"];
+    if (!f.json().is_object())
+      f.fail("expected an object of texts");
+    for (auto it = f.json().begin(); it != f.json().end(); ++it)
+      c.inline_inputs[it.key()] = f[it.key()].string();
+  }
   s.inputs = readInputs(top["inputs"]);
   s.fingerprint = top["fingerprint"].string();
   s.threads = static_cast<int>(top["threads"].integer(1, 1000000));
