@@ -301,15 +301,19 @@ sweep_refused() {  # NAME PATTERN AXIS/OPTION ARGS...
 }
 sweep_refused "unknown sensor" "error: --axis 'gps.arrival_rate=0:1:3': no sensor 'gps' in model 'unstable_two_links' \(sensors: gnss, camera\)" \
   --axis gps.arrival_rate=0:1:3
-sweep_refused "unknown parameter" "error: --axis 'gnss.loss=0:1:3': unknown parameter 'loss' \(valid: arrival_rate, recovery_rate\)" \
-  --axis gnss.loss=0:1:3
+sweep_refused "unknown parameter" "error: --axis 'gnss.latency=0:1:3': unknown parameter 'latency' \(valid: a sensor's arrival_rate, recovery_rate, loss, p, r, loss_good, loss_bad; an estimator's mu, recovery, failure; the model's model.A\[i\]\[j\], C\[i\]\[j\], Q\* or R\*\)" \
+  --axis gnss.latency=0:1:3
+sweep_refused "mu of kfio" "error: --axis 'kfio.mu=0.5:1:3': mu is rseio's; estimator 'kfio' is kfio" --axis kfio.mu=0.5:1:3
+sweep_refused "an entry outside A" "error: --axis 'model.A\[1\]\[0\]=0:1:3': model 'unstable_two_links': A is 1 x 1" \
+  --axis 'model.A[1][0]=0:1:3'
+sweep_refused "a factor 0" "error: --axis 'model.R\*=0:1:3': model.R\* \(a factor\) must be > 0" --axis 'model.R*=0:1:3'
 sweep_refused "schedule period" "error: --axis 'schedule.period=1:4:4': the schedule is not swept" --axis schedule.period=1:4:4
 sweep_refused "N < 1" "error: --axis 'gnss.arrival_rate=0:1:0': N '0' is not an integer in \[1, 10000\]" \
   --axis gnss.arrival_rate=0:1:0
 sweep_refused "LO > HI" "error: --axis 'gnss.arrival_rate=0.8:0.2:3': LO 0.8 is above HI 0.2" --axis gnss.arrival_rate=0.8:0.2:3
 sweep_refused "a rate above 1" "error: --axis 'gnss.arrival_rate=0:1.2:3': arrival_rate must lie in \[0, 1\]" \
   --axis gnss.arrival_rate=0:1.2:3
-sweep_refused "bad form" "error: --axis 'gnss.arrival_rate=0:1': expected SENSOR.PARAM=LO:HI:N" --axis gnss.arrival_rate=0:1
+sweep_refused "bad form" "error: --axis 'gnss.arrival_rate=0:1': expected NAME=LO:HI:N" --axis gnss.arrival_rate=0:1
 sweep_refused "recovery_rate on an i.i.d. link" \
   "error: --axis 'camera.recovery_rate=0:1:3': recovery_rate needs a gilbert_elliott link on sensor 'camera'" \
   --axis camera.recovery_rate=0:1:3 --channel camera="$BERNOULLI"
@@ -326,6 +330,24 @@ run_rc rc "$BIN/montecarlo" --experiment sweep --model "$UNSTABLE2" --settings "
   --channel camera="$BURSTY" --axis camera.recovery_rate=0:1:3 --out "$M2/ge"
 check "sweep of a gilbert_elliott recovery rate: exit 0, 3 points" \
   [ "$rc" = 0 -a "$(lines "$M2/ge/sweep.csv" 2>/dev/null)" = 4 ]
+# any parameter: the model's a against the gnss arrival rate (camera never arrives), and rseio's mu;
+# the critical curve along model.A[0][0] is Sinopoli's 1 - 1/a^2 (a = 1.25: 0.36, a = 2: 0.75)
+NEVER=$WORK/never.yaml
+printf 'model: bernoulli\nloss: 1.0\n' >"$NEVER"
+run_rc rc "$BIN/montecarlo" --experiment sweep --model "$UNSTABLE2" --settings kfio,rseio --runs 10 --steps 5 \
+  --channel camera="$NEVER" --axis 'model.A[0][0]=1.25:2:2' --axis gnss.arrival_rate=0:1:5 --out "$M2/anyaxis"
+check "sweep over model.A[0][0] x gnss.arrival_rate: exit 0, 10 points x 2 estimators" \
+  [ "$rc" = 0 -a "$(lines "$M2/anyaxis/sweep.csv" 2>/dev/null)" = 21 ]
+check "sweep over model.A[0][0]: the critical curve is 1 - 1/a^2" python3 - "$M2/anyaxis/sweep.json" <<'PY'
+import json, sys
+c = json.load(open(sys.argv[1]))["sweep"]["critical"]
+assert c["along"] == "model.A[0][0]" and c["axis"] == "gnss.arrival_rate", c
+got = [(p["at"], p["converges_at"]) for p in c["curve"]]
+assert len(got) == 2 and all(abs(lam - (1 - 1 / a ** 2)) < 1e-6 for a, lam in got), got
+PY
+run_rc rc "$BIN/montecarlo" --experiment sweep --model "$UNSTABLE2" --settings rseio --runs 10 --steps 5 \
+  --axis 'rseio.mu=0.5:1:3' --out "$M2/mu"
+check "sweep over rseio.mu: exit 0, 3 points" [ "$rc" = 0 -a "$(lines "$M2/mu/sweep.csv" 2>/dev/null)" = 4 ]
 
 # --- make_model: a kinematic model that the other tools accept ---------------------------------
 K=$WORK/kinematic

@@ -2,8 +2,8 @@
 // (docs/python.md); each run without the GIL, a Python progress callback called as blocks finish.
 #include <pybind11/stl.h>
 
-#include <cmath>
 #include <algorithm>
+#include <cmath>
 #include <exception>
 #include <sstream>
 #include <limits>
@@ -78,7 +78,11 @@ std::string channelFile(py::handle o, MonteCarloConfig& cfg, const std::string& 
   int links = 0;
   for (const auto& kv : cfg.inline_inputs)
     links += kv.first.compare(0, 6, "<Link ") == 0 ? 1 : 0;
-  const std::string label = "<Link " + std::to_string(links + 1) + ": " + describeLink(link) + ">";
+  // No '=' in the label: the core splits a --channel argument NAME=FILE at its first '=', and one Link
+  // for every sensor has no NAME.
+  std::string described = describeLink(link);
+  std::replace(described.begin(), described.end(), '=', ' ');
+  const std::string label = "<Link " + std::to_string(links + 1) + ": " + described + ">";
   cfg.inline_inputs[label] = text;
   return label;
 }
@@ -217,7 +221,7 @@ MonteCarloConfig config(const std::string& experiment, long runs, long steps, st
   if (sweep)
   {
     if (axes.is_none())
-      throw py::value_error("montecarlo(): experiment sweep needs axes=['SENSOR.PARAM=LO:HI:N', ...] (one or two)");
+      throw py::value_error("montecarlo(): experiment sweep needs axes=['NAME=LO:HI:N', ...] (one or two)");
     if (py::isinstance<py::str>(axes))
       cfg.axis_args = {axes.cast<std::string>()};
     else
@@ -531,7 +535,7 @@ them all.)doc")
       "and sweep take model (a Model or a file), channels (a Link or file, {sensor: Link or file} or the tool's "
       "--channel arguments), actuator_channel (a file) and settings (an algorithm name, a settings file, a dict "
       "of settings with an optional 'name', or a list of them; objects go in as their text, which shards hash "
-      "and carry), sweep also axes ['SENSOR.PARAM=LO:HI:N']. covariance_only=True "
+      "and carry), sweep also axes ['NAME=LO:HI:N'] (a link's, an estimator's or the model's parameter). covariance_only=True "
       "(custom, sweep; the experiment covariance always) runs the estimators' covariance recursion on the links' "
       "arrivals alone, without the plant (the tool's --covariance-only). thresholds=[M, ...] adds the tail "
       "probabilities P(value > M) (the tool's --threshold). progress(done, total) is called as blocks finish. "

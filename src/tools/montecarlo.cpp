@@ -166,8 +166,11 @@ int main(int argc, char** argv)
           "`montecarlo merge DIR... [--out DIR]` then writes the same DIR/NAME.csv and .json as one unsharded\n"
           "run (see montecarlo merge --help).\n"
           "Stability maps: --experiment sweep takes custom's --model, --settings and --channel options and one or\n"
-          "two --axis SENSOR.PARAM=LO:HI:N (PARAM arrival_rate: that sensor's link becomes i.i.d. with this arrival\n"
-          "rate; recovery_rate: its gilbert_elliott --channel link gets r = value), runs --runs runs of --steps\n"
+          "two --axis NAME=LO:HI:N (NAME SENSOR.arrival_rate: that sensor's link becomes i.i.d. with this arrival\n"
+          "rate; SENSOR.loss: its bernoulli link's loss; SENSOR.recovery_rate (or .r), .p, .loss_good, .loss_bad:\n"
+          "that key of its gilbert_elliott --channel link; ESTIMATOR.mu (rseio), ESTIMATOR.recovery, .failure\n"
+          "(aoe/oe control_link): that key of the estimator's settings; model.A[i][j], model.C[i][j]: that entry\n"
+          "of the model (0-based); model.Q*, model.R*: a factor on Q, on every R), runs --runs runs of --steps\n"
           "steps at each of the N1 x N2 grid points and writes DIR/sweep.csv, one row per (point, estimator): mean\n"
           "and sd of tr P and of |x - xhat|^2 at the last step and averaged over the last half, the runs where the\n"
           "estimator diverged or the plant crossed the rounding floor (then no mean: a sweep never stops on\n"
@@ -200,9 +203,10 @@ int main(int argc, char** argv)
           {"settings", "S1,S2,...",
            "custom, covariance, sweep: estimator settings files or algorithm names (kfio, rseio, ...), comma-separated",
            false, false},
-          {"axis", "SENSOR.PARAM=LO:HI:N",
-           "sweep: a grid axis, N values from LO to HI (PARAM: arrival_rate or recovery_rate, values in [0, 1]); "
-           "once or twice",
+          {"axis", "NAME=LO:HI:N",
+           "sweep: a grid axis, N values from LO to HI (NAME: SENSOR.arrival_rate, .loss, .recovery_rate, .r, .p, "
+           ".loss_good, .loss_bad; ESTIMATOR.mu, .recovery, .failure; model.A[i][j], model.C[i][j], model.Q*, "
+           "model.R*); once or twice",
            false, true},
           {"threshold", "M",
            "also report P(value > M), the fraction of runs above M, of every value (a column P_gt_M; sweep: of tr "
@@ -255,7 +259,7 @@ int main(int argc, char** argv)
       throw cli::UsageError(e.what());
     }
     if (sweep && !cl.has("axis"))
-      throw cli::UsageError("experiment sweep needs --axis SENSOR.PARAM=LO:HI:N (once or twice)");
+      throw cli::UsageError("experiment sweep needs --axis NAME=LO:HI:N (once or twice)");
     if (!sweep && cl.has("axis"))
       throw cli::UsageError("option '--axis' is only for --experiment sweep");
     if (sweep)

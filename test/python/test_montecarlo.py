@@ -183,3 +183,29 @@ def test_sweep_equals_the_tool_and_its_arrays_are_the_csv(tmp_path):
         for key in ("trP_median", "trP_p95", "growth"):
             assert float(row[col[key]]) == pytest.approx(cells[key][point], rel=1e-9)
     assert ne.montecarlo("zhou_fig1", runs=64, steps=5).sweep is None
+
+
+def test_sweep_over_any_parameter_with_objects(tmp_path):
+    # a Model, a Link and a named settings dict swept over the model's a and the estimator's mu: the
+    # numbers of the tool on the files they stand for, and shards of it merge to the whole
+    model = ne.Model.from_yaml(MODELS / "zhou_example.yaml")
+    objects = dict(model=model, channels=ne.Bernoulli(0.2, seed=1),
+                   settings=["kfio", {"algorithm": "rseio", "mu": 0.8, "name": "robust"}],
+                   axes=["model.A[0][0]=0.9:1.1:3", "robust.mu=0.5:1:2"])
+    (tmp_path / "robust.yaml").write_text("algorithm: rseio\nmu: 0.8\n")
+    tool("montecarlo", "--experiment", "sweep", "--model", MODELS / "zhou_example.yaml",
+         "--channel", CHANNELS / "bernoulli_0.2.yaml", "--settings", f"kfio,{tmp_path / 'robust.yaml'}",
+         "--axis", objects["axes"][0], "--axis", objects["axes"][1], "--runs", 70, "--steps", 20,
+         "--out", tmp_path / "tool")
+    r = ne.montecarlo("sweep", runs=70, steps=20, **objects)
+    assert r.csv() == (tmp_path / "tool" / "sweep.csv").read_text()
+    sw = r.sweep
+    assert sw["axes"] == ["model.A[0][0]", "robust.mu"] and sw["values"].shape == (6, 2)
+    # mu matters for rseio on this uncertain plant, not for kfio
+    kfio, robust = sw["estimators"]["kfio"]["trP_mean"], sw["estimators"]["robust"]["trP_mean"]
+    assert kfio[0] == kfio[1] and robust[0] != robust[1]
+    shards = [pickle.loads(pickle.dumps(ne.montecarlo("sweep", runs=130, steps=20, shard=(k, 2), **objects)))
+              for k in (1, 2)]
+    assert ne.merge(shards).csv() == ne.montecarlo("sweep", runs=130, steps=20, **objects).csv()
+    with pytest.raises(ValueError, match=r"--axis 'kfio.mu=0.5:1:2': mu is rseio's; estimator 'kfio' is kfio"):
+        ne.montecarlo("sweep", runs=2, steps=2, **dict(objects, axes=["kfio.mu=0.5:1:2"]))
