@@ -1,0 +1,72 @@
+# The build without ROS (CMakeLists.txt includes this when catkin is absent or NE_WITH_ROS is OFF):
+# the ROS-free core, the command-line tools and the Python module networked_estimation._core, with
+# plain CMake and the packages Eigen, yaml-cpp, nlohmann-json and pybind11 only (scripts/install_deps.sh
+# --core). No nodelets, messages, launch files or graph tests, nor the core's parts that only the
+# nodelets use (online/, geodesy/: GeographicLib is not needed).
+#
+#   cmake -S . -B build -DNE_WITH_ROS=OFF && cmake --build build -j2
+#     build/bin/            simulate, replay, score, montecarlo, analyze, make_model
+#     build/python/         the package networked_estimation (PYTHONPATH=build/python)
+#   pip install --no-build-isolation .    (setup.py runs this build for the module alone)
+#
+# NE_BUILD_TOOLS=OFF builds the core and the Python module only (what setup.py builds).
+option(NE_BUILD_TOOLS "Build without ROS: also the command-line tools" ON)
+if(NE_BUILD_TOOLS)
+  message(STATUS "networked_estimation: the build without ROS (NE_WITH_ROS=OFF): the core, the tools, the Python module")
+else()
+  message(STATUS "networked_estimation: the build without ROS (NE_WITH_ROS=OFF): the core and the Python module")
+endif()
+
+find_package(Eigen3 REQUIRED)
+find_package(yaml-cpp REQUIRED)
+find_package(Threads REQUIRED)
+find_package(nlohmann_json 3.7.3 REQUIRED)
+find_package(Python3 COMPONENTS Interpreter Development REQUIRED)
+find_package(pybind11 CONFIG REQUIRED)
+
+set(CMAKE_RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bin)
+set(CMAKE_LIBRARY_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/lib)
+set(CMAKE_ARCHIVE_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/lib)
+# The core is a static library here: the tools and the module carry it, nothing to find at run time.
+# Without the parts only the nodelets use: online/ (the Estimator nodelet's sample assembly and
+# settings) and geodesy/ (NavSatFix to ENU). Nothing else in the core, the tools or the module
+# includes them; leaving them out saves about a fifth of the compile time.
+set(_ne_core_sources ${NE_CORE_SOURCES})
+list(FILTER _ne_core_sources EXCLUDE REGEX "^src/core/(online|geodesy)/")
+add_library(${PROJECT_NAME}_core STATIC ${_ne_core_sources})
+target_sources(${PROJECT_NAME}_core PRIVATE src/core/common/eigenvalues.cpp)
+set_target_properties(${PROJECT_NAME}_core PROPERTIES POSITION_INDEPENDENT_CODE ON)
+target_include_directories(${PROJECT_NAME}_core PUBLIC include ${EIGEN3_INCLUDE_DIRS} PRIVATE src/core)
+target_link_libraries(${PROJECT_NAME}_core PUBLIC ${YAML_CPP_LIBRARIES} Threads::Threads
+  PRIVATE nlohmann_json::nlohmann_json)
+
+# The Python package in build/python: the module next to a copy of the package's Python files.
+set(_ne_python_dir ${CMAKE_BINARY_DIR}/python/networked_estimation)
+configure_file(src/networked_estimation/__init__.py ${_ne_python_dir}/__init__.py COPYONLY)
+add_library(${PROJECT_NAME}_python MODULE
+  src/python/analysis.cpp
+  src/python/estimators.cpp
+  src/python/module.cpp
+  src/python/montecarlo.cpp
+)
+set_target_properties(${PROJECT_NAME}_python PROPERTIES OUTPUT_NAME _core PREFIX "" SUFFIX ".so"
+  CXX_VISIBILITY_PRESET hidden LIBRARY_OUTPUT_DIRECTORY ${_ne_python_dir})
+target_include_directories(${PROJECT_NAME}_python PRIVATE src/core)
+target_link_libraries(${PROJECT_NAME}_python PRIVATE pybind11::module ${PROJECT_NAME}_core)
+
+if(NE_BUILD_TOOLS)
+  foreach(tool simulate replay score montecarlo analyze make_model)
+    add_executable(${tool} src/tools/${tool}.cpp)
+    target_link_libraries(${tool} ${PROJECT_NAME}_core)
+  endforeach()
+  install(TARGETS simulate replay score montecarlo analyze make_model RUNTIME DESTINATION bin)
+  install(PROGRAMS scripts/plot_montecarlo.py DESTINATION bin)
+endif()
+
+# The same unity batches as the catkin build (CMakeLists.txt, docs/architecture.md "Build time").
+if(NOT CMAKE_VERSION VERSION_LESS 3.16)
+  set_target_properties(${PROJECT_NAME}_core PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE 10)
+  set_source_files_properties(src/core/estimators/rseio.cpp src/core/estimators/aoe.cpp src/core/estimators/kalman.cpp
+    PROPERTIES SKIP_UNITY_BUILD_INCLUSION ON)
+  set_target_properties(${PROJECT_NAME}_python PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE 6)
+endif()
