@@ -30,6 +30,7 @@ set(NE_CORE_SOURCES
   # experiments/: Monte Carlo engine and the papers' experiments
   src/core/experiments/experiments_covariance.cpp
   src/core/experiments/experiments_lin.cpp
+  src/core/experiments/experiments_sinopoli.cpp
   src/core/experiments/experiments_sweep.cpp
   src/core/experiments/experiments_yang.cpp
   src/core/experiments/experiments_zhou.cpp

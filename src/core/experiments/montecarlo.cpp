@@ -750,6 +750,7 @@ const std::vector<ExperimentEntry>& entries()
       {"lin_fig2", 1000, 30, &mc::linFig2},
       {"lin_fig3", 500, 30, &mc::linFig3},   {"lin_fig4", 1000, 30, &mc::linFig4},
       {"lin_fig5", 1000, 50, &mc::linFig5},  {"yang_fig2", 10000, 40, &mc::yangFig2},
+      {"sinopoli_fig2", 1000, 100, &mc::sinopoliFig2}, {"mo_sinopoli_tail", 10000, 200, &mc::moSinopoliTail},
   };
   return e;
 }

@@ -43,6 +43,12 @@ ExperimentResult linFig3(const RunConfig& rc);
 ExperimentResult linFig4(const RunConfig& rc);
 ExperimentResult linFig5(const RunConfig& rc);
 ExperimentResult yangFig2(const RunConfig& rc);
+/// Sinopoli et al. 2004's examples: E[P-] against the arrival rate with its bounds (experiments_sinopoli.cpp).
+ExperimentResult sinopoliFig2(const RunConfig& rc);
+/// Mo and Sinopoli's tail probability P(P- > M) of the scalar example.
+ExperimentResult moSinopoliTail(const RunConfig& rc);
+/// The scalar critical arrival rate 1 - 1/a^2 (0 when |a| <= 1).
+double sinopoliCriticalRate(double a);
 
 /// What the custom and sweep experiments load from --model, --channel, --actuator-channel and
 /// --settings: the model, each sensor's link, the run options (links, paper control sequence) and
