@@ -1,8 +1,7 @@
 # The build without ROS (CMakeLists.txt includes this when catkin is absent or NE_WITH_ROS is OFF):
 # the ROS-free core, the command-line tools and the Python module networked_estimation._core, with
-# plain CMake and the packages Eigen, yaml-cpp, nlohmann-json and pybind11 only (scripts/install_deps.sh
-# --core). No nodelets, messages, launch files or graph tests, nor the core's parts that only the
-# nodelets use (online/, geodesy/: GeographicLib is not needed).
+# plain CMake and the packages Eigen, yaml-cpp, nlohmann-json, GeographicLib and pybind11 only
+# (scripts/install_deps.sh --core). No nodelets, messages, launch files or graph tests.
 #
 #   cmake -S . -B build -DNE_WITH_ROS=OFF && cmake --build build -j2
 #     build/bin/            simulate, replay, score, montecarlo, analyze, make_model
@@ -21,6 +20,12 @@ find_package(Eigen3 REQUIRED)
 find_package(yaml-cpp REQUIRED)
 find_package(Threads REQUIRED)
 find_package(nlohmann_json 3.7.3 REQUIRED)
+find_path(GeographicLib_INCLUDE_DIR GeographicLib/LocalCartesian.hpp)
+find_library(GeographicLib_LIBRARY NAMES GeographicLib Geographic)
+if(NOT GeographicLib_INCLUDE_DIR OR NOT GeographicLib_LIBRARY)
+  message(FATAL_ERROR "GeographicLib not found: install it (Debian and Ubuntu: libgeographiclib-dev or "
+                      "libgeographic-dev; scripts/install_deps.sh --core)")
+endif()
 find_package(Python3 COMPONENTS Interpreter Development REQUIRED)
 find_package(pybind11 CONFIG REQUIRED)
 
@@ -28,16 +33,13 @@ set(CMAKE_RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bin)
 set(CMAKE_LIBRARY_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/lib)
 set(CMAKE_ARCHIVE_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/lib)
 # The core is a static library here: the tools and the module carry it, nothing to find at run time.
-# Without the parts only the nodelets use: online/ (the Estimator nodelet's sample assembly and
-# settings) and geodesy/ (NavSatFix to ENU). Nothing else in the core, the tools or the module
-# includes them; leaving them out saves about a fifth of the compile time.
-set(_ne_core_sources ${NE_CORE_SOURCES})
-list(FILTER _ne_core_sources EXCLUDE REGEX "^src/core/(online|geodesy)/")
-add_library(${PROJECT_NAME}_core STATIC ${_ne_core_sources})
+# All of it: the simulator's sensor outputs use online/'s datum reader, and that geodesy/.
+add_library(${PROJECT_NAME}_core STATIC ${NE_CORE_SOURCES})
 target_sources(${PROJECT_NAME}_core PRIVATE src/core/common/eigenvalues.cpp)
 set_target_properties(${PROJECT_NAME}_core PROPERTIES POSITION_INDEPENDENT_CODE ON)
 target_include_directories(${PROJECT_NAME}_core PUBLIC include ${EIGEN3_INCLUDE_DIRS} PRIVATE src/core)
-target_link_libraries(${PROJECT_NAME}_core PUBLIC ${YAML_CPP_LIBRARIES} Threads::Threads
+target_include_directories(${PROJECT_NAME}_core SYSTEM PRIVATE ${GeographicLib_INCLUDE_DIR})
+target_link_libraries(${PROJECT_NAME}_core PUBLIC ${YAML_CPP_LIBRARIES} ${GeographicLib_LIBRARY} Threads::Threads
   PRIVATE nlohmann_json::nlohmann_json)
 
 # The Python package in build/python: the module next to a copy of the package's Python files.

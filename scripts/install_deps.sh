@@ -10,7 +10,7 @@
 set -euo pipefail
 CORE_PACKAGES=(
   build-essential cmake
-  libyaml-cpp-dev libeigen3-dev nlohmann-json3-dev
+  libyaml-cpp-dev libeigen3-dev nlohmann-json3-dev libgeographiclib-dev
   pybind11-dev python3-dev python3-setuptools python3-wheel python3-pip python3-venv
   python3-numpy python3-matplotlib
 )
