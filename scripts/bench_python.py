@@ -7,6 +7,9 @@
   2. run() vs the replay tool on the same input file: load_replay_input() + run() against
      `replay` (which also parses that file, and writes its output), and run() alone.
   3. montecarlo("zhou_fig1") vs the montecarlo tool, same runs, steps, seed and threads.
+  4. the covariance-only Monte Carlo against the state-simulating one at n = 4: montecarlo("covariance")
+     and montecarlo("custom") on the model of part 1 behind a Bernoulli link, kfio, same runs, steps and
+     threads, in runs per second (the issue's target: at least 10x).
 
 Usage (after scripts/build.sh; Debian's python3, see scripts/env.sh):
   source .ws/devel/setup.bash; python3 scripts/bench_python.py [--repeat R] [--steps N] [--runs M]
@@ -115,6 +118,23 @@ def main():
     rows.append((f"montecarlo tool, zhou_fig1, {a.runs} runs, {a.threads} thread(s)", t_tool, "s"))
     rows.append(("montecarlo() from Python, the same", t_py, "s"))
     rows.append(("  ratio to the tool (target <= 1.10)", t_py / t_tool, ""))
+
+    # 4. covariance only vs the state simulation, n = 4
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = pathlib.Path(tmp)
+        (tmp / "model.yaml").write_text(m.to_yaml())
+        (tmp / "link.yaml").write_text(ne.Bernoulli(0.2, seed=3).to_yaml())
+        (tmp / "kfio.yaml").write_text("algorithm: kfio\n")
+        files = dict(model=tmp / "model.yaml", channels=tmp / "link.yaml", settings=tmp / "kfio.yaml")
+        cov_runs, cov_steps = a.runs, 500
+        t_state = best(a.repeat, lambda: ne.montecarlo("custom", runs=cov_runs, steps=cov_steps, seed=1,
+                                                       threads=a.threads, **files))
+        t_cov = best(a.repeat, lambda: ne.montecarlo("covariance", runs=cov_runs, steps=cov_steps, seed=1,
+                                                     threads=a.threads, **files))
+    rows.append((f"custom (state simulated), kfio n=4, {cov_runs} runs x {cov_steps} steps", cov_runs / t_state,
+                 "runs/s"))
+    rows.append(("covariance only, the same", cov_runs / t_cov, "runs/s"))
+    rows.append(("  speed-up (the issue's target: >= 10)", t_state / t_cov, ""))
 
     width = max(len(r[0]) for r in rows)
     print(f"bench_python: best of {a.repeat}, numpy {np.__version__}")

@@ -4,7 +4,16 @@
 #                                           tools, launch files and the demo need (scripts/demo.sh)
 #        scripts/install_deps.sh --tests    also what the tests need (scripts/test.sh), and the
 #                                           Python module's run time: every package package.xml names
+#        scripts/install_deps.sh --core     only what the build without ROS needs (scripts/research.sh:
+#                                           the core, the tools and the Python module with plain CMake
+#                                           and pip, and the Python examples): no ROS package
 set -euo pipefail
+CORE_PACKAGES=(
+  build-essential cmake
+  libyaml-cpp-dev libeigen3-dev nlohmann-json3-dev libgeographiclib-dev libbz2-dev liblz4-dev
+  pybind11-dev python3-dev python3-setuptools python3-wheel python3-pip python3-venv
+  python3-numpy python3-matplotlib
+)
 PACKAGES=(
   build-essential cmake
   ros-core-dev libnodeletlib-dev libnodeletlib-tools rosbash python3-rosbag
@@ -31,8 +40,9 @@ TEST_PACKAGES=(
 )
 case "${1:-}" in
   "") ;;
-  --tests) PACKAGES+=("${TEST_PACKAGES[@]}") ;;
-  *) echo "usage: install_deps.sh [--tests]  (found '$1')" >&2; exit 2 ;;
+  --tests) PACKAGES+=("${TEST_PACKAGES[@]}" python3-wheel python3-pip python3-venv) ;;
+  --core) PACKAGES=("${CORE_PACKAGES[@]}") ;;
+  *) echo "usage: install_deps.sh [--tests | --core]  (found '$1')" >&2; exit 2 ;;
 esac
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -2,9 +2,12 @@
 """Plots the output of the `montecarlo` tool in the style of the papers' figures.
 
 usage: plot_montecarlo.py DIR [--out OUTDIR] [--experiment NAME ...] [--dpi 100]
+                          [--statistic auto|mean|median]
 
-DIR holds, for each experiment NAME, `NAME.csv` (header `case,series,x,mean,sd,n`) and `NAME.json`
-(the run's settings and summary); zhou_fig2 also needs `zhou_fig2_samples.csv` (header
+DIR holds, for each experiment NAME, `NAME.csv` (header `case,series,x,mean,sd,n`, then optionally
+`se,p5,p25,median,p75,p95` and `P_gt_M` columns) and `NAME.json` (the run's settings and summary;
+each series' "statistic" says whether its mean is estimable); zhou_fig2 also needs
+`zhou_fig2_samples.csv` (header
 `case,run,P11,P12,P21,P22`). Every experiment found in DIR (every `NAME.json`), or only the named
 ones, is drawn into OUTDIR (default DIR); the PNGs written are listed on stdout, one per line:
 
@@ -21,15 +24,23 @@ ones, is drawn into OUTDIR (default DIR); the PNGs written are listed on stdout,
               one axis: mean tr P_T against the axis value (log y) with a vertical line at the
               critical value. Grid points without a mean (runs that diverged or crossed the
               rounding floor) are grey.
-  any other   NAME.png: one panel per case (lin_fig2..5, yang_fig2, custom, ...)
+  any other   NAME.png: one panel per case (lin_fig2..5, yang_fig2, custom, covariance, ...)
+  tails       NAME_tail.png besides, when NAME.csv has P_gt_M columns (montecarlo --threshold M):
+              per case, P(value > M) against x for every series and threshold (log y)
 
-Mean lines, with a light band of +-2 standard errors (sd / sqrt(n)) where n > 1 and sd > 0. A
+Mean lines, with a light band of +-2 standard errors (sd / sqrt(n)) where n > 1 and sd > 0. Where
+the mean is not estimable (the JSON's series "statistic": "median": a mean that is not finite, a
+standard error above a fifth of it, or a mean above the 95th percentile) the series is drawn as its
+median with a p25-p75 band and a lighter p5-p95 band, its legend entry says "median", and the
+caption names the series and the reason; --statistic mean or median forces one for every series
+(sweeps: the colour of the map, median when some cell's mean is missing or not estimable). A
 series is drawn as a dashed bound (no markers, no band) when its JSON entry has "bound": true or
 "style": "dashed", or when its name contains "bound", "lower", "upper" or "mare" or starts with
 "sup"/"inf". A JSON series entry may carry "label" to override the legend text.
 
-Errors (missing DIR, a CSV without the expected header, a JSON that does not parse, ...) are
-reported as `error: <file>: <problem>` on stderr; the experiments that are fine are still drawn,
+A series drawn as its median is named on stderr: `note: <png>: <series> drawn as its median
+(<why>)`. Errors (missing DIR, a CSV without the expected header, a JSON that does not parse, ...)
+are reported as `error: <file>: <problem>` on stderr; the experiments that are fine are still drawn,
 and the exit code is 2.
 
 Runs with Debian's python3 and python3-matplotlib (`apt-get install python3-matplotlib`). A pyenv
@@ -50,6 +61,8 @@ import warnings
 
 SYSTEM_PYTHON = "/usr/bin/python3"
 CSV_HEADER = ["case", "series", "x", "mean", "sd", "n"]
+QUANTILE_COLUMNS = ["p5", "p25", "median", "p75", "p95"]
+STATISTIC = "auto"  # --statistic
 SAMPLES_HEADER = ["case", "run", "P11", "P12", "P21", "P22"]
 SWEEP_HEADER = ["point", "i1", "i2", "x1", "x2", "estimator", "n", "diverged", "floored",
                 "trP_mean", "trP_sd"]
@@ -129,22 +142,40 @@ def csv_rows(path, header, missing="missing", prefix=False):
     return out
 
 
+def csv_header(path):
+    try:
+        with open(path, newline="") as handle:
+            return [h.strip() for h in next(csv.reader(handle), [])]
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return []
+
+
 def read_results_csv(path):
-    """Returns {case: {series: (x, mean, sd, n) arrays sorted by x}} and the order seen."""
+    """Returns {case: {series: {"x", "mean", "sd", "n", the quantile columns present (NaN where a
+    cell is empty), "tail": {M: P(value > M)}}, arrays sorted by x}}."""
+    rows = csv_rows(path, CSV_HEADER)
+    header = csv_header(path)
+    extra = [(i, h) for i, h in enumerate(header) if h in QUANTILE_COLUMNS or h.startswith("P_gt_")]
     data = {}
-    for line, row in csv_rows(path, CSV_HEADER):
+    for line, row in rows:
         case, series = row[0].strip(), row[1].strip()
-        x = parse_float(row[2], path, line, "x")
-        mean = parse_float(row[3], path, line, "mean")
-        sd = parse_float(row[4], path, line, "sd")
-        n = parse_float(row[5], path, line, "n")
-        data.setdefault(case, {}).setdefault(series, []).append((x, mean, sd, n))
+        point = [parse_float(row[k], path, line, CSV_HEADER[k]) for k in range(2, 6)]
+        for i, h in extra:
+            text = row[i].strip() if i < len(row) else ""
+            point.append(float("nan") if text == "" else parse_float(text, path, line, h))
+        data.setdefault(case, {}).setdefault(series, []).append(point)
     out = {}
     for case, per_series in data.items():
         out[case] = {}
         for series, points in per_series.items():
             arr = np.array(sorted(points, key=lambda p: p[0]), dtype=float)
-            out[case][series] = (arr[:, 0], arr[:, 1], arr[:, 2], arr[:, 3])
+            d = {"x": arr[:, 0], "mean": arr[:, 1], "sd": arr[:, 2], "n": arr[:, 3], "tail": {}}
+            for j, (_, h) in enumerate(extra):
+                if h.startswith("P_gt_"):
+                    d["tail"][h[len("P_gt_"):]] = arr[:, 4 + j]
+                else:
+                    d[h] = arr[:, 4 + j]
+            out[case][series] = d
     return out
 
 
@@ -324,8 +355,19 @@ def series_order(meta, data, case):
 # Drawing
 # ---------------------------------------------------------------------------------------------
 
-def draw_panel(ax, meta, data, case, styler, xwin=None, legend_extra=None):
-    """Mean lines (+-2 SE bands) of every series of one case; xwin = (lo, hi) crops x."""
+def uses_median(entry, series):
+    """Whether a series is drawn as its median: --statistic, else its JSON "statistic"."""
+    if "median" not in series or not np.isfinite(series["median"]).any():
+        return False
+    if STATISTIC != "auto":
+        return STATISTIC == "median"
+    return entry.get("statistic") == "median"
+
+
+def draw_panel(ax, meta, data, case, styler, xwin=None, legend_extra=None, medians=None):
+    """Mean lines (+-2 SE bands), or median lines (p25-p75 and p5-p95 bands) where the mean is not
+    estimable, of every series of one case; xwin = (lo, hi) crops x. The names of the series drawn
+    as medians, with the reason, are appended to `medians`."""
     log_x, log_y = bool(meta.get("log_x")), bool(meta.get("log_y"))
     if log_x:
         ax.set_xscale("log", nonpositive="mask")
@@ -335,34 +377,51 @@ def draw_panel(ax, meta, data, case, styler, xwin=None, legend_extra=None):
     names = series_order(meta, data, case)
     bands = []
     for i, name in enumerate(names):
-        x, mean, sd, n = data[case][name]
+        series = data[case][name]
+        keep = np.ones(len(series["x"]), dtype=bool)
         if xwin is not None:
-            keep = (x >= xwin[0]) & (x <= xwin[1])
-            x, mean, sd, n = x[keep], mean[keep], sd[keep], n[keep]
+            keep = (series["x"] >= xwin[0]) & (series["x"] <= xwin[1])
+        col = {k: (v[keep] if isinstance(v, np.ndarray) else v) for k, v in series.items()}
+        x, mean, sd, n = col["x"], col["mean"], col["sd"], col["n"]
         if len(x) == 0:
             continue
         mean = np.where(np.isfinite(mean), mean, np.nan)
         entry = entries.get(name, {})
         label = str(entry.get("label", name))
+        median = uses_median(entry, col) and not is_bound(name, entry)
+        if median:
+            label += " (median)"
+            if medians is not None and name not in [m for m, _ in medians]:
+                medians.append((name, "--statistic median" if STATISTIC == "median"
+                                else str(entry.get("mean_note", "mean not estimable"))))
         if legend_extra is not None:
             label = legend_extra(label, entry)
         marker, color = styler(name)
         if is_bound(name, entry):
             ax.plot(x, mean, "--", color=color, lw=1.4, label=label)
             continue
+        # the first series widest, the later ones narrower on top: a series hidden under another
+        # (lin_fig2's OE under the AOE) still shows as the outline of the line over it
+        width = 1.1 + 1.4 * (len(names) - 1 - i) / max(len(names) - 1, 1)
         every = mark_indices(x, 10, (i + 0.5) / max(len(names), 1), log_x)
-        ax.plot(x, mean, "-", color=color, lw=1.1, marker=marker, markevery=every, ms=5,
-                mfc="none", mew=1.1, label=label)
+        y = col["median"] if median else mean
+        ax.plot(x, y, "-", color=color, lw=width, marker=marker, markevery=every, ms=5,
+                mfc="none", mew=1.1, label=label, zorder=2 + i)
+        if median:
+            for lo_key, hi_key, alpha in (("p5", "p95", 0.10), ("p25", "p75", 0.22)):
+                if lo_key in col and hi_key in col:
+                    bands.append((x, col[lo_key], col[hi_key], color, alpha))
+            continue
         ok = (n > 1) & (sd > 0) & np.isfinite(sd) & np.isfinite(mean)
         if ok.any():
             se = np.where(ok, sd / np.sqrt(np.where(n > 1, n, 1.0)), np.nan)
-            bands.append((x, mean - 2 * se, mean + 2 * se, color))
+            bands.append((x, mean - 2 * se, mean + 2 * se, color, 0.18))
     if bands:
         bottom = ax.get_ylim()[0] if log_y else None
-        for x, lo, hi, color in bands:
+        for x, lo, hi, color, alpha in bands:
             if log_y:
                 lo = np.where(np.isnan(lo) | (lo > bottom), lo, bottom)
-            ax.fill_between(x, lo, hi, color=color, alpha=0.18, lw=0)
+            ax.fill_between(x, lo, hi, color=color, alpha=alpha, lw=0)
         if log_y:
             ax.set_ylim(bottom=bottom)
     if not names or not ax.lines:
@@ -412,18 +471,69 @@ def all_series(meta, data, cases):
     return names
 
 
+def note_medians(path, medians):
+    """Says on stderr which series of a figure are drawn as medians, and why."""
+    for name, why in medians:
+        sys.stderr.write("note: %s: %s drawn as its median (%s)\n" % (path, name, why))
+
+
+def band_caption(medians):
+    """What the bands are: mean +-2 SE, and which series are medians and why."""
+    if not medians:
+        return "bands: mean +-2 SE"
+    why = "; ".join("%s: %s" % (n, r) for n, r in medians[:3])
+    if len(medians) > 3:
+        why += "; ..."
+    return "bands: mean +-2 SE; median with p25-p75 and p5-p95 bands for %s" % why
+
+
 def plot_generic(name, meta, data, outdir, dpi, suffix=""):
     cases = case_order(meta, data)
     if not cases:
         cases = [""]
     styler = Styler(all_series(meta, data, cases))
     fig, axes = panel_grid(len(cases))
+    medians = []
     for ax, case in zip(axes, cases):
-        draw_panel(ax, meta, data, case, styler)
+        draw_panel(ax, meta, data, case, styler, medians=medians)
         ax.set_title(case_title(meta, case), fontsize=10)
     fig.suptitle(name, fontsize=11)
     path = os.path.join(outdir, "%s%s.png" % (name, suffix))
-    finish(fig, meta, path, dpi, "bands: mean +-2 SE")
+    finish(fig, meta, path, dpi, band_caption(medians))
+    note_medians(path, medians)
+    return [path]
+
+
+def plot_tails(name, meta, data, outdir, dpi):
+    """NAME_tail.png: P(value > M) against x for every series and threshold of every case (the
+    P_gt_M columns), or nothing when there are none."""
+    cases = [c for c in case_order(meta, data)
+             if any(v.get("tail") for v in data.get(c, {}).values())]
+    if not cases:
+        return []
+    styler = Styler(all_series(meta, data, cases))
+    styles = ["-", "--", ":", "-."]
+    fig, axes = panel_grid(len(cases))
+    for ax, case in zip(axes, cases):
+        ax.set_yscale("log", nonpositive="mask")
+        if meta.get("log_x"):
+            ax.set_xscale("log", nonpositive="mask")
+        for series_name in series_order(meta, data, case):
+            series = data[case][series_name]
+            _, color = styler(series_name)
+            for k, (m, p) in enumerate(series.get("tail", {}).items()):
+                ax.plot(series["x"], np.where(p > 0, p, np.nan), styles[k % len(styles)], color=color,
+                        lw=1.2, label="%s: P(> %s)" % (series_name, m))
+        ax.set_xlabel(str(meta.get("x_label", "x")))
+        ax.set_ylabel("fraction of runs above M")
+        ax.set_title(case_title(meta, case), fontsize=10)
+        ax.grid(True, which="major", color="0.9", lw=0.6)
+        log_ticks(ax, bool(meta.get("log_x")), True)
+        if ax.lines:
+            legend(ax)
+    fig.suptitle("%s: tail probabilities of %s" % (name, meta.get("y_label", "the values")), fontsize=11)
+    path = os.path.join(outdir, "%s_tail.png" % name)
+    finish(fig, meta, path, dpi, "P(value > M) over the runs at each x; 0 not drawn")
     return [path]
 
 
@@ -433,7 +543,7 @@ def plot_zhou_fig1(name, meta, data, outdir, dpi):
     styler = Styler(all_series(meta, data, cases))
     written = []
     for case in cases:
-        xs = np.concatenate([v[0] for v in data.get(case, {}).values()] or [np.zeros(0)])
+        xs = np.concatenate([v["x"] for v in data.get(case, {}).values()] or [np.zeros(0)])
         lo, hi = ZOOM_ZHOU_FIG1
         if xs.size and not ((xs >= lo) & (xs <= hi)).sum() >= 2:
             # too short a horizon for the paper's window: zoom on the second half instead
@@ -442,7 +552,8 @@ def plot_zhou_fig1(name, meta, data, outdir, dpi):
             hi = min(hi, float(xs.max()))
         fig, axes = plt.subplots(1, 2, figsize=(11.0, 4.6), squeeze=False)
         full, zoom = axes[0]
-        draw_panel(full, meta, data, case, styler)
+        medians = []
+        draw_panel(full, meta, data, case, styler, medians=medians)
         full.set_title("full horizon", fontsize=10)
 
         def with_average(label, entry):
@@ -466,7 +577,8 @@ def plot_zhou_fig1(name, meta, data, outdir, dpi):
                    ncol=min(4, len(zoom.lines)))
         fig.suptitle("%s: %s" % (name, case_title(meta, case)), fontsize=11)
         path = os.path.join(outdir, "%s_%s.png" % (name, safe_name(case)))
-        finish(fig, meta, path, dpi, "bands: mean +-2 SE")
+        finish(fig, meta, path, dpi, band_caption(medians))
+        note_medians(path, medians)
         written.append(path)
     return written
 
@@ -536,24 +648,54 @@ def plot_zhou_fig2(name, meta, samples, outdir, dpi):
     return [path]
 
 
+SWEEP_MEDIAN_COLUMNS = ["trP_p5", "trP_p25", "trP_median", "trP_p75", "trP_p95"]
+
+
 def read_sweep_csv(path):
-    """Returns {estimator: [(i1, i2, x1, x2, n, trP_mean, trP_sd)]} of a sweep's CSV, in file
-    order; an empty cell (no mean at that point, or no second axis) is NaN."""
+    """Returns {estimator: [(i1, i2, x1, x2, n, trP_mean, trP_sd, quantiles)]} of a sweep's CSV, in
+    file order, quantiles {column: value} of the trP_p5 .. trP_p95 columns present; an empty cell
+    (no mean at that point, or no second axis) is NaN."""
     data = {}
-    for line, row in csv_rows(path, SWEEP_HEADER, prefix=True):
+    rows = csv_rows(path, SWEEP_HEADER, prefix=True)
+    header = csv_header(path)
+    for line, row in rows:
 
         def number(column, empty_ok=False):
-            text = row[SWEEP_HEADER.index(column)].strip()
+            text = row[header.index(column)].strip() if header.index(column) < len(row) else ""
             if empty_ok and text == "":
                 return float("nan")
             return parse_float(text, path, line, column)
 
+        quantiles = {c: number(c, True) for c in SWEEP_MEDIAN_COLUMNS if c in header}
         data.setdefault(row[5].strip(), []).append(
             (int(number("i1")), int(number("i2")), number("x1"), number("x2", True),
-             number("n"), number("trP_mean", True), number("trP_sd", True)))
+             number("n"), number("trP_mean", True), number("trP_sd", True), quantiles))
     if not data:
         raise InputError(path, "no data rows")
     return data
+
+
+def sweep_statistic(data):
+    """("mean" or "median", why): the statistic a stability map shows (--statistic; auto: the
+    median when some cell's mean is missing while its median is not, its standard error is above a
+    fifth of it, or it lies above the 95th percentile)."""
+    cells = [r for rows in data.values() for r in rows]
+    has_median = any(np.isfinite(r[7].get("trP_median", np.nan)) for r in cells)
+    if STATISTIC != "auto":
+        return (STATISTIC, "--statistic") if has_median or STATISTIC == "mean" else ("mean", "no median")
+    if not has_median:
+        return "mean", ""
+    for _, _, _, _, n, mean, sd, q in cells:
+        median = q.get("trP_median", np.nan)
+        if not np.isfinite(median):
+            continue
+        if not np.isfinite(mean):
+            return "median", "a cell without a finite mean"
+        if n > 1 and sd / math.sqrt(n) > 0.2 * abs(mean):
+            return "median", "a mean with a standard error above 20 %"
+        if mean > q.get("trP_p95", np.inf):
+            return "median", "a mean above the 95th percentile"
+    return "mean", ""
 
 
 def sweep_meta(meta, path):
@@ -595,17 +737,25 @@ def plot_sweep(name, meta, indir, outdir, dpi):
     conv = curve_values(curve, "converges_at")
     band = np.array([bool(c.get("undecided_band")) for c in curve], dtype=bool)
     names = [str(a.get("name", "axis %d" % (i + 1))) for i, a in enumerate(axes_meta)]
+    statistic, why = sweep_statistic(data)
     extra = "tr P at k = %s; grey: no mean (diverged or floored runs)" \
         % meta.get("steps", "T")
+    if statistic == "median":
+        extra = "median tr P at k = %s (the mean is not estimable: %s), p25-p75 band; grey: no value" \
+            % (meta.get("steps", "T"), why)
+
+    def value(r):
+        return r[7].get("trP_median", np.nan) if statistic == "median" else r[5]
     for ax, est in zip(panels, estimators):
         rows = data[est]
         if len(axes_meta) == 2:
             v1 = np.array(axes_meta[0]["values"], dtype=float)
             v2 = np.array(axes_meta[1]["values"], dtype=float)
             grid = np.full((v2.size, v1.size), np.nan)
-            for i1, i2, _, _, _, mean, _ in rows:
-                if 0 <= i1 < v1.size and 0 <= i2 < v2.size and mean > 0:
-                    grid[i2, i1] = math.log10(mean)
+            for r in rows:
+                i1, i2, v = r[0], r[1], value(r)
+                if 0 <= i1 < v1.size and 0 <= i2 < v2.size and v > 0:
+                    grid[i2, i1] = math.log10(v)
             ax.set_facecolor("0.75")
             finite = grid[np.isfinite(grid)]
             if finite.size:
@@ -615,7 +765,7 @@ def plot_sweep(name, meta, indir, outdir, dpi):
                 hi = max(min(float(finite.max()), lo + MAP_DECADES), lo + 1e-9)
                 mesh = ax.pcolormesh(cell_edges(v1), cell_edges(v2), np.ma.masked_invalid(grid),
                                      cmap="viridis", shading="flat", vmin=lo, vmax=hi)
-                bar = fig.colorbar(mesh, ax=ax, label=r"$\log_{10}$ mean tr $P_T$",
+                bar = fig.colorbar(mesh, ax=ax, label=r"$\log_{10}$ %s tr $P_T$" % statistic,
                                    extend="max" if finite.max() > hi else "neither")
                 formatter = bar.ax.yaxis.get_major_formatter()
                 if hasattr(formatter, "set_useOffset"):  # a flat map: plain numbers
@@ -640,16 +790,20 @@ def plot_sweep(name, meta, indir, outdir, dpi):
         else:
             pts = sorted(rows, key=lambda r: r[2])
             x = np.array([r[2] for r in pts], dtype=float)
-            mean = np.array([r[5] for r in pts], dtype=float)
+            mean = np.array([value(r) for r in pts], dtype=float)
             sd = np.array([r[6] for r in pts], dtype=float)
             n = np.array([r[4] for r in pts], dtype=float)
             ax.set_yscale("log", nonpositive="mask")
-            ax.plot(x, mean, "-o", color="tab:blue", ms=4, mfc="none", label="mean tr $P_T$")
-            se = np.where(n > 1, sd / np.sqrt(np.where(n > 1, n, 1.0)), np.nan)
-            ok = np.isfinite(se) & np.isfinite(mean)
+            ax.plot(x, mean, "-o", color="tab:blue", ms=4, mfc="none", label="%s tr $P_T$" % statistic)
+            if statistic == "median":
+                lo = np.array([r[7].get("trP_p25", np.nan) for r in pts], dtype=float)
+                hi = np.array([r[7].get("trP_p75", np.nan) for r in pts], dtype=float)
+            else:
+                se = np.where(n > 1, sd / np.sqrt(np.where(n > 1, n, 1.0)), np.nan)
+                lo, hi = np.maximum(mean - 2 * se, mean * 1e-3), mean + 2 * se
+            ok = np.isfinite(lo) & np.isfinite(hi) & np.isfinite(mean)
             if ok.any():
-                ax.fill_between(x[ok], np.maximum(mean - 2 * se, mean * 1e-3)[ok],
-                                (mean + 2 * se)[ok], color="tab:blue", alpha=0.18, lw=0)
+                ax.fill_between(x[ok], lo[ok], hi[ok], color="tab:blue", alpha=0.18, lw=0)
             missing = x[~np.isfinite(mean)]
             if missing.size:
                 for xm in missing:
@@ -662,13 +816,15 @@ def plot_sweep(name, meta, indir, outdir, dpi):
                     ax.axvspan(div[0], conv[0], facecolor="none", edgecolor="tab:red",
                                hatch="///", lw=0, label="undecided band")
             ax.set_xlabel(names[0])
-            ax.set_ylabel("mean tr $P_T$")
+            ax.set_ylabel("%s tr $P_T$" % statistic)
             ax.grid(True, which="major", color="0.9", lw=0.6)
             legend(ax)
         ax.set_title(est, fontsize=10)
     fig.suptitle("%s: stability map" % name, fontsize=11)
     path = os.path.join(outdir, "%s.png" % name)
     finish(fig, meta, path, dpi, extra)
+    if statistic == "median":
+        note_medians(path, [("tr P_T", why)])
     return [path]
 
 
@@ -687,14 +843,14 @@ def plot_experiment(name, indir, outdir, dpi):
         written = plot_zhou_fig2(name, meta, samples, outdir, dpi)
         # The tool's table holds only the mean/sd of P_T|T (one x per series): nothing to draw
         # beyond the PDFs. A table with curves over x gets its own figure.
-        if any(len(v[0]) > 1 for per_case in data.values() for v in per_case.values()):
+        if any(len(v["x"]) > 1 for per_case in data.values() for v in per_case.values()):
             written += plot_generic(name, meta, data, outdir, dpi, suffix="_series")
         return written
     if not data:
         raise InputError(os.path.join(indir, name + ".csv"), "no data rows")
     if name == "zhou_fig1":
-        return plot_zhou_fig1(name, meta, data, outdir, dpi)
-    return plot_generic(name, meta, data, outdir, dpi)
+        return plot_zhou_fig1(name, meta, data, outdir, dpi) + plot_tails(name, meta, data, outdir, dpi)
+    return plot_generic(name, meta, data, outdir, dpi) + plot_tails(name, meta, data, outdir, dpi)
 
 
 def main(argv):
@@ -705,7 +861,12 @@ def main(argv):
     parser.add_argument("--experiment", metavar="NAME", nargs="+", action="extend",
                         help="plot only these experiments")
     parser.add_argument("--dpi", type=int, default=100, help="resolution (default 100)")
+    parser.add_argument("--statistic", choices=["auto", "mean", "median"], default="auto",
+                        help="the line of every series: auto (the mean, or the median where the JSON "
+                             "says the mean is not estimable; default), mean or median")
     args = parser.parse_args(argv)
+    global STATISTIC
+    STATISTIC = args.statistic
 
     def fail(path, problem):
         sys.stderr.write("error: %s: %s\n" % (path, problem))

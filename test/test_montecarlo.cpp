@@ -178,6 +178,90 @@ TEST(MonteCarlo, YangFig2References)
   }
 }
 
+// Sinopoli et al.'s transition: for the scalar plant a = -1.25 the lower bound S and the MARE bound V
+// are finite exactly above lambda_c = 1 - 1/a^2 = 0.36, the MARE's critical rate equals it (the
+// scalar MARE threshold is 1 - 1/a^2), and above lambda_max the Monte Carlo E[P-_T] lies between the
+// bounds: within 4 standard errors of the lower (the horizon's E[P-_T] has converged to 1e-6 of its limit
+// at these rates) and below the upper (V_k bounds E[P-_k] at every k from X_0 = 0).
+TEST(MonteCarlo, SinopoliFig2BoundsAndCriticalRates)
+{
+  const ExperimentResult r = run("sinopoli_fig2", 600, 100, 0);
+  ASSERT_EQ(r.cases.size(), 2u);
+  for (const CaseResult& c : r.cases)
+  {
+    const SeriesResult& lo = findSeries(c, "lower bound tr S (lambda)");
+    const SeriesResult& mc = findSeries(c, "Monte Carlo tr E[P-_T]");
+    const SeriesResult& up = findSeries(c, "upper bound tr V (lambda), MARE");
+    ASSERT_EQ(c.x.size(), 50u);
+    for (std::size_t i = 0; i < c.x.size(); ++i)
+    {
+      const double l = c.x[i];
+      // rho(A) = 1.25 in both plants: S is finite iff (1 - lambda) 1.5625 < 1
+      EXPECT_EQ(std::isfinite(lo.mean[i]), l > 0.36 + 1e-12) << c.name << " lambda " << l;
+      if (c.name == "scalar")
+        EXPECT_EQ(std::isfinite(up.mean[i]), l > 0.36 + 1e-12) << "lambda " << l;
+      if (std::isfinite(up.mean[i]))
+      {
+        EXPECT_LE(lo.mean[i], up.mean[i] * (1 + 1e-9)) << c.name << " lambda " << l;
+        const double se = mc.sd[i] / std::sqrt(static_cast<double>(mc.n));
+        if (l >= 0.6)
+        {
+          EXPECT_GE(mc.mean[i], lo.mean[i] * (1 - 1e-6) - 4 * se) << c.name << " lambda " << l;
+          EXPECT_LE(mc.mean[i], up.mean[i] * (1 + 1e-9) + 4 * se) << c.name << " lambda " << l;
+        }
+      }
+    }
+  }
+  ASSERT_EQ(r.notes.size(), 2u);
+  EXPECT_NE(r.notes[0].find("scalar: lambda_min = 1 - 1/rho(A)^2 = 0.36 "), std::string::npos) << r.notes[0];
+  // the scalar lambda_max (the MARE's certified rate) is lambda_c within the bisection's 1e-4
+  const std::string::size_type at = r.notes[0].find("lambda_max (MARE, certified) = ");
+  ASSERT_NE(at, std::string::npos);
+  EXPECT_NEAR(std::stod(r.notes[0].substr(at + 31)), 0.36, 1.5e-4) << r.notes[0];
+  EXPECT_NE(r.notes[1].find("three_states: lambda_min = 1 - 1/rho(A)^2 = 0.36 "), std::string::npos) << r.notes[1];
+}
+
+// Mo and Sinopoli's tail: the Monte Carlo fraction of runs with P-_T > M lies inside the exact
+// bracket (1 - lambda)^j1 .. (1 - lambda)^j2 at every M (binomial standard error sqrt(p (1 - p) / n)
+// of the nearer bound, 4 of them), and the bracket decays as M^-phi with phi = ln(1 - lambda) /
+// ln(1/a^2): its log-log slope between M = 10^2 and 10^8 is -phi within the bracket's step (one
+// loss more or less at each end over 6 decades: 2 ln(1 - lambda) / ln(10^6) in the slope).
+TEST(MonteCarlo, MoSinopoliTailInsideTheExactBracket)
+{
+  const ExperimentResult r = run("mo_sinopoli_tail", 10000, 200, 0);
+  const CaseResult& c = r.cases.at(0);
+  ASSERT_EQ(c.series.size(), 9u);
+  const double lambdas[] = {0.2, 0.36, 0.6};
+  for (std::size_t i = 0; i < 3; ++i)
+  {
+    const SeriesResult& mc = c.series[3 * i];
+    const SeriesResult& lo = c.series[3 * i + 1];
+    const SeriesResult& hi = c.series[3 * i + 2];
+    ASSERT_NE(mc.name.find("Monte Carlo"), std::string::npos);
+    ASSERT_NE(lo.name.find("lower bound"), std::string::npos);
+    for (std::size_t j = 0; j < c.x.size(); ++j)
+    {
+      EXPECT_LE(lo.mean[j], hi.mean[j]);
+      const double n = static_cast<double>(mc.n);
+      EXPECT_GE(mc.mean[j], lo.mean[j] - 4 * std::sqrt(lo.mean[j] * (1 - lo.mean[j]) / n) - 1e-12)
+          << mc.name << " M " << c.x[j];
+      EXPECT_LE(mc.mean[j], hi.mean[j] + 4 * std::sqrt(hi.mean[j] * (1 - hi.mean[j]) / n) + 1e-12)
+          << mc.name << " M " << c.x[j];
+    }
+    const double phi = std::log(1 - lambdas[i]) / std::log(1 / 1.5625);
+    const std::size_t j2 = 8, j10 = 32;  // M = 10^2, 10^8
+    ASSERT_NEAR(c.x[j2], 1e2, 1e-9);
+    ASSERT_NEAR(c.x[j10], 1e8, 1e-5);
+    for (const SeriesResult* b : {&lo, &hi})
+    {
+      const double slope = (std::log(b->mean[j10]) - std::log(b->mean[j2])) / std::log(1e6);
+      EXPECT_NEAR(slope, -phi, -2 * std::log(1 - lambdas[i]) / std::log(1e6)) << b->name;
+    }
+  }
+  // at lambda_c = 0.36 the exponent is 1: the mean is at the edge of finite
+  EXPECT_NE(c.series[3].name.find("(phi = 1)"), std::string::npos) << c.series[3].name;
+}
+
 TEST(MonteCarlo, UnknownExperimentNamesTheValidOnes)
 {
   try
@@ -224,11 +308,20 @@ TEST(MonteCarlo, OutputFormats)
   summarise(r);
   EXPECT_EQ(r.cases[0].series[0].time_average, 2.0);
   EXPECT_EQ(r.cases[0].series[0].final_value, 3.0);
-  EXPECT_EQ(experimentCsv(r), "case,series,x,mean,sd,n\nc,S,1,1,0.5,3\nc,S,2,3,0,3\n");
+  // se = sd / sqrt(n); no quantiles computed: empty cells
+  EXPECT_EQ(experimentCsv(r), "case,series,x,mean,sd,n,se,p5,p25,median,p75,p95\nc,S,1,1,0.5,3,0.2886751346,,,,,\n"
+                              "c,S,2,3,0,3,0,,,,,\n");
   const std::string json = experimentJson(r);
   EXPECT_NE(json.find("\"y_label\": \"a \\\"quoted\\\" \\\\ label\""), std::string::npos) << json;
   EXPECT_NE(json.find("\"line\\nbreak\""), std::string::npos);
   EXPECT_NE(json.find("\"time_average\": 2, \"final\": 3, \"window\": [1, 2]"), std::string::npos) << json;
+  // the standard error at x = 1 is 29 % of the mean: not estimable, the plots take the median
+  EXPECT_FALSE(r.cases[0].series[0].mean_estimable);
+  EXPECT_NE(json.find("\"final_se\": 0, \"growth\": null, \"statistic\": \"median\", \"mean_note\": \"mean not "
+                      "estimable: its standard error is 29 % of it at x = 1\""),
+            std::string::npos)
+      << json;
+  EXPECT_NE(json.find("\"thresholds\": [],"), std::string::npos) << json;
 }
 
 // ---------------------------------------------------------------------------------------------

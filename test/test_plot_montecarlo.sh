@@ -37,10 +37,12 @@ no_traceback() { ! grep -q Traceback "$WORK/err.txt"; }
 
 # --- synthetic inputs ------------------------------------------------------------------------
 IN=$WORK/in
-mkdir -p "$IN"
-"$PY" - "$IN" <<'EOF'
+T=$WORK/tails
+mkdir -p "$IN" "$T"
+"$PY" - "$IN" "$T" <<'EOF'
 import json, math, random, sys
 d = sys.argv[1] + "/"
+t = sys.argv[2] + "/"
 rnd = random.Random(3)
 def meta(name, cases, **kw):
     m = dict(experiment=name, runs=50, steps=120, seed=5, threads=2, wall_seconds=0.4,
@@ -118,6 +120,36 @@ meta("sweep_line", [], x_label=a2["name"], y_label="tr P_T",
                 critical=dict(axis=a2["name"], along=None,
                               curve=[dict(at=None, diverges_at=0.111111, converges_at=0.111112,
                                           undecided_band=False, half_line=True, note="")])))
+# heavy tails (a separate folder): a covariance experiment with quantile and tail columns whose
+# series kfio has a mean that is not estimable (the JSON says so) and rseio one that is; a
+# one-axis sweep whose last cell has a median but no mean
+cols = "case,series,x,mean,sd,n,se,p5,p25,median,p75,p95,P_gt_10,P_gt_100\n"
+rows = []
+for s, heavy in (("kfio", True), ("rseio", False)):
+    for k in range(1, 201):
+        med = 2 + math.log(k)
+        mean = med * (1 + (k / 10.0 if heavy else 0.1))
+        rows.append("scalar,%s,%d,%.6g,%.6g,1000,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g" % (
+            s, k, mean, 3 * mean, 0.1 * mean, 0.5 * med, 0.8 * med, med, 1.3 * med, 3 * med,
+            min(1, 0.01 * k), 0.001 * k / (2 if heavy else 4)))
+open(t + "covariance.csv", "w").write(cols + "\n".join(rows) + "\n")
+with open(t + "covariance.json", "w") as f:
+    json.dump(dict(experiment="covariance", runs=1000, steps=200, x_label="k", y_label="tr P_k|k", log_y=True,
+                   thresholds=[10, 100],
+                   cases=[dict(name="scalar", title="scalar", series=[
+                       dict(name="kfio", statistic="median", mean_note="mean not estimable: synthetic"),
+                       dict(name="rseio", statistic="mean")])]), f)
+rows = []
+for i, l in enumerate(a2["values"]):
+    m = "%.6g" % (1.0 / (0.2 * (i + 1))) if i < 4 else ""
+    q = ",".join("%.6g" % (f / (0.2 * (i + 1))) for f in (0.3, 0.6, 0.9, 1.2, 2.0))
+    rows.append("%d,%d,0,%g,,kfio,100,%d,0,%s,%s,,,%s,%s,,,stable,,%s,,,,,,,0" % (
+        i, i, l, 0 if m else 3, m, m, m, m, q))
+open(t + "sweep.csv", "w").write(sweep_header.rstrip("\n") + ",trP_se,trP_p5,trP_p25,trP_median,trP_p75,"
+                                 "trP_p95,err_se,err_median,growth,growth_low,growth_high\n" + "\n".join(rows) + "\n")
+with open(t + "sweep.json", "w") as f:
+    json.dump(dict(experiment="sweep", steps=50, sweep=dict(axes=[a2], estimators=["kfio"], points=5,
+                                                        critical=dict(curve=[]))), f)
 EOF
 
 EXPECTED="lin_fig4.png sweep.png sweep_line.png zhou_fig1_delta1_mu0.8.png zhou_fig1_delta1_mu0.95.png zhou_fig1_delta10_mu0.8.png zhou_fig2.png"
@@ -139,6 +171,29 @@ check "the two-estimator map is wider than the one-estimator line plot" \
   "$PY" -c 'import sys, struct; w = lambda f: struct.unpack(">I", open(f, "rb").read()[16:20])[0]; sys.exit(not w(sys.argv[1]) > w(sys.argv[2]))' \
   "$OUT/sweep.png" "$OUT/sweep_line.png"
 check "no zhou_fig2_series.png for an empty table" [ ! -e "$OUT/zhou_fig2_series.png" ]
+
+# --- heavy tails: medians where the mean is not estimable, tail probabilities -------------------
+run_rc rc "$PY" "$SCRIPT" "$T" --out "$WORK/tails_auto"
+check "heavy tails: exit 0" [ "$rc" = 0 ]
+check "heavy tails: covariance.png, covariance_tail.png and sweep.png, listed" \
+  [ "$(sort "$WORK/out.txt" | tr '\n' ' ')" = "$WORK/tails_auto/covariance.png $WORK/tails_auto/covariance_tail.png $WORK/tails_auto/sweep.png " ]
+for f in covariance.png covariance_tail.png sweep.png; do
+  check "heavy tails: $f is a PNG" is_png "$WORK/tails_auto/$f"
+done
+check "the series whose mean is not estimable is named as drawn by its median, with the reason" \
+  grep -qF "note: $WORK/tails_auto/covariance.png: kfio drawn as its median (mean not estimable: synthetic)" "$WORK/err.txt"
+check "the series whose mean is estimable is not" bash -c "! grep -q 'rseio drawn' '$WORK/err.txt'"
+check "a map with a cell without a mean shows the median and says why" \
+  grep -qF "note: $WORK/tails_auto/sweep.png: tr P_T drawn as its median (a cell without a finite mean)" "$WORK/err.txt"
+check "heavy tails: no error" bash -c "! grep -q '^error' '$WORK/err.txt'"
+run_rc rc "$PY" "$SCRIPT" "$T" --out "$WORK/tails_mean" --statistic mean
+check "--statistic mean: exit 0, no median" bash -c "[ $rc = 0 ] && ! grep -q median '$WORK/err.txt'"
+check "--statistic mean draws another figure" differ "$WORK/tails_auto/covariance.png" "$WORK/tails_mean/covariance.png"
+run_rc rc "$PY" "$SCRIPT" "$T" --out "$WORK/tails_median" --statistic median --experiment covariance
+check "--statistic median names both series" \
+  [ "$(grep -c 'drawn as its median (--statistic median)' "$WORK/err.txt")" = 2 ]
+run_rc rc "$PY" "$SCRIPT" "$T" --statistic typical
+check "--statistic typical: exit 2" [ "$rc" = 2 ]
 
 # --- --experiment, default OUTDIR = DIR, --dpi -----------------------------------------------
 cp -r "$IN" "$WORK/in2"

@@ -158,6 +158,26 @@ refuse "custom --actuator-channel missing file" "$F/nowhere.yaml" montecarlo --e
   --model "$F/act_model.yaml" --settings "$F/kfio.yaml" --runs 4 --steps 10 --out "$OUT" \
   --actuator-channel "$F/nowhere.yaml"
 
+# --- algorithm names where a settings file is expected -------------------------------------------------
+refuse "--settings neither a file nor an algorithm" "kalman: cannot open file (nor is 'kalman' an algorithm: kf," \
+  replay --model "$F/two.yaml" --settings kalman --input "$F/events.csv" --output "$OUT/x.csv"
+refuse "custom --settings neither a file nor an algorithm" "nor is 'kalman' an algorithm" montecarlo \
+  --experiment custom --model "$F/two.yaml" --settings kfio,kalman --runs 4 --steps 10 --out "$OUT"
+refuse "custom --settings the same name twice" "two estimators named 'kfio'" montecarlo \
+  --experiment custom --model "$F/two.yaml" --settings "kfio,$F/kfio.yaml" --runs 4 --steps 10 --out "$OUT"
+
+# --- montecarlo --covariance-only ---------------------------------------------------------------------
+cp "$ROOT/config/estimators/aoe.yaml" "$F/aoe.yaml"
+refuse "--covariance-only on a paper experiment" \
+  "option '--covariance-only' is only for --experiment custom, covariance or sweep" montecarlo \
+  --experiment zhou_fig1 --covariance-only --runs 4 --steps 10 --out "$OUT"
+refuse "--covariance-only with a value" "option '--covariance-only' takes no value" montecarlo "${C[@]}" \
+  --covariance-only=yes
+refuse "covariance with an estimator whose P depends on the data" "estimator 'aoe' (aoe)" montecarlo \
+  --experiment covariance --model "$F/two.yaml" --settings "$F/kfio.yaml,$F/aoe.yaml" --runs 4 --steps 10 --out "$OUT"
+refuse "covariance without --settings" "experiment covariance needs --settings" montecarlo \
+  --experiment covariance --model "$F/two.yaml" --runs 4 --steps 10 --out "$OUT"
+
 # --- montecarlo --axis ------------------------------------------------------------------------------
 W=(--experiment sweep --model "$F/two.yaml" --settings "$F/kfio.yaml" --runs 4 --steps 10 --out "$OUT")
 refuse "--axis empty" "--axis" montecarlo "${W[@]}" --axis ""

@@ -63,7 +63,8 @@ shards() {
 # 2 of 7 shards are empty. zhou_fig2: four calls with per-run samples, 130 runs = 3 blocks.
 # custom: a model and per-sensor links given as relative paths (the merge runs where the shards did).
 # sweep: a 3 x 4 stability map (one Monte Carlo call of 150 runs = 3 blocks, the values of all 12 points) with
-# a gilbert_elliott link's recovery rate on one axis.
+# a gilbert_elliott link's recovery rate on one axis. covariance (given as custom --covariance-only) and
+# sweep_cov (sweep --covariance-only): the same without the plant.
 mkdir -p "$WORK/in"
 cp "$ROOT/config/models/tracking_2d.yaml" "$ROOT/config/channels/wifi_bursty.yaml" \
   "$ROOT/config/channels/bernoulli_0.2.yaml" "$ROOT/config/estimators/kf.yaml" "$ROOT/config/estimators/kfio.yaml" \
@@ -74,14 +75,17 @@ SWEEP=(--experiment sweep --model in/unstable_two_links.yaml --channel camera=in
   --settings in/kfio.yaml,in/kf.yaml --axis gnss.arrival_rate=0.2:0.8:3 --axis camera.recovery_rate=0.1:0.7:4
   --runs 150 --steps 30)
 cd "$WORK"
-for EXP in zhou_fig1 zhou_fig2 custom sweep; do
-  case $EXP in
+for LABEL in zhou_fig1 zhou_fig2 custom sweep covariance sweep_cov; do
+  EXP=${LABEL%_cov}
+  case $LABEL in
     zhou_fig1) ARGS=(--experiment zhou_fig1 --runs 300 --steps 50) ;;
     zhou_fig2) ARGS=(--experiment zhou_fig2 --runs 130 --steps 50 --seed 7) ;;
     custom) ARGS=("${CUSTOM[@]}") ;;
     sweep) ARGS=("${SWEEP[@]}") ;;
+    covariance) ARGS=("${CUSTOM[@]}" --covariance-only) ;;
+    sweep_cov) ARGS=("${SWEEP[@]}" --covariance-only) ;;
   esac
-  D=$WORK/$EXP
+  D=$WORK/$LABEL
   run_rc rc "$MC" "${ARGS[@]}" --out "$D/full"
   check "$EXP: unsharded run exits 0" [ "$rc" = 0 ]
   for N in 1 3 7; do
@@ -107,6 +111,17 @@ run_rc rc "$MC" merge "$WORK/sweep_axes" --out "$WORK/out_axes"
 refused "a sweep shard of other axes is refused, naming the axes" 2 \
   "foreign shard: axes is [gnss.arrival_rate=0.2:0.8:3, camera.recovery_rate=0.1:0.7:3]"
 check "the refused sweep merge writes nothing" no_files "$WORK/out_axes"
+mkdir -p "$WORK/sweep_mixed"
+cp "$WORK/sweep/n3/sweep.shard-1-of-3.json" "$WORK/sweep/n3/sweep.shard-2-of-3.json" \
+  "$WORK/sweep_cov/n3/sweep.shard-3-of-3.json" "$WORK/sweep_mixed/"
+run_rc rc "$MC" merge "$WORK/sweep_mixed" --out "$WORK/out_mixed"
+refused "a covariance-only sweep shard among plain ones is refused, naming the option" 2 \
+  "sweep.shard-3-of-3.json: foreign shard: covariance_only is true, but false in"
+check "the refused mixed merge writes nothing" no_files "$WORK/out_mixed"
+check "the covariance-only sweep has tr P and no errors (3 x 4 points x 2 estimators)" \
+  [ "$(grep -cE '^[0-9]+,[0-9]+,[0-9]+,[0-9.]+,[0-9.]+,kfi?o?,150,0,0,[0-9.e+-]+,[0-9.e+-]+,,,' "$WORK/sweep_cov/full/sweep.csv")" = 24 ]
+check "custom --covariance-only writes the experiment covariance (tr P per step)" \
+  grep -q '^tracking_2d,kfio,60,' "$WORK/covariance/full/covariance.csv"
 check "the unsharded outputs are not trivial (zhou_fig2: 4 cases x 130 samples)" \
   [ "$(wc -l <"$WORK/zhou_fig2/full/zhou_fig2_samples.csv")" = 521 ]
 check "an empty shard (zhou_fig1 shard 7 of 7: 5 blocks) holds no block" \

@@ -124,10 +124,19 @@ TEST(Sweep, GridValues)
 
 TEST(Sweep, AxisErrorsNameTheArgument)
 {
-  expectAxisError("gnss.arrival_rate", "expected SENSOR.PARAM=LO:HI:N");
-  expectAxisError("arrival_rate=0:1:3", "expected SENSOR.PARAM=LO:HI:N");
-  expectAxisError("gnss.arrival_rate=0:1", "expected SENSOR.PARAM=LO:HI:N");
-  expectAxisError("gnss.loss=0:1:3", "unknown parameter 'loss' (valid: arrival_rate, recovery_rate)");
+  expectAxisError("gnss.arrival_rate", "expected NAME=LO:HI:N with NAME SENSOR.PARAM, ESTIMATOR.PARAM or model.ENTRY");
+  expectAxisError("arrival_rate=0:1:3", "expected NAME=LO:HI:N with NAME SENSOR.PARAM, ESTIMATOR.PARAM or model.ENTRY");
+  expectAxisError("gnss.arrival_rate=0:1", "expected NAME=LO:HI:N with NAME SENSOR.PARAM, ESTIMATOR.PARAM or model.ENTRY");
+  expectAxisError("gnss.latency=0:1:3", "unknown parameter 'latency' (valid: a sensor's arrival_rate, recovery_rate, "
+                                        "loss, p, r, loss_good, loss_bad; an estimator's mu, recovery, failure; the "
+                                        "model's model.A[i][j], C[i][j], Q* or R*)");
+  expectAxisError("gnss.delay=0:1:3", "delay is not simulated by the Monte Carlo");
+  expectAxisError("model.B[0][0]=0:1:3", "unknown model entry 'B[0][0]'");
+  expectAxisError("model.A[0]=0:1:3", "unknown model entry 'A[0]'");
+  expectAxisError("model.A[x][0]=0:1:3", "unknown model entry");
+  expectAxisError("model.Q*=0:1:3", "model.Q* (a factor) must be > 0");
+  expectAxisError("kfio.mu=0:1:3", "mu must lie in (0, 1]");
+  expectAxisError("gnss.loss_bad=0.5:1.5:3", "loss_bad must lie in [0, 1]");
   expectAxisError("schedule.period=1:4:4", "the schedule is not swept");
   expectAxisError("gnss.arrival_rate=a:1:3", "LO 'a' is not a number");
   expectAxisError("gnss.arrival_rate=0:nan:3", "HI 'nan' is not a number");
@@ -231,6 +240,162 @@ TEST(Sweep, RecoveryRateBoundaryOfOnOffLinks)
   EXPECT_EQ(an1.verdicts.size(), 11u);
 }
 
+TEST(Sweep, AxesOverAnyParameterParseAndResolve)
+{
+  const SweepAxis a = parseSweepAxis("model.A[0][0]=1.1:1.6:6");
+  EXPECT_EQ(a.kind, SweepAxis::Kind::MODEL);
+  EXPECT_EQ(a.param, "A");
+  EXPECT_EQ(a.row, 0);
+  EXPECT_EQ(a.col, 0);
+  EXPECT_EQ(a.name(), "model.A[0][0]");
+  EXPECT_EQ(parseSweepAxis("model.A[0][0]=-2:3:6").lo, -2.0);  // an entry may be any number
+  EXPECT_EQ(parseSweepAxis("model.R*=0.5:8:5").name(), "model.R*");
+  const SweepAxis mu = parseSweepAxis("robust.mu=0.5:1:6");
+  EXPECT_EQ(mu.kind, SweepAxis::Kind::SETTINGS);
+  EXPECT_EQ(mu.sensor, "robust");
+  EXPECT_EQ(parseSweepAxis("gnss.loss_good=0:0.2:3").kind, SweepAxis::Kind::LINK);
+
+  const Model m = test::scalarTwoSensorModel(1.5, "gnss", "camera");
+  ChannelSettings ge;
+  ge.model = LossModelKind::GILBERT_ELLIOTT;
+  ge.p = 0.3;
+  ge.r = 0.5;
+  const std::vector<std::optional<ChannelSettings>> links = {ge, std::nullopt};
+  EstimatorSettings kfio, rseio;
+  rseio.algorithm = Algorithm::RSEIO;
+  rseio.mu = 0.8;
+  const std::vector<std::string> names = {"kfio", "robust"};
+  const std::vector<EstimatorSettings> settings = {kfio, rseio};
+  auto resolves = [&](std::vector<std::string> args) {
+    std::vector<SweepAxis> axes;
+    for (const std::string& arg : args)
+      axes.push_back(parseSweepAxis(arg));
+    resolveSweepAxes(axes, m, links, names, settings);
+    return axes;
+  };
+  auto refused = [&](std::vector<std::string> args, const std::string& part) {
+    try
+    {
+      resolves(args);
+      ADD_FAILURE() << "no error for " << args.back();
+    }
+    catch (const ConfigError& e)
+    {
+      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
+    }
+  };
+  // a 2-D map of one Gilbert-Elliott link, an estimator's mu, the model's entries
+  EXPECT_EQ(resolves({"gnss.p=0:0.5:3", "gnss.r=0.1:0.9:3"}).size(), 2u);
+  EXPECT_EQ(resolves({"robust.mu=0.5:1:3", "model.Q*=0.5:2:3"})[0].sensor_index, 1);
+  refused({"kfio.mu=0.5:1:3"}, "--axis 'kfio.mu=0.5:1:3': mu is rseio's; estimator 'kfio' is kfio");
+  refused({"robust.recovery=0.2:0.8:3"}, "recovery is the control_link of aoe or oe");
+  refused({"lidar.mu=0.5:1:3"}, "no estimator 'lidar' (estimators: kfio, robust)");
+  refused({"camera.p=0:0.5:3"}, "p needs a gilbert_elliott link on sensor 'camera'");
+  refused({"gnss.loss=0:0.5:3"}, "loss is a bernoulli link's key; sensor 'gnss' has a gilbert_elliott link");
+  refused({"model.A[1][0]=0:1:3"}, "model 'two': A is 1 x 1");
+  refused({"model.C[2][0]=0:1:3"}, "C is 2 x 1");
+  refused({"gnss.p=0:0.5:3", "gnss.p=0:0.4:3"}, "gnss.p is already swept");
+  refused({"gnss.arrival_rate=0:0.5:3", "gnss.r=0:0.4:3"}, "sensor 'gnss' is already swept");
+
+  // the point's model, settings and links
+  const std::vector<SweepAxis> axes = resolves({"model.A[0][0]=1.1:1.6:6", "robust.mu=0.5:1:3"});
+  const Model pm = sweepPointModel(m, axes, {1.3, 0.75});
+  EXPECT_EQ(pm.A(0, 0), 1.3);
+  EXPECT_EQ(pm.Q, m.Q);
+  EXPECT_EQ(sweepPointSettings(settings, axes, {1.3, 0.75})[1].mu, 0.75);
+  EXPECT_EQ(sweepPointSettings(settings, axes, {1.3, 0.75})[0].algorithm, Algorithm::KFIO);
+  const std::vector<SweepAxis> scales = resolves({"model.Q*=0.5:2:4", "model.R*=2:4:2"});
+  const Model ps = sweepPointModel(m, scales, {2.0, 4.0});
+  EXPECT_EQ(ps.Q, 2.0 * m.Q);
+  EXPECT_EQ(ps.R, 4.0 * m.R);
+  const std::vector<SweepAxis> lk = resolves({"gnss.loss_bad=0.5:1:3", "gnss.p=0:0.5:3"});
+  const auto pl = sweepPointLinks(links, lk, {0.75, 0.25});
+  EXPECT_EQ(pl[0]->loss_bad, 0.75);
+  EXPECT_EQ(pl[0]->p, 0.25);
+  EXPECT_EQ(pl[0]->r, 0.5);
+}
+
+// The critical curve along a model axis: a scalar plant x+ = a x + w behind an i.i.d. link is
+// stable iff lambda > 1 - 1/a^2 (Sinopoli et al.), so sweeping model.A[0][0] against the arrival
+// rate draws that closed form.
+TEST(Sweep, CriticalCurveAlongAModelAxisIsSinopolisClosedForm)
+{
+  Model m = test::scalarTwoSensorModel(1.5, "gnss", "camera");
+  std::vector<SweepAxis> axes = {parseSweepAxis("model.A[0][0]=1.1:1.6:6"), parseSweepAxis("gnss.arrival_rate=0:1:11")};
+  // camera never arrives: gnss alone decides
+  ChannelSettings never;
+  never.loss = 1.0;
+  const std::vector<std::optional<ChannelSettings>> links = {std::nullopt, never};
+  resolveSweepAxes(axes, m, links);
+  const SweepAnalysis an = analyseSweep(m, links, axes);
+  ASSERT_EQ(an.critical.size(), 6u);
+  for (std::size_t i = 0; i < 6; ++i)
+  {
+    const double a = axes[0].values[i];
+    EXPECT_EQ(an.critical[i].at, a);
+    EXPECT_NEAR(an.critical[i].converges_at, 1.0 - 1.0 / (a * a), 1e-6) << an.critical[i].note;
+    for (std::size_t j = 0; j < 11; ++j)
+    {
+      const double lambda = axes[1].values[j];
+      if (std::abs(lambda - (1.0 - 1.0 / (a * a))) > 1e-6)
+        EXPECT_EQ(an.verdicts[i * 11 + j], lambda > 1.0 - 1.0 / (a * a) ? "stable" : "unstable") << a << ", " << lambda;
+    }
+  }
+  // along a parameter that is not a rate there is no critical value, and the note says why
+  std::vector<SweepAxis> q = {parseSweepAxis("model.Q*=1:2:2")};
+  resolveSweepAxes(q, m, links);
+  EXPECT_NE(analyseSweep(m, links, q).critical.at(0).note.find("not applicable"), std::string::npos);
+}
+
+// A grid point of a model or settings axis is the run of that model or those settings: the cell
+// equals, bit for bit, the cell of a sweep of the changed files (the same seeds).
+TEST(Sweep, ModelAndSettingsPointsEqualTheChangedFiles)
+{
+  Files f;
+  const std::string rseio = f.write("robust.yaml", "algorithm: rseio\nmu: 0.5\n");
+  // the scalar plant with an uncertain a (eps ~ U[-1, 1] times 0.1): without uncertainty rseio is
+  // kfio and mu changes nothing
+  const std::string uncertain = "\nuncertainty:\n  - dA: [[0.1]]\n    range: 1.0\n";
+  const std::string sensors = "sensors:\n  - {name: gnss,   C: [[1.0]], R: [[4.0]]}\n"
+                              "  - {name: camera, C: [[1.0]], R: [[0.25]]}\nx0: [0]\nP0: [[1]]";
+  MonteCarloConfig a = sweepConfig(f, {"model.Q*=1:3:2", "robust.mu=0.5:0.9:2"}, 130, 25);
+  a.model_path = f.write("q1.yaml", "name: unstable_two_links\nperiod: 0.1\nA: [[1.5]]\nQ: [[1.0]]\n" + sensors + uncertain);
+  a.settings_paths = {f.kf, rseio};
+  const ExperimentResult ra = runExperiment(a);
+  ASSERT_EQ(ra.sweep->points, 4);
+  // the point (Q* = 3, mu = 0.9) from files: Q = 3 and mu = 0.9, one point on a link axis that
+  // changes nothing (gnss and camera are lossless in both)
+  MonteCarloConfig b = sweepConfig(f, {"gnss.arrival_rate=1:1:1"}, 130, 25);
+  b.model_path = f.write("q3.yaml", "name: unstable_two_links\nperiod: 0.1\nA: [[1.5]]\nQ: [[3.0]]\n" + sensors + uncertain);
+  b.settings_paths = {f.kf, f.write("robust2.yaml", "algorithm: rseio\nmu: 0.9\n")};
+  const ExperimentResult rb = runExperiment(b);
+  for (std::size_t j = 0; j < 2; ++j)
+  {
+    const SweepCell& ca = ra.sweep->cells[3 * 2 + j];
+    const SweepCell& cb = rb.sweep->cells[j];
+    EXPECT_EQ(ca.trP_mean, cb.trP_mean) << j;
+    EXPECT_EQ(ca.err_mean, cb.err_mean) << j;
+    EXPECT_EQ(ca.trP_median, cb.trP_median) << j;
+    EXPECT_EQ(ca.floored, 0);
+  }
+  // and the points differ: Q and mu matter
+  EXPECT_NE(ra.sweep->cells[0].trP_mean, ra.sweep->cells[3 * 2].trP_mean);
+  EXPECT_NE(ra.sweep->cells[1].trP_mean, ra.sweep->cells[1 * 2 + 1].trP_mean);
+
+  // covariance only over a model axis past the rounding floor (the plant a = 2 would cross it near
+  // k = 45): 400 steps, both sensors lossless, so P stays bounded at every a
+  MonteCarloConfig c = sweepConfig(f, {"model.A[0][0]=1.2:2:3"}, 64, 400);
+  c.covariance_only = true;
+  const ExperimentResult rc = runExperiment(c);
+  for (const SweepCell& cell : rc.sweep->cells)
+  {
+    EXPECT_EQ(cell.floored, 0);
+    EXPECT_EQ(cell.diverged, 0);
+    EXPECT_TRUE(std::isfinite(cell.trP_mean) && cell.trP_mean > 0.0);
+  }
+  EXPECT_LT(rc.sweep->cells[0].trP_mean, rc.sweep->cells[2].trP_mean);  // a larger a: a larger P
+}
+
 TEST(Sweep, PointLinks)
 {
   ChannelSettings ge;
@@ -291,7 +456,7 @@ TEST(Sweep, RunsThatCannotBeCountedAreRecordedNotAveraged)
     EXPECT_TRUE(std::isnan(c.err_avg_sd));
   }
   const std::string csv = experimentCsv(r);
-  EXPECT_NE(csv.find(",kfio,70,0,70,,,,,,,,,stable\n"), std::string::npos) << csv;
+  EXPECT_NE(csv.find(",kfio,70,0,70,,,,,,,,,stable,,,,,,,,,,,\n"), std::string::npos) << csv;
   EXPECT_NE(experimentJson(r).find("\"incomplete_cells\": 2"), std::string::npos);
   EXPECT_EQ(csv.find("nan"), std::string::npos);
   EXPECT_EQ(csv.find("inf"), std::string::npos);

@@ -50,6 +50,21 @@ for alg in kf kfio rseio; do
   check "replay $alg writes header + 2000 rows" [ "$(lines "$Z/$alg.csv")" = 2001 ]
 done
 check "replay output header" [ "$(head -1 "$Z/kf.csv")" = "k,gamma,x1,x2,P11,P12,P21,P22,trace" ]
+# an algorithm name wherever Python takes one: the same output as its settings file
+run_rc rc "$BIN/replay" --model "$ZHOU" --settings kfio --input "$Z/input.csv" --output "$Z/kfio_by_name.csv"
+check "replay --settings kfio (a name) = the file's output" rc_and_grep "$rc" 0 . "$Z/kfio_by_name.csv"
+check "replay --settings kfio (a name): byte-identical to --settings kfio.yaml" cmp -s "$Z/kfio.csv" "$Z/kfio_by_name.csv"
+run_rc rc "$BIN/analyze" --model "$ZHOU" --channel "$BERNOULLI" --estimator rseio --json
+check "analyze --estimator rseio (a name) exits 0 and analyses rseio" \
+  rc_and_grep "$rc" 0 '"estimator": "rseio"' "$WORK/out.txt"
+run_rc rc "$BIN/montecarlo" --experiment custom --model "$ZHOU" --channel "$BERNOULLI" --settings kfio,rseio \
+  --runs 64 --steps 10 --out "$Z/mc_names"
+"$BIN/montecarlo" --experiment custom --model "$ZHOU" --channel "$BERNOULLI" --settings "$EST/kfio.yaml" \
+  --runs 64 --steps 10 --out "$Z/mc_files" 2>/dev/null
+check "montecarlo --settings kfio,rseio (names): series kfio and rseio" \
+  rc_and_grep "$rc" 0 '^zhou_example,rseio,10,' "$Z/mc_names/custom.csv"
+check "montecarlo --settings kfio (a name) = its file's series" \
+  cmp -s <(grep ',kfio,' "$Z/mc_names/custom.csv") <(grep ',kfio,' "$Z/mc_files/custom.csv")
 
 run_rc rc "$BIN/score" --truth "$Z/truth.csv" --estimate kf="$Z/kf.csv" --estimate kfio="$Z/kfio.csv" \
   --estimate rseio="$Z/rseio.csv"
@@ -231,6 +246,13 @@ check "montecarlo --actuator-channel on a model without control: exit 2 naming i
   rc_and_grep "$rc" 2 "model 'tracking_2d' has no control" "$WORK/err.txt"
 run_rc rc "$BIN/montecarlo" --experiment zhou_fig1 --channel "$BURSTY" --out "$L/mc4"
 check "--channel is only for the custom experiment: exit 2" rc_and_grep "$rc" 2 "only for --experiment custom" "$WORK/err.txt"
+# the progress counts the runs of every Monte Carlo set (lin_fig3: one per grid point) and says so
+run_rc rc "$BIN/montecarlo" --experiment lin_fig3 --runs 64 --steps 3 --threads 1 --out "$L/mc5"
+check "montecarlo progress of several sets: runs x sets (lin_fig3, 27 grid points)" \
+  rc_and_grep "$rc" 0 "montecarlo: 100% \\(1728/1728 runs = 64 runs x 27 sets\\)" "$WORK/err.txt"
+run_rc rc "$BIN/montecarlo" --experiment custom --model "$TRACK" --settings "$EST/kfio.yaml" --runs 64 --steps 3 \
+  --out "$L/mc6"
+check "montecarlo progress of one set: the runs" rc_and_grep "$rc" 0 "montecarlo: 100% \\(64/64 runs\\)" "$WORK/err.txt"
 
 # --- stability maps: montecarlo --experiment sweep --------------------------------------------
 # The README's command (Stability maps), as written there but for the output directory: a 20 x 20
@@ -279,15 +301,19 @@ sweep_refused() {  # NAME PATTERN AXIS/OPTION ARGS...
 }
 sweep_refused "unknown sensor" "error: --axis 'gps.arrival_rate=0:1:3': no sensor 'gps' in model 'unstable_two_links' \(sensors: gnss, camera\)" \
   --axis gps.arrival_rate=0:1:3
-sweep_refused "unknown parameter" "error: --axis 'gnss.loss=0:1:3': unknown parameter 'loss' \(valid: arrival_rate, recovery_rate\)" \
-  --axis gnss.loss=0:1:3
+sweep_refused "unknown parameter" "error: --axis 'gnss.latency=0:1:3': unknown parameter 'latency' \(valid: a sensor's arrival_rate, recovery_rate, loss, p, r, loss_good, loss_bad; an estimator's mu, recovery, failure; the model's model.A\[i\]\[j\], C\[i\]\[j\], Q\* or R\*\)" \
+  --axis gnss.latency=0:1:3
+sweep_refused "mu of kfio" "error: --axis 'kfio.mu=0.5:1:3': mu is rseio's; estimator 'kfio' is kfio" --axis kfio.mu=0.5:1:3
+sweep_refused "an entry outside A" "error: --axis 'model.A\[1\]\[0\]=0:1:3': model 'unstable_two_links': A is 1 x 1" \
+  --axis 'model.A[1][0]=0:1:3'
+sweep_refused "a factor 0" "error: --axis 'model.R\*=0:1:3': model.R\* \(a factor\) must be > 0" --axis 'model.R*=0:1:3'
 sweep_refused "schedule period" "error: --axis 'schedule.period=1:4:4': the schedule is not swept" --axis schedule.period=1:4:4
 sweep_refused "N < 1" "error: --axis 'gnss.arrival_rate=0:1:0': N '0' is not an integer in \[1, 10000\]" \
   --axis gnss.arrival_rate=0:1:0
 sweep_refused "LO > HI" "error: --axis 'gnss.arrival_rate=0.8:0.2:3': LO 0.8 is above HI 0.2" --axis gnss.arrival_rate=0.8:0.2:3
 sweep_refused "a rate above 1" "error: --axis 'gnss.arrival_rate=0:1.2:3': arrival_rate must lie in \[0, 1\]" \
   --axis gnss.arrival_rate=0:1.2:3
-sweep_refused "bad form" "error: --axis 'gnss.arrival_rate=0:1': expected SENSOR.PARAM=LO:HI:N" --axis gnss.arrival_rate=0:1
+sweep_refused "bad form" "error: --axis 'gnss.arrival_rate=0:1': expected NAME=LO:HI:N" --axis gnss.arrival_rate=0:1
 sweep_refused "recovery_rate on an i.i.d. link" \
   "error: --axis 'camera.recovery_rate=0:1:3': recovery_rate needs a gilbert_elliott link on sensor 'camera'" \
   --axis camera.recovery_rate=0:1:3 --channel camera="$BERNOULLI"
@@ -304,6 +330,24 @@ run_rc rc "$BIN/montecarlo" --experiment sweep --model "$UNSTABLE2" --settings "
   --channel camera="$BURSTY" --axis camera.recovery_rate=0:1:3 --out "$M2/ge"
 check "sweep of a gilbert_elliott recovery rate: exit 0, 3 points" \
   [ "$rc" = 0 -a "$(lines "$M2/ge/sweep.csv" 2>/dev/null)" = 4 ]
+# any parameter: the model's a against the gnss arrival rate (camera never arrives), and rseio's mu;
+# the critical curve along model.A[0][0] is Sinopoli's 1 - 1/a^2 (a = 1.25: 0.36, a = 2: 0.75)
+NEVER=$WORK/never.yaml
+printf 'model: bernoulli\nloss: 1.0\n' >"$NEVER"
+run_rc rc "$BIN/montecarlo" --experiment sweep --model "$UNSTABLE2" --settings kfio,rseio --runs 10 --steps 5 \
+  --channel camera="$NEVER" --axis 'model.A[0][0]=1.25:2:2' --axis gnss.arrival_rate=0:1:5 --out "$M2/anyaxis"
+check "sweep over model.A[0][0] x gnss.arrival_rate: exit 0, 10 points x 2 estimators" \
+  [ "$rc" = 0 -a "$(lines "$M2/anyaxis/sweep.csv" 2>/dev/null)" = 21 ]
+check "sweep over model.A[0][0]: the critical curve is 1 - 1/a^2" python3 - "$M2/anyaxis/sweep.json" <<'PY'
+import json, sys
+c = json.load(open(sys.argv[1]))["sweep"]["critical"]
+assert c["along"] == "model.A[0][0]" and c["axis"] == "gnss.arrival_rate", c
+got = [(p["at"], p["converges_at"]) for p in c["curve"]]
+assert len(got) == 2 and all(abs(lam - (1 - 1 / a ** 2)) < 1e-6 for a, lam in got), got
+PY
+run_rc rc "$BIN/montecarlo" --experiment sweep --model "$UNSTABLE2" --settings rseio --runs 10 --steps 5 \
+  --axis 'rseio.mu=0.5:1:3' --out "$M2/mu"
+check "sweep over rseio.mu: exit 0, 3 points" [ "$rc" = 0 -a "$(lines "$M2/mu/sweep.csv" 2>/dev/null)" = 4 ]
 
 # --- make_model: a kinematic model that the other tools accept ---------------------------------
 K=$WORK/kinematic
@@ -410,6 +454,10 @@ run_rc rc "$BIN/make_model" "${CV[@]}" --dims 2 --output "$K/missing_dir/cv.yaml
 check "make_model to a folder that does not exist: exit 2" rc_and_grep "$rc" 2 "cannot create output file" "$WORK/err.txt"
 run_rc rc "$BIN/make_model" --help
 check "make_model --help: exit code 0 and usage" rc_and_grep "$rc" 0 "usage: make_model" "$WORK/out.txt"
+# the section of docs/algorithms.md it cites for ekfio is the one headed ekfio
+ekfio_section=$(tr '\n' ' ' <"$WORK/out.txt" | grep -oE 'for ekfio; docs/algorithms.md +[0-9]+' | grep -oE '[0-9]+$' || true)
+check "make_model --help cites the section of algorithms.md on ekfio (found '$ekfio_section')" \
+  grep -qE "^## $ekfio_section\\. .ekfio.:" "$ROOT/docs/algorithms.md"
 
 # --- a robot motion (omni_2d) and ekfio: make_model, simulate, replay, score, analyze -------------
 # A rover driving at 1 m/s and turning at 0.8 rad/s (x0), its odometry and IMU in its own frame, a

@@ -76,18 +76,17 @@ struct Analysed
   SensorLinks links;
 };
 
-Analysed analysed(const std::shared_ptr<Model>& loaded, py::handle at, py::handle links, const std::string& fn)
+Analysed analysed(py::handle model, py::handle at, py::handle links, const std::string& fn)
 {
-  if (!loaded)
-    throw py::type_error(fn + ": expected a Model");
+  const std::shared_ptr<Model> loaded = modelOf(model, fn + ": model");
   Analysed a;
   a.model = analysedAt(*loaded, at, fn, a.local_note);
   a.links = sensorLinks(a.model, links, fn + ": links");
   return a;
 }
 
-py::object analyze(const std::shared_ptr<Model>& loaded, py::handle links, py::handle estimator, py::handle at,
-                   py::handle traces, int block)
+py::object analyze(py::handle loaded, py::handle links, py::handle estimator, py::handle at, py::handle traces,
+                   int block)
 {
   const Analysed an = analysed(loaded, at, links, "analyze()");
   const Model& model = an.model;
@@ -135,7 +134,7 @@ py::object analyze(const std::shared_ptr<Model>& loaded, py::handle links, py::h
   return parseJson(analysisJson(rep, sl.origin, evidence));
 }
 
-py::object verdict(const std::shared_ptr<Model>& loaded, py::handle links, py::handle at)
+py::object verdict(py::handle loaded, py::handle links, py::handle at)
 {
   const Analysed an = analysed(loaded, at, links, "verdict()");
   VerdictReport rep;
@@ -146,10 +145,9 @@ py::object verdict(const std::shared_ptr<Model>& loaded, py::handle links, py::h
   return parseJson(verdictJson(an.model.name, rep, an.links.origin));
 }
 
-py::object design(const std::shared_ptr<Model>& loaded, const std::string& cost, double growth_cap, py::handle at)
+py::object design(py::handle model_arg, const std::string& cost, double growth_cap, py::handle at)
 {
-  if (!loaded)
-    throw py::type_error("design(): expected a Model");
+  const std::shared_ptr<Model> loaded = modelOf(model_arg, "design(): model");
   if (cost != "total_rate" && cost != "capacity")
     throw py::value_error("design(): cost: expected 'total_rate' or 'capacity', found '" + cost + "'");
   if (!(growth_cap > 0.0 && growth_cap < 1.0))

@@ -7,6 +7,7 @@
 #include <pybind11/pybind11.h>
 #include <yaml-cpp/yaml.h>
 
+#include <memory>
 #include <string>
 
 #include "networked_estimation/config/model.hpp"
@@ -41,6 +42,12 @@ bool asPath(py::handle o, std::string& path);
 
 /// A Link, or a channel file read with its own checks; TypeError naming `what` for anything else.
 ChannelSettings linkOf(py::handle link, const std::string& what);
+
+/// A Model, or a model file read with its own checks; TypeError naming `what` for anything else.
+std::shared_ptr<Model> modelOf(py::handle model, const std::string& what);
+
+/// A Link in words: "GilbertElliott(p=0.05, r=0.3, loss_good=0, loss_bad=1, seed=0)".
+std::string describeLink(const ChannelSettings& s);
 
 /// The links of the model's sensors (simulate, analyze): None (every sensor lossless), a Link or a
 /// channel file for every sensor, or a dict {sensor name: Link or file}, the key "*" for every

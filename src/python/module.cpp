@@ -114,6 +114,8 @@ bool asPath(py::handle o, std::string& path)
 namespace
 {
 
+}  // namespace
+
 std::string describeLink(const ChannelSettings& s)
 {
   std::ostringstream os;
@@ -131,6 +133,9 @@ std::string describeLink(const ChannelSettings& s)
   return os.str();
 }
 
+namespace
+{
+
 }  // namespace
 
 ChannelSettings linkOf(py::handle o, const std::string& what)
@@ -147,6 +152,23 @@ ChannelSettings linkOf(py::handle o, const std::string& what)
     throw py::type_error(what + ": expected a Link (Bernoulli, GilbertElliott, Link) or a channel file, found " +
                          std::string(Py_TYPE(o.ptr())->tp_name));
   }
+}
+
+std::shared_ptr<Model> modelOf(py::handle o, const std::string& what)
+{
+  std::string path;
+  if (asPath(o, path))
+    return std::make_shared<Model>(loadModel(path));
+  try
+  {
+    std::shared_ptr<Model> m = o.cast<std::shared_ptr<Model>>();
+    if (m)
+      return m;
+  }
+  catch (const py::cast_error&)
+  {
+  }
+  throw py::type_error(what + ": expected a Model or a model file, found " + std::string(Py_TYPE(o.ptr())->tp_name));
 }
 
 SensorLinks sensorLinks(const Model& model, py::handle links, const std::string& what)

@@ -2,11 +2,18 @@
 // (docs/python.md); each run without the GIL, a Python progress callback called as blocks finish.
 #include <pybind11/stl.h>
 
+#include <algorithm>
+#include <cmath>
 #include <exception>
+#include <sstream>
+#include <limits>
 #include <functional>
 
 #include "bindings.hpp"
 #include "networked_estimation/common/error.hpp"
+#include "networked_estimation/config/channel_settings.hpp"
+#include "networked_estimation/config/estimator_settings.hpp"
+#include "networked_estimation/config/model_writer.hpp"
 #include "networked_estimation/experiments/montecarlo.hpp"
 #include "networked_estimation/experiments/montecarlo_shards.hpp"
 #include "networked_estimation/experiments/sweep.hpp"
@@ -18,30 +25,71 @@ namespace python
 namespace
 {
 
-std::vector<std::string> pathList(py::handle o, const std::string& what)
+/// A settings entry: an algorithm name or a settings file (as the tool's --settings), or a dict of
+/// settings keys given as text (its label: the dict's "name", else its algorithm, made distinct).
+void addSettings(py::handle o, MonteCarloConfig& cfg)
 {
-  std::vector<std::string> out;
   std::string one;
-  if (o.is_none())
-    return out;
   if (asPath(o, one))
-    return {one};
-  if (!py::isinstance<py::list>(o) && !py::isinstance<py::tuple>(o))
-    throw py::type_error(what + ": expected a file path or a list of them, found " +
-                         std::string(Py_TYPE(o.ptr())->tp_name) +
-                         " (the shards check the files' contents: write a Link with its to_yaml() to a file)");
-  for (const auto& item : o)
   {
-    if (!asPath(item, one))
-      throw py::type_error(what + ": expected a file path or a list of them");
-    out.push_back(one);
+    cfg.settings_paths.push_back(one);
+    return;
   }
-  return out;
+  if (!py::isinstance<py::dict>(o))
+    throw py::type_error("montecarlo(): settings: expected an algorithm name, a settings file, a dict of settings "
+                         "or a list of them, found " + std::string(Py_TYPE(o.ptr())->tp_name));
+  py::dict d = py::reinterpret_borrow<py::dict>(o).attr("copy")();
+  std::string label;
+  if (d.contains("name"))
+  {
+    label = py::str(d["name"]).cast<std::string>();
+    PyDict_DelItemString(d.ptr(), "name");
+  }
+  const YAML::Node node = toYaml(d, "montecarlo(): settings");
+  parseEstimatorSettings(node, "montecarlo(): settings");  // its own errors, naming the key
+  if (label.empty())
+  {
+    label = node["algorithm"] ? node["algorithm"].as<std::string>() : "kfio";
+    const std::string base = label;
+    for (int i = 2; cfg.inline_inputs.count(label) ||
+                    std::find(cfg.settings_paths.begin(), cfg.settings_paths.end(), label) != cfg.settings_paths.end();
+         ++i)
+      label = base + "_" + std::to_string(i);
+  }
+  YAML::Emitter e;
+  e << node;
+  cfg.inline_inputs[label] = std::string(e.c_str()) + "\n";
+  cfg.settings_paths.push_back(label);
 }
 
-/// channels=: a file (every sensor), {sensor: file, '*': file} or a list of the tool's --channel
-/// arguments ("FILE", "NAME=FILE").
-std::vector<std::string> channelArgs(py::handle o)
+/// A channel argument's FILE: a file path, or a Link given as text (labelled "<Link K: ...>").
+std::string channelFile(py::handle o, MonteCarloConfig& cfg, const std::string& what)
+{
+  std::string path;
+  if (asPath(o, path))
+    return path;
+  const ChannelSettings link = linkOf(o, what);
+  YAML::Emitter e;
+  e << toYaml(link);
+  const std::string text = std::string(e.c_str()) + "\n";
+  for (const auto& kv : cfg.inline_inputs)
+    if (kv.second == text && kv.first.compare(0, 6, "<Link ") == 0)
+      return kv.first;  // the same link twice: one text
+  int links = 0;
+  for (const auto& kv : cfg.inline_inputs)
+    links += kv.first.compare(0, 6, "<Link ") == 0 ? 1 : 0;
+  // No '=' in the label: the core splits a --channel argument NAME=FILE at its first '=', and one Link
+  // for every sensor has no NAME.
+  std::string described = describeLink(link);
+  std::replace(described.begin(), described.end(), '=', ' ');
+  const std::string label = "<Link " + std::to_string(links + 1) + ": " + described + ">";
+  cfg.inline_inputs[label] = text;
+  return label;
+}
+
+/// channels=: a file or a Link (every sensor), {sensor: file or Link, '*': file or Link} or a list of the
+/// tool's --channel arguments ("FILE", "NAME=FILE").
+std::vector<std::string> channelArgs(py::handle o, MonteCarloConfig& cfg)
 {
   std::vector<std::string> out;
   if (o.is_none())
@@ -50,16 +98,26 @@ std::vector<std::string> channelArgs(py::handle o)
   {
     for (const auto& item : py::reinterpret_borrow<py::dict>(o))
     {
-      std::string path;
       const std::string key = item.first.is_none() ? "*" : py::str(item.first).cast<std::string>();
-      if (!asPath(item.second, path))
-        throw py::type_error("montecarlo(): channels['" + key +
-                             "']: expected a channel file (the shards check the files' contents)");
-      out.push_back(key == "*" ? path : key + "=" + path);
+      const std::string file = channelFile(item.second, cfg, "montecarlo(): channels['" + key + "']");
+      out.push_back(key == "*" ? file : key + "=" + file);
     }
     return out;
   }
-  return pathList(o, "montecarlo(): channels");
+  if (py::isinstance<py::list>(o) || py::isinstance<py::tuple>(o))
+  {
+    for (const auto& item : o)
+    {
+      std::string arg;
+      if (!asPath(item, arg))
+        throw py::type_error("montecarlo(): channels: a list holds the tool's --channel arguments (\"FILE\", "
+                             "\"NAME=FILE\"); give Link objects as {sensor: Link} or one Link for every sensor");
+      out.push_back(arg);
+    }
+    return out;
+  }
+  out.push_back(channelFile(o, cfg, "montecarlo(): channels"));
+  return out;
 }
 
 /// A Python progress callback called from the worker threads (with the GIL); its first exception
@@ -87,9 +145,20 @@ struct Progress
 
 MonteCarloConfig config(const std::string& experiment, long runs, long steps, std::uint64_t seed, int threads,
                         py::handle model, py::handle channels, py::handle actuator_channel, py::handle settings,
-                        py::handle axes)
+                        py::handle axes, bool covariance_only, py::handle thresholds)
 {
   MonteCarloConfig cfg;
+  if (!thresholds.is_none())
+  {
+    try
+    {
+      cfg.thresholds = thresholds.cast<std::vector<double>>();
+    }
+    catch (const py::cast_error&)
+    {
+      throw py::type_error("montecarlo(): thresholds: expected a list of numbers");
+    }
+  }
   try
   {
     checkExperimentName(experiment);
@@ -99,6 +168,14 @@ MonteCarloConfig config(const std::string& experiment, long runs, long steps, st
     throw ConfigError(std::string("montecarlo(): experiment: ") + e.what());
   }
   cfg.experiment = experiment;
+  try
+  {
+    canonicalConfig(cfg);  // the thresholds
+  }
+  catch (const ConfigError& e)
+  {
+    throw ConfigError(std::string("montecarlo(): thresholds: ") + e.what());
+  }
   if (runs < 0 || steps < 0 || threads < 0)
     throw py::value_error("montecarlo(): runs, steps and threads: expected >= 0 (0: the default), found " +
                           std::to_string(runs) + ", " + std::to_string(steps) + ", " + std::to_string(threads));
@@ -106,30 +183,45 @@ MonteCarloConfig config(const std::string& experiment, long runs, long steps, st
   cfg.steps = steps;
   cfg.seed = seed;
   cfg.threads = threads;
-  const bool sweep = experiment == "sweep", custom = experiment == "custom" || sweep;
+  const bool sweep = experiment == "sweep", custom = takesCustomInputs(experiment);
   const std::pair<const char*, py::handle> custom_only[] = {
       {"model", model}, {"channels", channels}, {"actuator_channel", actuator_channel}, {"settings", settings}};
   for (const auto& kv : custom_only)
     if (!custom && !kv.second.is_none())
-      throw py::value_error(std::string("montecarlo(): ") + kv.first + " is only for the experiments custom and sweep");
+      throw py::value_error(std::string("montecarlo(): ") + kv.first +
+                            " is only for the experiments custom, covariance and sweep");
+  if (!custom && covariance_only)
+    throw py::value_error("montecarlo(): covariance_only is only for the experiments custom, covariance and sweep");
+  cfg.covariance_only = covariance_only;
   if (!sweep && !axes.is_none())
     throw py::value_error("montecarlo(): axes is only for the experiment sweep");
   if (!custom)
     return cfg;
   if (model.is_none() || settings.is_none())
-    throw py::value_error("montecarlo(): experiment " + experiment + " needs model= and settings= (files)");
+    throw py::value_error("montecarlo(): experiment " + experiment + " needs model= and settings=");
+  // Objects go in as their canonical text, which the shards hash and carry (MonteCarloConfig::inline_inputs).
   if (!asPath(model, cfg.model_path))
-    throw py::type_error("montecarlo(): model: expected a model file (the shards check the files' contents)");
-  cfg.channel_args = channelArgs(channels);
+  {
+    const std::shared_ptr<Model> m = modelOf(model, "montecarlo(): model");
+    std::ostringstream os;
+    writeModelYaml(os, *m, "montecarlo() model");
+    cfg.model_path = "<Model '" + m->name + "'>";
+    cfg.inline_inputs[cfg.model_path] = os.str();
+  }
+  cfg.channel_args = channelArgs(channels, cfg);
   if (!actuator_channel.is_none() && !asPath(actuator_channel, cfg.actuator_channel_path))
     throw py::type_error("montecarlo(): actuator_channel: expected a channel file");
-  cfg.settings_paths = pathList(settings, "montecarlo(): settings");
+  if (py::isinstance<py::list>(settings) || py::isinstance<py::tuple>(settings))
+    for (const auto& item : settings)
+      addSettings(item, cfg);
+  else
+    addSettings(settings, cfg);
   if (cfg.settings_paths.empty())
-    throw py::value_error("montecarlo(): settings: expected one or more estimator settings files");
+    throw py::value_error("montecarlo(): settings: expected one or more estimators");
   if (sweep)
   {
     if (axes.is_none())
-      throw py::value_error("montecarlo(): experiment sweep needs axes=['SENSOR.PARAM=LO:HI:N', ...] (one or two)");
+      throw py::value_error("montecarlo(): experiment sweep needs axes=['NAME=LO:HI:N', ...] (one or two)");
     if (py::isinstance<py::str>(axes))
       cfg.axis_args = {axes.cast<std::string>()};
     else
@@ -141,7 +233,15 @@ MonteCarloConfig config(const std::string& experiment, long runs, long steps, st
   return cfg;
 }
 
-py::dict caseDict(const CaseResult& c)
+py::array_t<double> array(const std::vector<double>& v, std::size_t size)
+{
+  if (v.size() == size)
+    return py::array_t<double>(static_cast<Py_ssize_t>(v.size()), v.data());
+  const std::vector<double> nan(size, std::numeric_limits<double>::quiet_NaN());  // not computed
+  return py::array_t<double>(static_cast<Py_ssize_t>(size), nan.data());
+}
+
+py::dict caseDict(const CaseResult& c, const std::vector<double>& thresholds)
 {
   py::dict d;
   d["name"] = c.name;
@@ -151,12 +251,33 @@ py::dict caseDict(const CaseResult& c)
   for (const SeriesResult& s : c.series)
   {
     py::dict e;
+    const std::size_t nx = s.mean.size();
     e["mean"] = py::array_t<double>(static_cast<Py_ssize_t>(s.mean.size()), s.mean.data());
     e["sd"] = py::array_t<double>(static_cast<Py_ssize_t>(s.sd.size()), s.sd.data());
     e["n"] = s.n;
+    std::vector<double> se;
+    for (double sd : s.sd)
+      se.push_back(s.n > 0 ? sd / std::sqrt(static_cast<double>(s.n)) : std::nan(""));
+    e["se"] = array(se, nx);
+    e["p5"] = array(s.p5, nx);
+    e["p25"] = array(s.p25, nx);
+    e["median"] = array(s.median, nx);
+    e["p75"] = array(s.p75, nx);
+    e["p95"] = array(s.p95, nx);
+    py::dict tail;
+    for (std::size_t t = 0; t < thresholds.size(); ++t)
+      tail[py::float_(thresholds[t])] = array(t < s.exceed.size() ? s.exceed[t] : std::vector<double>(), nx);
+    e["tail"] = tail;
     e["window"] = py::make_tuple(s.window0, s.window1);
     e["time_average"] = s.time_average;
+    e["time_average_se"] = s.n > 0 ? s.time_average_sd / std::sqrt(static_cast<double>(s.n)) : std::nan("");
     e["final_value"] = s.final_value;
+    const double half = s.n > 0 ? 1.96 * s.growth_sd / std::sqrt(static_cast<double>(s.n)) : std::nan("");
+    e["growth"] = std::isfinite(s.growth)
+                      ? py::object(py::make_tuple(s.growth, s.growth - half, s.growth + half))
+                      : py::object(py::none());
+    e["mean_estimable"] = s.mean_estimable;
+    e["mean_note"] = s.mean_note;
     e["bound"] = s.bound;
     series[py::str(s.name)] = e;
   }
@@ -209,7 +330,11 @@ py::object sweepDict(const ExperimentResult& r)
       {"trP_mean", &SweepCell::trP_mean},         {"trP_sd", &SweepCell::trP_sd},
       {"err_mean", &SweepCell::err_mean},         {"err_sd", &SweepCell::err_sd},
       {"trP_avg_mean", &SweepCell::trP_avg_mean}, {"trP_avg_sd", &SweepCell::trP_avg_sd},
-      {"err_avg_mean", &SweepCell::err_avg_mean}, {"err_avg_sd", &SweepCell::err_avg_sd}};
+      {"err_avg_mean", &SweepCell::err_avg_mean}, {"err_avg_sd", &SweepCell::err_avg_sd},
+      {"trP_p5", &SweepCell::trP_p5},             {"trP_p25", &SweepCell::trP_p25},
+      {"trP_median", &SweepCell::trP_median},     {"trP_p75", &SweepCell::trP_p75},
+      {"trP_p95", &SweepCell::trP_p95},           {"err_median", &SweepCell::err_median},
+      {"growth", &SweepCell::growth},             {"growth_sd", &SweepCell::growth_sd}};
   const std::pair<const char*, long SweepCell::*> counts[] = {
       {"n", &SweepCell::n}, {"diverged", &SweepCell::diverged}, {"floored", &SweepCell::floored}};
   const std::size_t E = sw.estimators.size();
@@ -231,6 +356,18 @@ py::object sweepDict(const ExperimentResult& r)
         a.mutable_data()[i] = sw.cells[static_cast<std::size_t>(i) * E + j].*(c.second);
       e[c.first] = a;
     }
+    py::dict tail;
+    for (std::size_t t = 0; t < sw.thresholds.size(); ++t)
+    {
+      py::array_t<double> a({P});
+      for (Py_ssize_t i = 0; i < P; ++i)
+      {
+        const SweepCell& cell = sw.cells[static_cast<std::size_t>(i) * E + j];
+        a.mutable_data()[i] = t < cell.trP_exceed.size() ? cell.trP_exceed[t] : std::nan("");
+      }
+      tail[py::float_(sw.thresholds[t])] = a;
+    }
+    e["trP_tail"] = tail;
     estimators[py::str(sw.estimators[j])] = e;
   }
   d["estimators"] = estimators;
@@ -249,7 +386,10 @@ void bindMonteCarlo(py::module& m)
 {
   py::class_<ExperimentResult, std::shared_ptr<ExperimentResult>>(m, "MonteCarloResult", R"doc(
 The result of montecarlo() or merge(): the montecarlo tool's outputs in memory. `cases` holds one dict
-per case: name, title, x and per series (by name) mean, sd, n, window, time_average, final_value, bound.)doc")
+per case: name, title, x and per series (by name) mean, sd, n, se, p5, p25, median, p75, p95, tail
+{M: P(value > M)}, window, time_average, time_average_se, final_value, growth (rate, low, high) or None,
+mean_estimable, mean_note, bound.)doc")
+      .def_readonly("thresholds", &ExperimentResult::thresholds)
       .def_readonly("experiment", &ExperimentResult::experiment)
       .def_readonly("runs", &ExperimentResult::runs)
       .def_readonly("steps", &ExperimentResult::steps)
@@ -267,7 +407,7 @@ per case: name, title, x and per series (by name) mean, sd, n, window, time_aver
                              {
                                py::list out;
                                for (const CaseResult& c : r.cases)
-                                 out.append(caseDict(c));
+                                 out.append(caseDict(c, r.thresholds));
                                return out;
                              })
       .def(
@@ -278,7 +418,7 @@ per case: name, title, x and per series (by name) mean, sd, n, window, time_aver
             for (const CaseResult& c : r.cases)
             {
               if (c.name == name)
-                return caseDict(c);
+                return caseDict(c, r.thresholds);
               names += (names.empty() ? "" : ", ") + c.name;
             }
             throw py::key_error("case '" + name + "' is not a case of " + r.experiment + " (cases: " + names + ")");
@@ -301,8 +441,9 @@ per case: name, title, x and per series (by name) mean, sd, n, window, time_aver
       .def_property_readonly("sweep", &sweepDict,
                              "the sweep experiment's grid (None for the others): axes (names), values (points x "
                              "axes), verdicts (one per point), estimators {name: {trP_mean, trP_sd, err_mean, "
-                             "err_sd, trP_avg_mean, trP_avg_sd, err_avg_mean, err_avg_sd, n, diverged, floored}}, "
-                             "each an array over the points (sweep.csv's rows)")
+                             "err_sd, trP_avg_mean, trP_avg_sd, err_avg_mean, err_avg_sd, trP_p5, trP_p25, "
+                             "trP_median, trP_p75, trP_p95, err_median, growth, growth_sd, n, diverged, floored, "
+                             "trP_tail {M: P(tr P_T > M)}}}, each an array over the points (sweep.csv's rows)")
       .def("csv", [](const ExperimentResult& r) { return experimentCsv(r); }, "NAME.csv's text")
       .def("json", [](const ExperimentResult& r) { return experimentJson(r); }, "NAME.json's text")
       .def("to_dict", [](const ExperimentResult& r) { return parseJson(experimentJson(r)); },
@@ -358,10 +499,10 @@ them all.)doc")
       "montecarlo",
       [](const std::string& experiment, long runs, long steps, std::uint64_t seed, int threads, py::handle model,
          py::handle channels, py::handle actuator_channel, py::handle settings, py::handle axes, py::handle progress,
-         py::handle shard) -> py::object
+         py::handle shard, bool covariance_only, py::handle thresholds) -> py::object
       {
-        const MonteCarloConfig cfg =
-            config(experiment, runs, steps, seed, threads, model, channels, actuator_channel, settings, axes);
+        const MonteCarloConfig cfg = config(experiment, runs, steps, seed, threads, model, channels, actuator_channel,
+                                            settings, axes, covariance_only, thresholds);
         if (shard.is_none())
           return py::cast(runWithProgress<ExperimentResult>(
               [&cfg](ProgressCounter* p) { return runExperiment(cfg, p); }, progress));
@@ -388,12 +529,17 @@ them all.)doc")
       py::arg("experiment"), py::arg("runs") = 0, py::arg("steps") = 0, py::arg("seed") = 1, py::arg("threads") = 0,
       py::arg("model") = py::none(), py::arg("channels") = py::none(), py::arg("actuator_channel") = py::none(),
       py::arg("settings") = py::none(), py::arg("axes") = py::none(), py::arg("progress") = py::none(),
-      py::arg("shard") = py::none(),
+      py::arg("shard") = py::none(), py::arg("covariance_only") = false, py::arg("thresholds") = py::none(),
       "Runs a Monte Carlo experiment (experiment_names()) exactly as the montecarlo tool with the same "
-      "arguments: runs, steps (0: the experiment's default), seed, threads (0: all cores); custom and sweep "
-      "take model (a file), channels (a file, {sensor: file} or the tool's --channel arguments), "
-      "actuator_channel and settings (files), sweep also axes ['SENSOR.PARAM=LO:HI:N']. progress(done, total) "
-      "is called as blocks finish. Returns a MonteCarloResult, or with shard=(k, n) a Shard for merge().");
+      "arguments: runs, steps (0: the experiment's default), seed, threads (0: all cores); custom, covariance "
+      "and sweep take model (a Model or a file), channels (a Link or file, {sensor: Link or file} or the tool's "
+      "--channel arguments), actuator_channel (a file) and settings (an algorithm name, a settings file, a dict "
+      "of settings with an optional 'name', or a list of them; objects go in as their text, which shards hash "
+      "and carry), sweep also axes ['NAME=LO:HI:N'] (a link's, an estimator's or the model's parameter). covariance_only=True "
+      "(custom, sweep; the experiment covariance always) runs the estimators' covariance recursion on the links' "
+      "arrivals alone, without the plant (the tool's --covariance-only). thresholds=[M, ...] adds the tail "
+      "probabilities P(value > M) (the tool's --threshold). progress(done, total) is called as blocks finish. "
+      "Returns a MonteCarloResult, or with shard=(k, n) a Shard for merge().");
   m.def(
       "merge",
       [](py::handle shards)

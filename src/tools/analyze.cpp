@@ -203,7 +203,7 @@ int main(int argc, char** argv)
                           {"model", "FILE", "model (YAML)", true, false},
                           {"channel", "[NAME=]FILE",
                            "sensor-to-estimator channel settings (YAML): every sensor, or sensor NAME", false, true},
-                          {"estimator", "FILE", "estimator settings (YAML; default kfio)", false, false},
+                          {"estimator", "FILE", "estimator settings (YAML) or an algorithm name (default kfio)", false, false},
                           {"trace", "[NAME=]FILE",
                            "a recorded arrival pattern: a replay input CSV (every sensor), or NAME=FILE, a `rostopic "
                            "echo -p` of a LossyChannel's ~events for sensor NAME (repeatable): Gan and Liu's "
@@ -300,7 +300,7 @@ int main(int argc, char** argv)
     EstimatorSettings est;
     const bool has_est = cl.has("estimator");
     if (has_est)
-      est = loadEstimatorSettings(cl.get("estimator"));
+      est = estimatorSettingsArgument(cl.get("estimator"));
     const int h = static_cast<int>(cl.getLong("block", model.n(), 1, 10000));
     std::vector<std::vector<std::vector<bool>>> arrivals;
     std::vector<std::string> labels;

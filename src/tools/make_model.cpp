@@ -181,7 +181,7 @@ int main(int argc, char** argv)
       "(rad^2/s^5) of density Q, last in each group ([x, y, yaw, vx, vy, vyaw]); QUANTITY yaw, yaw_rate or\n"
       "yaw_acceleration is a one-row sensor of it.\n"
       "--motion omni_2d or omni_3d writes a robot with a built-in nonlinear motion (for ekfio; docs/algorithms.md\n"
-      "8): the state of robot_localization, omni_2d [x, y, yaw, vx, vy, vyaw, ax, ay], omni_3d [x, y, z, roll,\n"
+      "7): the state of robot_localization, omni_2d [x, y, yaw, vx, vy, vyaw, ax, ay], omni_3d [x, y, z, roll,\n"
       "pitch, yaw, vx, vy, vz, vroll, vpitch, vyaw, ax, ay, az], velocities and accelerations in the robot's\n"
       "frame; --process-noise gives Q per second (one value, or one per state), each --sensor\n"
       "NAME:STATE,STATE,...:SIGMA[,SIGMA,...] measures the named states. Writes to stdout unless --output is given.",

@@ -2,7 +2,9 @@
 // DIR/<experiment>.csv and DIR/<experiment>.json (montecarlo.hpp has the output contract).
 // With --shard K/N it computes one shard and writes DIR/<experiment>.shard-K-of-N.json instead;
 // `montecarlo merge DIR...` merges the shards into the unsharded outputs (montecarlo_shards.hpp).
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <sstream>
 #include <unistd.h>
@@ -28,11 +30,22 @@ std::vector<std::string> splitComma(const std::string& text)
   return out;
 }
 
-/// Progress on stderr: an in-place bar on a terminal, plain lines every 10 % otherwise.
+/// Progress on stderr: an in-place bar on a terminal, plain lines every 10 % otherwise. The counter
+/// counts the runs of every Monte Carlo set of the experiment (a case, a grid point of lin_fig2):
+/// with `runs` per set, a total above it is shown as runs x sets.
 class ProgressPrinter
 {
 public:
-  ProgressPrinter() : tty_(isatty(2) != 0) {}
+  explicit ProgressPrinter(long runs) : tty_(isatty(2) != 0), runs_(runs) {}
+
+  /// "(1000/2000 runs)", or "(1000/2000 runs = 100 runs x 20 sets)" for several sets.
+  std::string count(long done, long total) const
+  {
+    std::string text = "(" + std::to_string(done) + "/" + std::to_string(total) + " runs";
+    if (runs_ > 0 && total > runs_ && total % runs_ == 0)
+      text += " = " + std::to_string(runs_) + " runs x " + std::to_string(total / runs_) + " sets";
+    return text + ")";
+  }
 
   void operator()(long done, long total)
   {
@@ -45,8 +58,8 @@ public:
         return;
       last_ = percent;
       const int width = 30, fill = width * percent / 100;
-      std::fprintf(stderr, "\rmontecarlo: [%s%s] %3d%% (%ld/%ld runs)", std::string(fill, '#').c_str(),
-                   std::string(width - fill, ' ').c_str(), percent, done, total);
+      std::fprintf(stderr, "\rmontecarlo: [%s%s] %3d%% %s", std::string(fill, '#').c_str(),
+                   std::string(width - fill, ' ').c_str(), percent, count(done, total).c_str());
       if (done >= total)
         std::fprintf(stderr, "\n");
       std::fflush(stderr);
@@ -57,13 +70,14 @@ public:
       if (decile <= last_)
         return;
       last_ = decile;
-      std::fprintf(stderr, "montecarlo: %d%% (%ld/%ld runs)\n", percent, done, total);
+      std::fprintf(stderr, "montecarlo: %d%% %s\n", percent, count(done, total).c_str());
       std::fflush(stderr);
     }
   }
 
 private:
   bool tty_;
+  long runs_;
   int last_ = 0;
 };
 
@@ -142,8 +156,9 @@ int main(int argc, char** argv)
     names += (names.empty() ? "" : ", ") + n;
   cli::CommandLine cl(
       "montecarlo",
-      "Runs a Monte Carlo experiment and writes DIR/NAME.csv (case,series,x,mean,sd,n) and DIR/NAME.json\n"
-      "(metadata, assumptions, per-series summaries); zhou_fig2 also writes DIR/zhou_fig2_samples.csv.\n"
+      "Runs a Monte Carlo experiment and writes DIR/NAME.csv (case,series,x,mean,sd,n,se,p5,p25,median,p75,p95\n"
+      "and P_gt_M per --threshold M) and DIR/NAME.json (metadata, assumptions, per-series summaries with standard\n"
+      "errors and the growth exponent of log value); zhou_fig2 also writes DIR/zhou_fig2_samples.csv.\n"
       "Results do not depend on --threads. Experiments: " +
           names +
           ".\nOn a cluster: with --shard K/N it computes only shard K of N (of every Monte Carlo call of the\n"
@@ -151,13 +166,20 @@ int main(int argc, char** argv)
           "`montecarlo merge DIR... [--out DIR]` then writes the same DIR/NAME.csv and .json as one unsharded\n"
           "run (see montecarlo merge --help).\n"
           "Stability maps: --experiment sweep takes custom's --model, --settings and --channel options and one or\n"
-          "two --axis SENSOR.PARAM=LO:HI:N (PARAM arrival_rate: that sensor's link becomes i.i.d. with this arrival\n"
-          "rate; recovery_rate: its gilbert_elliott --channel link gets r = value), runs --runs runs of --steps\n"
+          "two --axis NAME=LO:HI:N (NAME SENSOR.arrival_rate: that sensor's link becomes i.i.d. with this arrival\n"
+          "rate; SENSOR.loss: its bernoulli link's loss; SENSOR.recovery_rate (or .r), .p, .loss_good, .loss_bad:\n"
+          "that key of its gilbert_elliott --channel link; ESTIMATOR.mu (rseio), ESTIMATOR.recovery, .failure\n"
+          "(aoe/oe control_link): that key of the estimator's settings; model.A[i][j], model.C[i][j]: that entry\n"
+          "of the model (0-based); model.Q*, model.R*: a factor on Q, on every R), runs --runs runs of --steps\n"
           "steps at each of the N1 x N2 grid points and writes DIR/sweep.csv, one row per (point, estimator): mean\n"
           "and sd of tr P and of |x - xhat|^2 at the last step and averaged over the last half, the runs where the\n"
           "estimator diverged or the plant crossed the rounding floor (then no mean: a sweep never stops on\n"
           "them), and the point's analytic verdict; DIR/sweep.json adds the critical curve of the last axis (for\n"
           "each value of the first). plot_montecarlo.py draws it as a heat map. Schedules are not swept.\n"
+          "Unstable plants, long horizons: --experiment covariance (or custom --covariance-only) runs only the\n"
+          "estimators' random Riccati recursion on the links' arrivals (no plant, so no rounding floor, any --steps)\n"
+          "and writes DIR/covariance.csv: tr P_k per step and estimator (kf, kfio, ack_kf, rseio); sweep\n"
+          "--covariance-only fills the tr P columns of every grid point alone.\n"
           "Exit codes: 0 ok, 2 bad arguments or files, 3 an estimator diverged, or a run's plant state\n"
           "crossed the rounding floor (the message names the run and the step: use fewer --steps; not sweep).",
       {
@@ -167,17 +189,28 @@ int main(int argc, char** argv)
           {"seed", "S", "seed (default 1)", false, false},
           {"threads", "J", "worker threads (default: hardware concurrency)", false, false},
           {"out", "DIR", "output directory (created when missing)", true, false},
-          {"model", "FILE", "custom, sweep: model file (YAML)", false, false},
+          {"covariance-only", "",
+           "custom, sweep: the estimators' covariance recursion on the links' arrivals alone, no plant (custom: the "
+           "experiment covariance)",
+           false, false},
+          {"model", "FILE", "custom, covariance, sweep: model file (YAML)", false, false},
           {"channel", "[NAME=]FILE",
-           "custom, sweep: sensor link channel settings (YAML) for every sensor, or NAME=FILE for sensor NAME; a sensor "
+           "custom, covariance, sweep: sensor link channel settings (YAML) for every sensor, or NAME=FILE for sensor NAME; a sensor "
            "with neither is lossless",
            false, true},
-          {"actuator-channel", "FILE", "custom, sweep: controller-to-actuator channel settings (default: lossless)",
+          {"actuator-channel", "FILE", "custom, covariance, sweep: controller-to-actuator channel settings (default: lossless)",
            false, false},
-          {"settings", "S1,S2,...", "custom, sweep: estimator settings files, comma-separated", false, false},
-          {"axis", "SENSOR.PARAM=LO:HI:N",
-           "sweep: a grid axis, N values from LO to HI (PARAM: arrival_rate or recovery_rate, values in [0, 1]); "
-           "once or twice",
+          {"settings", "S1,S2,...",
+           "custom, covariance, sweep: estimator settings files or algorithm names (kfio, rseio, ...), comma-separated",
+           false, false},
+          {"axis", "NAME=LO:HI:N",
+           "sweep: a grid axis, N values from LO to HI (NAME: SENSOR.arrival_rate, .loss, .recovery_rate, .r, .p, "
+           ".loss_good, .loss_bad; ESTIMATOR.mu, .recovery, .failure; model.A[i][j], model.C[i][j], model.Q*, "
+           "model.R*); once or twice",
+           false, true},
+          {"threshold", "M",
+           "also report P(value > M), the fraction of runs above M, of every value (a column P_gt_M; sweep: of tr "
+           "P_T, trP_P_gt_M); repeatable, at most 16",
            false, true},
           {"shard", "K/N",
            "compute shard K of N (1 <= K <= N) only and write DIR/NAME.shard-K-of-N.json (merge with montecarlo "
@@ -200,15 +233,33 @@ int main(int argc, char** argv)
     cfg.seed = cl.getUint64("seed", 1);
     cfg.threads = static_cast<int>(cl.getLong("threads", 0, 1, 1024));
     const bool sweep = cfg.experiment == "sweep";
-    const bool custom = cfg.experiment == "custom" || sweep;
+    const bool custom = takesCustomInputs(cfg.experiment);
     for (const char* key : {"model", "settings"})
       if (custom && !cl.has(key))
         throw cli::UsageError("experiment " + cfg.experiment + " needs --" + key);
-    for (const char* key : {"model", "channel", "actuator-channel", "settings"})
+    for (const char* key : {"model", "channel", "actuator-channel", "settings", "covariance-only"})
       if (!custom && cl.has(key))
-        throw cli::UsageError(std::string("option '--") + key + "' is only for --experiment custom or sweep");
+        throw cli::UsageError(std::string("option '--") + key + "' is only for --experiment custom, covariance or sweep");
+    cfg.covariance_only = cl.has("covariance-only");
+    for (const std::string& t : cl.getAll("threshold"))
+    {
+      double m = 0.0;
+      char* end = nullptr;
+      m = std::strtod(t.c_str(), &end);
+      if (t.empty() || end != t.c_str() + t.size() || !std::isfinite(m))
+        throw cli::UsageError("option '--threshold': expected a finite number, found '" + t + "'");
+      cfg.thresholds.push_back(m);
+    }
+    try
+    {
+      canonicalConfig(cfg);  // the thresholds' count and repeats
+    }
+    catch (const ConfigError& e)
+    {
+      throw cli::UsageError(e.what());
+    }
     if (sweep && !cl.has("axis"))
-      throw cli::UsageError("experiment sweep needs --axis SENSOR.PARAM=LO:HI:N (once or twice)");
+      throw cli::UsageError("experiment sweep needs --axis NAME=LO:HI:N (once or twice)");
     if (!sweep && cl.has("axis"))
       throw cli::UsageError("option '--axis' is only for --experiment sweep");
     if (sweep)
@@ -239,7 +290,9 @@ int main(int argc, char** argv)
     if (cl.has("shard") && !parseShardSpec(cl.get("shard"), shard, shards))
       throw cli::UsageError("option '--shard': expected K/N with integers 1 <= K <= N <= 1000000, found '" +
                             cl.get("shard") + "'");
-    ProgressPrinter printer;
+    long default_runs = 0, default_steps = 0;
+    experimentDefaults(cfg.experiment, default_runs, default_steps);
+    ProgressPrinter printer(cfg.runs > 0 ? cfg.runs : default_runs);
     ProgressCounter progress([&printer](long done, long total) { printer(done, total); });
     if (shards > 0)
     {
@@ -253,7 +306,7 @@ int main(int argc, char** argv)
                    sf.wall_seconds, path.c_str());
       return 0;
     }
-    const ExperimentResult result = runExperiment(cfg, &progress);
+    const ExperimentResult result = runExperiment(cfg, &progress);  // custom --covariance-only: covariance
     writeExperiment(result, cl.get("out"));
     std::fprintf(stderr, "montecarlo: %s: %ld runs x %ld steps%s on %d threads in %.2f s -> %s/%s.csv\n",
                  result.experiment.c_str(), result.runs, result.steps,

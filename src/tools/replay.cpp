@@ -19,7 +19,7 @@ int main(int argc, char** argv)
                       "2 bad arguments or files, 3 the estimator diverged.",
                       {
                           {"model", "FILE", "model file (YAML)", true, false},
-                          {"settings", "FILE", "estimator settings (YAML)", true, false},
+                          {"settings", "FILE", "estimator settings (YAML) or an algorithm name (kfio, rseio, ...)", true, false},
                           {"input", "IN", "replay input CSV (k,gamma,y1..ym[,u1..up][,nu][,r1_1..]: docs/formats.md)", true, false},
                           {"output", "OUT", "replay output CSV (k,gamma,x1..xn,P11..Pnn,trace)", true, false},
                           {"truth", "FILE", "truth CSV of simulate: nu for ack_kf when the input has no nu column",
@@ -27,7 +27,7 @@ int main(int argc, char** argv)
                       });
   return cli::runTool(cl, argc, argv, [&]() -> int {
     const Model model = loadModel(cl.get("model"));
-    const EstimatorSettings settings = loadEstimatorSettings(cl.get("settings"));
+    const EstimatorSettings settings = estimatorSettingsArgument(cl.get("settings"));
     const std::string in_path = cl.get("input");
     ReplayInput input = readReplayInput(in_path, model);
     std::unique_ptr<Estimator> estimator = makeEstimator(model, settings);

@@ -41,5 +41,11 @@ struct EstimatorSettings
 /// Parses and validates estimator settings. Throws ConfigError naming the key.
 EstimatorSettings parseEstimatorSettings(const YAML::Node& node, const std::string& source);
 EstimatorSettings loadEstimatorSettings(const std::string& path);
+/// Whether `text` is the name of an algorithm ("kf", "kfio", ...).
+bool isAlgorithmName(const std::string& text);
+/// A tool's settings argument: an algorithm name (its default settings; the name wins over a file
+/// of that name) or an estimator settings file. Throws ConfigError naming the file, and for a file
+/// that cannot be opened saying it is not an algorithm name either (listing them).
+EstimatorSettings estimatorSettingsArgument(const std::string& arg);
 
 }  // namespace networked_estimation

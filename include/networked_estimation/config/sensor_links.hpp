@@ -5,6 +5,7 @@
 // A sensor with neither is lossless. docs/formats.md, "Channel settings", describes the files.
 #pragma once
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -36,5 +37,8 @@ struct SensorLinks
 /// a sensor given twice, more than one plain FILE, or a channel file that cannot be read or is
 /// invalid (the file's own message).
 SensorLinks resolveSensorLinks(const Model& model, const std::vector<std::string>& channel_args);
+/// The same with FILE read by `load` (e.g. a link given as text rather than a file).
+SensorLinks resolveSensorLinks(const Model& model, const std::vector<std::string>& channel_args,
+                               const std::function<ChannelSettings(const std::string&)>& load);
 
 }  // namespace networked_estimation

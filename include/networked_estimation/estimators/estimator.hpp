@@ -60,8 +60,17 @@ public:
   /// oe: number of mixture components held (1 for the others).
   virtual std::size_t components() const { return 1; }
 
-  /// Back to x0, P0 (and the initial mode probabilities), step counter 0.
+  /// Back to x0, P0 (and the initial mode probabilities), step counter 0. Keeps the covariance-only
+  /// mode.
   virtual void reset() = 0;
+
+  /// Covariance-only mode (montecarlo --covariance-only): step() then computes P_{k|k} exactly as in
+  /// the ordinary mode, by the same code, but not the state, which stays at x0 (state() is not an
+  /// estimate then). Only which sensors arrived is read from a sample (gamma and the finite or NaN
+  /// cells of y, whose values are not used); u and nu are not needed. Offered where P does not depend
+  /// on the data: kf, kfio, ack_kf and rseio. Returns whether the estimator has the mode (false: it
+  /// stays in the ordinary mode; switching it off always succeeds).
+  virtual bool setCovarianceOnly(bool on) { return !on; }
 
   /// An independent copy in the same state (used to rewind and re-filter a bounded history).
   virtual std::unique_ptr<Estimator> clone() const = 0;

@@ -5,7 +5,7 @@
 // blocks are combined in block order, so the results do not depend on the number of threads.
 //
 // Output contract (read by the plot scripts):
-//   DIR/<experiment>.csv    case,series,x,mean,sd,n       (numbers with %.10g)
+//   DIR/<experiment>.csv    case,series,x,mean,sd,n,se,p5,p25,median,p75,p95[,P_gt_M...]  (%.10g)
 //   DIR/<experiment>.json   metadata and per-series summaries (see writeExperimentJson)
 //   DIR/zhou_fig2_samples.csv  case,run,P11,P12,P21,P22   (zhou_fig2 only)
 //   sweep: DIR/sweep.csv holds one row per (grid point, estimator) instead (sweep.hpp), and
@@ -16,10 +16,14 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <limits>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
+
+#include "networked_estimation/experiments/quantile_sketch.hpp"
 
 namespace networked_estimation
 {
@@ -30,12 +34,40 @@ namespace networked_estimation
 /// Runs per block: the unit of work of a thread and of the deterministic reduction.
 constexpr long kBlockRuns = 64;
 
-/// Mean and sample standard deviation (across runs) of every value of a run.
+/// A series of values of a run (values first .. first + x.size() - 1, one per x, x = k) whose
+/// per-run summaries a Monte Carlo call computes (CallStatistics::spans).
+struct SeriesSpan
+{
+  std::size_t first = 0;
+  std::vector<double> x;
+  double window0 = 0.0, window1 = 0.0;  ///< the time average's window of x (inclusive)
+};
+
+/// What a Monte Carlo call computes beyond the mean and sd of every value: the statistics of heavy
+/// tails (docs/formats.md, "Heavy tails"). Each is exact across threads, blocks and shards.
+struct CallStatistics
+{
+  bool quantiles = false;          ///< a QuantileSketch of every value
+  std::vector<double> thresholds;  ///< P(value > M) of every value for every M
+  /// Per span and run: the growth exponent of log value, the least-squares slope per unit of x of
+  /// log v over the last half of the span (its points i >= count / 2; NaN unless every value there
+  /// is finite and > 0, or when fewer than 2 points), and the run's own time average over the window.
+  std::vector<SeriesSpan> spans;
+};
+
+/// Mean and sample standard deviation (across runs) of every value of a run, and the statistics of
+/// the call's CallStatistics.
 struct Moments
 {
   std::vector<double> mean;
   std::vector<double> sd;  ///< sample standard deviation (0 when n < 2)
   long n = 0;
+  std::vector<QuantileSketch> sketches;  ///< per value, when the call asked for quantiles
+  std::vector<double> thresholds;        ///< the call's
+  std::vector<double> exceed;            ///< value-major, values x thresholds: the fraction of runs above M
+  std::vector<SeriesSpan> spans;         ///< the call's
+  /// Per span: mean and sd over the runs of the growth exponent and of the time average.
+  std::vector<double> growth_mean, growth_sd, average_mean, average_sd;
 };
 
 /// Thread-safe progress counter over all the runs of an experiment. The callback is called with
@@ -63,11 +95,13 @@ using RunFunction = std::function<void(long run, double* out)>;
 using WorkerFactory = std::function<RunFunction()>;
 
 /// Runs `runs` runs on up to `threads` threads (0 = hardware concurrency) and returns the moments
-/// of every value. When `raw` is given it receives every run's values (runs x values, row-major).
-/// The first exception of a run is rethrown after every thread has stopped. Under a
-/// BlockSessionScope it computes one shard's blocks, or replays merged ones (BlockSession).
+/// of every value, and the statistics `stats` asks for. When `raw` is given it receives every
+/// run's values (runs x values, row-major). The first exception of a run is rethrown after every
+/// thread has stopped. Under a BlockSessionScope it computes one shard's blocks, or replays merged
+/// ones (BlockSession).
 Moments runMonteCarlo(long runs, std::size_t values, int threads, const WorkerFactory& make_worker,
-                      ProgressCounter* progress = nullptr, std::vector<double>* raw = nullptr);
+                      ProgressCounter* progress = nullptr, std::vector<double>* raw = nullptr,
+                      const CallStatistics* stats = nullptr);
 
 /// The thread count actually used for a requested count (0 = hardware concurrency, at least 1).
 int resolveThreads(int requested);
@@ -85,13 +119,19 @@ struct BlockMoments
   std::vector<double> raw;       ///< count x values, row-major, when the call collects per-run values
 };
 
-/// The blocks of one runMonteCarlo call that a shard holds (merged: all of them).
+/// The blocks of one runMonteCarlo call that a shard holds (merged: all of them). `values` counts
+/// the accumulators of a run: the run's values, then one indicator per value and threshold, then
+/// two per span (CallStatistics), in that order.
 struct CallBlocks
 {
   long runs = 0;
   std::size_t values = 0;
   bool raw = false;                  ///< the call collects per-run values
   std::vector<BlockMoments> blocks;  ///< by increasing index
+  bool quantiles = false;            ///< the call keeps quantile sketches
+  /// Per value of the run (not the other accumulators): the sketch of the runs of `blocks` (counts add
+  /// exactly, so one sketch per shard rather than per block).
+  std::vector<QuantileSketch> sketches;
 };
 
 /// Blocks of a call of `runs` runs.
@@ -100,8 +140,9 @@ long blockCount(long runs);
 long blockRuns(long runs, long b);
 
 /// The moments of a call from all its blocks, combined in block order exactly as runMonteCarlo
-/// combines them (so bit for bit the same), and its per-run values into `raw` when given. Throws
-/// InputError unless `call` holds every block 0 .. blockCount(runs) - 1 once, each of its size.
+/// combines them (so bit for bit the same), and its per-run values into `raw` when given (all of
+/// call.values per run). Throws InputError unless `call` holds every block 0 .. blockCount(runs) - 1
+/// once, each of its size. The sketches and the CallStatistics' other results are not filled in.
 Moments combineBlocks(const CallBlocks& call, std::vector<double>* raw = nullptr);
 
 /// Redirects the runMonteCarlo calls made on one thread while a BlockSessionScope holds it:
@@ -132,9 +173,11 @@ public:
   void record(CallBlocks call) { calls_.push_back(std::move(call)); }
   /// Shard: hands over the recorded calls (the session keeps none).
   std::vector<CallBlocks> takeCalls() { return std::move(calls_); }
-  /// Replay: the next call's moments. Throws InputError when the experiment asks for more calls
-  /// than were recorded, or for a call of another size.
-  Moments replayNext(long runs, std::size_t values, std::vector<double>* raw);
+  /// Replay: the next call: its moments (of all `values` accumulators), per-run values and sketches.
+  /// Throws InputError when the experiment asks for more calls than were recorded, or for a call of
+  /// another size.
+  Moments replayNext(long runs, std::size_t values, std::vector<double>* raw, bool quantiles,
+                     std::vector<QuantileSketch>* sketches);
 
 private:
   BlockSession() = default;
@@ -169,6 +212,23 @@ struct SeriesResult
   double time_average = 0.0;     ///< mean over x in the window of `mean`
   double final_value = 0.0;      ///< mean at the last x
   bool bound = false;            ///< a bound (JSON "bound": true: plotted dashed)
+  // Heavy tails (docs/formats.md, "Heavy tails"); NaN where the experiment does not compute them.
+  /// Per x: the quantiles over the runs (within QuantileSketch::kRelativeError).
+  std::vector<double> p5, p25, median, p75, p95;
+  /// Per threshold of ExperimentResult::thresholds, per x: the fraction of runs above it.
+  std::vector<std::vector<double>> exceed;
+  /// The sd over the runs of a run's own time average (its standard error: / sqrt(n)).
+  double time_average_sd = std::numeric_limits<double>::quiet_NaN();
+  /// The growth exponent of log value per unit of x (CallStatistics::spans): mean and sd over the
+  /// runs, and the x range it is fitted over.
+  double growth = std::numeric_limits<double>::quiet_NaN(), growth_sd = std::numeric_limits<double>::quiet_NaN();
+  double growth_window0 = std::numeric_limits<double>::quiet_NaN(),
+         growth_window1 = std::numeric_limits<double>::quiet_NaN();
+  /// Whether the mean is estimable (summarise()): every mean finite, its standard error at most a
+  /// fifth of it, and not above the 95th percentile; `mean_note` says why not. The plots draw the
+  /// median with a quantile band where it is not.
+  bool mean_estimable = true;
+  std::string mean_note;
 };
 
 struct CaseResult
@@ -191,6 +251,7 @@ struct ExperimentResult
 {
   std::string experiment;
   long runs = 0, steps = 0;
+  std::vector<double> thresholds;  ///< --threshold: the M of the tail probabilities P(value > M)
   std::uint64_t seed = 1;
   int threads = 1;
   double wall_seconds = 0.0;
@@ -204,10 +265,11 @@ struct ExperimentResult
   std::shared_ptr<const SweepResult> sweep;
 };
 
-/// Fills time_average and final_value of every series from its window.
+/// Fills time_average and final_value of every series from its window, and mean_estimable.
 void summarise(ExperimentResult& result);
 
-/// `case,series,x,mean,sd,n` rows (numbers with %.10g).
+/// `case,series,x,mean,sd,n,se,p5,p25,median,p75,p95` and a P_gt_M column per threshold, rows
+/// (numbers with %.10g, NaN as nan, empty where not computed).
 std::string experimentCsv(const ExperimentResult& result);
 /// The JSON metadata document (written by hand, strings escaped).
 std::string experimentJson(const ExperimentResult& result);
@@ -230,6 +292,8 @@ struct MonteCarloConfig
   long steps = 0;  ///< 0 = the experiment's default
   std::uint64_t seed = 1;
   int threads = 0;  ///< 0 = hardware concurrency
+  /// --threshold: the M of the tail probabilities P(value > M) in every output (at most kMaxThresholds).
+  std::vector<double> thresholds;
   // custom and sweep only
   std::string model_path;
   /// The --channel options: FILE (every sensor) and NAME=FILE (that sensor), see sensor_links.hpp.
@@ -238,7 +302,20 @@ struct MonteCarloConfig
   std::vector<std::string> settings_paths;
   /// sweep only: the --axis options, SENSOR.PARAM=LO:HI:N (sweep.hpp).
   std::vector<std::string> axis_args;
+  /// Inputs given as text rather than as files (Python's Model, Link and settings objects): the
+  /// model path, a --channel FILE or a settings entry that is a key here is read from its text (a
+  /// model or channel file's YAML, or estimator settings), and the shards hash and carry the text.
+  std::map<std::string, std::string> inline_inputs;
+  /// custom and sweep: --covariance-only, the estimators' random Riccati recursion driven by the
+  /// links' arrivals alone (no plant: any horizon, no rounding floor); only for the estimators whose
+  /// P does not depend on the data (Estimator::setCovarianceOnly).
+  bool covariance_only = false;
 };
+
+/// The most --threshold values of one experiment.
+constexpr std::size_t kMaxThresholds = 16;
+/// The name of the tail probability column of threshold M: "P_gt_" + M (%.10g).
+std::string thresholdColumn(double threshold);
 
 /// Names of the experiments, in a fixed order.
 const std::vector<std::string>& experimentNames();
@@ -247,7 +324,15 @@ void checkExperimentName(const std::string& name);
 /// Default runs and steps of an experiment (throws ConfigError for an unknown name).
 void experimentDefaults(const std::string& name, long& runs, long& steps);
 
-/// Runs an experiment. Throws ConfigError for a bad configuration (unknown experiment, missing or
+/// The experiments that take the --model, --channel, --actuator-channel and --settings options
+/// (custom, covariance, sweep).
+bool takesCustomInputs(const std::string& experiment);
+/// The configuration as it runs: custom with covariance_only is the experiment covariance (its
+/// outputs DIR/covariance.csv and .json), which always has covariance_only set. Throws ConfigError
+/// for an unknown experiment, or covariance_only on one that takes no custom inputs.
+MonteCarloConfig canonicalConfig(const MonteCarloConfig& config);
+
+/// Runs an experiment (its canonicalConfig). Throws ConfigError for a bad configuration (unknown experiment, missing or
 /// invalid custom files), InputError, DivergenceError when an estimator diverges.
 ExperimentResult runExperiment(const MonteCarloConfig& config, ProgressCounter* progress = nullptr);
 

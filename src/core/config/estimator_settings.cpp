@@ -3,7 +3,9 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <cstdint>
 #include <limits>
 #include <string>
@@ -121,6 +123,34 @@ EstimatorSettings parseEstimatorSettings(const YAML::Node& node, const std::stri
 EstimatorSettings loadEstimatorSettings(const std::string& path)
 {
   return parseEstimatorSettings(loadYamlFile(path), path);
+}
+
+bool isAlgorithmName(const std::string& text)
+{
+  const auto& names = algorithmNames();
+  return std::find(names.begin(), names.end(), text) != names.end();
+}
+
+EstimatorSettings estimatorSettingsArgument(const std::string& arg)
+{
+  if (isAlgorithmName(arg))
+  {
+    EstimatorSettings s;
+    s.algorithm = algorithmFromString(arg, arg);
+    return s;
+  }
+  try
+  {
+    return loadEstimatorSettings(arg);
+  }
+  catch (const ConfigError& e)
+  {
+    std::ifstream probe(arg);
+    if (probe)
+      throw;
+    throw ConfigError(std::string(e.what()) + " (nor is '" + arg + "' an algorithm: " + joinList(algorithmNames()) +
+                      ")");
+  }
 }
 
 }  // namespace networked_estimation

@@ -57,6 +57,12 @@ std::string SensorLinks::describe() const
 
 SensorLinks resolveSensorLinks(const Model& model, const std::vector<std::string>& channel_args)
 {
+  return resolveSensorLinks(model, channel_args, &loadChannelSettings);
+}
+
+SensorLinks resolveSensorLinks(const Model& model, const std::vector<std::string>& channel_args,
+                               const std::function<ChannelSettings(const std::string&)>& load)
+{
   const std::size_t S = model.sensors.size();
   SensorLinks links;
   links.link.assign(S, std::nullopt);
@@ -82,7 +88,7 @@ SensorLinks resolveSensorLinks(const Model& model, const std::vector<std::string
       if (links.common)
         throw ConfigError("--channel: more than one channel for every sensor ('" + common_file + "' and '" + file +
                           "'); give the others as NAME=FILE");
-      links.common = loadChannelSettings(file);
+      links.common = load(file);
       common_file = file;
       continue;
     }
@@ -97,7 +103,7 @@ SensorLinks resolveSensorLinks(const Model& model, const std::vector<std::string
       throw ConfigError("--channel " + arg + ": sensor '" + name + "' has a channel already");
     if (file.empty())
       throw ConfigError("--channel " + arg + ": no file after '" + name + "='");
-    links.link[index] = loadChannelSettings(file);
+    links.link[index] = load(file);
     links.origin[index] = name + ": " + file + " (--channel " + arg + ")";
     own[index] = true;
   }

@@ -534,16 +534,19 @@ protected:
       throwSteppedAfterDivergence(algorithm_);
   }
   /// Ends a step from the prediction (xpred_, Ppred_): the measurement update of the selected
-  /// rows when any arrived (last_updated_), then the result becomes (x_, P_).
+  /// rows when any arrived (last_updated_), then the result becomes (x_, P_). In the
+  /// covariance-only mode only P: the mean is neither updated nor committed (x_ stays).
   void updateAndCommit()
   {
     if (last_updated_)
       withArrived([&](Update& upd, const auto& C, const auto& R, const auto& y) {
         upd.factor(Ppred_, C, R);
-        upd.updateMean(y, xpred_);
+        if (!covariance_only_)
+          upd.updateMean(y, xpred_);
         upd.downdate(Ppred_);
       });
-    commit(x_, xpred_);
+    if (!covariance_only_)
+      commit(x_, xpred_);
     commit(P_, Ppred_);
   }
   /// to <- from; from is workspace afterwards (swapped where that is cheaper than a copy).
@@ -604,6 +607,8 @@ protected:
   std::vector<int> angle_rows_;    ///< angularRows(model_): rows of C_ (and of the fixed-size Ca_)
   std::vector<int> angle_rows_a_;  ///< dynamic sizes: the angular rows' positions in the compacted Ca_
   bool diverged_ = false;
+  /// Estimator::setCovarianceOnly: set by the estimators that offer it (their P does not depend on the data).
+  bool covariance_only_ = false;
 };
 
 }  // namespace detail

@@ -49,13 +49,23 @@ public:
         apply = apply && sample.nu == 1;
         nu_ = sample.nu;
       }
-      xpred_.noalias() = A_ * x_;
-      if (apply)
-        xpred_ += bu_;
+      if (!this->covariance_only_)
+      {
+        xpred_.noalias() = A_ * x_;
+        if (apply)
+          xpred_ += bu_;
+      }
       this->predictCovariance(P_);
       last_updated_ = rows > 0;
       this->updateAndCommit();
     });
+  }
+
+  /// P depends on which sensors arrived only (the command moves the mean alone).
+  bool setCovarianceOnly(bool on) override
+  {
+    this->covariance_only_ = on;
+    return true;
   }
 
   double commandArrivalProbability() const override

@@ -256,6 +256,13 @@ public:
   }
   std::unique_ptr<Estimator> clone() const override { return std::make_unique<RseioFilter>(*this); }
   const char* lastForm() const override { return last_form_; }
+  /// P depends on which sensors arrived only. (The step still forms the prediction of the mean from x_,
+  /// which stays at x0 in this mode: nothing accumulates.)
+  bool setCovarianceOnly(bool on) override
+  {
+    this->covariance_only_ = on;
+    return true;
+  }
 
   void step(const Sample& sample) override
   {

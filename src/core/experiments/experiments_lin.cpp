@@ -150,7 +150,10 @@ Moments linRuns(const RunConfig& rc, const LinParams& lp)
       }
     };
   };
-  return runMonteCarlo(rc.runs, 4 * static_cast<std::size_t>(T), rc.threads, factory, rc.progress);
+  CallStatistics stats = callStatistics(rc);
+  for (std::size_t j = 0; j < 4; ++j)
+    addSpan(stats, j * static_cast<std::size_t>(T), stepAxis(T), 1.0, static_cast<double>(T));
+  return runMonteCarlo(rc.runs, 4 * static_cast<std::size_t>(T), rc.threads, factory, rc.progress, nullptr, &stats);
 }
 
 std::vector<std::string> commonAssumptions()
@@ -174,6 +177,9 @@ void setPoint(SeriesResult& s, std::size_t i, const Moments& m, std::size_t v)
   s.mean[i] = m.mean[v];
   s.sd[i] = m.sd[v];
   s.n = m.n;
+  if (s.exceed.size() != m.thresholds.size() || (s.p5.empty() && !m.sketches.empty()))
+    resizeTails(s, s.mean.size(), m);
+  setTails(s, i, m, v);
 }
 
 SeriesResult sweepSeries(const std::string& name, const std::vector<double>& x)
@@ -282,7 +288,9 @@ ExperimentResult linFig2(const RunConfig& rc)
     const double pt = 1.0 - 1.0 / (rhos[c] * rhos[c]);
     CaseResult cr;
     cr.name = names[c];
-    cr.title = "rho_A = " + fmt(rhos[c]) + ", p_t = " + fmt(pt) + ", p2 = q1 = q2 = 0.5";
+    char pt_text[32];
+    std::snprintf(pt_text, sizeof pt_text, "%.4f", pt);  // 0.4000, not the 0.40000516 of %.10g
+    cr.title = "rho_A = " + fmt(rhos[c]) + ", p_t = " + pt_text + ", p2 = q1 = q2 = 0.5";
     for (int i = 0; i < points; ++i)
       cr.x.push_back(pt + 0.02 + (1.0 - pt - 0.02) * i / (points - 1));
     SeriesResult oe = sweepSeries("OE tr E[P_" + std::to_string(T) + "]", cr.x);

@@ -1,5 +1,8 @@
 // Experiments zhou_fig1, zhou_fig2 (Zhou's example, Section IV of the paper) and custom.
+#include <map>
 #include <memory>
+
+#include <yaml-cpp/yaml.h>
 
 #include "experiments/montecarlo_experiments.hpp"
 #include "networked_estimation/common/angles.hpp"
@@ -85,7 +88,7 @@ void stepFilters(const std::vector<std::unique_ptr<Estimator>>& est, const std::
 /// filter-major, T per filter. Run r: plant seed deriveSeed(rs, 0), channel seed deriveSeed(rs, 1)
 /// with rs = deriveSeed(seed, r).
 Moments squaredErrorRuns(const RunConfig& rc, const Model& model, const ChannelSettings& channel,
-                         const std::vector<ErrorFilter>& filters)
+                         const std::vector<ErrorFilter>& filters, double window0, double window1)
 {
   const long T = rc.steps;
   const std::uint64_t seed = rc.seed;
@@ -123,7 +126,10 @@ Moments squaredErrorRuns(const RunConfig& rc, const Model& model, const ChannelS
       }
     };
   };
-  return runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress);
+  CallStatistics stats = callStatistics(rc);
+  for (std::size_t j = 0; j < nf; ++j)
+    addSpan(stats, j * static_cast<std::size_t>(T), stepAxis(T), window0, window1);
+  return runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress, nullptr, &stats);
 }
 
 std::string stem(const std::string& path)
@@ -169,7 +175,7 @@ ExperimentResult zhouFig1(const RunConfig& rc)
         {settingsOf(Algorithm::RSEIO, 0.8), true},    {settingsOf(Algorithm::RSEIO, 0.8), false},
         {settingsOf(Algorithm::RSEIO, 0.95), true},   {settingsOf(Algorithm::RSEIO, 0.95), false},
     };
-    const Moments m = squaredErrorRuns(rc, model, channel, filters);
+    const Moments m = squaredErrorRuns(rc, model, channel, filters, w0, w1);
     addCase("delta1_mu0.8", "delta = 1, mu = 0.8", m, {0, 1, 2, 3});
     addCase("delta1_mu0.95", "delta = 1, mu = 0.95", m, {0, 1, 4, 5});
   }
@@ -181,7 +187,7 @@ ExperimentResult zhouFig1(const RunConfig& rc)
         {settingsOf(Algorithm::RSEIO, 0.8), true},
         {settingsOf(Algorithm::RSEIO, 0.8), false},
     };
-    const Moments m = squaredErrorRuns(rc, model, channel, filters);
+    const Moments m = squaredErrorRuns(rc, model, channel, filters, w0, w1);
     addCase("delta10_mu0.8", "delta = 10, mu = 0.8", m, {0, 1, 2, 3});
   }
 
@@ -244,7 +250,8 @@ ExperimentResult zhouFig2(const RunConfig& rc)
     };
     SampleSet samples;
     samples.case_name = names[c];
-    const Moments m = runMonteCarlo(rc.runs, 4, rc.threads, factory, rc.progress, &samples.values);
+    const CallStatistics stats = callStatistics(rc);
+    const Moments m = runMonteCarlo(rc.runs, 4, rc.threads, factory, rc.progress, &samples.values, &stats);
     CaseResult cr;
     cr.name = names[c];
     cr.title = "P_0|0 = " + fmt(p0s[c]) + " I";
@@ -266,13 +273,37 @@ ExperimentResult zhouFig2(const RunConfig& rc)
   return res;
 }
 
+namespace
+{
+
+/// The YAML of an input given as text (MonteCarloConfig::inline_inputs), its errors naming `label`.
+YAML::Node inlineYaml(const std::string& label, const std::string& text)
+{
+  try
+  {
+    return YAML::Load(text);
+  }
+  catch (const YAML::Exception& e)
+  {
+    throw ConfigError(label + ": not valid YAML: " + e.what());
+  }
+}
+
+}  // namespace
+
 CustomSetup loadCustomSetup(const MonteCarloConfig& cfg, const std::string& experiment)
 {
   if (cfg.model_path.empty() || cfg.settings_paths.empty())
     throw ConfigError("experiment " + experiment + ": needs a model and at least one settings file");
+  const std::map<std::string, std::string>& text = cfg.inline_inputs;
   CustomSetup su;
-  su.model = loadModel(cfg.model_path);
-  su.links = resolveSensorLinks(su.model, cfg.channel_args);
+  const auto model_text = text.find(cfg.model_path);
+  su.model = model_text != text.end() ? parseModel(inlineYaml(cfg.model_path, model_text->second), cfg.model_path)
+                                      : loadModel(cfg.model_path);
+  su.links = resolveSensorLinks(su.model, cfg.channel_args, [&text](const std::string& file) {
+    const auto it = text.find(file);
+    return it != text.end() ? parseChannelSettings(inlineYaml(file, it->second), file) : loadChannelSettings(file);
+  });
   su.options.sensor_links = su.links.link;
   if (su.model.hasControl())
     su.options.control = ControlSequence::parse("paper", "control");  // simulate's default sequence
@@ -284,10 +315,19 @@ CustomSetup loadCustomSetup(const MonteCarloConfig& cfg, const std::string& expe
   }
   for (const std::string& p : cfg.settings_paths)
   {
-    su.settings.push_back(loadEstimatorSettings(p));
+    // settings given as text, an algorithm name (named after itself), or a file (named after its stem)
+    const auto it = text.find(p);
+    su.settings.push_back(it != text.end() ? parseEstimatorSettings(inlineYaml(p, it->second), p)
+                                           : estimatorSettingsArgument(p));
     makeEstimator(su.model, su.settings.back());  // validates the combination before any run
-    su.names.push_back(stem(p));
+    su.names.push_back(it != text.end() || isAlgorithmName(p) ? p : stem(p));
   }
+  for (std::size_t j = 0; j < su.names.size(); ++j)
+    for (std::size_t i = 0; i < j; ++i)
+      if (su.names[i] == su.names[j])
+        throw ConfigError("experiment " + experiment + ": two estimators named '" + su.names[j] + "' (settings '" +
+                          cfg.settings_paths[i] + "' and '" + cfg.settings_paths[j] +
+                          "'): the series need distinct names");
   return su;
 }
 
@@ -326,7 +366,11 @@ ExperimentResult customExperiment(const RunConfig& rc)
       }
     };
   };
-  const Moments m = runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress);
+  CallStatistics stats = callStatistics(rc);
+  for (std::size_t j = 0; j < nf; ++j)
+    addSpan(stats, j * static_cast<std::size_t>(T), stepAxis(T), 1.0, static_cast<double>(T));
+  const Moments m =
+      runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress, nullptr, &stats);
   ExperimentResult res;
   CaseResult c;
   c.name = model.name.empty() ? stem(cfg.model_path) : model.name;

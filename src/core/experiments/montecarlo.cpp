@@ -6,6 +6,8 @@
 #include <cerrno>
 #include <cmath>
 #include <exception>
+#include <limits>
+#include <stdexcept>
 #include <sstream>
 #include <sys/stat.h>
 #include <thread>
@@ -41,13 +43,21 @@ int resolveThreads(int requested)
 namespace
 {
 
-/// Welford step: adds the run's values `v` to the block.
+/// Welford step: adds the run's values `v` to the block. A value that is not finite (a covariance-only
+/// run whose P overflowed: +inf) makes the mean the plain sum's (inf, or NaN for mixed signs) and the
+/// sd NaN, instead of the NaN of inf - inf.
 void addRun(BlockMoments& a, const double* v)
 {
   ++a.count;
   const double inv = 1.0 / static_cast<double>(a.count);
   for (std::size_t i = 0; i < a.mean.size(); ++i)
   {
+    if (!(std::isfinite(v[i]) && std::isfinite(a.mean[i])))
+    {
+      a.mean[i] += v[i];
+      a.m2[i] = std::nan("");
+      continue;
+    }
     const double d = v[i] - a.mean[i];
     a.mean[i] += d * inv;
     a.m2[i] += d * (v[i] - a.mean[i]);
@@ -70,6 +80,12 @@ void mergeInto(BlockMoments& a, const BlockMoments& o)
   const double n = na + nb;
   for (std::size_t i = 0; i < a.mean.size(); ++i)
   {
+    if (!(std::isfinite(o.mean[i]) && std::isfinite(a.mean[i])))
+    {
+      a.mean[i] += o.mean[i];  // as addRun
+      a.m2[i] = std::nan("");
+      continue;
+    }
     const double d = o.mean[i] - a.mean[i];
     a.mean[i] += d * (nb / n);
     a.m2[i] += o.m2[i] + d * d * (na * nb / n);
@@ -92,12 +108,126 @@ Moments reduceBlocks(const std::vector<const BlockMoments*>& blocks, std::size_t
   m.sd.assign(values, 0.0);
   if (total.count > 1)
     for (std::size_t i = 0; i < values; ++i)
-      m.sd[i] = std::sqrt(std::max(0.0, total.m2[i] / static_cast<double>(total.count - 1)));
+      m.sd[i] = std::isnan(total.m2[i]) ? total.m2[i]
+                                        : std::sqrt(std::max(0.0, total.m2[i] / static_cast<double>(total.count - 1)));
   return m;
 }
 
 /// The session of this thread's runMonteCarlo calls (BlockSessionScope), null: a plain run.
 thread_local BlockSession* t_session = nullptr;
+
+/// The accumulators of a run of a call: its values, one indicator per value and threshold, two per span.
+std::size_t accumulators(std::size_t values, const CallStatistics* st)
+{
+  return st ? values + values * st->thresholds.size() + 2 * st->spans.size() : values;
+}
+
+/// A span's per-run summaries as weights over its values.
+struct SpanPlan
+{
+  std::size_t growth_first = 0;       ///< value index of the first point of the growth fit
+  std::vector<double> growth_weights;  ///< the least-squares slope of log v: sum of w_j log v_j
+  std::vector<std::size_t> window;     ///< value indices of the time average's window
+};
+
+std::vector<SpanPlan> planSpans(const CallStatistics* st, std::size_t values)
+{
+  std::vector<SpanPlan> plans;
+  if (!st)
+    return plans;
+  for (const SeriesSpan& sp : st->spans)
+  {
+    if (sp.first + sp.x.size() > values)
+      throw std::logic_error("runMonteCarlo: a span reaches past the run's values");
+    SpanPlan p;
+    const std::size_t count = sp.x.size(), half = count / 2;
+    p.growth_first = sp.first + half;
+    if (count - half >= 2)
+    {
+      double xm = 0.0, sxx = 0.0;
+      for (std::size_t i = half; i < count; ++i)
+        xm += sp.x[i];
+      xm /= static_cast<double>(count - half);
+      for (std::size_t i = half; i < count; ++i)
+        sxx += (sp.x[i] - xm) * (sp.x[i] - xm);
+      if (sxx > 0.0)
+        for (std::size_t i = half; i < count; ++i)
+          p.growth_weights.push_back((sp.x[i] - xm) / sxx);
+    }
+    for (std::size_t i = 0; i < count; ++i)
+      if (sp.x[i] >= sp.window0 && sp.x[i] <= sp.window1)
+        p.window.push_back(sp.first + i);
+    plans.push_back(std::move(p));
+  }
+  return plans;
+}
+
+/// Fills the accumulators after the run's values v[0 .. values): the threshold indicators, then per
+/// span the growth exponent and the time average.
+void extendRun(double* v, std::size_t values, const CallStatistics& st, const std::vector<SpanPlan>& plans)
+{
+  double* e = v + values;
+  const std::vector<double>& th = st.thresholds;
+  if (!th.empty())
+    for (std::size_t i = 0; i < values; ++i)
+      for (double m : th)
+        *e++ = v[i] > m ? 1.0 : 0.0;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (const SpanPlan& p : plans)
+  {
+    double g = p.growth_weights.empty() ? nan : 0.0;
+    for (std::size_t j = 0; j < p.growth_weights.size(); ++j)
+    {
+      const double x = v[p.growth_first + j];
+      if (!(x > 0.0 && x <= std::numeric_limits<double>::max()))
+      {
+        g = nan;
+        break;
+      }
+      g += p.growth_weights[j] * std::log(x);
+    }
+    *e++ = g;
+    double sum = 0.0;
+    for (std::size_t i : p.window)
+      sum += v[i];
+    *e++ = p.window.empty() ? nan : sum / static_cast<double>(p.window.size());
+  }
+}
+
+/// The call's result from the moments of all its accumulators: the statistics split off, the
+/// per-run values of `all` (accumulators per run) into `raw` (values per run).
+Moments finishCall(Moments m, std::size_t values, const CallStatistics* st, std::vector<QuantileSketch> sketches,
+                   const std::vector<double>* all, std::vector<double>* raw)
+{
+  const std::size_t total = accumulators(values, st);
+  if (raw && all && all != raw)
+  {
+    raw->clear();
+    raw->reserve(all->size() / total * values);
+    for (std::size_t r = 0; r * total < all->size(); ++r)
+      raw->insert(raw->end(), all->begin() + static_cast<std::ptrdiff_t>(r * total),
+                  all->begin() + static_cast<std::ptrdiff_t>(r * total + values));
+  }
+  if (!st)
+    return m;
+  const std::size_t nt = st->thresholds.size();
+  m.thresholds = st->thresholds;
+  m.spans = st->spans;
+  m.exceed.assign(m.mean.begin() + static_cast<std::ptrdiff_t>(values),
+                  m.mean.begin() + static_cast<std::ptrdiff_t>(values + values * nt));
+  for (std::size_t k = 0; k < st->spans.size(); ++k)
+  {
+    const std::size_t o = values + values * nt + 2 * k;
+    m.growth_mean.push_back(m.mean[o]);
+    m.growth_sd.push_back(m.sd[o]);
+    m.average_mean.push_back(m.mean[o + 1]);
+    m.average_sd.push_back(m.sd[o + 1]);
+  }
+  m.mean.resize(values);
+  m.sd.resize(values);
+  m.sketches = std::move(sketches);
+  return m;
+}
 
 }  // namespace
 
@@ -160,12 +290,20 @@ BlockSession BlockSession::replay(std::vector<CallBlocks> calls)
   return s;
 }
 
-Moments BlockSession::replayNext(long runs, std::size_t values, std::vector<double>* raw)
+Moments BlockSession::replayNext(long runs, std::size_t values, std::vector<double>* raw, bool quantiles,
+                                 std::vector<QuantileSketch>* sketches)
 {
   if (next_ >= calls_.size())
     throw InputError("the experiment makes more than the " + std::to_string(calls_.size()) +
                      " Monte Carlo calls recorded in the shards (were they computed by another version of montecarlo?)");
   const CallBlocks& c = calls_[next_];
+  if (c.quantiles != quantiles)
+    throw InputError("Monte Carlo call " + std::to_string(next_) + ": the experiment " +
+                     (quantiles ? "keeps" : "keeps no") + " quantile sketches, the shards " +
+                     (c.quantiles ? "hold them" : "hold none") +
+                     " (were they computed by another version of montecarlo?)");
+  if (sketches)
+    *sketches = c.sketches;
   if (c.runs != runs || c.values != values || c.raw != (raw != nullptr))
     throw InputError("Monte Carlo call " + std::to_string(next_) + ": the experiment asks for " +
                      std::to_string(runs) + " runs x " + std::to_string(values) + " values" +
@@ -187,11 +325,26 @@ BlockSessionScope::~BlockSessionScope()
 }
 
 Moments runMonteCarlo(long runs, std::size_t values, int threads, const WorkerFactory& make_worker,
-                      ProgressCounter* progress, std::vector<double>* raw)
+                      ProgressCounter* progress, std::vector<double>* raw, const CallStatistics* stats)
 {
+  // Every accumulator of a run (values, then the statistics' own) goes through the blocks' Welford
+  // reduction; the sketches of the values are kept per thread and added (exact) at the end.
+  const std::size_t total = accumulators(values, stats);
+  const bool quantiles = stats && stats->quantiles;
+  const std::vector<SpanPlan> plans = planSpans(stats, values);
+  std::vector<double> all_raw;
+  std::vector<double>* run_raw = raw ? (total == values ? raw : &all_raw) : nullptr;
+  std::vector<QuantileSketch> sketches;
+
   BlockSession* const session = t_session;
   if (session && session->replaying())
-    return session->replayNext(runs, values, raw);
+  {
+    Moments m = session->replayNext(runs, total, run_raw, quantiles, &sketches);
+    if (quantiles && sketches.size() != values)
+      throw InputError("Monte Carlo call " + std::to_string(session->replayed() - 1) + ": expected " +
+                       std::to_string(values) + " quantile sketches, the shards hold " + std::to_string(sketches.size()));
+    return finishCall(std::move(m), values, stats, std::move(sketches), run_raw, raw);
+  }
   // the blocks this process computes: all of them, or a shard's share
   std::vector<long> todo;
   long skipped = 0;
@@ -204,19 +357,24 @@ Moments runMonteCarlo(long runs, std::size_t values, int threads, const WorkerFa
     progress->add(skipped);  // other shards' runs: the progress still ends at 100 %
   const long blocks = static_cast<long>(todo.size());
   std::vector<BlockMoments> acc(todo.size());
-  if (raw)
-    raw->assign(static_cast<std::size_t>(runs) * values, 0.0);
+  if (run_raw)
+    run_raw->assign(static_cast<std::size_t>(runs) * total, 0.0);
   std::atomic<long> next{0};
   std::atomic<bool> failed{false};
   std::exception_ptr error;
   long error_block = -1;
   std::mutex error_mutex;
+  std::vector<std::vector<QuantileSketch>> thread_sketches;  // per worker thread (added up afterwards)
 
   auto work = [&]() {
     try
     {
       RunFunction run = make_worker();
-      std::vector<double> out(values);
+      std::vector<double> out(total);
+      std::vector<QuantileSketch> sk(quantiles ? values : 0);
+      // the block's values, added to the sketches value by value after the block: each sketch is then
+      // touched once per block rather than once per run (a run touches every value's sketch)
+      std::vector<double> block_values(quantiles ? static_cast<std::size_t>(kBlockRuns) * values : 0);
       while (!failed.load())
       {
         const long i = next.fetch_add(1);
@@ -228,15 +386,23 @@ Moments runMonteCarlo(long runs, std::size_t values, int threads, const WorkerFa
           BlockMoments& a = acc[static_cast<std::size_t>(i)];
           a.index = b;
           a.count = 0;
-          a.mean.assign(values, 0.0);
-          a.m2.assign(values, 0.0);
+          a.mean.assign(total, 0.0);
+          a.m2.assign(total, 0.0);
           const long r1 = std::min(runs, (b + 1) * kBlockRuns);
           for (long r = b * kBlockRuns; r < r1; ++r)
           {
-            double* dst = raw ? raw->data() + static_cast<std::size_t>(r) * values : out.data();
+            double* dst = run_raw ? run_raw->data() + static_cast<std::size_t>(r) * total : out.data();
             run(r, dst);
+            if (stats)
+              extendRun(dst, values, *stats, plans);
             addRun(a, dst);
+            if (quantiles)
+              std::copy(dst, dst + values, block_values.begin() + static_cast<std::ptrdiff_t>((r - b * kBlockRuns) * values));
           }
+          const std::size_t block_runs = static_cast<std::size_t>(r1 - b * kBlockRuns);
+          for (std::size_t v = 0; v < sk.size(); ++v)
+            for (std::size_t j = 0; j < block_runs; ++j)
+              sk[v].add(block_values[j * values + v]);
           if (progress)
             progress->add(r1 - b * kBlockRuns);
         }
@@ -251,6 +417,11 @@ Moments runMonteCarlo(long runs, std::size_t values, int threads, const WorkerFa
           }
           failed = true;
         }
+      }
+      if (quantiles)
+      {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        thread_sketches.push_back(std::move(sk));
       }
     }
     catch (...)
@@ -275,35 +446,73 @@ Moments runMonteCarlo(long runs, std::size_t values, int threads, const WorkerFa
   }
   if (error)
     std::rethrow_exception(error);
+  if (quantiles)
+  {
+    sketches.resize(values);
+    for (const std::vector<QuantileSketch>& t : thread_sketches)
+      for (std::size_t v = 0; v < values; ++v)
+        sketches[v].merge(t[v]);
+  }
 
   std::vector<const BlockMoments*> order;
   for (const BlockMoments& a : acc)
     order.push_back(&a);
-  const Moments m = reduceBlocks(order, values);
+  const Moments m = reduceBlocks(order, total);
   if (session)
   {
     CallBlocks call;
     call.runs = runs;
-    call.values = values;
-    call.raw = raw != nullptr;
-    if (raw)
+    call.values = total;
+    call.raw = run_raw != nullptr;
+    if (run_raw)
       for (BlockMoments& a : acc)
-        a.raw.assign(raw->begin() + static_cast<std::ptrdiff_t>(a.index * kBlockRuns * static_cast<long>(values)),
-                     raw->begin() + static_cast<std::ptrdiff_t>((a.index * kBlockRuns + a.count) * static_cast<long>(values)));
+        a.raw.assign(run_raw->begin() + static_cast<std::ptrdiff_t>(a.index * kBlockRuns * static_cast<long>(total)),
+                     run_raw->begin() +
+                         static_cast<std::ptrdiff_t>((a.index * kBlockRuns + a.count) * static_cast<long>(total)));
     call.blocks = std::move(acc);
+    call.quantiles = quantiles;
+    call.sketches = sketches;
     session->record(std::move(call));
   }
-  return m;
+  return finishCall(m, values, stats, std::move(sketches), run_raw, raw);
 }
 
 // ---------------------------------------------------------------------------------------------
 // Results
+
+namespace
+{
+
+/// Why a series' mean is not estimable ("" when it is): a mean that is not finite, a standard error
+/// above a fifth of the mean, or a mean above the 95th percentile (a few runs carry it).
+std::string meanProblem(const CaseResult& c, const SeriesResult& s)
+{
+  for (std::size_t i = 0; i < s.mean.size(); ++i)
+  {
+    const std::string at = i < c.x.size() ? " at x = " + mc::fmt(c.x[i]) : "";
+    if (!std::isfinite(s.mean[i]))
+      return "the mean is not finite" + at + " (some runs overflowed)";
+    if (s.n > 1 && i < s.sd.size())
+    {
+      const double se = s.sd[i] / std::sqrt(static_cast<double>(s.n));
+      if (!(se <= 0.2 * std::abs(s.mean[i])))
+        return "its standard error is " + mc::fmt(std::round(100.0 * se / std::abs(s.mean[i]))) + " % of it" + at;
+    }
+    if (i < s.p95.size() && std::isfinite(s.p95[i]) && s.mean[i] > s.p95[i] && s.mean[i] > 0.0)
+      return "it lies above the 95th percentile" + at + " (a few runs carry it)";
+  }
+  return "";
+}
+
+}  // namespace
 
 void summarise(ExperimentResult& result)
 {
   for (CaseResult& c : result.cases)
     for (SeriesResult& s : c.series)
     {
+      s.mean_note = s.bound ? "" : meanProblem(c, s);
+      s.mean_estimable = s.mean_note.empty();
       double sum = 0.0;
       long count = 0;
       for (std::size_t i = 0; i < c.x.size() && i < s.mean.size(); ++i)
@@ -347,17 +556,44 @@ void writeLines(JsonWriter& w, const std::vector<std::string>& v, int indent)
 
 }  // namespace
 
+std::string thresholdColumn(double threshold)
+{
+  return "P_gt_" + mc::fmt(threshold);
+}
+
+namespace
+{
+
+/// Entry i of v, or an empty cell when v holds none (not computed).
+std::string cell(const std::vector<double>& v, std::size_t i)
+{
+  return i < v.size() ? mc::fmt(v[i]) : std::string();
+}
+
+}  // namespace
+
 std::string experimentCsv(const ExperimentResult& result)
 {
   if (result.sweep)
     return sweepCsv(*result.sweep);
   std::ostringstream os;
-  os << "case,series,x,mean,sd,n\n";
+  os << "case,series,x,mean,sd,n,se,p5,p25,median,p75,p95";
+  for (double m : result.thresholds)
+    os << ',' << thresholdColumn(m);
+  os << '\n';
   for (const CaseResult& c : result.cases)
     for (const SeriesResult& s : c.series)
       for (std::size_t i = 0; i < c.x.size(); ++i)
+      {
         os << csvField(c.name) << ',' << csvField(s.name) << ',' << mc::fmt(c.x[i]) << ',' << mc::fmt(s.mean[i])
-           << ',' << mc::fmt(s.sd[i]) << ',' << s.n << '\n';
+           << ',' << mc::fmt(s.sd[i]) << ',' << s.n << ','
+           << (s.n > 0 ? mc::fmt(s.sd[i] / std::sqrt(static_cast<double>(s.n))) : std::string());
+        for (const std::vector<double>* q : {&s.p5, &s.p25, &s.median, &s.p75, &s.p95})
+          os << ',' << cell(*q, i);
+        for (std::size_t t = 0; t < result.thresholds.size(); ++t)
+          os << ',' << (t < s.exceed.size() ? cell(s.exceed[t], i) : std::string());
+        os << '\n';
+      }
   return os.str();
 }
 
@@ -375,6 +611,8 @@ std::string experimentJson(const ExperimentResult& r)
   w.br(2).member("y_label", r.y_label);
   w.br(2).member("log_x", r.log_x);
   w.br(2).member("log_y", r.log_y);
+  w.br(2).key("thresholds").value(r.thresholds);
+  w.br(2).member("quantile_relative_error", QuantileSketch::kRelativeError);
   w.br(2).key("assumptions");
   writeLines(w, r.assumptions, 2);
   w.br(2).key("cases").beginArray();
@@ -386,11 +624,28 @@ std::string experimentJson(const ExperimentResult& r)
     w.br(6).key("series").beginArray();
     for (const SeriesResult& sr : cr.series)
     {
+      const double rn = sr.n > 0 ? std::sqrt(static_cast<double>(sr.n)) : std::nan("");
       w.br(8).beginObject().member("name", sr.name);
       w.member("time_average", mc::rounded(sr.time_average)).member("final", mc::rounded(sr.final_value));
       w.key("window").beginArray().value(mc::rounded(sr.window0)).value(mc::rounded(sr.window1)).endArray();
       if (sr.bound)
         w.member("bound", true);
+      w.br(10).member("time_average_se", mc::rounded(sr.time_average_sd / rn));
+      w.member("final_se", mc::rounded(sr.sd.empty() ? std::nan("") : sr.sd.back() / rn));
+      w.key("growth");
+      if (std::isfinite(sr.growth))
+      {
+        const double half = 1.96 * sr.growth_sd / rn;  // the 95 % interval of the mean over the runs
+        w.beginObject().member("rate", mc::rounded(sr.growth)).member("low", mc::rounded(sr.growth - half));
+        w.member("high", mc::rounded(sr.growth + half));
+        w.key("window").beginArray().value(mc::rounded(sr.growth_window0)).value(mc::rounded(sr.growth_window1));
+        w.endArray().endObject();
+      }
+      else
+        w.null();
+      w.member("statistic", sr.mean_estimable ? "mean" : "median");
+      if (!sr.mean_estimable)
+        w.member("mean_note", "mean not estimable: " + sr.mean_note);
       w.endObject();
     }
     w.br(6).endArray();
@@ -491,9 +746,11 @@ const std::vector<ExperimentEntry>& entries()
   static const std::vector<ExperimentEntry> e = {
       {"zhou_fig1", 5000, 500, &mc::zhouFig1}, {"zhou_fig2", 5000, 500, &mc::zhouFig2},
       {"custom", 1000, 200, &mc::customExperiment}, {"sweep", 1000, 200, &mc::sweepExperiment},
+      {"covariance", 1000, 1000, &mc::covarianceExperiment},
       {"lin_fig2", 1000, 30, &mc::linFig2},
       {"lin_fig3", 500, 30, &mc::linFig3},   {"lin_fig4", 1000, 30, &mc::linFig4},
       {"lin_fig5", 1000, 50, &mc::linFig5},  {"yang_fig2", 10000, 40, &mc::yangFig2},
+      {"sinopoli_fig2", 1000, 100, &mc::sinopoliFig2}, {"mo_sinopoli_tail", 10000, 200, &mc::moSinopoliTail},
   };
   return e;
 }
@@ -534,8 +791,39 @@ void experimentDefaults(const std::string& name, long& runs, long& steps)
   steps = e.steps;
 }
 
-ExperimentResult runExperiment(const MonteCarloConfig& config, ProgressCounter* progress)
+bool takesCustomInputs(const std::string& experiment)
 {
+  return experiment == "custom" || experiment == "covariance" || experiment == "sweep";
+}
+
+MonteCarloConfig canonicalConfig(const MonteCarloConfig& in)
+{
+  MonteCarloConfig c = in;
+  checkExperimentName(c.experiment);
+  if (c.thresholds.size() > kMaxThresholds)
+    throw ConfigError("--threshold: at most " + std::to_string(kMaxThresholds) + " thresholds, found " +
+                      std::to_string(c.thresholds.size()));
+  for (std::size_t i = 0; i < c.thresholds.size(); ++i)
+  {
+    if (!std::isfinite(c.thresholds[i]))
+      throw ConfigError("--threshold: expected finite numbers, found " + mc::fmt(c.thresholds[i]));
+    for (std::size_t j = 0; j < i; ++j)
+      if (c.thresholds[j] == c.thresholds[i])
+        throw ConfigError("--threshold: " + mc::fmt(c.thresholds[i]) + " is given twice");
+  }
+  if (c.covariance_only && !takesCustomInputs(c.experiment))
+    throw ConfigError("experiment " + c.experiment + ": --covariance-only is for the experiments custom, covariance "
+                      "and sweep");
+  if (c.experiment == "custom" && c.covariance_only)
+    c.experiment = "covariance";
+  if (c.experiment == "covariance")
+    c.covariance_only = true;
+  return c;
+}
+
+ExperimentResult runExperiment(const MonteCarloConfig& in, ProgressCounter* progress)
+{
+  const MonteCarloConfig config = canonicalConfig(in);
   const ExperimentEntry& e = entry(config.experiment);
   mc::RunConfig rc;
   rc.runs = config.runs > 0 ? config.runs : e.runs;
@@ -553,6 +841,7 @@ ExperimentResult runExperiment(const MonteCarloConfig& config, ProgressCounter* 
   r.seed = rc.seed;
   r.threads = rc.threads;
   r.wall_seconds = std::chrono::duration<double>(t1 - t0).count();
+  r.thresholds = config.thresholds;
   summarise(r);
   return r;
 }
@@ -574,7 +863,66 @@ SeriesResult makeSeries(const std::string& name, const Moments& m, std::size_t f
   s.n = m.n;
   s.window0 = window0;
   s.window1 = window1;
+  resizeTails(s, count, m);
+  for (std::size_t i = 0; i < count; ++i)
+    setTails(s, i, m, first + i);
+  for (std::size_t k = 0; k < m.spans.size(); ++k)
+  {
+    const SeriesSpan& sp = m.spans[k];
+    if (sp.first != first || sp.x.size() != count)
+      continue;
+    s.growth = m.growth_mean[k];
+    s.growth_sd = m.growth_sd[k];
+    s.growth_window0 = sp.x[count / 2];
+    s.growth_window1 = sp.x.back();
+    if (sp.window0 == window0 && sp.window1 == window1)
+      s.time_average_sd = m.average_sd[k];
+  }
   return s;
+}
+
+void resizeTails(SeriesResult& s, std::size_t count, const Moments& m)
+{
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  if (!m.sketches.empty())
+    for (std::vector<double>* q : {&s.p5, &s.p25, &s.median, &s.p75, &s.p95})
+      q->assign(count, nan);
+  s.exceed.assign(m.thresholds.size(), std::vector<double>(count, nan));
+}
+
+void setTails(SeriesResult& s, std::size_t i, const Moments& m, std::size_t v)
+{
+  if (!m.sketches.empty())
+  {
+    const QuantileSketch& q = m.sketches.at(v);
+    s.p5.at(i) = q.quantile(0.05);
+    s.p25.at(i) = q.quantile(0.25);
+    s.median.at(i) = q.quantile(0.5);
+    s.p75.at(i) = q.quantile(0.75);
+    s.p95.at(i) = q.quantile(0.95);
+  }
+  const std::size_t nt = m.thresholds.size();
+  for (std::size_t t = 0; t < nt && t < s.exceed.size(); ++t)
+    s.exceed[t].at(i) = m.exceed.at(v * nt + t);
+}
+
+CallStatistics callStatistics(const RunConfig& rc)
+{
+  CallStatistics st;
+  st.quantiles = true;
+  if (rc.config)
+    st.thresholds = rc.config->thresholds;
+  return st;
+}
+
+void addSpan(CallStatistics& st, std::size_t first, const std::vector<double>& x, double window0, double window1)
+{
+  SeriesSpan sp;
+  sp.first = first;
+  sp.x = x;
+  sp.window0 = window0;
+  sp.window1 = window1;
+  st.spans.push_back(std::move(sp));
 }
 
 std::vector<double> stepAxis(long steps)

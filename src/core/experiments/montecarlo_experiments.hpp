@@ -5,14 +5,17 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "networked_estimation/config/estimator_settings.hpp"
 #include "networked_estimation/config/model.hpp"
 #include "networked_estimation/config/sensor_links.hpp"
+#include "networked_estimation/estimators/estimator.hpp"
 #include "networked_estimation/experiments/montecarlo.hpp"
 #include "networked_estimation/simulation/lossy_run.hpp"
+#include "networked_estimation/simulation/schedule_sampler.hpp"
 
 namespace networked_estimation
 {
@@ -32,12 +35,20 @@ struct RunConfig
 ExperimentResult zhouFig1(const RunConfig& rc);
 ExperimentResult zhouFig2(const RunConfig& rc);
 ExperimentResult customExperiment(const RunConfig& rc);
+/// custom --covariance-only (experiments_covariance.cpp).
+ExperimentResult covarianceExperiment(const RunConfig& rc);
 ExperimentResult sweepExperiment(const RunConfig& rc);
 ExperimentResult linFig2(const RunConfig& rc);
 ExperimentResult linFig3(const RunConfig& rc);
 ExperimentResult linFig4(const RunConfig& rc);
 ExperimentResult linFig5(const RunConfig& rc);
 ExperimentResult yangFig2(const RunConfig& rc);
+/// Sinopoli et al. 2004's examples: E[P-] against the arrival rate with its bounds (experiments_sinopoli.cpp).
+ExperimentResult sinopoliFig2(const RunConfig& rc);
+/// Mo and Sinopoli's tail probability P(P- > M) of the scalar example.
+ExperimentResult moSinopoliTail(const RunConfig& rc);
+/// The scalar critical arrival rate 1 - 1/a^2 (0 when |a| <= 1).
+double sinopoliCriticalRate(double a);
 
 /// What the custom and sweep experiments load from --model, --channel, --actuator-channel and
 /// --settings: the model, each sensor's link, the run options (links, paper control sequence) and
@@ -53,6 +64,32 @@ struct CustomSetup
 /// Throws ConfigError naming the experiment, the option or the file.
 CustomSetup loadCustomSetup(const MonteCarloConfig& config, const std::string& experiment);
 
+/// The arrivals of a run without the plant: the sensor links and the schedule of
+/// LossyRun(model, S, options), drawn from the same streams (so run r of a covariance-only
+/// experiment meets exactly the losses of the custom experiment's run r), as the Sample an
+/// estimator in covariance-only mode takes: y 0 on the sensors that arrived, NaN on the others.
+class ArrivalDraws
+{
+public:
+  ArrivalDraws(const Model& model, const LossyRunOptions& options);
+  /// Starts over for the run seed S (no allocation).
+  void restart(std::uint64_t seed);
+  /// The next step's arrivals.
+  const Sample& next();
+
+private:
+  SensorLinkSet links_;
+  ScheduleSampler schedule_;
+  SimulatedSample zero_;  ///< y = v = 0: what the links pass on is the arrival pattern alone
+  Sample sample_;
+};
+
+/// The estimators of `settings` in covariance-only mode. Throws ConfigError naming the estimator
+/// (`names`) when its covariance depends on the data (aoe, oe, ekfio).
+std::vector<std::unique_ptr<Estimator>> covarianceOnlyEstimators(const Model& model,
+                                                                 const std::vector<EstimatorSettings>& settings,
+                                                                 const std::vector<std::string>& names);
+
 /// Zhou's example (Section IV of the paper) with eps ~ U[-delta, delta].
 Model zhouExampleModel(double delta);
 /// Lin et al.'s example (their Section 7) with C = [[1, -1], [0, 1]], xbar_0 = 0, P_0 = I.
@@ -62,9 +99,19 @@ Model yangExampleModel();
 /// The arrival rates of Yang et al.'s Example 1.
 const std::vector<double>& yangRates();
 
-/// A series from the moments `m` at offset `first` (values first .. first + x_count - 1).
+/// A series from the moments `m` at offset `first` (values first .. first + x_count - 1), with the
+/// heavy-tail statistics the call computed: quantiles, tail probabilities, and from a span of the
+/// same values the growth exponent (and the time average's sd when the span has the same window).
 SeriesResult makeSeries(const std::string& name, const Moments& m, std::size_t first, std::size_t count,
                         double window0, double window1);
+/// Sizes the quantiles and tail probabilities of `s` for `count` points (those `m` has).
+void resizeTails(SeriesResult& s, std::size_t count, const Moments& m);
+/// Point i of `s`: the quantiles and tail probabilities of value v of `m`.
+void setTails(SeriesResult& s, std::size_t i, const Moments& m, std::size_t v);
+/// The statistics of an experiment's Monte Carlo calls: quantiles, the --threshold values.
+CallStatistics callStatistics(const RunConfig& rc);
+/// Adds a span (the series of values first .. first + x.size() - 1) to `st`.
+void addSpan(CallStatistics& st, std::size_t first, const std::vector<double>& x, double window0, double window1);
 
 /// %.10g.
 inline std::string fmt(double v)

@@ -14,6 +14,7 @@
 #include <set>
 
 #include "networked_estimation/common/error.hpp"
+#include "networked_estimation/config/estimator_settings.hpp"
 
 namespace networked_estimation
 {
@@ -78,6 +79,18 @@ std::string joinStrings(const std::vector<std::string>& v)
   return out + "]";
 }
 
+std::string joinNumbers(const std::vector<double>& v)
+{
+  std::string out = "[";
+  for (std::size_t i = 0; i < v.size(); ++i)
+  {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.17g", v[i]);
+    out += (i ? ", " : "") + std::string(buf);
+  }
+  return out + "]";
+}
+
 /// The fields two shards of one merge must agree on, as (name, text) pairs, in the order checked.
 std::vector<std::pair<std::string, std::string>> identity(const ShardFile& s)
 {
@@ -94,6 +107,8 @@ std::vector<std::pair<std::string, std::string>> identity(const ShardFile& s)
       {"actuator_channel", "'" + c.actuator_channel_path + "'"},
       {"settings", joinStrings(c.settings_paths)},
       {"axes", joinStrings(c.axis_args)},
+      {"covariance_only", c.covariance_only ? "true" : "false"},
+      {"thresholds", joinNumbers(c.thresholds)},
       {"fingerprint (of the input files)", s.fingerprint},
   };
 }
@@ -124,10 +139,21 @@ bool parseShardSpec(const std::string& text, int& index, int& count)
 std::vector<ShardInput> hashInputs(const MonteCarloConfig& config)
 {
   std::vector<ShardInput> v;
-  if (config.experiment != "custom" && config.experiment != "sweep")
+  if (!takesCustomInputs(config.experiment))
     return v;
-  auto add = [&v](const std::string& option, const std::string& path) {
-    if (!path.empty())
+  // an input given as text (a Python object) hashes its text, an algorithm name the text it stands for
+  auto add = [&v, &config](const std::string& option, const std::string& path) {
+    if (path.empty())
+      return;
+    const auto it = config.inline_inputs.find(path);
+    if (it != config.inline_inputs.end())
+      v.push_back({option, path, hex64(fnv1a(kFnvBasis, it->second.data(), it->second.size()))});
+    else if (option == "--settings" && isAlgorithmName(path))
+    {
+      const std::string text = "algorithm: " + path + "\n";
+      v.push_back({option, path, hex64(fnv1a(kFnvBasis, text.data(), text.size()))});
+    }
+    else
       v.push_back({option, path, hashFile(option, path)});
   };
   add("--model", config.model_path);
@@ -158,9 +184,9 @@ ShardFile runShard(const MonteCarloConfig& config, int index, int count, Progres
     throw ConfigError("shard " + std::to_string(index) + " of " + std::to_string(count) +
                       ": expected 1 <= K <= N <= " + std::to_string(kMaxShards));
   ShardFile shard;
-  shard.config = config;
+  shard.config = canonicalConfig(config);
   long runs = 0, steps = 0;
-  experimentDefaults(config.experiment, runs, steps);
+  experimentDefaults(shard.config.experiment, runs, steps);
   shard.config.runs = config.runs > 0 ? config.runs : runs;
   shard.config.steps = config.steps > 0 ? config.steps : steps;
   shard.shard = index;
@@ -248,7 +274,8 @@ ExperimentResult mergeShards(std::vector<ShardFile> shards)
                        ref.path + " holds " + std::to_string(ref.calls.size()));
     for (std::size_t i = 0; i < s.calls.size(); ++i)
       if (s.calls[i].runs != ref.calls[i].runs || s.calls[i].values != ref.calls[i].values ||
-          s.calls[i].raw != ref.calls[i].raw)
+          s.calls[i].raw != ref.calls[i].raw || s.calls[i].quantiles != ref.calls[i].quantiles ||
+          s.calls[i].sketches.size() != ref.calls[i].sketches.size())
         throw InputError(s.path + ": foreign shard: call " + std::to_string(i) + " has " +
                          std::to_string(s.calls[i].runs) + " runs x " + std::to_string(s.calls[i].values) + " values, " +
                          ref.path + " has " + std::to_string(ref.calls[i].runs) + " x " +
@@ -313,6 +340,8 @@ ExperimentResult mergeShards(std::vector<ShardFile> shards)
     merged[i].runs = ref.calls[i].runs;
     merged[i].values = ref.calls[i].values;
     merged[i].raw = ref.calls[i].raw;
+    merged[i].quantiles = ref.calls[i].quantiles;
+    merged[i].sketches.resize(ref.calls[i].sketches.size());
     merged[i].blocks.resize(static_cast<std::size_t>(blockCount(merged[i].runs)));
   }
   const MonteCarloConfig config = ref.config;
@@ -332,6 +361,10 @@ ExperimentResult mergeShards(std::vector<ShardFile> shards)
                            " is out of range or held by another shard too");
         merged[i].blocks[static_cast<std::size_t>(b.index)] = std::move(b);
       }
+    // the sketches' counts add exactly: the same sketches as the unsharded run's, in any order
+    for (std::size_t i = 0; i < s.calls.size(); ++i)
+      for (std::size_t v = 0; v < s.calls[i].sketches.size(); ++v)
+        merged[i].sketches[v].merge(s.calls[i].sketches[v]);
     s.calls.clear();
   }
 

@@ -20,7 +20,9 @@ namespace
 {
 
 const char* const kFormat = "networked_estimation montecarlo shard";
-const long kVersion = 1;
+// Version 2: the accumulators of the heavy-tail statistics in every block, the calls' quantile
+// sketches, and the covariance_only and thresholds options.
+const long kVersion = 2;
 
 /// A double that reads back to the same bits: a JSON number (the library writes the shortest text
 /// that does), or for the values JSON has no number for, the strings "nan", "-nan", "inf", "-inf".
@@ -62,7 +64,23 @@ void writeCall(JsonWriter& w, const CallBlocks& call)
   }
   if (!call.blocks.empty())
     w.br(4);
-  w.endArray().endObject();
+  w.endArray();
+  if (call.quantiles)
+  {
+    w.member("quantiles", true);
+    w.br(4).key("sketches").beginArray();
+    for (const QuantileSketch& q : call.sketches)
+    {
+      w.br(6).beginArray();
+      for (std::int64_t c : q.encode())
+        w.value(static_cast<long>(c));
+      w.endArray();
+    }
+    if (!call.sketches.empty())
+      w.br(4);
+    w.endArray();
+  }
+  w.endObject();
 }
 
 BlockMoments readBlock(const JsonField& f, std::size_t values, bool raw)
@@ -92,12 +110,42 @@ BlockMoments readBlock(const JsonField& f, std::size_t values, bool raw)
 CallBlocks readCall(const JsonField& f)
 {
   CallBlocks c;
-  f.keys({"runs", "values", "raw", "blocks"});
+  f.keys({"runs", "values", "raw", "blocks"}, {"quantiles", "sketches"});
   c.runs = f["runs"].integer(1, 100000000);
   c.values = static_cast<std::size_t>(f["values"].integer(0, 1L << 40));
   c.raw = f["raw"].boolean();
   for (const JsonField& b : f["blocks"].elements())
     c.blocks.push_back(readBlock(b, c.values, c.raw));
+  c.quantiles = f.json().count("quantiles") && f["quantiles"].boolean();
+  if (c.quantiles != (f.json().count("sketches") > 0))
+    f.fail("'quantiles' and 'sketches' go together");
+  if (c.quantiles)
+  {
+    const std::vector<JsonField> sketches = f["sketches"].elements();
+    if (sketches.size() > c.values)
+      f["sketches"].fail("expected at most " + std::to_string(c.values) + " sketches (one per value), found " +
+                         std::to_string(sketches.size()));
+    for (const JsonField& q : sketches)
+    {
+      std::vector<std::int64_t> v;
+      if (!q.json().is_array())
+        q.fail("expected an array of integers");
+      for (const nlohmann::json& x : q.json())
+      {
+        if (!x.is_number_integer())
+          q.fail("expected an array of integers, found " + x.dump());
+        v.push_back(x.get<std::int64_t>());
+      }
+      try
+      {
+        c.sketches.push_back(QuantileSketch::decode(v, "quantile sketch"));
+      }
+      catch (const InputError& e)
+      {
+        q.fail(e.what());
+      }
+    }
+  }
   return c;
 }
 
@@ -166,6 +214,22 @@ std::string shardJson(const ShardFile& s)
   w.br(2).member("settings", c.settings_paths);
   if (!c.axis_args.empty())
     w.br(2).member("axes", c.axis_args);
+  if (c.covariance_only)
+    w.br(2).member("covariance_only", true);
+  if (!c.inline_inputs.empty())
+  {
+    w.br(2).key("inline_inputs").beginObject();
+    for (const auto& kv : c.inline_inputs)
+      w.br(4).member(kv.first, kv.second);
+    w.br(2).endObject();
+  }
+  if (!c.thresholds.empty())
+  {
+    w.br(2).key("thresholds").beginArray();
+    for (double t : c.thresholds)
+      writeNumber(w, t);
+    w.endArray();
+  }
   w.br(2).key("inputs").beginArray();
   for (const ShardInput& f : s.inputs)
     w.br(4).beginObject().member("option", f.option).member("path", f.path).member("fnv1a64", f.hash).endObject();
@@ -205,7 +269,7 @@ ShardFile parseShard(const std::string& text, const std::string& path)
                      ", this montecarlo reads version " + std::to_string(kVersion));
   top.keys({"format", "version", "experiment", "runs", "steps", "seed", "shard", "shards", "block_runs", "model",
             "channel", "actuator_channel", "settings", "inputs", "fingerprint", "threads", "wall_seconds", "calls"},
-           {"axes"});
+           {"axes", "covariance_only", "thresholds", "inline_inputs"});
   c.experiment = top["experiment"].string();
   c.runs = top["runs"].integer(1, 100000000);
   c.steps = top["steps"].integer(1, 100000000);
@@ -219,6 +283,18 @@ ShardFile parseShard(const std::string& text, const std::string& path)
   c.settings_paths = top["settings"].strings();
   if (top.json().count("axes"))
     c.axis_args = top["axes"].strings();  // sweep only
+  if (top.json().count("covariance_only"))
+    c.covariance_only = top["covariance_only"].boolean();
+  if (top.json().count("thresholds"))
+    c.thresholds = top["thresholds"].numbers();
+  if (top.json().count("inline_inputs"))
+  {
+    const JsonField f = top["inline_inputs"];
+    if (!f.json().is_object())
+      f.fail("expected an object of texts");
+    for (auto it = f.json().begin(); it != f.json().end(); ++it)
+      c.inline_inputs[it.key()] = f[it.key()].string();
+  }
   s.inputs = readInputs(top["inputs"]);
   s.fingerprint = top["fingerprint"].string();
   s.threads = static_cast<int>(top["threads"].integer(1, 1000000));
