@@ -90,7 +90,12 @@ void EstimatorNodelet::onInit()
   if (live_)  // live_stability: false: no window, no verdict, no status
     diagnostics_->add("link stability", this, &EstimatorNodelet::diagnoseLink);
   // force_update: the updater's own period check uses ROS time, which stalls or jumps under sim time.
-  diag_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
+  link_status_pub_ = pnh.advertise<LinkStatus>("link_status", 10);
+  latency_figures_.assign(model.sensors.size(), LatencyBudget::Figures());
+  diag_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) {
+    diagnostics_->force_update();
+    publishLinkStatus();
+  });
   if (publish_tf_)
   {
     if (child_frame_id_ == base_link_frame_)

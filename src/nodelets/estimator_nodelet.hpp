@@ -21,7 +21,8 @@
 // scheduled at k is not waited for and not counted as lost.
 // Outputs: `estimate` (Estimate), `covariance_trace` (std_msgs/Float64), `pose`
 // (PoseWithCovarianceStamped of ~position_indices), `odometry/filtered` (nav_msgs/Odometry of
-// ~state_mapping, ~world_frame -> ~base_link_frame), tf ~frame_id -> ~child_frame_id, diagnostics.
+// ~state_mapping, ~world_frame -> ~base_link_frame), tf ~frame_id -> ~child_frame_id, diagnostics,
+// and ~link_status (LinkStatus, one per sensor a second: the diagnostics' link numbers).
 #pragma once
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -56,6 +57,7 @@
 #include "load_failure.hpp"
 #include "param_yaml.hpp"
 #include "odometry_output.hpp"
+#include "link_status_message.hpp"
 #include "tf_output.hpp"
 #include "sensor_subscriptions.hpp"
 #include "transport_watch.hpp"
@@ -193,6 +195,9 @@ private:
   void diagnoseSensors(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
   void diagnoseLink(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  /// ~link_status: one LinkStatus per sensor from the numbers of the diagnostics just sent
+  /// (diagnoseSensors' latency figures, diagnoseLink's report), after each update, on its thread.
+  void publishLinkStatus();
 
   EstimatorSettings settings_;
   std::unique_ptr<OnlineStream> stream_;
@@ -242,6 +247,11 @@ private:
   ros::Time last_tf_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTimer diag_timer_;
+  /// The last diagnostics' per-sensor numbers, for ~link_status (the diagnostics' thread only).
+  ros::Publisher link_status_pub_;
+  std::vector<LatencyBudget::Figures> latency_figures_;
+  LiveStabilityReport link_report_;
+  bool link_reported_ = false;
 
   boost::recursive_mutex reconfigure_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<EstimatorConfig>> reconfigure_;

@@ -296,24 +296,27 @@ void EstimatorNodelet::diagnoseSensors(diagnostic_updater::DiagnosticStatusWrapp
   for (std::size_t i = 0; i < inputs_.size(); ++i)
   {
     const std::string& name = online.model().sensors[i].name;
-    const double delay = latency.delay(i);
+    const LatencyBudget::Figures f = latency.figures(i, now);
+    latency_figures_[i] = f;  // ~link_status carries the same numbers
+    const double delay = f.delay_p99;
     stat.add(name + " messages", c.received_per_sensor[i] + stream_->refusedPerSensor()[i]);
     stat.add(name + " late dropped", c.late_dropped_per_sensor[i]);
     stat.add(name + " stamps refused", stream_->refusedPerSensor()[i]);
     if (!stream_->lastRefused(i).reason.empty())
       stat.add(name + " last stamp refused", stream_->lastRefused(i).reason);
+    stat.add(name + " delay p50 (s)", f.delay_p50);
     stat.add(name + " delay p99 (s)", delay);
+    stat.add(name + " late fraction", f.late_fraction);
     stat.add(name + " rate (Hz)", online.lattice(i).measuredRate(period));
     if (inputs_[i].type == InputType::IMU)
       stat.add(name + " without estimate (covariance -1)", c.disabled_per_sensor[i]);
     else if (inputs_[i].differential)
       stat.add(name + " reference poses (differential)", c.disabled_per_sensor[i]);
-    const LatencyBudget::Window w = latency.window(i, now);
-    if (w.fraction() > 0.01)
+    if (f.late_fraction > 0.01)
       stat.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
                          "sensor '%s': %.1f %% of its messages over the last %d s late or refused (delay p99 %.0f ms, "
                          "latency budget %.0f ms)",
-                         name.c_str(), 100.0 * w.fraction(), LatencyBudget::kLateSeconds, 1e3 * delay,
+                         name.c_str(), 100.0 * f.late_fraction, LatencyBudget::kLateSeconds, 1e3 * delay,
                          1e3 * stream_->budget());
     std::string why;
     if (online.lattice(i).mismatch(period, &why))
@@ -366,12 +369,27 @@ void EstimatorNodelet::diagnoseLink(diagnostic_updater::DiagnosticStatusWrapper&
     report.values.emplace_back("linearisation", "at the estimate (a local verdict), rebuilt " +
                                                     std::to_string(relinearisations_) +
                                                     " times: when the Jacobian moves by over 0.1 % of its largest entry");
-  const unsigned char level = report.status.level == LinkStatus::Level::OK ? diagnostic_msgs::DiagnosticStatus::OK
-                              : report.status.level == LinkStatus::Level::WARN
+  const unsigned char level = report.status.level == LinkCondition::Level::OK ? diagnostic_msgs::DiagnosticStatus::OK
+                              : report.status.level == LinkCondition::Level::WARN
                                   ? diagnostic_msgs::DiagnosticStatus::WARN
                                   : diagnostic_msgs::DiagnosticStatus::ERROR;
   stat.summary(level, report.status.message);
   for (const auto& kv : report.values)
     stat.add(kv.first, kv.second);
+  link_report_ = std::move(report);  // ~link_status carries the same numbers
+  link_reported_ = true;
+}
+
+void EstimatorNodelet::publishLinkStatus()
+{
+  const Model& model = stream_->online().model();
+  const ros::Time stamp = ros::Time::now();
+  for (std::size_t i = 0; i < model.sensors.size(); ++i)
+  {
+    const SensorLinkFigures* link =
+        link_reported_ && i < link_report_.sensors.size() ? &link_report_.sensors[i] : nullptr;
+    link_status_pub_.publish(linkStatusMessage(model.sensors[i].name, stamp, latency_figures_[i], link,
+                                               link_reported_ ? toString(link_report_.status.level) : ""));
+  }
 }
 }  // namespace networked_estimation

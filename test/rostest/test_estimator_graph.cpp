@@ -40,6 +40,7 @@
 #include "tf_output.hpp"
 #include "networked_estimation/ChannelEvent.h"
 #include "networked_estimation/Estimate.h"
+#include "networked_estimation/LinkStatus.h"
 #include "networked_estimation/Measurement.h"
 #include "networked_estimation/PlantState.h"
 #include "networked_estimation/ScheduleStep.h"
@@ -477,6 +478,107 @@ TEST(EstimatorGraph, StabilityDiagnosticFlipsWithTheArrivalRate)
       << link.text("Gan-Liu Theorem 1 (runtime invariant)");
 }
 
+/// "0.6 [0.585, 0.615] (4000 samples)": the value, the interval and the trials of a live rate.
+struct DiagnosedRate
+{
+  double value = std::nan(""), lower = std::nan(""), upper = std::nan("");
+  unsigned long trials = 0;
+  bool parsed = false;
+};
+DiagnosedRate parseRate(const std::string& text)
+{
+  DiagnosedRate r;
+  r.parsed = std::sscanf(text.c_str(), "%lf [%lf, %lf] (%lu", &r.value, &r.lower, &r.upper, &r.trials) == 4;
+  return r;
+}
+
+/// The diagnostics print 6 significant digits (%g, liveNumber, diagnostic_updater's default
+/// stream precision): a relative rounding of at most 5e-6, so 1e-5 of the value (and 1e-12 near 0).
+bool sameAsPrinted(double msg, double printed)
+{
+  if (std::isnan(msg) || std::isnan(printed))
+    return std::isnan(msg) && std::isnan(printed);
+  return std::fabs(msg - printed) <= 1e-5 * std::fabs(printed) + 1e-12;
+}
+
+/// The Estimator `ns`'s ~link_status carries, per sensor, the numbers of the diagnostics of the same
+/// report: the live rates with their intervals ("link stability"), the margin and what the rate
+/// needs, the joint level, and the delays and late fraction ("estimator"). Both are sent from one
+/// diagnostics tick, so the latest of each agree once a tick has been seen whole (waited for: the
+/// topics arrive separately).
+void expectLinkStatusAsDiagnosed(ros::NodeHandle& nh, const std::string& ns, const std::vector<std::string>& sensors)
+{
+  DiagnosticsProbe link(nh, ns + ": link stability"), estimator(nh, ns + ": estimator");
+  std::mutex mutex;
+  std::map<std::string, ne::LinkStatus> latest;
+  ros::Subscriber sub = nh.subscribe<ne::LinkStatus>(ns + "/link_status", 100, [&](const ne::LinkStatus::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex);
+    latest[m->sensor] = *m;
+  });
+  std::string why;
+  auto agree = [&]() {
+    const std::map<std::string, std::string> l = link.snapshot(), e = estimator.snapshot();
+    const std::string level = link.levelIs(diagnostic_msgs::DiagnosticStatus::OK)      ? "OK"
+                              : link.levelIs(diagnostic_msgs::DiagnosticStatus::WARN)  ? "WARN"
+                              : link.levelIs(diagnostic_msgs::DiagnosticStatus::ERROR) ? "ERROR"
+                                                                                       : "?";
+    std::lock_guard<std::mutex> lock(mutex);
+    std::ostringstream out;
+    for (const std::string& s : sensors)
+    {
+      if (!latest.count(s) || !l.count(s + " arrival rate") || !e.count(s + " delay p50 (s)"))
+      {
+        out << s << ": no message or diagnostics yet; ";
+        continue;
+      }
+      const ne::LinkStatus& m = latest.at(s);
+      const DiagnosedRate a = parseRate(l.at(s + " arrival rate")), p = parseRate(l.at(s + " failure rate p")),
+                          r = parseRate(l.at(s + " recovery rate r"));
+      auto check = [&](const char* what, double msg, double printed) {
+        if (!sameAsPrinted(msg, printed))
+          out << s << " " << what << ": message " << msg << ", diagnostics " << printed << "; ";
+      };
+      if (!a.parsed || !p.parsed || !r.parsed)
+        out << s << ": unparsed rates; ";
+      check("arrival rate", m.arrival_rate, a.value);
+      check("arrival lower", m.arrival_rate_lower, a.lower);
+      check("arrival upper", m.arrival_rate_upper, a.upper);
+      check("arrival samples", static_cast<double>(m.arrival_samples), static_cast<double>(a.trials));
+      check("p", m.p, p.value);
+      check("p lower", m.p_lower, p.lower);
+      check("p upper", m.p_upper, p.upper);
+      check("p transitions", static_cast<double>(m.p_transitions), static_cast<double>(p.trials));
+      check("r", m.r, r.value);
+      check("r lower", m.r_lower, r.lower);
+      check("r upper", m.r_upper, r.upper);
+      check("r transitions", static_cast<double>(m.r_transitions), static_cast<double>(r.trials));
+      check("margin", m.margin, l.count(s + " margin") ? std::stod(l.at(s + " margin")) : std::nan(""));
+      check("delay p50", m.delay_p50, std::stod(e.at(s + " delay p50 (s)")));
+      check("delay p99", m.delay_p99, std::stod(e.at(s + " delay p99 (s)")));
+      check("late fraction", m.late_fraction, e.count(s + " late fraction") ? std::stod(e.at(s + " late fraction"))
+                                                                              : std::nan(""));
+      if (!l.count(s + " needs") || m.verdict != l.at(s + " needs"))
+        out << s << " verdict: message '" << m.verdict << "', diagnostics '"
+            << (l.count(s + " needs") ? l.at(s + " needs") : "<missing>") << "'; ";
+      if (m.link_level != level)
+        out << s << " level: message " << m.link_level << ", diagnostics " << level << "; ";
+      if (!m.header.frame_id.empty())
+        out << s << " frame_id '" << m.header.frame_id << "'; ";
+    }
+    why = out.str();
+    return why.empty();
+  };
+  EXPECT_TRUE(waitFor(agree, 20.0)) << why;
+  std::lock_guard<std::mutex> lock(mutex);
+  for (const std::string& s : sensors)
+    if (latest.count(s))  // a live link: real numbers, not defaults
+    {
+      EXPECT_GT(latest.at(s).arrival_samples, 0u) << s;
+      EXPECT_TRUE(std::isfinite(latest.at(s).delay_p50)) << s;
+      EXPECT_FALSE(latest.at(s).verdict.empty()) << s;
+    }
+}
+
 // Per-sensor live verdict: each sensor's own window and the joint test of analyze. The test
 // publishes straight to the estimator at 500 Hz, dropping each sensor's sample itself (fixed seed).
 // 4000-step windows: a Wilson half-width of 1.96 sqrt(0.21 / 4000) = 0.014, so 0.3 + 0.014 stays
@@ -513,6 +615,7 @@ TEST(EstimatorGraph, StabilityVerdictPerSensor)
   rate = 0.6;
   ASSERT_TRUE(waitFor([&] { return link.levelIs(diagnostic_msgs::DiagnosticStatus::OK); }, 60.0))
       << "last: " << link.lastMessage();
+  expectLinkStatusAsDiagnosed(nh, "kfio/estimator", {"a", "b"});
 }
 
 // Sensor schedules (estimator_schedule.test): each PlantSimulator publishes exactly the sensors its
