@@ -114,6 +114,14 @@ void EstimatorNodelet::onInit()
     tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
     tf_timer_ = nh.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { tfTimer(); });
   }
+  if (predict_to_current_time_)
+  {
+    predict_timer_ = nh.createWallTimer(ros::WallDuration(1.0 / frequency_), [this](const ros::WallTimerEvent&) {
+      predictTimer();
+    });
+    NODELET_INFO("Estimator: odometry/filtered%s at %g Hz, predicted to the current time (predict_to_current_time)",
+                 publish_tf_ ? " and tf" : "", frequency_);
+  }
   startReconfigure(pnh);
   clock_watch_.start(getNodeHandle(), [this] { dispatch_.wake(); });
   dispatch_.start([this] { return deadlineWork(); });
@@ -227,6 +235,10 @@ void EstimatorNodelet::configure(ros::NodeHandle& pnh)
   child_frame_id_ = c.child_frame_id;
   positions_ = c.position_indices;
   publish_tf_ = c.publish_tf;
+  predict_to_current_time_ = c.predict_to_current_time;
+  frequency_ = c.frequency;
+  if (predict_to_current_time_)
+    predict_model_ = std::make_unique<const Model>(c.model);
   trace_bound_ = c.runtime.trace_bound;
   queue_size_ = static_cast<uint32_t>(c.queue_size);
   stream_ = std::make_unique<OnlineStream>(c.model, settings_, c.online, c.timeline, c.runtime);

@@ -2,6 +2,7 @@
 // pose, tf, the NavSatFix datum and the diagnostics.
 #include "estimator_nodelet.hpp"
 
+#include "networked_estimation/estimators/estimator.hpp"
 #include "networked_estimation/motion/linearised_model.hpp"
 
 namespace networked_estimation
@@ -32,10 +33,12 @@ void EstimatorNodelet::publishLocked(const Estimate::Ptr& e)
       t->data = e->covariance_trace;
       trace_pub_.publish(t);
     }
-    if (odom_pub_.getNumSubscribers() > 0)
+    if (predict_to_current_time_)
+      last_step_ = e;  // odometry/filtered and tf come from predictTimer()
+    else if (odom_pub_.getNumSubscribers() > 0)
       publishOdometry(*e);
     const bool want_pose = pose_pub_.getNumSubscribers() > 0;
-    if (publish_tf_)
+    if (publish_tf_ && !predict_to_current_time_)
     {
       last_estimate_ = e;  // tf leaves from tfTimer() in the nodelet's own queue, not this thread
       if (tf_timer_idle_)  // stopped while no estimate came (mutex held by both)
@@ -76,6 +79,55 @@ void EstimatorNodelet::publishOdometry(const Estimate& e)
   // Shared: an intra-process subscriber (a nodelet) gets it without serialization.
   odom_pub_.publish(
       boost::make_shared<const nav_msgs::Odometry>(toOdometry(x, P, state_map_, e.header.stamp, world_frame_, base_link_frame_)));
+}
+
+void EstimatorNodelet::predictTimer()
+{
+  Estimate::ConstPtr step;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    step = last_step_;
+  }
+  const ros::Time now = ros::Time::now();
+  if (!step || now == last_predicted_ || now < step->header.stamp)
+    return;  // no step yet, a stopped clock, or time went back (the stream restarts)
+  const int n = static_cast<int>(step->state.size());
+  const Eigen::Map<const Eigen::VectorXd> x(step->state.data(), n);
+  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> P(
+      step->covariance.data(), n, n);
+  Eigen::VectorXd xp;
+  Eigen::MatrixXd Pp;
+  double ahead = 0.0;
+  try
+  {
+    ahead = predictAhead(*predict_model_, limits_.period, x, P, (now - step->header.stamp).toSec(), xp, Pp);
+  }
+  catch (const InputError& e)
+  {
+    NODELET_WARN_THROTTLE(10.0, "Estimator: predict_to_current_time: not predicted from step %lu: %s",
+                          static_cast<unsigned long>(step->step), e.what());
+    return;
+  }
+  last_predicted_ = now;
+  Estimate::Ptr e = boost::make_shared<Estimate>(*step);
+  e->header.stamp = step->header.stamp + ros::Duration(ahead);
+  e->state.assign(xp.data(), xp.data() + n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      e->covariance[static_cast<std::size_t>(i) * n + j] = Pp(i, j);
+  e->covariance_trace = Pp.trace();
+  if (odom_pub_.getNumSubscribers() > 0)
+    publishOdometry(*e);
+  if (publish_tf_)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    last_estimate_ = e;
+    if (tf_timer_idle_)
+    {
+      tf_timer_idle_ = false;
+      tf_timer_.start();
+    }
+  }
 }
 
 void EstimatorNodelet::tfTimer()
