@@ -623,4 +623,113 @@ TEST(Ekfio, TheLinearisationIsTheJacobianModel)
   }
 }
 
+// predict_to_current_time's prediction (predictAhead): a linear model over k = round(dt / period)
+// whole periods is A applied k times to x and P -> A P A' + B Q B' k times, with zero input
+// (computed here by hand from the model's matrices); dt between two grid times goes to the nearest.
+// Exact up to rounding: the same products in the same order (tolerance 1e-12 on entries of order 1).
+TEST(PredictAhead, ALinearModelIsItsAAppliedKTimes)
+{
+  Rng rng(57);
+  const Model m = test::randomModel(rng, 3, 2, {1}, 0, 1);  // with a control input: not applied
+  const double T = 0.05;
+  const VectorXd x = VectorXd::LinSpaced(3, 1.0, -2.0);
+  MatrixXd P = MatrixXd::Identity(3, 3) * 0.5;
+  P(0, 1) = P(1, 0) = 0.1;
+  VectorXd want_x = x;
+  MatrixXd want_P = P;
+  for (int k = 0; k <= 6; ++k)
+  {
+    for (const double frac : {0.0, 0.3, -0.4})
+    {
+      if (k == 0 && frac < 0.0)
+        continue;
+      VectorXd xp;
+      MatrixXd Pp;
+      const double ahead = predictAhead(m, T, x, P, (k + frac) * T, xp, Pp);
+      EXPECT_NEAR(ahead, k * T, 1e-15) << k << " " << frac;
+      EXPECT_LT(test::maxAbsDiff(xp, want_x), 1e-12) << k << " " << frac;
+      EXPECT_LT(test::maxAbsDiff(Pp, want_P), 1e-12) << k << " " << frac;
+    }
+    want_x = m.A * want_x;
+    want_P = m.A * want_P * m.A.transpose() + m.B * m.Q * m.B.transpose();
+  }
+  // k = 0: the step's own estimate.
+  VectorXd xp;
+  MatrixXd Pp;
+  EXPECT_EQ(predictAhead(m, T, x, P, 0.0, xp, Pp), 0.0);
+  EXPECT_EQ(xp, x);
+  EXPECT_EQ(Pp, P);
+}
+
+// A built-in motion predicts once over dt (not a whole period: dt = 0 is no prediction at all):
+// x -> f(x, dt), P -> F P F' + Q dt with F = df/dx at x (propagate), two_d_mode's constraint after.
+TEST(PredictAhead, ABuiltInMotionPredictsOverDt)
+{
+  OmniSpec planar = omni3dSpec();  // two_d_mode: as in TwoDModeIsTheOmni2dFilter
+  planar.two_d_mode = true;
+  planar.sensors = {{"gps", {"x", "y"}, {0.5}}, {"imu", {"yaw", "vyaw", "ax", "ay"}, {0.02, 0.01, 0.1, 0.1}},
+                    {"odom", {"vx", "vy", "vyaw"}, {0.05}}};
+  planar.process_noise = {1e-4, 1e-4, 7, 7, 7, 1e-4, 0.01, 0.01, 7, 7, 7, 0.01, 0.1, 0.1, 7};
+  planar.x0 = {0, 0, 0, 0, 0, 3.0, 1.0, 0, 0, 0, 0, 0.8, 0, 0, 0};
+  for (const OmniSpec& spec : {omni2dSpec(), omni3dSpec(), planar})
+  {
+    {
+      const bool two_d = spec.two_d_mode;
+      const Model m = makeOmniModel(spec);
+      for (const double dt : {0.013, 0.37, 2.0})
+      {
+        VectorXd xp, want_x;
+        MatrixXd Pp, F;
+        EXPECT_EQ(predictAhead(m, 0.05, m.x0, m.P0, dt, xp, Pp), dt);
+        propagate(m.motion, m.x0, dt, want_x, &F);
+        MatrixXd want_P = F * m.P0 * F.transpose() + m.Q * dt;
+        if (two_d)
+          for (const int i : planarConstrained())
+          {
+            want_x[i] = 0.0;
+            want_P.row(i).setZero();
+            want_P.col(i).setZero();
+          }
+        EXPECT_LT(test::maxAbsDiff(xp, want_x), 1e-12) << spec.motion << " dt " << dt;
+        EXPECT_LT(test::maxAbsDiff(Pp, want_P), 1e-12) << spec.motion << " dt " << dt;
+      }
+      VectorXd xp;
+      MatrixXd Pp;
+      EXPECT_EQ(predictAhead(m, 0.05, m.x0, m.P0, 0.0, xp, Pp), 0.0);
+      EXPECT_EQ(xp, m.x0);
+      EXPECT_EQ(Pp, m.P0);
+    }
+  }
+}
+
+// Bad input is refused naming it: a negative or non-finite dt, a period that is not positive, and
+// more whole periods of a linear model than kMaxPredictAheadSteps (k matrix products per call).
+TEST(PredictAhead, Refusals)
+{
+  Rng rng(58);
+  const Model lin = test::randomModel(rng, 2, 1, {1}, 0, 0);
+  const Model omni = makeOmniModel(omni2dSpec());
+  VectorXd xp;
+  MatrixXd Pp;
+  const VectorXd x = VectorXd::Zero(2);
+  const MatrixXd P = MatrixXd::Identity(2, 2);
+  auto message = [&](const Model& m, const VectorXd& x0, const MatrixXd& P0, double period, double dt) {
+    try
+    {
+      predictAhead(m, period, x0, P0, dt, xp, Pp);
+    }
+    catch (const InputError& e)
+    {
+      return std::string(e.what());
+    }
+    return std::string("<no error>");
+  };
+  EXPECT_EQ(message(lin, x, P, 0.1, -0.5).rfind("dt: expected a finite time >= 0 s", 0), 0u) << message(lin, x, P, 0.1, -0.5);
+  EXPECT_EQ(message(omni, omni.x0, omni.P0, 0.1, kNaN).rfind("dt: expected a finite time >= 0 s", 0), 0u);
+  EXPECT_EQ(message(lin, x, P, 0.0, 0.5).rfind("period: expected a finite step period > 0 s", 0), 0u);
+  const std::string far = message(lin, x, P, 0.1, 0.1 * (kMaxPredictAheadSteps + 1));
+  EXPECT_NE(far.find("periods past the step; at most 1000 are predicted"), std::string::npos) << far;
+  EXPECT_EQ(message(lin, x, P, 0.1, 0.1 * kMaxPredictAheadSteps), "<no error>");
+}
+
 }  // namespace

@@ -180,7 +180,7 @@ if unsupported != listed:
     bad.append("stderr lists %s, the output %s" % (unsupported, listed))
 want = ["sensor_timeout", "imu0_differential", "gravitational_acceleration", "use_control", "stamped_control",
         "control_timeout", "control_config", "acceleration_limits", "deceleration_limits", "acceleration_gains",
-        "deceleration_gains", "predict_to_current_time", "dynamic_process_noise_covariance", "my_own_key"]
+        "deceleration_gains", "dynamic_process_noise_covariance", "my_own_key"]
 if sorted(unsupported) != sorted(want):
     bad.append("not supported: expected %s, found %s" % (sorted(want), sorted(unsupported)))
 # keys without an equivalent whose value is what the Estimator does: noted, not listed
@@ -202,8 +202,13 @@ check "use_control false: no control key listed as not supported" \
   bash -c '! grep -E "^not supported: (use_control|stamped_control|control_|acceleration_|deceleration_|predict_to)" "$1"' _ "$WORK/err.txt"
 check "use_control false: the control keys noted as unused" \
   [ "$(grep -c '(unused: use_control is false, in robot_localization too)' "$WORK/no_control.yaml")" = 7 ]
-check "use_control false: use_control and predict_to_current_time noted as the Estimator's behaviour" \
-  [ "$(grep -cE '^#   (use_control|predict_to_current_time): false \(the Estimator' "$WORK/no_control.yaml")" = 2 ]
+check "use_control false: use_control noted as the Estimator's behaviour" \
+  [ "$(grep -cE '^#   use_control: false \(the Estimator' "$WORK/no_control.yaml")" = 1 ]
+check "predict_to_current_time false: imported as such, no frequency" \
+  bash -c 'grep -qE "^predict_to_current_time: false +# predict_to_current_time$" "$1" && ! grep -q "^frequency:" "$1"' \
+  _ "$WORK/no_control.yaml"
+check "predict_to_current_time true: imported with frequency, the output's rate" \
+  grep -qE "^frequency: 20 +# frequency 20 Hz: the rate of the output predicted to the current time$" "$WORK/flat_out.yaml"
 full_values() {
   python3 - "$WORK/flat_out.yaml" <<'PY'
 import sys, yaml
@@ -229,6 +234,7 @@ want("late_policy", (d.get("late_policy"), d.get("history_length")), ("rewind", 
 want("frames", (d["world_frame"], d["frame_id"], d["child_frame_id"], d["publish_tf"]),
      ("map", "map", "base_footprint", False))
 want("period", m["period"], 0.05)
+want("predict_to_current_time", (d.get("predict_to_current_time"), d.get("frequency")), (True, 20))
 want("x0", m["x0"][:6], [1, 2, 0, 0, 0, 0.5])
 want("Q diagonal", [m["Q"][i][i] for i in range(15)],
      [0.05, 0.05, 0.06, 0.03, 0.03, 0.06, 0.025, 0.025, 0.04, 0.01, 0.01, 0.02, 0.01, 0.01, 0.015])
@@ -365,6 +371,11 @@ sed 's/^algorithm: ekfio/algorithm: kfio/' "$WORK/bag2.yaml" >"$F/kfio.yaml"
 check_refuses "a motion with kfio" "Estimator not started: $F/kfio.yaml" "$F/kfio.yaml"
 sed 's/^      - twist.twist.linear.z /      - twist.twist.linear.q /' "$WORK/bag2.yaml" >"$F/field.yaml"
 check_refuses "an unknown field" "twist.twist.linear.q" "$F/field.yaml"
+sed 's/^predict_to_current_time: true/predict_to_current_time: false/' "$WORK/flat_out.yaml" >"$F/frequency.yaml"
+check_refuses "frequency without predict_to_current_time" \
+  "frequency: the rate of the predict_to_current_time output, which is off" "$F/frequency.yaml"
+sed 's/^frequency: 20 /frequency: 0 /' "$WORK/flat_out.yaml" >"$F/frequency0.yaml"
+check_refuses "a frequency of 0" "frequency: expected a rate in (0, 1000] Hz, found 0" "$F/frequency0.yaml"
 sed 's/^late_policy: drop/late_policy: later/' "$WORK/bag2.yaml" >"$F/late.yaml"
 check_refuses "an unknown late_policy" "late_policy" "$F/late.yaml"
 check_refuses "a missing file" "$F/nowhere.yaml" "$F/nowhere.yaml"

@@ -109,19 +109,19 @@ TEST(LinkMonitor, Classification)
   t.sufficient = 0.5;
   t.min_samples = 100;
   RateEstimate e = wilsonInterval(310, 1000);  // [0.282, 0.339] < 0.36
-  LinkStatus s = classifyLink(e, t);
-  EXPECT_EQ(s.level, LinkStatus::Level::ERROR);
+  LinkCondition s = classifyLink(e, t);
+  EXPECT_EQ(s.level, LinkCondition::Level::ERROR);
   EXPECT_NE(s.message.find("unbounded"), std::string::npos);
   EXPECT_NE(s.message.find("0.31 < critical 0.36"), std::string::npos) << s.message;
-  EXPECT_EQ(classifyLink(wilsonInterval(700, 1000), t).level, LinkStatus::Level::OK);
-  const LinkStatus band = classifyLink(wilsonInterval(430, 1000), t);  // [0.399, 0.461]
-  EXPECT_EQ(band.level, LinkStatus::Level::WARN);
+  EXPECT_EQ(classifyLink(wilsonInterval(700, 1000), t).level, LinkCondition::Level::OK);
+  const LinkCondition band = classifyLink(wilsonInterval(430, 1000), t);  // [0.399, 0.461]
+  EXPECT_EQ(band.level, LinkCondition::Level::WARN);
   EXPECT_NE(band.message.find("undecided"), std::string::npos);
-  const LinkStatus straddle = classifyLink(wilsonInterval(36, 100), t);
-  EXPECT_EQ(straddle.level, LinkStatus::Level::WARN);
+  const LinkCondition straddle = classifyLink(wilsonInterval(36, 100), t);
+  EXPECT_EQ(straddle.level, LinkCondition::Level::WARN);
   EXPECT_NE(straddle.message.find("close"), std::string::npos);
-  const LinkStatus few = classifyLink(wilsonInterval(1, 10), t);
-  EXPECT_EQ(few.level, LinkStatus::Level::WARN);
+  const LinkCondition few = classifyLink(wilsonInterval(1, 10), t);
+  EXPECT_EQ(few.level, LinkCondition::Level::WARN);
   EXPECT_NE(few.message.find("not enough samples"), std::string::npos);
 }
 
@@ -227,7 +227,7 @@ TEST(JointLinkMonitor, PerSensorRatesDecideAndUnionDoesNot)
     const JointLinkStatus st = mon.evaluate();
     ASSERT_EQ(st.sensors.size(), 2u);
     EXPECT_NEAR(st.sensors[0].arrival.value, rate, 0.03);
-    EXPECT_EQ(st.status.level, rate < 0.4 ? LinkStatus::Level::ERROR : LinkStatus::Level::OK) << st.status.message;
+    EXPECT_EQ(st.status.level, rate < 0.4 ? LinkCondition::Level::ERROR : LinkCondition::Level::OK) << st.status.message;
     if (rate < 0.4)
       EXPECT_GT(any.arrivalRate().lower, 0.45);  // the union rate looks healthy
     ChannelSettings ca, cb;
@@ -239,7 +239,7 @@ TEST(JointLinkMonitor, PerSensorRatesDecideAndUnionDoesNot)
   JointLinkMonitor few(m, 500, false, 100);
   for (int k = 0; k < 50; ++k)
     few.add({true, false});
-  EXPECT_EQ(few.evaluate().status.level, LinkStatus::Level::WARN);
+  EXPECT_EQ(few.evaluate().status.level, LinkCondition::Level::WARN);
   EXPECT_THROW(few.add({true}), std::invalid_argument);
 }
 
@@ -275,7 +275,7 @@ TEST(JointLinkMonitor, MarkovLinksEstimatedNotAssumed)
     const JointLinkStatus st = mon.evaluate();
     EXPECT_NEAR(st.sensors[0].failure.value, 0.05, 0.01);
     EXPECT_NEAR(st.sensors[0].recovery.value, r, 0.04);
-    EXPECT_EQ(st.status.level, r > 0.86 ? LinkStatus::Level::OK : LinkStatus::Level::ERROR) << st.status.message;
+    EXPECT_EQ(st.status.level, r > 0.86 ? LinkCondition::Level::OK : LinkCondition::Level::ERROR) << st.status.message;
   }
 }
 
@@ -323,7 +323,7 @@ TEST(LiveStability, SingleScalarSensorWithKfio)
     live.add({s.gamma}, s.gamma, est->covariance(), false);
   }
   const LiveStabilityReport r = live.evaluate();
-  EXPECT_EQ(r.status.level, LinkStatus::Level::OK) << r.status.message;
+  EXPECT_EQ(r.status.level, LinkCondition::Level::OK) << r.status.message;
   EXPECT_NEAR(std::stod(valueOf(r, "critical (necessary)")), 1.0 - 1.0 / 1.21, 1e-6);
   EXPECT_NE(valueOf(r, "y Gan-Liu excitation"), "<missing>");
   // the rate this sensor needs: its own critical rate 1 - 1/1.1^2 = 0.1736 (to the bisection's
@@ -391,7 +391,7 @@ TEST(LiveStability, ConstantVelocityRobot)
   for (int k = 0; k < 1000; ++k)
     live.add({true, true}, true, m.P0, false);
   const LiveStabilityReport r = live.evaluate();
-  EXPECT_EQ(r.status.level, LinkStatus::Level::OK) << r.status.message;
+  EXPECT_EQ(r.status.level, LinkCondition::Level::OK) << r.status.message;
   EXPECT_EQ(valueOf(r, "gnss needs").rfind("arrival rate > 0 (any positive rate", 0), 0u) << valueOf(r, "gnss needs");
   EXPECT_EQ(valueOf(r, "odom needs").rfind("arrival rate: any", 0), 0u) << valueOf(r, "odom needs");
   EXPECT_EQ(valueOf(r, "dead-reckoned"), "<missing>");
@@ -400,7 +400,7 @@ TEST(LiveStability, ConstantVelocityRobot)
   for (int k = 0; k < 1000; ++k)
     lost.add({false, true}, true, m.P0, false);
   const LiveStabilityReport rl = lost.evaluate();
-  EXPECT_EQ(rl.status.level, LinkStatus::Level::WARN) << rl.status.message;
+  EXPECT_EQ(rl.status.level, LinkCondition::Level::WARN) << rl.status.message;
   EXPECT_NE(rl.status.message.find("at the estimates unstable"), std::string::npos) << rl.status.message;
   // The status names what the silent link alone kept bounded (odom still delivers: not named).
   EXPECT_NE(rl.status.message.find("sensor 'gnss' is below the rate it needs (arrival rate > 0"), std::string::npos)
@@ -419,7 +419,7 @@ TEST(LiveStability, ConstantVelocityRobot)
   const LiveStabilityReport rv = odom_only.evaluate();
   // The level follows the links' verdict (dead reckoning is a robot's normal setup, not a link
   // problem); the message names the dead-reckoned states by their names.
-  EXPECT_EQ(rv.status.level, LinkStatus::Level::OK) << rv.status.message;
+  EXPECT_EQ(rv.status.level, LinkCondition::Level::OK) << rv.status.message;
   EXPECT_NE(valueOf(rv, "dead-reckoned").find("(1, 1) of x, y that"), std::string::npos) << valueOf(rv, "dead-reckoned");
   EXPECT_NE(rv.status.message.find("dead-reckoned: x, y grow regardless of the links"), std::string::npos)
       << rv.status.message;
@@ -449,7 +449,7 @@ TEST(LiveStability, CacheFollowsTheWindows)
     live.add({false, false}, false, Eigen::MatrixXd::Identity(1, 1), false);
   const LiveStabilityReport later = live.evaluate();
   EXPECT_NE(valueOf(later, "a arrival rate"), valueOf(first, "a arrival rate"));
-  EXPECT_EQ(later.status.level, LinkStatus::Level::ERROR) << later.status.message;
+  EXPECT_EQ(later.status.level, LinkCondition::Level::ERROR) << later.status.message;
   LiveStabilityOptions no_cache = o;
   no_cache.cache = false;
   LiveStability fresh(m, kfio, no_cache);
@@ -503,8 +503,8 @@ TEST(LiveStability, RelinearisedKeepsTheWindows)
   };
   EXPECT_EQ(values(local->evaluate()), values(fresh->evaluate()));
   EXPECT_NE(values(local->evaluate()), values(fed.evaluate()));  // 1.5 at arrival 0.2 each: unbounded
-  EXPECT_EQ(fed.evaluate().status.level, LinkStatus::Level::ERROR);
-  EXPECT_EQ(local->evaluate().status.level, LinkStatus::Level::OK);
+  EXPECT_EQ(fed.evaluate().status.level, LinkCondition::Level::ERROR);
+  EXPECT_EQ(local->evaluate().status.level, LinkCondition::Level::OK);
   for (int k = 300; k < 600; ++k)
   {
     fed.add(arrivals[k], arrivals[k][0] || arrivals[k][1], unstable.P0, false);

@@ -90,7 +90,12 @@ void EstimatorNodelet::onInit()
   if (live_)  // live_stability: false: no window, no verdict, no status
     diagnostics_->add("link stability", this, &EstimatorNodelet::diagnoseLink);
   // force_update: the updater's own period check uses ROS time, which stalls or jumps under sim time.
-  diag_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
+  link_status_pub_ = pnh.advertise<LinkStatus>("link_status", 10);
+  latency_figures_.assign(model.sensors.size(), LatencyBudget::Figures());
+  diag_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) {
+    diagnostics_->force_update();
+    publishLinkStatus();
+  });
   if (publish_tf_)
   {
     if (child_frame_id_ == base_link_frame_)
@@ -108,6 +113,14 @@ void EstimatorNodelet::onInit()
     }
     tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
     tf_timer_ = nh.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { tfTimer(); });
+  }
+  if (predict_to_current_time_)
+  {
+    predict_timer_ = nh.createWallTimer(ros::WallDuration(1.0 / frequency_), [this](const ros::WallTimerEvent&) {
+      predictTimer();
+    });
+    NODELET_INFO("Estimator: odometry/filtered%s at %g Hz, predicted to the current time (predict_to_current_time)",
+                 publish_tf_ ? " and tf" : "", frequency_);
   }
   startReconfigure(pnh);
   clock_watch_.start(getNodeHandle(), [this] { dispatch_.wake(); });
@@ -222,6 +235,10 @@ void EstimatorNodelet::configure(ros::NodeHandle& pnh)
   child_frame_id_ = c.child_frame_id;
   positions_ = c.position_indices;
   publish_tf_ = c.publish_tf;
+  predict_to_current_time_ = c.predict_to_current_time;
+  frequency_ = c.frequency;
+  if (predict_to_current_time_)
+    predict_model_ = std::make_unique<const Model>(c.model);
   trace_bound_ = c.runtime.trace_bound;
   queue_size_ = static_cast<uint32_t>(c.queue_size);
   stream_ = std::make_unique<OnlineStream>(c.model, settings_, c.online, c.timeline, c.runtime);

@@ -21,7 +21,9 @@
 // scheduled at k is not waited for and not counted as lost.
 // Outputs: `estimate` (Estimate), `covariance_trace` (std_msgs/Float64), `pose`
 // (PoseWithCovarianceStamped of ~position_indices), `odometry/filtered` (nav_msgs/Odometry of
-// ~state_mapping, ~world_frame -> ~base_link_frame), tf ~frame_id -> ~child_frame_id, diagnostics.
+// ~state_mapping, ~world_frame -> ~base_link_frame), tf ~frame_id -> ~child_frame_id (both per
+// step, or with ~predict_to_current_time at ~frequency, predicted to the current time), diagnostics,
+// and ~link_status (LinkStatus, one per sensor a second: the diagnostics' link numbers).
 #pragma once
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -56,6 +58,7 @@
 #include "load_failure.hpp"
 #include "param_yaml.hpp"
 #include "odometry_output.hpp"
+#include "link_status_message.hpp"
 #include "tf_output.hpp"
 #include "sensor_subscriptions.hpp"
 #include "transport_watch.hpp"
@@ -161,6 +164,11 @@ private:
   /// odometry/filtered of one estimate (~state_mapping, world_frame -> base_link_frame).
   void publishOdometry(const Estimate& e);
 
+  /// predict_to_current_time: at ~frequency, the last step's estimate predicted to ROS time now
+  /// (predictAhead; not fed back into the filter) on odometry/filtered and as the tf, in place of
+  /// the steps' own. Off the filter's lock but for copying the last step.
+  void predictTimer();
+
   /// The latest estimate as the tf frame_id -> child_frame_id, 20 times a second, from the
   /// manager's queue (tf is for viewing; sending it from the thread that takes the steps stalled
   /// the manager's callback queues). The timer stops at a tick with no new estimate, and the next
@@ -193,6 +201,9 @@ private:
   void diagnoseSensors(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
   void diagnoseLink(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  /// ~link_status: one LinkStatus per sensor from the numbers of the diagnostics just sent
+  /// (diagnoseSensors' latency figures, diagnoseLink's report), after each update, on its thread.
+  void publishLinkStatus();
 
   EstimatorSettings settings_;
   std::unique_ptr<OnlineStream> stream_;
@@ -240,8 +251,21 @@ private:
   bool tf_timer_idle_ = false;  ///< tf_timer_ stopped for want of a new estimate (mutex_)
   Estimate::ConstPtr last_estimate_;
   ros::Time last_tf_;
+  /// predict_to_current_time: the model (a copy: the stream's may be rebuilt), the last step's
+  /// estimate (mutex_), and the stamp of the last prediction published (the timer's thread).
+  bool predict_to_current_time_ = false;
+  double frequency_ = 0.0;
+  std::unique_ptr<const Model> predict_model_;
+  Estimate::ConstPtr last_step_;
+  ros::Time last_predicted_;
+  ros::WallTimer predict_timer_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTimer diag_timer_;
+  /// The last diagnostics' per-sensor numbers, for ~link_status (the diagnostics' thread only).
+  ros::Publisher link_status_pub_;
+  std::vector<LatencyBudget::Figures> latency_figures_;
+  LiveStabilityReport link_report_;
+  bool link_reported_ = false;
 
   boost::recursive_mutex reconfigure_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<EstimatorConfig>> reconfigure_;

@@ -2,6 +2,7 @@
 // pose, tf, the NavSatFix datum and the diagnostics.
 #include "estimator_nodelet.hpp"
 
+#include "networked_estimation/estimators/estimator.hpp"
 #include "networked_estimation/motion/linearised_model.hpp"
 
 namespace networked_estimation
@@ -32,10 +33,12 @@ void EstimatorNodelet::publishLocked(const Estimate::Ptr& e)
       t->data = e->covariance_trace;
       trace_pub_.publish(t);
     }
-    if (odom_pub_.getNumSubscribers() > 0)
+    if (predict_to_current_time_)
+      last_step_ = e;  // odometry/filtered and tf come from predictTimer()
+    else if (odom_pub_.getNumSubscribers() > 0)
       publishOdometry(*e);
     const bool want_pose = pose_pub_.getNumSubscribers() > 0;
-    if (publish_tf_)
+    if (publish_tf_ && !predict_to_current_time_)
     {
       last_estimate_ = e;  // tf leaves from tfTimer() in the nodelet's own queue, not this thread
       if (tf_timer_idle_)  // stopped while no estimate came (mutex held by both)
@@ -76,6 +79,55 @@ void EstimatorNodelet::publishOdometry(const Estimate& e)
   // Shared: an intra-process subscriber (a nodelet) gets it without serialization.
   odom_pub_.publish(
       boost::make_shared<const nav_msgs::Odometry>(toOdometry(x, P, state_map_, e.header.stamp, world_frame_, base_link_frame_)));
+}
+
+void EstimatorNodelet::predictTimer()
+{
+  Estimate::ConstPtr step;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    step = last_step_;
+  }
+  const ros::Time now = ros::Time::now();
+  if (!step || now == last_predicted_ || now < step->header.stamp)
+    return;  // no step yet, a stopped clock, or time went back (the stream restarts)
+  const int n = static_cast<int>(step->state.size());
+  const Eigen::Map<const Eigen::VectorXd> x(step->state.data(), n);
+  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> P(
+      step->covariance.data(), n, n);
+  Eigen::VectorXd xp;
+  Eigen::MatrixXd Pp;
+  double ahead = 0.0;
+  try
+  {
+    ahead = predictAhead(*predict_model_, limits_.period, x, P, (now - step->header.stamp).toSec(), xp, Pp);
+  }
+  catch (const InputError& e)
+  {
+    NODELET_WARN_THROTTLE(10.0, "Estimator: predict_to_current_time: not predicted from step %lu: %s",
+                          static_cast<unsigned long>(step->step), e.what());
+    return;
+  }
+  last_predicted_ = now;
+  Estimate::Ptr e = boost::make_shared<Estimate>(*step);
+  e->header.stamp = step->header.stamp + ros::Duration(ahead);
+  e->state.assign(xp.data(), xp.data() + n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      e->covariance[static_cast<std::size_t>(i) * n + j] = Pp(i, j);
+  e->covariance_trace = Pp.trace();
+  if (odom_pub_.getNumSubscribers() > 0)
+    publishOdometry(*e);
+  if (publish_tf_)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    last_estimate_ = e;
+    if (tf_timer_idle_)
+    {
+      tf_timer_idle_ = false;
+      tf_timer_.start();
+    }
+  }
 }
 
 void EstimatorNodelet::tfTimer()
@@ -296,24 +348,27 @@ void EstimatorNodelet::diagnoseSensors(diagnostic_updater::DiagnosticStatusWrapp
   for (std::size_t i = 0; i < inputs_.size(); ++i)
   {
     const std::string& name = online.model().sensors[i].name;
-    const double delay = latency.delay(i);
+    const LatencyBudget::Figures f = latency.figures(i, now);
+    latency_figures_[i] = f;  // ~link_status carries the same numbers
+    const double delay = f.delay_p99;
     stat.add(name + " messages", c.received_per_sensor[i] + stream_->refusedPerSensor()[i]);
     stat.add(name + " late dropped", c.late_dropped_per_sensor[i]);
     stat.add(name + " stamps refused", stream_->refusedPerSensor()[i]);
     if (!stream_->lastRefused(i).reason.empty())
       stat.add(name + " last stamp refused", stream_->lastRefused(i).reason);
+    stat.add(name + " delay p50 (s)", f.delay_p50);
     stat.add(name + " delay p99 (s)", delay);
+    stat.add(name + " late fraction", f.late_fraction);
     stat.add(name + " rate (Hz)", online.lattice(i).measuredRate(period));
     if (inputs_[i].type == InputType::IMU)
       stat.add(name + " without estimate (covariance -1)", c.disabled_per_sensor[i]);
     else if (inputs_[i].differential)
       stat.add(name + " reference poses (differential)", c.disabled_per_sensor[i]);
-    const LatencyBudget::Window w = latency.window(i, now);
-    if (w.fraction() > 0.01)
+    if (f.late_fraction > 0.01)
       stat.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
                          "sensor '%s': %.1f %% of its messages over the last %d s late or refused (delay p99 %.0f ms, "
                          "latency budget %.0f ms)",
-                         name.c_str(), 100.0 * w.fraction(), LatencyBudget::kLateSeconds, 1e3 * delay,
+                         name.c_str(), 100.0 * f.late_fraction, LatencyBudget::kLateSeconds, 1e3 * delay,
                          1e3 * stream_->budget());
     std::string why;
     if (online.lattice(i).mismatch(period, &why))
@@ -366,12 +421,27 @@ void EstimatorNodelet::diagnoseLink(diagnostic_updater::DiagnosticStatusWrapper&
     report.values.emplace_back("linearisation", "at the estimate (a local verdict), rebuilt " +
                                                     std::to_string(relinearisations_) +
                                                     " times: when the Jacobian moves by over 0.1 % of its largest entry");
-  const unsigned char level = report.status.level == LinkStatus::Level::OK ? diagnostic_msgs::DiagnosticStatus::OK
-                              : report.status.level == LinkStatus::Level::WARN
+  const unsigned char level = report.status.level == LinkCondition::Level::OK ? diagnostic_msgs::DiagnosticStatus::OK
+                              : report.status.level == LinkCondition::Level::WARN
                                   ? diagnostic_msgs::DiagnosticStatus::WARN
                                   : diagnostic_msgs::DiagnosticStatus::ERROR;
   stat.summary(level, report.status.message);
   for (const auto& kv : report.values)
     stat.add(kv.first, kv.second);
+  link_report_ = std::move(report);  // ~link_status carries the same numbers
+  link_reported_ = true;
+}
+
+void EstimatorNodelet::publishLinkStatus()
+{
+  const Model& model = stream_->online().model();
+  const ros::Time stamp = ros::Time::now();
+  for (std::size_t i = 0; i < model.sensors.size(); ++i)
+  {
+    const SensorLinkFigures* link =
+        link_reported_ && i < link_report_.sensors.size() ? &link_report_.sensors[i] : nullptr;
+    link_status_pub_.publish(linkStatusMessage(model.sensors[i].name, stamp, latency_figures_[i], link,
+                                               link_reported_ ? toString(link_report_.status.level) : ""));
+  }
 }
 }  // namespace networked_estimation

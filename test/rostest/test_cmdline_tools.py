@@ -140,6 +140,16 @@ class CommandLineTools(unittest.TestCase):
         self.assertIn("odom messages", values)
         self.assertIn("imu messages", values)
 
+    def test_echo_link_status(self):
+        # ~link_status: per sensor, once a second, the numbers of its diagnostics (rostopic echo
+        # needs the message's Python side).
+        msg = self.echo_one(self.node + "/link_status")
+        self.assertIn(msg["sensor"], ("odom", "imu"))
+        for key in ("arrival_rate", "arrival_rate_lower", "arrival_rate_upper", "p", "r", "late_fraction",
+                    "delay_p50", "delay_p99", "margin"):
+            self.assertIn(key, msg)
+        self.assertIn(msg["link_level"], ("OK", "WARN", "ERROR"))
+
     def test_echo_tf(self):
         msg = self.echo_one("/tf")
         # The Estimator's own transform (publish_tf's default): world frame -> <algorithm>_estimate.

@@ -40,6 +40,7 @@
 #include "tf_output.hpp"
 #include "networked_estimation/ChannelEvent.h"
 #include "networked_estimation/Estimate.h"
+#include "networked_estimation/LinkStatus.h"
 #include "networked_estimation/Measurement.h"
 #include "networked_estimation/PlantState.h"
 #include "networked_estimation/ScheduleStep.h"
@@ -477,6 +478,107 @@ TEST(EstimatorGraph, StabilityDiagnosticFlipsWithTheArrivalRate)
       << link.text("Gan-Liu Theorem 1 (runtime invariant)");
 }
 
+/// "0.6 [0.585, 0.615] (4000 samples)": the value, the interval and the trials of a live rate.
+struct DiagnosedRate
+{
+  double value = std::nan(""), lower = std::nan(""), upper = std::nan("");
+  unsigned long trials = 0;
+  bool parsed = false;
+};
+DiagnosedRate parseRate(const std::string& text)
+{
+  DiagnosedRate r;
+  r.parsed = std::sscanf(text.c_str(), "%lf [%lf, %lf] (%lu", &r.value, &r.lower, &r.upper, &r.trials) == 4;
+  return r;
+}
+
+/// The diagnostics print 6 significant digits (%g, liveNumber, diagnostic_updater's default
+/// stream precision): a relative rounding of at most 5e-6, so 1e-5 of the value (and 1e-12 near 0).
+bool sameAsPrinted(double msg, double printed)
+{
+  if (std::isnan(msg) || std::isnan(printed))
+    return std::isnan(msg) && std::isnan(printed);
+  return std::fabs(msg - printed) <= 1e-5 * std::fabs(printed) + 1e-12;
+}
+
+/// The Estimator `ns`'s ~link_status carries, per sensor, the numbers of the diagnostics of the same
+/// report: the live rates with their intervals ("link stability"), the margin and what the rate
+/// needs, the joint level, and the delays and late fraction ("estimator"). Both are sent from one
+/// diagnostics tick, so the latest of each agree once a tick has been seen whole (waited for: the
+/// topics arrive separately).
+void expectLinkStatusAsDiagnosed(ros::NodeHandle& nh, const std::string& ns, const std::vector<std::string>& sensors)
+{
+  DiagnosticsProbe link(nh, ns + ": link stability"), estimator(nh, ns + ": estimator");
+  std::mutex mutex;
+  std::map<std::string, ne::LinkStatus> latest;
+  ros::Subscriber sub = nh.subscribe<ne::LinkStatus>(ns + "/link_status", 100, [&](const ne::LinkStatus::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex);
+    latest[m->sensor] = *m;
+  });
+  std::string why;
+  auto agree = [&]() {
+    const std::map<std::string, std::string> l = link.snapshot(), e = estimator.snapshot();
+    const std::string level = link.levelIs(diagnostic_msgs::DiagnosticStatus::OK)      ? "OK"
+                              : link.levelIs(diagnostic_msgs::DiagnosticStatus::WARN)  ? "WARN"
+                              : link.levelIs(diagnostic_msgs::DiagnosticStatus::ERROR) ? "ERROR"
+                                                                                       : "?";
+    std::lock_guard<std::mutex> lock(mutex);
+    std::ostringstream out;
+    for (const std::string& s : sensors)
+    {
+      if (!latest.count(s) || !l.count(s + " arrival rate") || !e.count(s + " delay p50 (s)"))
+      {
+        out << s << ": no message or diagnostics yet; ";
+        continue;
+      }
+      const ne::LinkStatus& m = latest.at(s);
+      const DiagnosedRate a = parseRate(l.at(s + " arrival rate")), p = parseRate(l.at(s + " failure rate p")),
+                          r = parseRate(l.at(s + " recovery rate r"));
+      auto check = [&](const char* what, double msg, double printed) {
+        if (!sameAsPrinted(msg, printed))
+          out << s << " " << what << ": message " << msg << ", diagnostics " << printed << "; ";
+      };
+      if (!a.parsed || !p.parsed || !r.parsed)
+        out << s << ": unparsed rates; ";
+      check("arrival rate", m.arrival_rate, a.value);
+      check("arrival lower", m.arrival_rate_lower, a.lower);
+      check("arrival upper", m.arrival_rate_upper, a.upper);
+      check("arrival samples", static_cast<double>(m.arrival_samples), static_cast<double>(a.trials));
+      check("p", m.p, p.value);
+      check("p lower", m.p_lower, p.lower);
+      check("p upper", m.p_upper, p.upper);
+      check("p transitions", static_cast<double>(m.p_transitions), static_cast<double>(p.trials));
+      check("r", m.r, r.value);
+      check("r lower", m.r_lower, r.lower);
+      check("r upper", m.r_upper, r.upper);
+      check("r transitions", static_cast<double>(m.r_transitions), static_cast<double>(r.trials));
+      check("margin", m.margin, l.count(s + " margin") ? std::stod(l.at(s + " margin")) : std::nan(""));
+      check("delay p50", m.delay_p50, std::stod(e.at(s + " delay p50 (s)")));
+      check("delay p99", m.delay_p99, std::stod(e.at(s + " delay p99 (s)")));
+      check("late fraction", m.late_fraction, e.count(s + " late fraction") ? std::stod(e.at(s + " late fraction"))
+                                                                              : std::nan(""));
+      if (!l.count(s + " needs") || m.verdict != l.at(s + " needs"))
+        out << s << " verdict: message '" << m.verdict << "', diagnostics '"
+            << (l.count(s + " needs") ? l.at(s + " needs") : "<missing>") << "'; ";
+      if (m.link_level != level)
+        out << s << " level: message " << m.link_level << ", diagnostics " << level << "; ";
+      if (!m.header.frame_id.empty())
+        out << s << " frame_id '" << m.header.frame_id << "'; ";
+    }
+    why = out.str();
+    return why.empty();
+  };
+  EXPECT_TRUE(waitFor(agree, 20.0)) << why;
+  std::lock_guard<std::mutex> lock(mutex);
+  for (const std::string& s : sensors)
+    if (latest.count(s))  // a live link: real numbers, not defaults
+    {
+      EXPECT_GT(latest.at(s).arrival_samples, 0u) << s;
+      EXPECT_TRUE(std::isfinite(latest.at(s).delay_p50)) << s;
+      EXPECT_FALSE(latest.at(s).verdict.empty()) << s;
+    }
+}
+
 // Per-sensor live verdict: each sensor's own window and the joint test of analyze. The test
 // publishes straight to the estimator at 500 Hz, dropping each sensor's sample itself (fixed seed).
 // 4000-step windows: a Wilson half-width of 1.96 sqrt(0.21 / 4000) = 0.014, so 0.3 + 0.014 stays
@@ -513,6 +615,7 @@ TEST(EstimatorGraph, StabilityVerdictPerSensor)
   rate = 0.6;
   ASSERT_TRUE(waitFor([&] { return link.levelIs(diagnostic_msgs::DiagnosticStatus::OK); }, 60.0))
       << "last: " << link.lastMessage();
+  expectLinkStatusAsDiagnosed(nh, "kfio/estimator", {"a", "b"});
 }
 
 // Sensor schedules (estimator_schedule.test): each PlantSimulator publishes exactly the sensors its
@@ -986,6 +1089,111 @@ TEST(EstimatorGraph, MapToOdomNeverASecondParent)
     EXPECT_NEAR(map_base.transform.translation.x, x_est, 0.05);
     ros::WallDuration(0.2).sleep();
   }
+}
+
+// predict_to_current_time (estimator_predict.test): two ekfio Estimators of an omni_2d robot at
+// 10 Hz on the same wheel odometry (vx = 1, vyaw = 0). `grid` (the default) publishes
+// odometry/filtered once per step, stamped on the step grid; `now` publishes it at 50 Hz, each the
+// last step's estimate predicted to the ROS time of the tick: stamped then (off the grid), its x the
+// step's x + vx dt and its x variance f P f' + Q_xx dt, f the motion's row of x (f = [1 0 0 dt 0 0
+// dt^2/2 0] with yaw, vy and the accelerations at 0, which the filter holds exactly here: every
+// innovation is 0, the odometry saying vx = 1 and vyaw = 0 as x0 does),
+// and the filter itself untouched (both Estimators' steps equal).
+// Bounds, none of them tight timing: a message is at most 0.5 s old on receipt (it is stamped when
+// published, and delivery on one machine takes milliseconds); 50 Hz against 10 Hz gives about 5
+// predictions per step, of which we ask more than 1; the budget 0.3 s is 100 times the delivery of
+// a message on one machine, so neither Estimator drops one as late.
+TEST(EstimatorGraph, PredictToCurrentTime)
+{
+  ros::NodeHandle nh;
+  ros::Publisher pub = nh.advertise<Measurement>("odom_measurement", 100);
+  Collector<Estimate> now_steps(nh, "now/estimate"), grid_steps(nh, "grid/estimate");
+  Collector<nav_msgs::Odometry> now_odom(nh, "now/odometry/filtered"), grid_odom(nh, "grid/odometry/filtered");
+  ASSERT_TRUE(waitFor([&] {
+    // (both Estimators are in one manager: one subscriber connection)
+    return pub.getNumSubscribers() > 0 && now_odom.sub.getNumPublishers() > 0 &&
+           grid_odom.sub.getNumPublishers() > 0 && now_steps.sub.getNumPublishers() > 0 &&
+           grid_steps.sub.getNumPublishers() > 0;
+  }, 20.0));
+  const double T = 0.1, q_xx = 1e-4;
+  const ros::Time t0 = ros::Time::now();
+  std::vector<Estimate> steps, grid;
+  std::vector<nav_msgs::Odometry> predicted, on_grid;
+  std::vector<ros::Time> received;
+  {
+    PeriodicFeeder feeder(T, [&](long k) {
+      Measurement m;
+      m.header.stamp = t0 + ros::Duration(T * static_cast<double>(k - 1));
+      m.step = static_cast<std::uint64_t>(k);
+      m.sensor = "odom";
+      m.y = {1.0, 0.0};
+      pub.publish(m);
+    });
+    ASSERT_TRUE(waitFor([&] { return now_steps.size() >= 30 && grid_steps.size() >= 30; }, 60.0));
+    // (copied while the steps still come: after the feeder stops, the predictions go on from the
+    // last step, as robot_localization's do)
+    std::lock_guard<std::mutex> l1(now_steps.mutex), l2(grid_steps.mutex), l3(now_odom.mutex), l4(grid_odom.mutex);
+    steps = now_steps.msgs;
+    grid = grid_steps.msgs;
+    predicted = now_odom.msgs;
+    received = now_odom.received_at;
+    on_grid = grid_odom.msgs;
+  }
+  auto gridOffset = [&](const ros::Time& t) {
+    const double r = (t - t0).toSec() / T;
+    return std::fabs(r - std::round(r)) * T;
+  };
+  // The default: on the grid, one per step.
+  ASSERT_FALSE(on_grid.empty());
+  for (const nav_msgs::Odometry& o : on_grid)
+    EXPECT_LT(gridOffset(o.header.stamp), 1e-6) << o.header.stamp;
+  // The filter is not fed the predictions: the same steps as without them.
+  std::size_t compared = 0;
+  for (const Estimate& a : steps)
+    for (const Estimate& b : grid)
+      if (a.step == b.step)
+      {
+        ++compared;
+        ASSERT_EQ(a.state.size(), b.state.size());
+        for (std::size_t i = 0; i < a.state.size(); ++i)
+          EXPECT_NEAR(a.state[i], b.state[i], 1e-12) << "step " << a.step << " state " << i;
+      }
+  EXPECT_GE(compared, 20u);
+  // The predictions: stamped at their tick, more of them than steps, each from one of the steps.
+  const ros::Time first = steps.front().header.stamp, last = steps.back().header.stamp;
+  std::size_t within = 0, off_grid = 0;
+  for (std::size_t i = 0; i < predicted.size(); ++i)
+  {
+    const nav_msgs::Odometry& o = predicted[i];
+    const double age = (received[i] - o.header.stamp).toSec();
+    EXPECT_GE(age, 0.0) << "stamped in the future: " << o.header.stamp;
+    EXPECT_LE(age, 0.5) << o.header.stamp;
+    if (o.header.stamp < first || o.header.stamp > last)
+      continue;
+    ++within;
+    off_grid += gridOffset(o.header.stamp) > 1e-4 ? 1 : 0;
+    // The step it was predicted from: the one whose x + vx dt and variance it carries.
+    bool found = false;
+    for (auto e = steps.rbegin(); e != steps.rend() && !found; ++e)
+    {
+      const double dt = (o.header.stamp - e->header.stamp).toSec();
+      if (dt < 0.0)
+        continue;
+      const std::size_t n = e->state.size();
+      auto P = [&](std::size_t r, std::size_t c) { return e->covariance[r * n + c]; };
+      // x' = x + vx dt + ax dt^2 / 2 at yaw = vy = ay = 0: the row of F is [1 0 0 dt 0 0 h 0]
+      const double h = 0.5 * dt * dt;
+      const double var = P(0, 0) + dt * dt * P(3, 3) + h * h * P(6, 6) + 2.0 * dt * P(0, 3) + 2.0 * h * P(0, 6) +
+                         2.0 * dt * h * P(3, 6) + q_xx * dt;
+      found = std::fabs(o.pose.pose.position.x - (e->state[0] + e->state[3] * dt)) < 1e-6 &&
+              std::fabs(o.twist.twist.linear.x - e->state[3]) < 1e-9 &&
+              std::fabs(o.pose.covariance[0] - var) < 1e-6 * var;
+    }
+    EXPECT_TRUE(found) << "odometry at " << o.header.stamp << " (x " << o.pose.pose.position.x
+                       << ") is no step's estimate predicted to its stamp";
+  }
+  EXPECT_GT(within, static_cast<std::size_t>((last - first).toSec() / T)) << within;
+  EXPECT_GE(off_grid + 1, within) << off_grid << " of " << within << " off the step grid";
 }
 
 // Foreign input types: PointStamped (two 2-row position sensors) and Range (one scalar sensor)

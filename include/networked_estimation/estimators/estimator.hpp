@@ -97,6 +97,19 @@ protected:
 void predictPrior(const Model& model, const Eigen::VectorXd& x, const Eigen::MatrixXd& P, const Eigen::VectorXd& u,
                   double dt, Eigen::VectorXd& xp, Eigen::MatrixXd& Pp);
 
+/// The most whole periods predictAhead takes a linear model over (k matrix products).
+constexpr long kMaxPredictAheadSteps = 1000;
+
+/// An estimate (x, P) predicted `dt` seconds past its step, with no measurement and not fed back
+/// into any filter (the Estimator's predict_to_current_time), by predictPrior's equations with zero
+/// input: a built-in motion once over dt (xp = f(x, dt), Pp = F P F' + Q dt, two_d_mode applied);
+/// a linear model, whose steps are whole periods of `period` s, k = round(dt / period) times
+/// (xp = A^k x, Pp = A Pp A' + B Q B' k times). Returns the time predicted over: dt, or k periods
+/// (0: (x, P) as they are). Throws InputError naming dt for a dt that is negative or not finite, a
+/// period that is not positive, or a linear k above kMaxPredictAheadSteps.
+double predictAhead(const Model& model, double period, const Eigen::VectorXd& x, const Eigen::MatrixXd& P,
+                    double dt, Eigen::VectorXd& xp, Eigen::MatrixXd& Pp);
+
 /// Checks sample.R for a step of `model` (nothing when it is empty): m x m, and the block of every
 /// sensor the step fuses (gamma set and the sensor's y finite) finite, symmetric and positive
 /// definite. Throws InputError "R: ..." naming the sensor, e.g. "R: sensor 'gps': its block is not

@@ -54,6 +54,10 @@ struct EstimatorNodeConfig
   std::string child_frame_id;      ///< default: "<algorithm>_estimate"
   std::vector<int> position_indices;  ///< default: [0, 1] (or [0] for n = 1)
   bool publish_tf = true;
+  /// `odometry/filtered` (and tf) at `frequency` Hz, the last step's estimate predicted to the ROS
+  /// time of each tick (predictAhead), instead of once per step on the step grid.
+  bool predict_to_current_time = false;
+  double frequency = 0.0;  ///< Hz; default: the steps' rate, 1 / period
   /// `odometry/filtered`: header.frame_id and child_frame_id (REP-105 names; world_frame defaults
   /// to frame_id), and the state mapping (default: x, y, z from position_indices).
   std::string world_frame, base_link_frame = "base_link";
@@ -71,7 +75,8 @@ struct EstimatorNodeConfig
 /// Parses the parameters (README "The ROS graph": model, algorithm, mu, control_link,
 /// max_components, period, latency_budget, latency_budget_min, latency_budget_max,
 /// max_stamp_ahead, max_stamp_behind, late_policy, history_length, max_future_steps,
-/// max_past_steps, input_type, frame_id, child_frame_id, position_indices, publish_tf, trace_bound,
+/// max_past_steps, input_type, frame_id, child_frame_id, position_indices, publish_tf,
+/// predict_to_current_time, frequency (only with predict_to_current_time), trace_bound,
 /// queue_size, live_stability, link_model, stability_window, stability_min_samples, sensors.<name>.{topic, type,
 /// fields, rate, transport, tcp_nodelay}, datum, command.{topic, type, fields, transport, tcp_nodelay}, world_frame, base_link_frame, odom_frame, state_mapping.{x, y, z, yaw, vx, vy, vz, yaw_rate}; diagnostic_period is left to
 /// diagnostic_updater). Throws ConfigError naming `source` and the key, also for an unknown key,

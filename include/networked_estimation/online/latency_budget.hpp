@@ -64,6 +64,9 @@ public:
   double budget() const { return budget_; }
   /// The sensor's kQuantile delay over its window (s); NaN before its first message.
   double delay(std::size_t sensor) const { return sensors_[sensor].quantile; }
+  /// The median (nearest rank) of the sensor's delays over its window (s); NaN before its first
+  /// message. O(kWindow): for reports, not per message.
+  double medianDelay(std::size_t sensor) const;
 
   struct Window
   {
@@ -72,6 +75,18 @@ public:
   };
   /// The sensor's messages and losses over the last kLateSeconds s of ROS time before `now`.
   Window window(std::size_t sensor, double now) const;
+
+  /// One sensor's lateness as numbers (the Estimator's diagnostics and ~link_status).
+  struct Figures
+  {
+    double delay_p50 = 0.0;      ///< medianDelay()
+    double delay_p99 = 0.0;      ///< delay()
+    double late_fraction = 0.0;  ///< window(now).fraction()
+  };
+  Figures figures(std::size_t sensor, double now) const
+  {
+    return Figures{medianDelay(sensor), delay(sensor), window(sensor, now).fraction()};
+  }
 
   /// Forgets every delay and loss (a timeline restart).
   void clear();

@@ -33,7 +33,7 @@ struct SensorLinkEstimate
 
 struct JointLinkStatus
 {
-  LinkStatus status;  ///< OK / WARN / ERROR and its message
+  LinkCondition status;  ///< OK / WARN / ERROR and its message
   std::vector<SensorLinkEstimate> sensors;
   /// The links' verdicts (SetVerdicts::linksVerdict: the modes the sensors observe) at the interval
   /// ends and at the estimates.

@@ -77,7 +77,7 @@ struct LinkThresholds
 /// (unknown) are replaced conservatively: necessary by the lower bound, sufficient by 1.
 LinkThresholds linkThresholds(const StabilityReport& report, std::size_t min_samples = 100);
 
-struct LinkStatus
+struct LinkCondition
 {
   enum class Level
   {
@@ -90,11 +90,11 @@ struct LinkStatus
 };
 
 /// "OK", "WARN", "ERROR".
-std::string toString(LinkStatus::Level level);
+std::string toString(LinkCondition::Level level);
 
 /// OK when the whole interval is above the sufficient threshold; ERROR when it is below the
 /// necessary threshold; WARN otherwise (inside the undecided band or straddling a threshold) and
 /// when there are fewer than min_samples trials.
-LinkStatus classifyLink(const RateEstimate& estimate, const LinkThresholds& thresholds);
+LinkCondition classifyLink(const RateEstimate& estimate, const LinkThresholds& thresholds);
 
 }  // namespace networked_estimation

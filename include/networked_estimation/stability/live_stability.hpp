@@ -9,6 +9,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -37,10 +38,25 @@ struct LiveStabilityOptions
   bool cache = true;
 };
 
+/// One sensor's link as numbers: the values the diagnostic's strings are written from (the
+/// Estimator's ~link_status message carries them, networked_estimation/LinkStatus).
+struct SensorLinkFigures
+{
+  std::string sensor;
+  RateEstimate arrival;   ///< P(arrived) over the sensor's window
+  RateEstimate failure;   ///< Gilbert-Elliott p: P(lost | arrived before)
+  RateEstimate recovery;  ///< Gilbert-Elliott r: P(arrived | lost before)
+  /// What the sensor's rate needs ("<sensor> needs" in the diagnostic) and its margin (the rate
+  /// minus what it needs; SensorMargin::margin): empty and NaN until every sensor has samples.
+  std::string needs;
+  double margin = std::numeric_limits<double>::quiet_NaN();
+};
+
 struct LiveStabilityReport
 {
-  LinkStatus status;
+  LinkCondition status;
   std::vector<std::pair<std::string, std::string>> values;  ///< the diagnostic's key-value pairs
+  std::vector<SensorLinkFigures> sensors;                    ///< per sensor of the model, in its order
 };
 
 class LiveStability

@@ -256,6 +256,13 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   c.position_indices =
       p.indices("position_indices", model.n() >= 2 ? std::vector<int>{0, 1} : std::vector<int>{0}, model.n());
   c.publish_tf = p.flag("publish_tf", true);
+  c.predict_to_current_time = p.flag("predict_to_current_time", false);
+  if (p.has("frequency") && !c.predict_to_current_time)
+    throw ConfigError(source + ": frequency: the rate of the predict_to_current_time output, which is off (set "
+                      "predict_to_current_time: true, or leave frequency out: the steps' rate is 1 / period)");
+  c.frequency = p.number("frequency", 1.0 / c.period, 0.0, 1000.0);
+  if (!(c.frequency > 0.0))
+    throw ConfigError(source + ": frequency: expected a rate in (0, 1000] Hz, found 0");
   c.world_frame = p.text("world_frame", c.frame_id);
   c.base_link_frame = p.text("base_link_frame", "base_link");
   c.odom_frame = p.text("odom_frame", "odom");

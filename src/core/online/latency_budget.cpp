@@ -81,6 +81,17 @@ void LatencyBudget::arrived(std::size_t sensor, double delay, double now)
   update();
 }
 
+double LatencyBudget::medianDelay(std::size_t sensor) const
+{
+  std::vector<double> d = sensors_[sensor].delays;
+  if (d.empty())
+    return std::numeric_limits<double>::quiet_NaN();
+  // Nearest rank: the ceil(n / 2)-th smallest.
+  const auto mid = d.begin() + static_cast<std::ptrdiff_t>((d.size() + 1) / 2 - 1);
+  std::nth_element(d.begin(), mid, d.end());
+  return *mid;
+}
+
 void LatencyBudget::lost(std::size_t sensor, double now)
 {
   ++bucket(sensors_[sensor], now).lost;

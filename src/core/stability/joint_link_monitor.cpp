@@ -146,24 +146,24 @@ JointLinkStatus JointLinkMonitor::evaluate() const
   const std::string what = markov_ ? "links (p, r)" : "arrival rates";
   if (fewest < min_samples_)
   {
-    out.status.level = LinkStatus::Level::WARN;
+    out.status.level = LinkCondition::Level::WARN;
     os << "not enough samples to estimate sensor " << fewest_sensor << "'s link (" << fewest << " < " << min_samples_
        << ")";
   }
   else if (out.pessimistic.kind == Verdict::Kind::STABLE)
   {
-    out.status.level = LinkStatus::Level::OK;
+    out.status.level = LinkCondition::Level::OK;
     os << "bounded even at the low ends of the intervals (" << rates(out.sensors, markov_) << ")";
   }
   else if (out.optimistic.kind == Verdict::Kind::UNSTABLE)
   {
-    out.status.level = LinkStatus::Level::ERROR;
+    out.status.level = LinkCondition::Level::ERROR;
     os << "expected error covariance unbounded at these " << what << " (" << rates(out.sensors, markov_)
        << "), even at the high ends of the intervals: " << out.optimistic.reason;
   }
   else
   {
-    out.status.level = LinkStatus::Level::WARN;
+    out.status.level = LinkCondition::Level::WARN;
     os << "boundedness not guaranteed at these " << what << " (" << rates(out.sensors, markov_)
        << "): at the estimates " << toString(out.point.kind) << ", " << out.point.reason;
   }

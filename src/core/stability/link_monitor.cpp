@@ -91,50 +91,50 @@ LinkThresholds linkThresholds(const StabilityReport& report, std::size_t min_sam
   return t;
 }
 
-std::string toString(LinkStatus::Level level)
+std::string toString(LinkCondition::Level level)
 {
   switch (level)
   {
-    case LinkStatus::Level::OK:
+    case LinkCondition::Level::OK:
       return "OK";
-    case LinkStatus::Level::WARN:
+    case LinkCondition::Level::WARN:
       return "WARN";
-    case LinkStatus::Level::ERROR:
+    case LinkCondition::Level::ERROR:
       return "ERROR";
   }
   return "?";
 }
 
-LinkStatus classifyLink(const RateEstimate& e, const LinkThresholds& t)
+LinkCondition classifyLink(const RateEstimate& e, const LinkThresholds& t)
 {
-  LinkStatus s;
+  LinkCondition s;
   std::ostringstream os;
   os.precision(3);
   if (e.trials < t.min_samples)
   {
-    s.level = LinkStatus::Level::WARN;
+    s.level = LinkCondition::Level::WARN;
     os << "not enough samples to estimate the " << t.quantity << " (" << e.trials << " < " << t.min_samples << ")";
   }
   else if (e.upper < t.necessary)
   {
-    s.level = LinkStatus::Level::ERROR;
+    s.level = LinkCondition::Level::ERROR;
     os << "expected error covariance unbounded at this " << t.quantity << " (" << e.value << " < critical "
        << t.necessary << ")";
   }
   else if (e.lower > t.sufficient)
   {
-    s.level = LinkStatus::Level::OK;
+    s.level = LinkCondition::Level::OK;
     os << t.quantity << " " << e.value << " [" << e.lower << ", " << e.upper << "] above the critical " << t.sufficient;
   }
   else if (e.lower >= t.necessary && e.upper <= t.sufficient)
   {
-    s.level = LinkStatus::Level::WARN;
+    s.level = LinkCondition::Level::WARN;
     os << t.quantity << " " << e.value << " inside the undecided band [" << t.necessary << ", " << t.sufficient
        << "]: boundedness not guaranteed";
   }
   else
   {
-    s.level = LinkStatus::Level::WARN;
+    s.level = LinkCondition::Level::WARN;
     os << t.quantity << " " << e.value << " [" << e.lower << ", " << e.upper << "] too close to the critical "
        << (e.lower < t.necessary ? t.necessary : t.sufficient);
   }

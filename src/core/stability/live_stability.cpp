@@ -231,17 +231,19 @@ LiveStabilityReport LiveStability::evaluate() const
   auto add = [&out](const std::string& key, const std::string& value) { out.values.emplace_back(key, value); };
   add("link model", options_.markov ? "markov (failure p and recovery r estimated per sensor)"
                                     : "iid (arrival rate estimated per sensor)");
+  // Every sensor's arrival rate and on/off rates (p and r, estimated from the same window in
+  // either mode); the link model says which of them the verdicts use.
   for (const SensorLinkEstimate& e : js.sensors)
   {
-    if (options_.markov)
-    {
-      add(e.sensor + " failure rate p", rate(e.failure, "transitions"));
-      add(e.sensor + " recovery rate r", rate(e.recovery, "transitions"));
-    }
-    else
-    {
-      add(e.sensor + " arrival rate", rate(e.arrival, "samples"));
-    }
+    add(e.sensor + " arrival rate", rate(e.arrival, "samples"));
+    add(e.sensor + " failure rate p", rate(e.failure, "transitions"));
+    add(e.sensor + " recovery rate r", rate(e.recovery, "transitions"));
+    SensorLinkFigures f;
+    f.sensor = e.sensor;
+    f.arrival = e.arrival;
+    f.failure = e.failure;
+    f.recovery = e.recovery;
+    out.sensors.push_back(f);
   }
   // Per sensor: the rate it needs, the other links at their estimates (the same bisection or scan
   // as analyze's per-sensor margins).
@@ -261,11 +263,16 @@ LiveStabilityReport LiveStability::evaluate() const
       }
       margins = &cache_->margins;
     }
-    for (std::size_t i = 0; i < margins->size(); ++i)
-      add(js.sensors[i].sensor + " needs", describeNeed((*margins)[i]));
+    for (std::size_t i = 0; i < margins->size() && i < out.sensors.size(); ++i)
+    {
+      out.sensors[i].needs = describeNeed((*margins)[i]);
+      out.sensors[i].margin = (*margins)[i].margin;
+      add(js.sensors[i].sensor + " needs", out.sensors[i].needs);
+      add(js.sensors[i].sensor + " margin", liveNumber(out.sensors[i].margin));
+    }
     // A sensor below the rate it needs: the status names what only it measures (an IMU that
     // delivers nothing: the attitude).
-    if (out.status.level != LinkStatus::Level::OK)
+    if (out.status.level != LinkCondition::Level::OK)
       for (std::size_t i = 0; i < margins->size() && i < model_->sensors.size(); ++i)
       {
         const SensorMargin& g = (*margins)[i];
@@ -341,9 +348,9 @@ LiveStabilityReport LiveStability::evaluate() const
     add("Gan-Liu Theorem 1 (runtime invariant)", std::string(failed ? "FAILED" : "holds") + " over " +
                                                      std::to_string(t1.blocks) + " blocks (worst lhs - rhs " +
                                                      liveNumber(t1.worst) + ")");
-    if (failed && out.status.level == LinkStatus::Level::OK)
+    if (failed && out.status.level == LinkCondition::Level::OK)
     {
-      out.status.level = LinkStatus::Level::WARN;
+      out.status.level = LinkCondition::Level::WARN;
       out.status.message += "; Gan and Liu's Theorem 1 inequality failed (a numerical problem of the filter)";
     }
   }
