@@ -63,6 +63,14 @@ struct DelayFit
   double mean = 0.0, sd = 0.0, min = 0.0, p50 = 0.0, p90 = 0.0, p99 = 0.0, max = 0.0;
   double rfc3550_jitter = 0.0;  ///< J after the last message: J += (|D| - J) / 16, D the change of transit time
   double lag1 = 0.0;            ///< correlation of the delays of consecutive slots that both arrived (NaN: too few)
+  /// 95 % intervals of p50, p90 and p99 from order statistics (distribution-free): the ranks
+  /// n q -+ 1.96 sqrt(n q (1 - q) n / n_eff), with n_eff = n (1 - lag1) / (1 + lag1) when the
+  /// delays are positively correlated (an AR(1) reading of the correlation; n otherwise). A rank
+  /// outside 1..n is clamped: that end is then the smallest or largest delay (too few samples
+  /// for the quantile), and `*_open` says so. NaN without delays.
+  double p50_lower = 0.0, p50_upper = 0.0, p90_lower = 0.0, p90_upper = 0.0, p99_lower = 0.0, p99_upper = 0.0;
+  bool p50_open = false, p90_open = false, p99_open = false;
+  double effective_samples = 0.0;  ///< n_eff above
   /// The channel's law: delay + jitter Z, Z of `distribution` (channel.hpp), by maximum likelihood.
   double delay = 0.0, jitter = 0.0;
   DelayDistribution distribution = DelayDistribution::UNIFORM;

@@ -195,6 +195,40 @@ double quantile(std::vector<double>& v, double q)
   return x_lo + (h - static_cast<double>(lo)) * (x_hi - x_lo);
 }
 
+/// The 95 % intervals of p50, p90, p99 (link_fit.hpp, DelayFit): the q-quantile lies below the
+/// k-th smallest of n independent delays with probability P(Binomial(n, q) >= k), so the ranks
+/// n q -+ z sqrt(n q (1 - q)) (normal approximation, rounded outwards) bracket it with about 95 %
+/// probability. Correlated delays carry less information: with the lag-1 correlation rho > 0 the
+/// fraction below the quantile varies as if from n_eff = n (1 - rho) / (1 + rho) samples (an AR(1)
+/// process; the indicator of a delay below a quantile is less correlated than the delays
+/// themselves, so this errs wide), and the ranks spread by sqrt(n / n_eff) more.
+void quantileIntervals(std::vector<double> x, DelayFit& d)
+{
+  std::sort(x.begin(), x.end());
+  const double n = static_cast<double>(x.size());
+  const double rho = std::isfinite(d.lag1) && d.lag1 > 0.0 ? std::min(d.lag1, 0.999) : 0.0;
+  d.effective_samples = std::max(1.0, n * (1.0 - rho) / (1.0 + rho));
+  const double z = 1.959963984540054;
+  struct Target
+  {
+    double q;
+    double *lower, *upper;
+    bool* open;
+  };
+  for (const Target& t : {Target{0.5, &d.p50_lower, &d.p50_upper, &d.p50_open},
+                          Target{0.9, &d.p90_lower, &d.p90_upper, &d.p90_open},
+                          Target{0.99, &d.p99_lower, &d.p99_upper, &d.p99_open}})
+  {
+    const double half = z * std::sqrt(n * t.q * (1.0 - t.q) * n / d.effective_samples);
+    const double lo = std::floor(n * t.q - half), hi = std::ceil(n * t.q + half) + 1.0;  // 1-based ranks
+    *t.open = lo < 1.0 || hi > n;
+    const std::size_t l = static_cast<std::size_t>(std::max(1.0, lo)) - 1;
+    const std::size_t u = static_cast<std::size_t>(std::min(n, std::max(1.0, hi))) - 1;
+    *t.lower = x[l];
+    *t.upper = x[u];
+  }
+}
+
 /// The pareto delay law's location c and scale s (d = c + s P, P ~ Pareto(1, 3)) by maximum
 /// likelihood: s = min - c, and u = min - c solving 3 n / u = 4 sum 1 / (x_i - min + u).
 /// Returns the log-likelihood (-inf when the smallest delay is too common for this law).
@@ -528,6 +562,7 @@ DelayFit fitDelay(const SlotTrace& t)
   if (x.empty())
   {
     d.mean = d.sd = d.min = d.p50 = d.p90 = d.p99 = d.max = d.rfc3550_jitter = d.lag1 = kNaN;
+    d.p50_lower = d.p50_upper = d.p90_lower = d.p90_upper = d.p99_lower = d.p99_upper = kNaN;
     return d;
   }
   const double n = static_cast<double>(x.size());
@@ -572,6 +607,7 @@ DelayFit fitDelay(const SlotTrace& t)
   }
   else
     d.lag1 = kNaN;
+  quantileIntervals(x, d);
 
   // The channel's delay law, each by maximum likelihood; the best one.
   const double spread = d.max - d.min;

@@ -27,6 +27,13 @@ std::string num(double v, int digits = 4)
   return os.str();
 }
 
+/// A quantile's interval "[lower, upper] s"; an end clamped to the smallest or largest delay
+/// (too few delays for that quantile) is marked "(open)".
+std::string quantileInterval(double lower, double upper, bool open)
+{
+  return "[" + num(lower) + ", " + num(upper) + "] s" + (open ? " (open: too few delays)" : "");
+}
+
 std::string interval(const RateEstimate& e)
 {
   return num(e.value) + " [" + num(e.lower) + ", " + num(e.upper) + "]";
@@ -126,6 +133,10 @@ std::string fittedChannelYaml(const LinkFit& f)
      << ", over " << d.samples << " messages: p50 " << num(d.p50) << " s, p90 " << num(d.p90) << " s, p99 "
      << num(d.p99) << " s, max " << num(d.max) << " s; RFC 3550 jitter " << num(d.rfc3550_jitter)
      << " s; lag-1 correlation " << num(d.lag1) << ".\n";
+  if (d.samples > 0)
+    os << "# 95 % intervals: p50 " << quantileInterval(d.p50_lower, d.p50_upper, d.p50_open) << ", p90 "
+       << quantileInterval(d.p90_lower, d.p90_upper, d.p90_open) << ", p99 "
+       << quantileInterval(d.p99_lower, d.p99_upper, d.p99_open) << ".\n";
   os << "# The law below: " << distributionName(d.distribution) << " by maximum likelihood (log-likelihood uniform "
      << num(d.law_log_likelihood[0], 8) << ", normal " << num(d.law_log_likelihood[1], 8) << ", pareto "
      << num(d.law_log_likelihood[2], 8) << ").\n";
@@ -178,6 +189,11 @@ std::string linkFitText(const LinkFit& f)
   os << "delay (" << f.trace.clock_note << "):\n";
   os << "  p50 " << num(d.p50) << " s, p90 " << num(d.p90) << " s, p99 " << num(d.p99) << " s, max " << num(d.max)
      << " s; mean " << num(d.mean) << " s, sd " << num(d.sd) << " s\n";
+  if (d.samples > 0)
+    os << "  95 % intervals (order statistics over " << num(d.effective_samples) << " effective of " << d.samples
+       << " delays): p50 " << quantileInterval(d.p50_lower, d.p50_upper, d.p50_open) << ", p90 "
+       << quantileInterval(d.p90_lower, d.p90_upper, d.p90_open) << ", p99 "
+       << quantileInterval(d.p99_lower, d.p99_upper, d.p99_open) << "\n";
   os << "  RFC 3550 jitter " << num(d.rfc3550_jitter) << " s, lag-1 correlation " << num(d.lag1) << "\n";
   os << "  channel law: " << distributionName(d.distribution) << ", delay " << num(d.delay) << " s, jitter "
      << num(d.jitter) << " s\n";
@@ -271,6 +287,10 @@ std::string linkFitsJson(const std::vector<LinkFit>& fits, bool series)
         .member("clock_offset", f.trace.clock_offset).member("clock_note", f.trace.clock_note);
     w.br(6).member("mean", d.mean).member("sd", d.sd).member("min", d.min).member("p50", d.p50).member("p90", d.p90)
         .member("p99", d.p99).member("max", d.max).member("rfc3550_jitter", d.rfc3550_jitter).member("lag1", d.lag1);
+    w.br(6).member("effective_samples", d.effective_samples).member("p50_lower", d.p50_lower)
+        .member("p50_upper", d.p50_upper).member("p50_open", d.p50_open).member("p90_lower", d.p90_lower)
+        .member("p90_upper", d.p90_upper).member("p90_open", d.p90_open).member("p99_lower", d.p99_lower)
+        .member("p99_upper", d.p99_upper).member("p99_open", d.p99_open);
     w.br(6).key("law").beginObject().member("distribution", distributionName(d.distribution)).member("delay", d.delay)
         .member("jitter", d.jitter).key("log_likelihood").beginObject()
         .member("uniform", d.law_log_likelihood[0]).member("normal", d.law_log_likelihood[1])
