@@ -30,9 +30,17 @@ run() {
   local name=$1 file
   shift
   file=$WS/bench/fit_link_$(echo "$name" | tr -c 'A-Za-z0-9\n' _).json
-  /usr/bin/time -f "%e %U %S %M" -o "$WS/bench/fit_link_time.txt" "$BIN/fit_link" "$@" --json >"$file"
-  read -r wall user sys mem <"$WS/bench/fit_link_time.txt"
-  printf '%-28s %8s s wall %8.2f s cpu %8d MB\n' "$name" "$wall" "$(echo "$user + $sys" | bc)" "$((mem / 1024))"
+  # (Python's getrusage of the child: no /usr/bin/time or bc, which a fresh Debian does not have)
+  /usr/bin/python3 - "$file" "$BIN/fit_link" "$@" --json >"$WS/bench/fit_link_time.txt" <<'PY'
+import resource, subprocess, sys, time
+start = time.monotonic()
+with open(sys.argv[1], "w") as out:
+    subprocess.run(sys.argv[2:], stdout=out, check=True)
+r = resource.getrusage(resource.RUSAGE_CHILDREN)
+print("%.2f %.2f %d" % (time.monotonic() - start, r.ru_utime + r.ru_stime, r.ru_maxrss))
+PY
+  read -r wall cpu mem <"$WS/bench/fit_link_time.txt"
+  printf '%-28s %8s s wall %8s s cpu %8d MB\n' "$name" "$wall" "$cpu" "$((mem / 1024))"
 }
 echo "$(du -h "$BAG" | cut -f1) $BAG ($(nproc) cores, load $(cut -d' ' -f1 /proc/loadavg))"
 cat "$BAG" >/dev/null  # in the page cache: the runs time fit_link, not the disk
