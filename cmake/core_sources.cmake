@@ -64,6 +64,7 @@ set(NE_CORE_SOURCES
   # online/: deadline-driven sample assembly and the Estimator nodelet's configuration
   src/core/online/estimator_node_config.cpp
   src/core/online/latency_budget.cpp
+  src/core/online/motion_sensors.cpp
   src/core/online/online_estimator.cpp
   src/core/online/online_estimator_inputs.cpp
   src/core/online/online_stream.cpp

@@ -13,6 +13,7 @@
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/config/param_reader.hpp"
 #include "networked_estimation/online/estimator_node_config.hpp"
+#include "networked_estimation/online/motion_sensors.hpp"
 
 namespace ne = networked_estimation;
 
@@ -406,7 +407,8 @@ TEST_F(EstimatorConfig, OdometryOutputSettings)
   };
   has(error("{state_mapping: {x: 0, y: 0}}", planar_), "state_mapping.y: state index 0 is mapped twice");
   has(error("{state_mapping: {x: 2}}", planar_), "state_mapping");
-  has(error("{state_mapping: {roll: 0}}", planar_), "unknown parameter(s): roll");
+  has(error("{state_mapping: {heading: 0}}", planar_), "unknown parameter(s): heading");
+  EXPECT_EQ(parse("{state_mapping: {roll: 0, pitch_rate: 1}}", planar_).state_map.pitch_rate, 1);
   has(error("{state_mapping: [0, 1]}", planar_), "state_mapping: expected a map");
 }
 
@@ -505,13 +507,13 @@ TEST_F(EstimatorConfig, InputTransport)
   }
 }
 
-// The robot template (config/robot_template.yaml, with its model inline) parses as it stands, and
-// its model equals config/models/planar_robot.yaml; an inline model's errors name the key.
-TEST_F(EstimatorConfig, RobotTemplateParses)
+// The linear robot file (config/robot/planar_linear.yaml, with its model inline) parses as it
+// stands, and its model equals config/models/planar_robot.yaml; an inline model's errors name the key.
+TEST_F(EstimatorConfig, LinearRobotFileParses)
 {
   const std::string root = NE_SOURCE_DIR;
-  YAML::Node n = YAML::LoadFile(root + "/config/robot_template.yaml");
-  const ne::EstimatorNodeConfig c = ne::parseEstimatorNodeConfig(n, "template");
+  YAML::Node n = YAML::LoadFile(root + "/config/robot/planar_linear.yaml");
+  const ne::EstimatorNodeConfig c = ne::parseEstimatorNodeConfig(n, "planar_linear");
   const ne::Model file = ne::loadModel(root + "/config/models/planar_robot.yaml");
   EXPECT_EQ(c.model.A, file.A);
   EXPECT_EQ(c.model.Q, file.Q);
@@ -527,6 +529,41 @@ TEST_F(EstimatorConfig, RobotTemplateParses)
   EXPECT_EQ(c.online.rate_ratio, (std::vector<double>{1.0, 2.0, 10.0}));
   EXPECT_EQ(c.state_map.yaw_rate, 5);
   EXPECT_TRUE(c.runtime.adaptive_latency);  // latency_budget: auto
+}
+
+// The robot template (config/robot_template.yaml): ekfio on omni_2d, its sensors' rows from their
+// fields alone (the wheels' twist, the IMU's heading, rate and accelerations, the fixes' east and
+// north), odometry/filtered with every state of the motion, the tf driving base_link.
+TEST_F(EstimatorConfig, RobotTemplateParses)
+{
+  const std::string root = NE_SOURCE_DIR;
+  const YAML::Node n = YAML::LoadFile(root + "/config/robot_template.yaml");
+  const ne::EstimatorNodeConfig c = ne::parseEstimatorNodeConfig(n, "template");
+  EXPECT_EQ(c.settings.algorithm, ne::Algorithm::EKFIO);
+  EXPECT_EQ(c.model.motion, ne::Motion::OMNI_2D);
+  EXPECT_EQ(c.derived_sensors, (std::vector<std::string>{"wheels", "imu", "gps"}));
+  auto measures = [&](std::size_t sensor) {
+    std::vector<std::string> states;
+    const ne::Sensor& s = c.model.sensors[sensor];
+    for (int i = 0; i < s.size; ++i)
+    {
+      Eigen::Index j = 0;
+      c.model.C.row(s.offset + i).maxCoeff(&j);
+      states.push_back(c.model.states[static_cast<std::size_t>(j)]);
+    }
+    return states;
+  };
+  EXPECT_EQ(measures(0), (std::vector<std::string>{"vx", "vy", "vyaw"}));
+  EXPECT_EQ(measures(1), (std::vector<std::string>{"yaw", "vyaw", "ax", "ay"}));
+  EXPECT_EQ(measures(2), (std::vector<std::string>{"x", "y"}));
+  EXPECT_DOUBLE_EQ(c.model.R(0, 0), 0.05 * 0.05);  // the wheels' std, for an all-zero twist covariance
+  EXPECT_EQ(c.inputs[2].type, ne::InputType::NAVSATFIX);
+  EXPECT_EQ(c.online.rate_ratio, (std::vector<double>{1.0, 1.0, 10.0}));
+  EXPECT_EQ(c.state_map.yaw, 2);
+  EXPECT_EQ(c.state_map.vx, 3);
+  EXPECT_EQ(c.state_map.yaw_rate, 5);
+  EXPECT_EQ(c.child_frame_id, c.base_link_frame);
+  EXPECT_TRUE(c.runtime.adaptive_latency);
 }
 
 // The runtime settings (dynamic_reconfigure) get the load's checks, as a whole: NaN, out of range,
@@ -655,4 +692,158 @@ TEST_F(EstimatorConfig, EkfioWithARobotMotion)
   EXPECT_NE(kfio.find("use ekfio"), std::string::npos) << kfio;
   EXPECT_NE(error("{}", omni).find("kfio needs a linear model"), std::string::npos);  // the default algorithm
   EXPECT_NE(error("{algorithm: rseio, mu: 0.9}", omni).find("rseio needs a linear model"), std::string::npos);
+}
+
+// With a built-in motion, a sensor's fields alone give its rows of C (the unit vectors of the states
+// they name) and its R (std, or the messages' covariances); the Odometry output maps every state.
+TEST_F(EstimatorConfig, MotionSensorsFromFieldsAlone)
+{
+  const std::string q8 = "Q: [[1,0,0,0,0,0,0,0],[0,1,0,0,0,0,0,0],[0,0,1,0,0,0,0,0],[0,0,0,1,0,0,0,0],"
+                         "[0,0,0,0,1,0,0,0],[0,0,0,0,0,1,0,0],[0,0,0,0,0,0,1,0],[0,0,0,0,0,0,0,1]]\n";
+  const std::string bare = write("bare2d.yaml", "name: rover\nperiod: 0.05\nmotion: omni_2d\n" + q8);
+  const ne::EstimatorNodeConfig c = parse(
+      "{algorithm: ekfio, sensors: {"
+      "wheels: {topic: odom, type: nav_msgs/Odometry, fields: [twist.twist.linear.x, twist.twist.angular.z], "
+      "std: [0.1, 0.2]},"
+      "imu: {topic: imu, type: sensor_msgs/Imu, fields: [orientation.yaw, angular_velocity.z, linear_acceleration.x], "
+      "covariance: message},"
+      "gps: {topic: fix, type: sensor_msgs/NavSatFix, fields: [east, north], std: [2, 3]},"
+      "vo: {topic: vo, type: geometry_msgs/PoseStamped, fields: [pose.position.x, pose.orientation.yaw], "
+      "differential: true, std: [0.5, 0.5]}}}",
+      bare);
+  ASSERT_EQ(c.model.sensors.size(), 4u);
+  EXPECT_EQ(c.derived_sensors, (std::vector<std::string>{"wheels", "imu", "gps", "vo"}));
+  // states of omni_2d: x 0, y 1, yaw 2, vx 3, vy 4, vyaw 5, ax 6, ay 7
+  const std::vector<std::vector<int>> expected = {{3, 5}, {2, 5, 6}, {0, 1}, {3, 5}};
+  for (std::size_t s = 0; s < 4; ++s)
+  {
+    const ne::Sensor& sensor = c.model.sensors[s];
+    ASSERT_EQ(sensor.size, static_cast<int>(expected[s].size())) << sensor.name;
+    for (int i = 0; i < sensor.size; ++i)
+      for (int j = 0; j < 8; ++j)
+        EXPECT_EQ(c.model.C(sensor.offset + i, j), j == expected[s][static_cast<std::size_t>(i)] ? 1.0 : 0.0)
+            << sensor.name << " row " << i << " state " << j;
+  }
+  const ne::Sensor& wheels = c.model.sensors[0];
+  EXPECT_DOUBLE_EQ(c.model.R(wheels.offset, wheels.offset), 0.01);
+  EXPECT_DOUBLE_EQ(c.model.R(wheels.offset + 1, wheels.offset + 1), 0.04);
+  EXPECT_DOUBLE_EQ(c.model.R(wheels.offset, wheels.offset + 1), 0.0);
+  const ne::Sensor& imu = c.model.sensors[1];  // covariance: message, no std: the floor for all-zero blocks
+  EXPECT_DOUBLE_EQ(c.model.R(imu.offset + 2, imu.offset + 2), ne::kMessageCovarianceFloor);
+  EXPECT_TRUE(c.inputs[1].message_covariance);
+  EXPECT_DOUBLE_EQ(c.model.R(c.model.sensors[2].offset + 1, c.model.sensors[2].offset + 1), 9.0);
+  // the yaw field feeds the motion's yaw, an angle: wrapped by the model's rule
+  EXPECT_EQ(ne::angularRows(c.model), (std::vector<int>{imu.offset}));
+  // odometry/filtered and the tf: every state omni_2d names
+  EXPECT_EQ(c.state_map.x, 0);
+  EXPECT_EQ(c.state_map.y, 1);
+  EXPECT_EQ(c.state_map.z, -1);
+  EXPECT_EQ(c.state_map.roll, -1);
+  EXPECT_EQ(c.state_map.yaw, 2);
+  EXPECT_EQ(c.state_map.vx, 3);
+  EXPECT_EQ(c.state_map.vy, 4);
+  EXPECT_EQ(c.state_map.yaw_rate, 5);
+  EXPECT_EQ(c.position_indices, (std::vector<int>{0, 1}));
+
+  // omni_3d: the full orientation and angular velocity, and z in the tf
+  std::string q15 = "Q: [";
+  for (int i = 0; i < 15; ++i)
+  {
+    q15 += i ? ", [" : "[";
+    for (int j = 0; j < 15; ++j)
+      q15 += std::string(j ? ", " : "") + (i == j ? "1" : "0");
+    q15 += "]";
+  }
+  q15 += "]\n";
+  const std::string bare3 = write("bare3d.yaml", "name: drone\nperiod: 0.02\nmotion: omni_3d\n" + q15);
+  const ne::EstimatorNodeConfig d = parse(
+      "{algorithm: ekfio, sensors: {imu: {type: sensor_msgs/Imu, covariance: message, "
+      "fields: [orientation.roll, orientation.pitch, angular_velocity.y, linear_acceleration.z]}}}",
+      bare3);
+  EXPECT_EQ(d.model.C(0, 3), 1.0);   // roll
+  EXPECT_EQ(d.model.C(1, 4), 1.0);   // pitch
+  EXPECT_EQ(d.model.C(2, 10), 1.0);  // vpitch
+  EXPECT_EQ(d.model.C(3, 14), 1.0);  // az
+  EXPECT_EQ(d.state_map.roll, 3);
+  EXPECT_EQ(d.state_map.pitch, 4);
+  EXPECT_EQ(d.state_map.z, 2);
+  EXPECT_EQ(d.state_map.roll_rate, 9);
+  EXPECT_EQ(d.state_map.pitch_rate, 10);
+  EXPECT_EQ(d.state_map.yaw_rate, 11);
+  EXPECT_EQ(d.position_indices, (std::vector<int>{0, 1, 2}));
+
+  // a model that lists a sensor keeps its C and R; the others are derived after it
+  const std::string listed = write("listed.yaml", "name: rover\nperiod: 0.05\nmotion: omni_2d\n" + q8 +
+                                                      "sensors:\n  - {name: wheels, C: [[0,0,0,1,0,0,0,0]], R: [[0.3]]}\n");
+  const ne::EstimatorNodeConfig e = parse(
+      "{algorithm: ekfio, sensors: {gps: {type: sensor_msgs/NavSatFix, fields: [east], std: [1]}, "
+      "wheels: {type: nav_msgs/Odometry, fields: [twist.twist.linear.x]}}}",
+      listed);
+  ASSERT_EQ(e.model.sensors.size(), 2u);
+  EXPECT_EQ(e.model.sensors[0].name, "wheels");
+  EXPECT_DOUBLE_EQ(e.model.R(0, 0), 0.3);
+  EXPECT_EQ(e.model.sensors[1].name, "gps");
+  EXPECT_EQ(e.derived_sensors, std::vector<std::string>{"gps"});
+  // an explicit state_mapping still wins
+  EXPECT_EQ(parse("{algorithm: ekfio, state_mapping: {x: 1}, sensors: {gps: {type: sensor_msgs/NavSatFix, "
+                  "fields: [east], std: [1]}}}",
+                  bare)
+                .state_map.yaw,
+            -1);
+  // an inline model too
+  const ne::EstimatorNodeConfig f = parse("{algorithm: ekfio, model: {name: r, period: 0.05, motion: omni_2d, " +
+                                          q8.substr(0, q8.size() - 1) +
+                                          "}, sensors: {w: {type: nav_msgs/Odometry, fields: [twist.twist.linear.y], "
+                                          "std: [0.1]}}}");
+  EXPECT_EQ(f.model.C(0, 4), 1.0);
+}
+
+TEST_F(EstimatorConfig, MotionSensorsRefusalsNameTheKey)
+{
+  const std::string q8 = "Q: [[1,0,0,0,0,0,0,0],[0,1,0,0,0,0,0,0],[0,0,1,0,0,0,0,0],[0,0,0,1,0,0,0,0],"
+                         "[0,0,0,0,1,0,0,0],[0,0,0,0,0,1,0,0],[0,0,0,0,0,0,1,0],[0,0,0,0,0,0,0,1]]\n";
+  const std::string bare = write("bare2d.yaml", "name: rover\nperiod: 0.05\nmotion: omni_2d\n" + q8);
+  auto refused = [&](const std::string& sensors, const std::string& expected) {
+    const std::string e = error("{algorithm: ekfio, sensors: {" + sensors + "}}", bare);
+    EXPECT_NE(e.find(expected), std::string::npos) << "message: " << e << "\nexpected: " << expected;
+  };
+  refused("w: {type: nav_msgs/Odometry, fields: [pose.pose.position.z], std: [1]}",
+          "/est parameters: sensors.w.fields[0]: pose.pose.position.z measures z, which motion omni_2d has not");
+  refused("w: {type: nav_msgs/Odometry, fields: [pose.pose.orientation.x], std: [1]}",
+          "sensors.w.fields[0]: pose.pose.orientation.x measures no state of motion omni_2d");
+  refused("w: {type: sensor_msgs/Range, fields: [range], std: [1]}",
+          "sensors.w.fields[0]: range measures no state of motion omni_2d (its states: x, y, yaw, vx, vy, vyaw, ax, "
+          "ay); leave the field out");
+  refused("w: {type: networked_estimation/Measurement, std: [1]}",
+          "sensors.w.type: unknown type 'networked_estimation/Measurement' (types: nav_msgs/Odometry");
+  refused("w: {type: nav_msgs/Odometry, fields: [twist.twist.linear.x, twist.twist.linear.x], std: [1, 1]}",
+          "sensors.w.fields[1]: twist.twist.linear.x measures vx, which an earlier field of this sensor measures");
+  refused("w: {type: nav_msgs/Odometry, fields: [twist.twist.linear.x]}",
+          "sensors.w: give std (one standard deviation per field) or covariance: message");
+  refused("w: {type: nav_msgs/Odometry, fields: [twist.twist.linear.x], std: [1, 2]}",
+          "sensors.w.std: expected a list of 1 standard deviations, one per field");
+  refused("w: {type: nav_msgs/Odometry, fields: [twist.twist.linear.x], std: [-1]}",
+          "sensors.w.std[0]: expected a finite standard deviation > 0, found '-1'");
+  refused("w: {type: nav_msgs/Odometry, fields: [twist.twist.linear.x], std: [.nan]}",
+          "sensors.w.std[0]: expected a finite standard deviation > 0");
+  refused("w: {fields: [twist.twist.linear.x], std: [1]}", "sensors.w.type: needed: the model lists no sensor 'w'");
+  refused("w: {type: nav_msgs/Odometry, std: [1]}", "sensors.w.fields: expected a list of nav_msgs/Odometry fields");
+  refused("w: {type: nav_msgs/Odometry, fields: [twist.twist.linear.x], std: [1], stdd: 2}",
+          "unknown parameter(s): stdd");
+  EXPECT_NE(error("{algorithm: ekfio}", bare).find("/est parameters: sensors: the model (motion omni_2d) lists no "
+                                                   "sensors"),
+            std::string::npos);
+  // std on a sensor the model lists: its R is the model's
+  const std::string listed = write("listed.yaml", "name: rover\nperiod: 0.05\nmotion: omni_2d\n" + q8 +
+                                                      "sensors:\n  - {name: w, C: [[0,0,0,1,0,0,0,0]], R: [[0.3]]}\n");
+  EXPECT_NE(error("{algorithm: ekfio, sensors: {w: {type: nav_msgs/Odometry, fields: [twist.twist.linear.x], "
+                  "std: [1]}}}",
+                  listed)
+                .find("sensors.w.std: only for a sensor the model does not list"),
+            std::string::npos);
+  // a linear model has no states to name: std is refused, the sensor must be the model's
+  EXPECT_NE(error("{sensors: {a: {type: geometry_msgs/PointStamped, fields: [point.x, point.y], std: [1, 1]}}}",
+                  planar_)
+                .find("sensors.a.std: only for a sensor the model does not list"),
+            std::string::npos);
 }

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <GeographicLib/LocalCartesian.hpp>
+#include <tf2/LinearMath/Matrix3x3.h>
 
 #include <algorithm>
 #include <cmath>
@@ -12,6 +13,7 @@
 #include "networked_estimation/common/random.hpp"
 #include "frame_transforms.hpp"
 #include "input_preprocessing.hpp"
+#include "networked_estimation/online/motion_sensors.hpp"
 #include "odometry_output.hpp"
 #include "tf_output.hpp"
 #include "sensor_adapters.hpp"
@@ -283,6 +285,43 @@ TEST(OdometryOutput, MappedEntriesAndCovarianceBlocks)
       EXPECT_EQ(tc, twist[a] >= 0 && twist[b] >= 0 ? P(twist[a], twist[b]) : (a == b ? ne::kUnmappedVariance : 0.0))
           << a << " " << b;
     }
+}
+
+// omni_3d's default mapping (every state it names): the full orientation from roll, pitch and yaw
+// (REP-103 fixed axes), the angular velocity from vroll, vpitch, vyaw, and their blocks of P.
+TEST(SensorAdapters, OdometryFullOrientation)
+{
+  const ne::StateMap map = ne::motionStateMap(ne::Motion::OMNI_3D);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(15);
+  x << 1, 2, 3, 0.3, -0.2, 2.5, 0.4, 0.1, -0.05, 0.01, 0.02, 0.03, 0, 0, 0;
+  Eigen::MatrixXd P = Eigen::MatrixXd::Identity(15, 15);
+  for (int i = 0; i < 15; ++i)
+    P(i, i) = 1.0 + i;
+  P(3, 4) = P(4, 3) = 0.1;
+  P(9, 11) = P(11, 9) = -0.2;
+  const nav_msgs::Odometry o = ne::toOdometry(x, P, map, ros::Time(1.0), "odom", "base_link");
+  tf2::Quaternion q(o.pose.pose.orientation.x, o.pose.pose.orientation.y, o.pose.pose.orientation.z,
+                    o.pose.pose.orientation.w);
+  double roll = 0.0, pitch = 0.0, yaw = 0.0;
+  tf2::Matrix3x3(q).getRPY(roll, pitch, yaw);
+  EXPECT_NEAR(roll, 0.3, 1e-12);
+  EXPECT_NEAR(pitch, -0.2, 1e-12);
+  EXPECT_NEAR(yaw, 2.5, 1e-12);
+  EXPECT_EQ(o.pose.pose.position.z, 3.0);
+  EXPECT_EQ(o.twist.twist.linear.z, -0.05);
+  EXPECT_EQ(o.twist.twist.angular.x, 0.01);
+  EXPECT_EQ(o.twist.twist.angular.y, 0.02);
+  EXPECT_EQ(o.twist.twist.angular.z, 0.03);
+  EXPECT_EQ(o.pose.covariance[3 * 6 + 3], 4.0);   // roll
+  EXPECT_EQ(o.pose.covariance[3 * 6 + 4], 0.1);   // roll-pitch
+  EXPECT_EQ(o.pose.covariance[5 * 6 + 5], 6.0);   // yaw
+  EXPECT_EQ(o.twist.covariance[3 * 6 + 5], -0.2); // vroll-vyaw
+  EXPECT_EQ(o.twist.covariance[4 * 6 + 4], 11.0); // vpitch
+  for (std::size_t i = 0; i < 36; i += 7)
+  {
+    EXPECT_LT(o.pose.covariance[i], ne::kUnmappedVariance) << i;  // every axis estimated
+    EXPECT_LT(o.twist.covariance[i], ne::kUnmappedVariance) << i;
+  }
 }
 
 TEST(SensorAdapters, CommandTypes)

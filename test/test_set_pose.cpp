@@ -112,10 +112,39 @@ TEST(SetPose, MappedEntriesTakeThePoseTheRestStartsOver)
   EXPECT_DOUBLE_EQ(P(1, 1), 0.09);
 }
 
+// With roll and pitch mapped (a built-in motion's default), they take the pose's values, wrapped,
+// and their rows of the message's covariance.
+TEST(SetPose, RollAndPitchWhenMapped)
+{
+  ne::Model m = planar();
+  ne::StateMap s;
+  s.x = 0;
+  s.roll = 1;
+  s.pitch = 2;
+  m.angles = {1, 2};
+  ne::PoseWithCovariance p = pose(3.0, -4.0, 0.5);
+  p.pose[3] = 0.1;
+  p.pose[4] = 3.5;  // beyond pi: wrapped
+  p.covariance[21] = 0.25;                    // roll
+  p.covariance[28] = 0.36;                    // pitch
+  p.covariance[22] = p.covariance[27] = 0.03; // roll-pitch
+  p.covariance[3] = p.covariance[18] = 0.01;  // x-roll
+  Eigen::VectorXd x;
+  Eigen::MatrixXd P;
+  ne::poseReset(m, s, p, x, P);
+  EXPECT_DOUBLE_EQ(x[0], 3.0);
+  EXPECT_DOUBLE_EQ(x[1], 0.1);
+  EXPECT_NEAR(x[2], 3.5 - 2.0 * M_PI, 1e-15);
+  EXPECT_DOUBLE_EQ(P(1, 1), 0.25);
+  EXPECT_DOUBLE_EQ(P(2, 2), 0.36);
+  EXPECT_DOUBLE_EQ(P(1, 2), 0.03);
+  EXPECT_DOUBLE_EQ(P(0, 1), 0.01);
+}
+
 TEST(SetPose, BadPosesAreRefusedNamingTheProblem)
 {
   const ne::Model m = planar();
-  EXPECT_NE(errorOf(m, ne::StateMap{}, pose(1, 2, 3)).find("state_mapping maps none of x, y, z, yaw"), std::string::npos);
+  EXPECT_NE(errorOf(m, ne::StateMap{}, pose(1, 2, 3)).find("state_mapping maps none of x, y, z, roll, pitch, yaw"), std::string::npos);
   EXPECT_NE(errorOf(m, xyYaw(), pose(std::nan(""), 2, 3)).find("x is not finite"), std::string::npos);
   EXPECT_NE(errorOf(m, xyYaw(), pose(1, 2, INFINITY)).find("yaw is not finite"), std::string::npos);
   ne::PoseWithCovariance p = pose(1, 2, 3);

@@ -1,5 +1,5 @@
 // The Estimator's nav_msgs/Odometry output (`odometry/filtered`, as robot_localization names it):
-// which state entries are x, y, z, yaw, vx, vy, vz and yaw rate (EstimatorNodeConfig::state_map),
+// which state entries are the pose and the twist (EstimatorNodeConfig::state_map),
 // their block of P as the pose and twist covariances, and a large variance for what the state
 // does not estimate. Header-only and master-free (tested without ROS running).
 #pragma once
@@ -20,8 +20,8 @@ namespace networked_estimation
 /// The variance written for an entry the state does not estimate (and no correlation with it).
 constexpr double kUnmappedVariance = 1e6;
 
-/// The pose of the mapped entries of x: position x, y, z and a rotation by yaw (roll, pitch 0);
-/// unmapped entries are 0.
+/// The pose of the mapped entries of x: position x, y, z and the rotation of roll, pitch, yaw
+/// (fixed axes x, y, z, REP-103); unmapped entries are 0.
 inline geometry_msgs::Pose poseOf(const Eigen::Ref<const Eigen::VectorXd>& x, const StateMap& map)
 {
   auto value = [&](int i) { return i >= 0 ? x(i) : 0.0; };
@@ -30,7 +30,7 @@ inline geometry_msgs::Pose poseOf(const Eigen::Ref<const Eigen::VectorXd>& x, co
   p.position.y = value(map.y);
   p.position.z = value(map.z);
   tf2::Quaternion q;
-  q.setRPY(0.0, 0.0, value(map.yaw));
+  q.setRPY(value(map.roll), value(map.pitch), value(map.yaw));
   p.orientation.x = q.x();
   p.orientation.y = q.y();
   p.orientation.z = q.z();
@@ -39,10 +39,11 @@ inline geometry_msgs::Pose poseOf(const Eigen::Ref<const Eigen::VectorXd>& x, co
 }
 
 /// x_{k|k} and P_{k|k} as an Odometry in `world_frame` with child `base_link_frame`. The pose is
-/// [x y z roll pitch yaw] (roll and pitch are never estimated: 0 with kUnmappedVariance); the
-/// twist is [vx vy vz wx wy wz] with wz the yaw rate, taken as the state has them (REP-105 wants
-/// the twist in base_link_frame: map body-frame velocities). Cross-covariances of pose and twist
-/// are not representable in the message and are left out.
+/// [x y z roll pitch yaw], the twist [vx vy vz wx wy wz], each entry from its mapped state (an
+/// unmapped one is 0 with kUnmappedVariance), taken as the state has them: the built-in motions'
+/// velocities are in base_link, as REP-105 wants the twist; a linear model's are what its
+/// state_mapping names. Cross-covariances of pose and twist are not representable in the message
+/// and are left out.
 inline nav_msgs::Odometry toOdometry(const Eigen::Ref<const Eigen::VectorXd>& x,
                                      const Eigen::Ref<const Eigen::MatrixXd>& P, const StateMap& map,
                                      const ros::Time& stamp, const std::string& world_frame,
@@ -52,13 +53,15 @@ inline nav_msgs::Odometry toOdometry(const Eigen::Ref<const Eigen::VectorXd>& x,
   o.header.stamp = stamp;
   o.header.frame_id = world_frame;
   o.child_frame_id = base_link_frame;
-  const int pose[6] = {map.x, map.y, map.z, -1, -1, map.yaw};
-  const int twist[6] = {map.vx, map.vy, map.vz, -1, -1, map.yaw_rate};
+  const int pose[6] = {map.x, map.y, map.z, map.roll, map.pitch, map.yaw};
+  const int twist[6] = {map.vx, map.vy, map.vz, map.roll_rate, map.pitch_rate, map.yaw_rate};
   auto value = [&](int i) { return i >= 0 ? x(i) : 0.0; };
   o.pose.pose = poseOf(x, map);
   o.twist.twist.linear.x = value(map.vx);
   o.twist.twist.linear.y = value(map.vy);
   o.twist.twist.linear.z = value(map.vz);
+  o.twist.twist.angular.x = value(map.roll_rate);
+  o.twist.twist.angular.y = value(map.pitch_rate);
   o.twist.twist.angular.z = value(map.yaw_rate);
   for (int a = 0; a < 6; ++a)
     for (int b = 0; b < 6; ++b)

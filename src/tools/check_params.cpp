@@ -7,6 +7,7 @@
 // --set model=FILE). import_robot_localization --check FILE runs it.
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -102,6 +103,27 @@ std::string check(const std::vector<std::string>& files, const std::vector<std::
   std::string summary = path + ": the Estimator would start: algorithm " + toString(c.settings.algorithm) +
                         ", model '" + c.model.name + "' (" + std::to_string(c.model.n()) + " states, " +
                         std::to_string(c.model.sensors.size()) + " sensors), period " + std::to_string(c.period) + " s";
+  // What each sensor's rows measure: the state of a unit row of C, else "a combination".
+  for (std::size_t k = 0; k < c.model.sensors.size(); ++k)
+  {
+    const Sensor& s = c.model.sensors[k];
+    const SensorInput& in = c.inputs[k];
+    std::string rows;
+    for (int i = 0; i < s.size; ++i)
+    {
+      const Eigen::RowVectorXd row = c.model.C.row(s.offset + i);
+      Eigen::Index j = 0;
+      const bool unit = row.cwiseAbs().maxCoeff(&j) == 1.0 && row(j) == 1.0 && row.cwiseAbs().sum() == 1.0;
+      const std::string state = !unit                  ? std::string("a combination")
+                                : c.model.states.empty() ? "x[" + std::to_string(j) + "]"
+                                                         : c.model.states[static_cast<std::size_t>(j)];
+      rows += (i ? ", " : "") + state;
+    }
+    const bool derived =
+        std::find(c.derived_sensors.begin(), c.derived_sensors.end(), s.name) != c.derived_sensors.end();
+    summary += "\n  sensor " + s.name + ": " + toString(in.type) + " on " + in.topic + ", measures " + rows +
+               (derived ? " (C and R from its fields)" : "");
+  }
   if (!rates_note.empty())
     summary += "\nwarning (as the nodelet logs it): Estimator: " + rates_note;
   return summary;

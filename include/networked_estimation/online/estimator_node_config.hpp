@@ -21,11 +21,12 @@ class Node;
 namespace networked_estimation
 {
 
-/// Which state entries the Odometry output takes as x, y, z, yaw, vx, vy, vz and yaw rate (-1:
-/// not in the state).
+/// Which state entries the Odometry output takes as x, y, z, roll, pitch, yaw, the linear velocity
+/// vx, vy, vz and the angular rates (-1: not in the state).
 struct StateMap
 {
-  int x = -1, y = -1, z = -1, yaw = -1, vx = -1, vy = -1, vz = -1, yaw_rate = -1;
+  int x = -1, y = -1, z = -1, roll = -1, pitch = -1, yaw = -1;
+  int vx = -1, vy = -1, vz = -1, roll_rate = -1, pitch_rate = -1, yaw_rate = -1;
 };
 
 struct EstimatorNodeConfig
@@ -52,14 +53,18 @@ struct EstimatorNodeConfig
   std::vector<double> datum;
   std::string frame_id = "map";
   std::string child_frame_id;      ///< default: "<algorithm>_estimate"
-  std::vector<int> position_indices;  ///< default: [0, 1] (or [0] for n = 1)
+  std::vector<int> position_indices;  ///< default: the motion's x, y(, z); else [0, 1] (or [0] for n = 1)
+  /// Sensors whose C rows and R were derived from their fields (a built-in motion's model that does
+  /// not list them; motion_sensors.hpp), in the model's order.
+  std::vector<std::string> derived_sensors;
   bool publish_tf = true;
   /// `odometry/filtered` (and tf) at `frequency` Hz, the last step's estimate predicted to the ROS
   /// time of each tick (predictAhead), instead of once per step on the step grid.
   bool predict_to_current_time = false;
   double frequency = 0.0;  ///< Hz; default: the steps' rate, 1 / period
   /// `odometry/filtered`: header.frame_id and child_frame_id (REP-105 names; world_frame defaults
-  /// to frame_id), and the state mapping (default: x, y, z from position_indices).
+  /// to frame_id), and the state mapping (default: with a built-in motion every state it names,
+  /// else x, y, z from position_indices).
   std::string world_frame, base_link_frame = "base_link";
   /// The robot's odometry frame: with child_frame_id = base_link_frame and world_frame map, an
   /// existing odom -> base_link makes the tf map -> odom (robot_localization's scheme).
@@ -78,7 +83,7 @@ struct EstimatorNodeConfig
 /// max_past_steps, input_type, frame_id, child_frame_id, position_indices, publish_tf,
 /// predict_to_current_time, frequency (only with predict_to_current_time), trace_bound,
 /// queue_size, live_stability, link_model, stability_window, stability_min_samples, sensors.<name>.{topic, type,
-/// fields, rate, transport, tcp_nodelay}, datum, command.{topic, type, fields, transport, tcp_nodelay}, world_frame, base_link_frame, odom_frame, state_mapping.{x, y, z, yaw, vx, vy, vz, yaw_rate}; diagnostic_period is left to
+/// fields, std, rate, transport, tcp_nodelay}, datum, command.{topic, type, fields, transport, tcp_nodelay}, world_frame, base_link_frame, odom_frame, state_mapping.{x, y, z, roll, pitch, yaw, vx, vy, vz, roll_rate, pitch_rate, yaw_rate}; diagnostic_period is left to
 /// diagnostic_updater). Throws ConfigError naming `source` and the key, also for an unknown key,
 /// a model file that cannot be read, an empty frame name, and ack_kf (the graph does not carry nu_k).
 EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std::string& source);

@@ -22,11 +22,11 @@ struct PoseWithCovariance
   std::array<double, 36> covariance{};
 };
 
-/// The estimate a set_pose resets to: the state entries `map` gives as x, y, z and yaw take the
-/// pose's values, and their block of P its covariance's (rows 0, 1, 2 and 5); every other entry
+/// The estimate a set_pose resets to: the state entries `map` gives as x, y, z, roll, pitch and yaw
+/// take the pose's values (angles wrapped to (-pi, pi]), and their block of P its covariance's; every other entry
 /// starts over from the model's x0 and P0 (velocities and the rest, as robot_localization resets
 /// its whole state); the two parts are uncorrelated. Throws InputError naming the problem: no
-/// entry of x, y, z, yaw mapped, a non-finite value of a mapped entry, or a covariance block that
+/// entry of x, y, z, roll, pitch, yaw mapped, a non-finite value of a mapped entry, or a covariance block that
 /// is not symmetric positive semidefinite.
 void poseReset(const Model& model, const StateMap& map, const PoseWithCovariance& in, Eigen::VectorXd& x,
                Eigen::MatrixXd& P);

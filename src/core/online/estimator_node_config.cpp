@@ -4,12 +4,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 
+#include "config/yaml_reader.hpp"
 #include "io/tokens.hpp"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/estimators/estimator.hpp"
 #include "networked_estimation/config/param_reader.hpp"
+#include "networked_estimation/online/motion_sensors.hpp"
 
 namespace networked_estimation
 {
@@ -104,6 +107,12 @@ void parseSensorInputs(const YAML::Node& block, const std::string& source, Estim
       throw ConfigError(key + ".relative: only for " + pose_types + ", found " + toString(in.type));
     if (in.relative && in.differential)
       throw ConfigError(key + ".relative: not with differential (a velocity has no origin)");
+    const bool derived =
+        std::find(c.derived_sensors.begin(), c.derived_sensors.end(), name) != c.derived_sensors.end();
+    if (p.has("std") && !derived)
+      throw ConfigError(key + ".std: only for a sensor the model does not list (its rows of C and R then follow from "
+                        "the fields); sensor '" + name + "' is the model's, with its R");
+    p.take("std");  // read by withMotionSensors
     in.rate = p.number("rate", model_rate, 0.0, 1e9);
     if (!(in.rate > 0.0) || in.rate > model_rate * (1.0 + 1e-9))
       throw ConfigError(key + ".rate: expected > 0 and at most the model's rate " + std::to_string(model_rate) +
@@ -118,23 +127,38 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
 {
   ParamReader p(params, source);
   EstimatorNodeConfig c;
-  // model: a model file, or the model itself (a map with the keys of a model file).
+  // model: a model file, or the model itself (a map with the keys of a model file). With a built-in
+  // motion, the sensors the model does not list come from the `sensors` block's fields.
+  const YAML::Node sensors_block = params["sensors"];
   if (p.has("model") && p.take("model").IsMap())
   {
     c.model_file = "(inline)";
-    c.model = parseModel(params["model"], source + ": model");
+    c.model = parseModel(withMotionSensors(params["model"], sensors_block, source, c.derived_sensors),
+                         source + ": model");
   }
   else
   {
     c.model_file = p.required("model");
+    YAML::Node root;
     try
     {
-      c.model = loadModel(c.model_file);
+      root = detail::loadYamlFile(c.model_file);
     }
     catch (const ConfigError& e)
     {
       throw ConfigError(source + ": model: " + e.what());
     }
+    const YAML::Node amended = withMotionSensors(root, sensors_block, source, c.derived_sensors);
+    try
+    {
+      c.model = parseModel(amended, c.model_file);
+    }
+    catch (const ConfigError& e)
+    {
+      throw ConfigError(source + ": model: " + e.what());
+    }
+    if (!root["name"])
+      c.model.name = std::filesystem::path(c.model_file).stem().string();
   }
   const Model& model = c.model;
 
@@ -253,8 +277,15 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
     c.datum = parseDatum(p.take("datum"), source + ": datum");
   c.frame_id = p.text("frame_id", "map");
   c.child_frame_id = p.text("child_frame_id", toString(c.settings.algorithm) + "_estimate");
-  c.position_indices =
-      p.indices("position_indices", model.n() >= 2 ? std::vector<int>{0, 1} : std::vector<int>{0}, model.n());
+  const StateMap motion_map = motionStateMap(model.motion);
+  std::vector<int> positions = model.n() >= 2 ? std::vector<int>{0, 1} : std::vector<int>{0};
+  if (model.nonlinear())
+  {
+    positions = {motion_map.x, motion_map.y};
+    if (motion_map.z >= 0)
+      positions.push_back(motion_map.z);
+  }
+  c.position_indices = p.indices("position_indices", positions, model.n());
   c.publish_tf = p.flag("publish_tf", true);
   c.predict_to_current_time = p.flag("predict_to_current_time", false);
   if (p.has("frequency") && !c.predict_to_current_time)
@@ -274,22 +305,29 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   for (const auto& f : frames)
     if (f.second->empty())
       throw ConfigError(source + ": " + f.first + ": expected a frame name, found an empty string");
-  int* slots[3] = {&c.state_map.x, &c.state_map.y, &c.state_map.z};
-  for (std::size_t i = 0; i < c.position_indices.size(); ++i)
-    *slots[i] = c.position_indices[i];
+  if (model.nonlinear())
+    c.state_map = motion_map;  // every state the motion names
+  else
+  {
+    int* slots[3] = {&c.state_map.x, &c.state_map.y, &c.state_map.z};
+    for (std::size_t i = 0; i < c.position_indices.size(); ++i)
+      *slots[i] = c.position_indices[i];
+  }
   if (p.has("state_mapping"))
   {
     const YAML::Node m = p.take("state_mapping");
     if (!m.IsMap())
-      throw ConfigError(source + ": state_mapping: expected a map from x, y, z, yaw, vx, vy, vz, yaw_rate to state "
-                        "indices");
+      throw ConfigError(source + ": state_mapping: expected a map from x, y, z, roll, pitch, yaw, vx, vy, vz, "
+                        "roll_rate, pitch_rate, yaw_rate to state indices");
     c.state_map = StateMap();
     ParamReader q(m, source + ": state_mapping");
-    int* entries[8] = {&c.state_map.x,  &c.state_map.y,  &c.state_map.z,  &c.state_map.yaw,
-                       &c.state_map.vx, &c.state_map.vy, &c.state_map.vz, &c.state_map.yaw_rate};
-    const char* names[8] = {"x", "y", "z", "yaw", "vx", "vy", "vz", "yaw_rate"};
+    int* entries[12] = {&c.state_map.x,  &c.state_map.y,  &c.state_map.z,  &c.state_map.roll,
+                        &c.state_map.pitch, &c.state_map.yaw, &c.state_map.vx, &c.state_map.vy,
+                        &c.state_map.vz, &c.state_map.roll_rate, &c.state_map.pitch_rate, &c.state_map.yaw_rate};
+    const char* names[12] = {"x",  "y",  "z",  "roll",      "pitch",      "yaw",
+                             "vx", "vy", "vz", "roll_rate", "pitch_rate", "yaw_rate"};
     std::vector<int> used;
-    for (int i = 0; i < 8; ++i)
+    for (int i = 0; i < 12; ++i)
     {
       if (!q.has(names[i]))
         continue;

@@ -19,12 +19,13 @@ void poseReset(const Model& model, const StateMap& map, const PoseWithCovariance
 {
   // (state entry, index into the pose's six) of each mapped pose quantity
   std::vector<std::pair<int, int>> entries;
-  const std::pair<int, int> candidates[] = {{map.x, 0}, {map.y, 1}, {map.z, 2}, {map.yaw, 5}};
+  const std::pair<int, int> candidates[] = {{map.x, 0},    {map.y, 1},     {map.z, 2},
+                                            {map.roll, 3}, {map.pitch, 4}, {map.yaw, 5}};
   for (const auto& c : candidates)
     if (c.first >= 0)
       entries.push_back(c);
   if (entries.empty())
-    throw InputError("set_pose: state_mapping maps none of x, y, z, yaw: nothing to set");
+    throw InputError("set_pose: state_mapping maps none of x, y, z, roll, pitch, yaw: nothing to set");
   const char* names[] = {"x", "y", "z", "roll", "pitch", "yaw"};
   const std::size_t e = entries.size();
   Eigen::MatrixXd block(e, e);
@@ -61,7 +62,7 @@ void poseReset(const Model& model, const StateMap& map, const PoseWithCovariance
   for (std::size_t i = 0; i < e; ++i)
   {
     const int s = entries[i].first;
-    x[s] = entries[i].second == 5 ? wrapAngle(in.pose[5]) : in.pose[entries[i].second];
+    x[s] = entries[i].second >= 3 ? wrapAngle(in.pose[entries[i].second]) : in.pose[entries[i].second];
     for (std::size_t j = 0; j < e; ++j)
       P(s, entries[j].first) = 0.5 * (block(i, j) + block(j, i));
   }
