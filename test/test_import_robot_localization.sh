@@ -2,7 +2,9 @@
 # import_robot_localization (scripts/), offline:
 #   - docs/ros_interface.md's key-by-key table is the importer's own (--mapping-table);
 #   - robot_localization's bag2 test file (test/data, unedited) imports into the model and inputs of
-#     the hand translation config/peer_tests/jackal_bag2.yaml (Q, P0, C, topics, types, fields);
+#     the hand translation config/peer_tests/jackal_bag2.yaml (Q, P0, topics, types, fields, and the
+#     states each sensor's rows measure as check_params reports them: the import lists no C rows,
+#     they follow from the fields);
 #   - a namespaced YAML imports as the flat one; two_d_mode gives omni_2d and the 8 x 8 blocks;
 #     differing rejection thresholds split an input; every key of a full ekf file is either named
 #     in an entry's comment or listed as "not supported: KEY (...)" on stderr and in the output;
@@ -51,8 +53,7 @@ def num(v):  # PyYAML reads 1e-09 (no dot) as a string, as rosparam does not: co
 def same(what, a, b):
     if num(a) != num(b):
         bad.append("%s: imported %r, hand-written %r" % (what, a, b))
-for k in ("algorithm", "world_frame", "base_link_frame", "odom_frame", "frame_id", "child_frame_id", "publish_tf",
-          "state_mapping"):
+for k in ("algorithm", "world_frame", "base_link_frame", "odom_frame", "frame_id", "child_frame_id", "publish_tf"):
     same(k, got.get(k), hand.get(k))
 for k in ("motion", "period", "Q", "P0"):
     same("model." + k, got["model"].get(k), hand["model"].get(k))
@@ -61,14 +62,23 @@ same("sensors", sorted(got["sensors"]), sorted(pairs))
 for g, h in pairs.items():
     for k in ("topic", "type", "fields", "covariance", "remove_gravitational_acceleration"):
         same("sensors.%s.%s" % (g, k), got["sensors"][g].get(k), hand["sensors"][h].get(k))
-    gm = [s for s in got["model"]["sensors"] if s["name"] == g][0]
-    hm = [s for s in hand["model"]["sensors"] if s["name"] == h][0]
-    same("model sensor %s C" % g, gm["C"], hm["C"])
+same("model.sensors (the import writes none)", got["model"].get("sensors"), None)
+same("state_mapping (the import leaves the motion's default)", got.get("state_mapping"), None)
 print("\n".join(bad))
 sys.exit(1 if bad else 0)
 PY
 }
 check "bag2: the model and inputs of config/peer_tests/jackal_bag2.yaml" compare_bag2
+# measures FILE SENSOR: the states the sensor's rows measure, as check_params (the nodelet's parse) says
+measures() { check_params --params "$1" | sed -n "s/^  sensor $2: .*, measures \(.*\)\$/\1/p" | sed 's/ (C and R from its fields)//'; }
+check "bag2: odom0's rows measure the hand translation's states" \
+  [ "$(measures "$WORK/bag2.yaml" odom0)" = "$(measures "$ROOT/config/peer_tests/jackal_bag2.yaml" odom)" ]
+check "bag2: imu0's rows measure the hand translation's states" \
+  [ "$(measures "$WORK/bag2.yaml" imu0)" = "$(measures "$ROOT/config/peer_tests/jackal_bag2.yaml" imu)" ]
+check "bag2: odom0's rows from its fields: the twist" \
+  [ "$(measures "$WORK/bag2.yaml" odom0)" = "vx, vy, vz, vyaw" ]
+check "bag2: the sensors are derived (C and R from the fields)" \
+  bash -c 'check_params --params "$1" | grep -c "(C and R from its fields)$" | grep -qx 2' _ "$WORK/bag2.yaml"
 
 # --- a full ekf file: namespaced = flat; every key accounted for --------------------------------
 cat >"$F/flat.yaml" <<'YAML'
@@ -225,8 +235,7 @@ want("odom0_pose relative", s["odom0_pose"].get("relative"), True)
 want("odom0_twist relative", s["odom0_twist"].get("relative"), None)
 want("odom0 tcp_nodelay", s["odom0_twist"].get("tcp_nodelay"), False)
 want("pose0 differential", (s["pose0"].get("differential"), s["pose0"].get("covariance")), (True, "model"))
-C = [r for x in m["sensors"] if x["name"] == "pose0" for r in x["C"]]
-want("pose0 C (x, y, yaw fused as vx, vy, vyaw)", [r.index(1) for r in C], [6, 7, 11])
+want("pose0 std (R of the fused rates)", s["pose0"].get("std"), [0.1, 0.1, 0.1])
 want("imu0 threshold", s["imu0"].get("rejection_threshold"), 0.8)
 want("imu0 gravity", s["imu0"].get("remove_gravitational_acceleration"), True)
 want("queue_size", d.get("queue_size"), 10)
@@ -243,6 +252,7 @@ sys.exit(1 if bad else 0)
 PY
 }
 check "full file: the values (split thresholds, differential rows, queue, history in steps, x0, Q)" full_values
+check "full file: pose0's x, y, yaw fused as the rates vx, vy, vyaw" [ "$(measures "$WORK/flat_out.yaml" pose0)" = "vx, vy, vyaw" ]
 
 # two_d_mode: omni_2d, 8 x 8 from the 15 x 15 (a positive definite 225-value matrix whose entries tell rows and columns apart)
 python3 - "$F/flat.yaml" "$F/two_d.yaml" <<'PY'
@@ -264,15 +274,16 @@ idx = [0, 1, 5, 6, 7, 11, 12, 13]  # x y yaw vx vy vyaw ax ay of the 15
 def q(i, j):
     return min(i, j) + 1 + (0.01 * i if i == j else 0.0)
 ok = m["motion"] == "omni_2d" and m["Q"] == [[q(i, j) for j in idx] for i in idx] \
-    and all(len(r) == 8 for s in m["sensors"] for r in s["C"]) \
+    and "sensors" not in m \
     and d["sensors"]["imu0"]["fields"] == ["orientation.yaw", "angular_velocity.z", "linear_acceleration.x",
                                            "linear_acceleration.y"] \
-    and d["state_mapping"] == {"x": 0, "y": 1, "yaw": 2, "vx": 3, "vy": 4, "yaw_rate": 5}
+    and "state_mapping" not in d
 sys.exit(0 if ok else 1)
 PY
 }
 check "two_d_mode: omni_2d, Q its 8 x 8 block, 3-D fields dropped" [ "$rc" = 0 ]
 check "two_d_mode: the values" two_d
+check "two_d_mode: imu0's rows measure omni_2d's states" [ "$(measures "$WORK/two_d_out.yaml" imu0)" = "yaw, vyaw, ax, ay" ]
 check "two_d_mode: dropped entries listed" grep -qF 'not supported: imu0_config (roll, pitch, vroll, vpitch, az)' "$WORK/err.txt"
 
 # --- refusals -----------------------------------------------------------------------------------
@@ -355,11 +366,18 @@ check_config() {  # FILE [--set KEY=VALUE ...]
   fi
 }
 check_config config/robot_template.yaml
+check_config config/robot/ekf_template_imported.yaml
+# config/robot/ekf_template_imported.yaml is the importer's output on config/robot/robot_localization_ekf.yaml
+run_rc rc "${IMPORT[@]}" "$ROOT/config/robot/robot_localization_ekf.yaml" --output "$WORK/template_imported.yaml"
+check "config/robot/ekf_template_imported.yaml is the import of robot_localization_ekf.yaml, as it stands" \
+  cmp -s "$WORK/template_imported.yaml" "$ROOT/config/robot/ekf_template_imported.yaml"
+check "ekf_template_imported: the wheels' twist and the IMU's heading, rates and accelerations" \
+  [ "$(measures "$ROOT/config/robot/ekf_template_imported.yaml" odom0)/$(measures "$ROOT/config/robot/ekf_template_imported.yaml" imu0)" = "vx, vy, vyaw/yaw, vyaw, ax, ay" ]
 check_config config/robot/jackal.yaml
 check_config config/robot/demo_robot.yaml --set "model=$ROOT/config/models/demo_robot.yaml" --set algorithm=kfio
 check_config config/robot/real_link.yaml --set "model=$ROOT/config/models/demo_robot.yaml" --set stability_window=1000
-check_config config/robot_template.yaml "$ROOT/config/estimators/ekfio.yaml" --set "model=$ROOT/config/models/planar_robot.yaml"
-check_config config/robot_template.yaml "$ROOT/config/estimators/rseio.yaml"
+check_config config/robot/planar_linear.yaml "$ROOT/config/estimators/ekfio.yaml" --set "model=$ROOT/config/models/planar_robot.yaml"
+check_config config/robot/planar_linear.yaml "$ROOT/config/estimators/rseio.yaml"
 check_refuses() {  # NAME PATTERN FILE [FILE... --set ...]
   run_rc rc "${IMPORT[@]}" --check "${@:3}"
   if [ "$rc" = 2 ] && grep -qF -- "$2" "$WORK/err.txt"; then pass "--check refuses: $1"; else
