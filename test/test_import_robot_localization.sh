@@ -167,8 +167,8 @@ check "launch file with rosparam load imports (exit 0)" [ "$rc" = 0 ]
 check "launch file = flat YAML (but the header and the model's name)" \
   cmp -s <(grep -v -e '^# Estimator parameters' -e '^  name:' -e "navsat_transform_node node 'navsat'" "$WORK/flat_out.yaml") \
          <(grep -v -e '^# Estimator parameters' -e '^  name:' -e "navsat_transform_node node 'navsat'" "$WORK/launch_out.yaml")
-check "launch file: its navsat_transform_node listed as not imported" \
-  grep -qF "not supported: navsat_transform_node node 'navsat' (not imported" "$WORK/err.txt"
+check "launch file: its navsat_transform_node, whose odometry/gps no input reads, listed as not imported" \
+  grep -qF "not supported: navsat_transform_node node 'navsat' of ekf.launch (not imported: no ekf input reads its odometry/gps" "$WORK/err.txt"
 { echo "ekf_filter_node:"; echo "  ros__parameters:"; sed 's/^/    /' "$F/flat.yaml"; } >"$F/ros2.yaml"
 run_rc rc "${IMPORT[@]}" "$F/ros2.yaml" --output "$WORK/ros2_out.yaml"
 check "ROS 2 file = flat YAML (but the header and the model's name)" \
@@ -286,6 +286,98 @@ check "two_d_mode: the values" two_d
 check "two_d_mode: imu0's rows measure omni_2d's states" [ "$(measures "$WORK/two_d_out.yaml" imu0)" = "yaw, vyaw, ax, ay" ]
 check "two_d_mode: dropped entries listed" grep -qF 'not supported: imu0_config (roll, pitch, vroll, vpitch, az)' "$WORK/err.txt"
 
+# --- navsat_transform: the fixes read by the Estimator, aligned as navsat_transform does -------------
+cat >"$F/nav_ekf.yaml" <<'YAML'
+frequency: 30
+two_d_mode: true
+world_frame: map
+odom0: odometry/wheel
+odom0_config: [false, false, false, false, false, false, true, true, false, false, false, true, false, false, false]
+odom1: odometry/gps
+odom1_config: [true, true, false, false, false, true, false, false, false, false, false, false, false, false, false]
+odom1_pose_rejection_threshold: 4
+imu0: imu/data
+imu0_config: [false, false, false, false, false, true, false, false, false, false, false, true, false, false, false]
+YAML
+cat >"$F/nav_navsat.yaml" <<'YAML'
+magnetic_declination_radians: 0.0429
+yaw_offset: 1.5707963
+zero_altitude: true
+publish_filtered_gps: true
+broadcast_utm_transform: false
+frequency: 30
+delay: 3
+wait_for_datum: true
+datum: [55.944904, -3.186693, 0.0, map, base_link]
+YAML
+cat >"$F/nav.launch" <<XML
+<launch>
+  <node pkg="robot_localization" type="ekf_localization_node" name="ekf_map">
+    <rosparam command="load" file="$F/nav_ekf.yaml"/>
+  </node>
+  <node pkg="robot_localization" type="navsat_transform_node" name="navsat_transform">
+    <rosparam command="load" file="$F/nav_navsat.yaml"/>
+    <remap from="gps/fix" to="/ublox/fix"/>
+  </node>
+</launch>
+XML
+run_rc rc "${IMPORT[@]}" "$F/nav.launch" --output "$WORK/nav_launch.yaml"
+check "navsat: a launch file with navsat_transform_node imports (exit 0)" [ "$rc" = 0 ]
+cp "$WORK/err.txt" "$WORK/nav_err.txt"
+nav_values() {
+  python3 - "$1" <<'PY'
+import sys, yaml
+d = yaml.safe_load(open(sys.argv[1]))
+bad = []
+def want(what, got, expected):
+    if got != expected:
+        bad.append("%s: expected %r, found %r" % (what, expected, got))
+s = d["sensors"]
+want("sensors", sorted(s), ["imu0", "odom0", "odom1"])
+want("odom1 becomes the fixes", (s["odom1"]["type"], s["odom1"]["topic"], s["odom1"]["fields"]),
+     ("sensor_msgs/NavSatFix", "/ublox/fix", ["east", "north"]))
+want("odom1 threshold", s["odom1"].get("rejection_threshold"), 4)
+want("alignment", (d.get("gnss_alignment"), d.get("publish_gps_odometry"), d.get("gnss_heading")),
+     ("navsat_transform", True, "imu0"))
+want("navsat keys", [d.get(k) for k in ("magnetic_declination_radians", "yaw_offset", "zero_altitude",
+                                        "publish_filtered_gps", "broadcast_utm_transform")],
+     [0.0429, 1.5707963, True, True, False])
+want("datum", d.get("datum"), [55.944904, -3.186693, 0])
+print("\n".join(bad))
+sys.exit(1 if bad else 0)
+PY
+}
+check "navsat: odometry/gps's input reads the fixes on gps/fix's remapped topic; the keys" nav_values "$WORK/nav_launch.yaml"
+for key in "delay (navsat_transform)" "frequency (navsat_transform)" "datum[2] (heading 0)" "odom1_config[5] (yaw)"; do
+  check "navsat: '$key' listed as not supported" grep -qF "not supported: $key" "$WORK/nav_err.txt"
+done
+check "navsat: the node is not listed as not imported" bash -c '! grep -q "navsat_transform_node node" "$1"' _ "$WORK/nav_err.txt"
+# the same from --navsat FILE (no remap there: gps/fix) and from one YAML with both nodes
+run_rc rc "${IMPORT[@]}" "$F/nav_ekf.yaml" --navsat "$F/nav_navsat.yaml" --output "$WORK/nav_flag.yaml"
+check "navsat: --navsat FILE imports (exit 0)" [ "$rc" = 0 ]
+{ echo "ekf_map:"; sed 's/^/  /' "$F/nav_ekf.yaml"; echo "navsat_transform:"; sed 's/^/  /' "$F/nav_navsat.yaml"; } >"$F/nav_both.yaml"
+run_rc rc "${IMPORT[@]}" "$F/nav_both.yaml" --output "$WORK/nav_both_out.yaml"
+check "navsat: one YAML with both nodes imports (exit 0)" [ "$rc" = 0 ]
+strip_nav() { grep -v -e '^# Estimator parameters' -e '^  name:' -e '^gnss_alignment:' -e '^    topic:' "$1"; }
+check "navsat: --navsat FILE = the launch file (but the fixes' topic and the origin)" \
+  cmp -s <(strip_nav "$WORK/nav_launch.yaml") <(strip_nav "$WORK/nav_flag.yaml")
+check "navsat: both nodes in one YAML = --navsat FILE (but the origin)" \
+  cmp -s <(strip_nav "$WORK/nav_both_out.yaml") <(strip_nav "$WORK/nav_flag.yaml")
+check "navsat: --navsat FILE reads gps/fix" grep -qE '^    topic: /gps/fix ' "$WORK/nav_flag.yaml"
+check "navsat: the import passes the Estimator's checks (--check)" \
+  bash -c '"$@" --check "$0" | grep -qF "the Estimator would start"' "$WORK/nav_launch.yaml" "${IMPORT[@]}"
+# no IMU in the ekf: the fused yaw is the heading
+grep -v '^imu0' "$F/nav_ekf.yaml" >"$F/nav_noimu.yaml"
+run_rc rc "${IMPORT[@]}" "$F/nav_noimu.yaml" --navsat "$F/nav_navsat.yaml" --output "$WORK/nav_noimu_out.yaml"
+check "navsat: no IMU input: use_odometry_yaw: true, said on stderr" \
+  bash -c 'grep -qE "^use_odometry_yaw: true " "$1" && grep -qF "the ekf fuses no IMU" "$2"' _ "$WORK/nav_noimu_out.yaml" "$WORK/err.txt"
+# no ekf input reads odometry/gps: nothing to align, said
+sed 's#^odom1: odometry/gps#odom1: odometry/other#' "$F/nav_ekf.yaml" >"$F/nav_nogps.yaml"
+run_rc rc "${IMPORT[@]}" "$F/nav_nogps.yaml" --navsat "$F/nav_navsat.yaml" --output "$WORK/nav_nogps_out.yaml"
+check "navsat: no input reads odometry/gps: listed as not imported, no alignment" \
+  bash -c 'grep -qF "no ekf input reads its odometry/gps (/odometry/gps)" "$2" && ! grep -q "^gnss_alignment" "$1"' \
+  _ "$WORK/nav_nogps_out.yaml" "$WORK/err.txt"
+
 # --- refusals -----------------------------------------------------------------------------------
 # variant NAME SED: flat.yaml edited by SED into $F/NAME.yaml
 variant() { sed "$2" "$F/flat.yaml" >"$F/$1.yaml"; }
@@ -303,6 +395,15 @@ refuse() {  # NAME PATTERN FILE [options]
   fi
 }
 variant short_config 's/^odom0_config: \[true, /odom0_config: [/'
+sed 's/^datum: .*/datum: [55.9, -3.1]/' "$F/nav_navsat.yaml" >"$F/nav_short_datum.yaml"
+refuse "navsat: a datum of 2 entries" "datum (navsat_transform): expected [latitude, longitude, heading]" \
+  "$F/nav_ekf.yaml" --navsat "$F/nav_short_datum.yaml"
+sed 's/^magnetic_declination_radians: .*/magnetic_declination_radians: east/' "$F/nav_navsat.yaml" >"$F/nav_word.yaml"
+refuse "navsat: a declination that is no number" "magnetic_declination_radians" "$F/nav_ekf.yaml" --navsat "$F/nav_word.yaml"
+refuse "navsat: --navsat FILE without navsat_transform's keys" "expected navsat_transform_node's parameters" \
+  "$F/nav_ekf.yaml" --navsat "$F/nav_ekf.yaml"
+refuse "navsat: --navsat FILE when the input has them already" "the input has navsat_transform's parameters already" \
+  "$F/nav.launch" --navsat "$F/nav_navsat.yaml"
 refuse "a *_config of 14 entries" "odom0_config: expected 15 booleans" "$F/short_config.yaml"
 variant word_config 's/^imu0_config: \[false, false,/imu0_config: [false, maybe,/'
 refuse "a *_config entry not a boolean" "imu0_config[1]: expected true or false, found maybe" "$F/word_config.yaml"
