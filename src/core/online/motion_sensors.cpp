@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "config/yaml_reader.hpp"
 #include "networked_estimation/common/error.hpp"
@@ -189,23 +190,15 @@ YAML::Node withMotionSensors(const YAML::Node& model, const YAML::Node& sensors,
 StateMap motionStateMap(Motion motion)
 {
   StateMap m;
+  const std::pair<int*, const char*> entries[] = {
+      {&m.x, "x"},   {&m.y, "y"},   {&m.z, "z"},   {&m.roll, "roll"},       {&m.pitch, "pitch"},       {&m.yaw, "yaw"},
+      {&m.vx, "vx"}, {&m.vy, "vy"}, {&m.vz, "vz"}, {&m.roll_rate, "vroll"}, {&m.pitch_rate, "vpitch"}, {&m.yaw_rate, "vyaw"}};
   const std::vector<std::string>& states = motionStateNames(motion);
-  auto index = [&](const char* name) {
-    const auto it = std::find(states.begin(), states.end(), name);
-    return it == states.end() ? -1 : static_cast<int>(it - states.begin());
-  };
-  m.x = index("x");
-  m.y = index("y");
-  m.z = index("z");
-  m.roll = index("roll");
-  m.pitch = index("pitch");
-  m.yaw = index("yaw");
-  m.vx = index("vx");
-  m.vy = index("vy");
-  m.vz = index("vz");
-  m.roll_rate = index("vroll");
-  m.pitch_rate = index("vpitch");
-  m.yaw_rate = index("vyaw");
+  for (const auto& e : entries)
+  {
+    const auto it = std::find(states.begin(), states.end(), e.second);
+    *e.first = it == states.end() ? -1 : static_cast<int>(it - states.begin());
+  }
   return m;
 }
 
