@@ -475,6 +475,7 @@ check "config/robot/ekf_template_imported.yaml is the import of robot_localizati
 check "ekf_template_imported: the wheels' twist and the IMU's heading, rates and accelerations" \
   [ "$(measures "$ROOT/config/robot/ekf_template_imported.yaml" odom0)/$(measures "$ROOT/config/robot/ekf_template_imported.yaml" imu0)" = "vx, vy, vyaw/yaw, vyaw, ax, ay" ]
 check_config config/robot/jackal.yaml
+check_config config/peer_tests/jackal_bag2.yaml
 check_config config/robot/demo_robot.yaml --set "model=$ROOT/config/models/demo_robot.yaml" --set algorithm=kfio
 check_config config/robot/real_link.yaml --set "model=$ROOT/config/models/demo_robot.yaml" --set stability_window=1000
 check_config config/robot/planar_linear.yaml "$ROOT/config/estimators/ekfio.yaml" --set "model=$ROOT/config/models/planar_robot.yaml"

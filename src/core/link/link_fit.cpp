@@ -31,9 +31,12 @@ struct Chain
 /// cancels in alpha_k beta_k.
 constexpr double kRescale = 1e-150;
 
-/// Log-likelihood of the losses (lost[k] = 1) under the chain started in its stationary law
-/// (the scaled forward recursion).
-double chainLogLikelihood(const std::vector<std::uint8_t>& lost, const Chain& c)
+/// The scaled forward recursion of the losses (lost[k] = 1) under the chain started in its
+/// stationary law: calls record(k, a0, a1, inv) with the forward variables at k after their
+/// scaling by inv (1 where none was applied) and returns the log-likelihood (-inf when a loss
+/// pattern is impossible under the chain).
+template <typename Record>
+double forwardPass(const std::vector<std::uint8_t>& lost, const Chain& c, Record&& record)
 {
   const double e0[2] = {1.0 - c.lg, c.lg}, e1[2] = {1.0 - c.lb, c.lb};
   const double sum = c.p + c.r;
@@ -52,16 +55,25 @@ double chainLogLikelihood(const std::vector<std::uint8_t>& lost, const Chain& c)
     a0 *= e0[lost[k]];
     a1 *= e1[lost[k]];
     const double s = a0 + a1;
+    double inv = 1.0;
     if (s < kRescale || k + 1 == n)
     {
       if (!(s > 0.0))
         return -std::numeric_limits<double>::infinity();
       ll += std::log(s);
-      a0 /= s;
-      a1 /= s;
+      inv = 1.0 / s;
+      a0 *= inv;
+      a1 *= inv;
     }
+    record(k, a0, a1, inv);
   }
   return ll;
+}
+
+/// Log-likelihood of the losses under the chain (forwardPass alone).
+double chainLogLikelihood(const std::vector<std::uint8_t>& lost, const Chain& c)
+{
+  return forwardPass(lost, c, [](std::size_t, double, double, double) {});
 }
 
 /// One Baum-Welch iteration: the chain's re-estimate, and the log-likelihood of `c`. `alpha` and
@@ -73,38 +85,13 @@ Chain baumWelchStep(const std::vector<std::uint8_t>& lost, const Chain& c, std::
   alpha.resize(2 * n);
   inv_scale.resize(n);
   const double e0[2] = {1.0 - c.lg, c.lg}, e1[2] = {1.0 - c.lb, c.lb};
-  const double sum = c.p + c.r;
-  double a0 = sum > 0 ? c.r / sum : 1.0, a1 = sum > 0 ? c.p / sum : 0.0;
-  ll = 0.0;
-  for (std::size_t k = 0; k < n; ++k)
-  {
-    if (k > 0)
-    {
-      const double b0 = a0 * (1.0 - c.p) + a1 * c.r;
-      const double b1 = a0 * c.p + a1 * (1.0 - c.r);
-      a0 = b0;
-      a1 = b1;
-    }
-    a0 *= e0[lost[k]];
-    a1 *= e1[lost[k]];
-    const double s = a0 + a1;
-    double inv = 1.0;
-    if (s < kRescale || k + 1 == n)
-    {
-      if (!(s > 0.0))
-      {
-        ll = -std::numeric_limits<double>::infinity();
-        return c;
-      }
-      ll += std::log(s);
-      inv = 1.0 / s;
-      a0 *= inv;
-      a1 *= inv;
-    }
+  ll = forwardPass(lost, c, [&](std::size_t k, double a0, double a1, double inv) {
     alpha[2 * k] = a0;
     alpha[2 * k + 1] = a1;
     inv_scale[k] = inv;
-  }
+  });
+  if (!std::isfinite(ll))
+    return c;
   // Backward, accumulating the expected counts.
   double beta0 = 1.0, beta1 = 1.0;
   double g0 = alpha[2 * (n - 1)], g1 = alpha[2 * (n - 1) + 1];  // expected visits of each state
@@ -182,17 +169,15 @@ Chain chainOf(const Eigen::Vector4d& t)
   return Chain{logistic(t(0)), logistic(t(1)), logistic(t(2)), logistic(t(3))};
 }
 
-/// Numerical quantile by linear interpolation between order statistics (numpy's default).
-double quantile(std::vector<double>& v, double q)
+/// Numerical quantile of ascending values by linear interpolation between order statistics (numpy's
+/// default).
+double quantile(const std::vector<double>& sorted, double q)
 {
-  const double h = static_cast<double>(v.size() - 1) * q;
+  const double h = static_cast<double>(sorted.size() - 1) * q;
   const std::size_t lo = static_cast<std::size_t>(std::floor(h));
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(lo), v.end());
-  const double x_lo = v[lo];
-  if (lo + 1 >= v.size())
-    return x_lo;
-  const double x_hi = *std::min_element(v.begin() + static_cast<std::ptrdiff_t>(lo) + 1, v.end());
-  return x_lo + (h - static_cast<double>(lo)) * (x_hi - x_lo);
+  if (lo + 1 >= sorted.size())
+    return sorted[lo];
+  return sorted[lo] + (h - static_cast<double>(lo)) * (sorted[lo + 1] - sorted[lo]);
 }
 
 /// The 95 % intervals of p50, p90, p99 (link_fit.hpp, DelayFit): the q-quantile lies below the
@@ -202,9 +187,8 @@ double quantile(std::vector<double>& v, double q)
 /// fraction below the quantile varies as if from n_eff = n (1 - rho) / (1 + rho) samples (an AR(1)
 /// process; the indicator of a delay below a quantile is less correlated than the delays
 /// themselves, so this errs wide), and the ranks spread by sqrt(n / n_eff) more.
-void quantileIntervals(std::vector<double> x, DelayFit& d)
+void quantileIntervals(const std::vector<double>& x, DelayFit& d)
 {
-  std::sort(x.begin(), x.end());
   const double n = static_cast<double>(x.size());
   const double rho = std::isfinite(d.lag1) && d.lag1 > 0.0 ? std::min(d.lag1, 0.999) : 0.0;
   d.effective_samples = std::max(1.0, n * (1.0 - rho) / (1.0 + rho));
@@ -576,10 +560,11 @@ DelayFit fitDelay(const SlotTrace& t)
   d.sd = std::sqrt(ss / n);
   d.min = *std::min_element(x.begin(), x.end());
   d.max = *std::max_element(x.begin(), x.end());
-  std::vector<double> work = x;
-  d.p50 = quantile(work, 0.5);
-  d.p90 = quantile(work, 0.9);
-  d.p99 = quantile(work, 0.99);
+  std::vector<double> sorted = x;
+  std::sort(sorted.begin(), sorted.end());
+  d.p50 = quantile(sorted, 0.5);
+  d.p90 = quantile(sorted, 0.9);
+  d.p99 = quantile(sorted, 0.99);
   // RFC 3550, 6.4.1: in arrival order, D = the change of transit time, J += (|D| - J) / 16.
   double j = 0.0;
   for (std::size_t i = 1; i < t.receipt_order.size(); ++i)
@@ -607,7 +592,7 @@ DelayFit fitDelay(const SlotTrace& t)
   }
   else
     d.lag1 = kNaN;
-  quantileIntervals(x, d);
+  quantileIntervals(sorted, d);
 
   // The channel's delay law, each by maximum likelihood; the best one.
   const double spread = d.max - d.min;
