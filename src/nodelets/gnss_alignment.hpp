@@ -27,6 +27,7 @@
 #include <string>
 
 #include "frame_transforms.hpp"
+#include "transport_watch.hpp"
 #include "networked_estimation/geodesy/local_enu.hpp"
 #include "networked_estimation/geodesy/navsat_alignment.hpp"
 #include "networked_estimation/online/estimator_node_config.hpp"
@@ -82,8 +83,11 @@ public:
     if (opt_.heading_sensor >= 0)
     {
       const SensorInput& in = inputs[static_cast<std::size_t>(opt_.heading_sensor)];
+      // The sensor's own transport: roscpp shares one connection per topic, and its first
+      // subscriber's hints would decide it.
       heading_sub_ = in_nh.subscribe<sensor_msgs::Imu>(
-          in.topic, 10, [this](const sensor_msgs::Imu::ConstPtr& m) { onHeading(*m); });
+          in.topic, 10, [this](const sensor_msgs::Imu::ConstPtr& m) { onHeading(*m); }, ros::VoidConstPtr(),
+          transportHints(in.transport));
     }
   }
   void stop() { heading_sub_.shutdown(); }
