@@ -6,7 +6,7 @@ ENU (north of east), stands for 3 s, then drives straight, turns left, drives st
 and stops (about 21 m). It publishes, stamped with the ROS time of publication:
   - wheel odometry /odom at 20 Hz: the twist in base_link (vx, vy, yaw rate) with noise
     (sigma 0.05 m/s, 0.05 m/s, 0.02 rad/s), frame odom, child base_link;
-  - an IMU /imu at 20 Hz: its yaw rate (sigma 0.01 rad/s), and an orientation whose yaw is the
+  - an IMU /imu at 20 Hz from 1 s on: its yaw rate (sigma 0.01 rad/s), and an orientation whose yaw is the
     earth-referenced ENU heading minus the magnetic declination (0.2 rad), with noise (sigma
     0.005 rad): the Estimator's magnetic_declination_radians: 0.2 recovers the ENU heading;
   - GNSS fixes /fix at 5 Hz of an antenna 0.5 m ahead of base_link (the static tf base_link -> gps
@@ -16,8 +16,9 @@ All noise from one seeded generator (random.Random(7)).
 Assertions (the Estimator runs ekfio on omni_2d, gnss_alignment: navsat_transform). As
 navsat_transform does, the Estimator ties ENU to odom at one fix, so that fix's noise becomes an
 offset B of the whole track (a bias, not averaged away). The robot stands still for the first 3 s,
-so the aligning fix is one of those 15 fixes (asserted: at most 15 fixes are not fused), and the
-test takes B as the largest 2-D noise among them (their draws are fixed by the seed).
+and the IMU starts after 1 s, so the aligning fix is one of the 10 fixes from 1 s to 3 s (asserted:
+at most 15 fixes are not fused), and the test takes B as the largest 2-D noise among those 10
+(their draws are fixed by the seed).
   - odometry/filtered, in odom, follows the truth in odom: every estimate after the first second of
     fixes within B + 0.6 m, the RMS error within B + 0.25 m; yaw within 0.1 rad. The 0.6 m: the
     filter's own error about the offset track (odometry and fixes of sigma 0.4 / 0.2 m averaged:
@@ -35,6 +36,9 @@ test takes B as the largest 2-D noise among them (their draws are fixed by the s
     (not 0), within 0.01 (the alignment heading's error moves it by 0.12 * d(theta)).
   - gps/filtered: the antenna's latitude/longitude of the estimate, within B + 0.6 m of the truth's.
   - broadcast_utm_transform: a static tf odom -> utm.
+  - the fixes before the IMU's first heading (the first second's 5) are not fused and the
+    diagnostics count them: "gps fixes before the GNSS alignment (not fused)" = fixes sent - fixes
+    on odometry/gps, and at least 5.
 Only the outcome is asserted (no timing); the timeouts are generous for a loaded machine."""
 import math
 import random
@@ -46,6 +50,7 @@ import rosgraph
 import rospy
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import Imu, NavSatFix, NavSatStatus
+from diagnostic_msgs.msg import DiagnosticArray
 from tf2_msgs.msg import TFMessage
 
 HEADING0 = math.radians(30.0)  # base_link's ENU heading at start
@@ -55,6 +60,7 @@ LAT0, LON0 = 48.137, 11.575  # the datum: base_link's start position
 SIGMA_E, SIGMA_N = 0.4, 0.2
 # (seconds, forward speed m/s, yaw rate rad/s)
 SEGMENTS = [(3.0, 0.0, 0.0), (6.0, 1.0, 0.0), (5.0, 1.0, 0.3), (6.0, 1.0, 0.0), (5.0, 0.8, -0.25), (3.0, 0.0, 0.0)]
+IMU_FROM = 1.0  # the IMU starts 1 s after the rest: the fixes before it cannot be aligned
 WAIT = 60.0  # wall seconds for the graph to come up: only a broken graph takes it
 
 
@@ -112,6 +118,10 @@ class NavSatDrive(unittest.TestCase):
         rospy.Subscriber("/odometry/filtered", Odometry, filtered.append, queue_size=10000)
         rospy.Subscriber("/odometry/gps", Odometry, gps.append, queue_size=10000)
         rospy.Subscriber("/gps/filtered", NavSatFix, gps_filtered.append, queue_size=10000)
+        diagnostics = []
+        rospy.Subscriber("/diagnostics", DiagnosticArray,
+                         lambda m: diagnostics.extend(st for st in m.status if "estimator" in st.name and
+                                                      st.name.endswith("estimator")), queue_size=100)
         rospy.Subscriber("/tf_static", TFMessage,
                          lambda m: utm.extend(t for t in m.transforms if t.child_frame_id == "utm"), queue_size=100)
         odom_pub = rospy.Publisher("/odom", Odometry, queue_size=100)
@@ -151,20 +161,24 @@ class NavSatDrive(unittest.TestCase):
             o.twist.twist.linear.y = rng.gauss(0.0, 0.05)
             o.twist.twist.angular.z = w + rng.gauss(0.0, 0.02)
             odom_pub.publish(o)
-            m = Imu()
-            m.header.stamp = now
-            m.header.frame_id = "base_link"
-            reading = wrap(HEADING0 + th - DECLINATION + rng.gauss(0.0, 0.005))
-            m.orientation.z, m.orientation.w = math.sin(reading / 2), math.cos(reading / 2)
-            m.orientation_covariance = [2.5e-5, 0, 0, 0, 2.5e-5, 0, 0, 0, 2.5e-5]
-            m.angular_velocity.z = w + rng.gauss(0.0, 0.01)
-            m.angular_velocity_covariance = [1e-4, 0, 0, 0, 1e-4, 0, 0, 0, 1e-4]
-            m.linear_acceleration_covariance = [-1, 0, 0, 0, 0, 0, 0, 0, 0]
-            imu_pub.publish(m)
+            if t < IMU_FROM:  # no IMU yet (the same draws as if published: the noise does not depend on it)
+                rng.gauss(0.0, 0.005)
+                rng.gauss(0.0, 0.01)
+            else:
+                m = Imu()
+                m.header.stamp = now
+                m.header.frame_id = "base_link"
+                reading = wrap(HEADING0 + th - DECLINATION + rng.gauss(0.0, 0.005))
+                m.orientation.z, m.orientation.w = math.sin(reading / 2), math.cos(reading / 2)
+                m.orientation_covariance = [2.5e-5, 0, 0, 0, 2.5e-5, 0, 0, 0, 2.5e-5]
+                m.angular_velocity.z = w + rng.gauss(0.0, 0.01)
+                m.angular_velocity_covariance = [1e-4, 0, 0, 0, 1e-4, 0, 0, 0, 1e-4]
+                m.linear_acceleration_covariance = [-1, 0, 0, 0, 0, 0, 0, 0, 0]
+                imu_pub.publish(m)
             if tick % 4 == 0:
                 e, n = to_enu(x, y)
                 de, dn = rng.gauss(0.0, SIGMA_E), rng.gauss(0.0, SIGMA_N)
-                if t < SEGMENTS[0][0]:
+                if IMU_FROM <= t < SEGMENTS[0][0]:
                     standstill_noise.append(math.hypot(de, dn))
                 e += LEVER * math.cos(HEADING0 + th) + de
                 n += LEVER * math.sin(HEADING0 + th) + dn
@@ -216,8 +230,26 @@ class NavSatDrive(unittest.TestCase):
         # the drive went somewhere: the end is 15+ m from the start (a track stuck at 0 cannot pass)
         self.assertGreater(math.hypot(*truth(total)[:2]), 15.0)
 
+        # the fixes before the IMU's first heading are not fused, and counted in the diagnostics
+        early = sum(1 for f in fixes if (f - t0).to_sec() < IMU_FROM)
+        end = time.time() + WAIT
+        key = "gps fixes before the GNSS alignment (not fused)"
+
+        def not_fused():
+            for st in reversed(diagnostics):
+                for kv in st.values:
+                    if kv.key == key:
+                        return int(kv.value)
+            return None
+
+        while not_fused() != len(fixes) - len(gps):
+            self.assertLess(time.time(), end, "diagnostics '%s': %s, expected %d (fixes %d, on odometry/gps %d)"
+                            % (key, not_fused(), len(fixes) - len(gps), len(fixes), len(gps)))
+            time.sleep(0.2)
+        rospy.loginfo("fixes before the alignment: %d (%d before the IMU started)", not_fused(), early)
+        self.assertGreaterEqual(not_fused(), early)
         # odometry/gps: base_link from each fix, in odom, with the fix's covariance rotated
-        self.assertGreaterEqual(len(gps), len(fixes) - len(standstill_noise),
+        self.assertGreaterEqual(len(gps), len(fixes) - early - len(standstill_noise),
                                 "%d of %d fixes on odometry/gps: the alignment came after the standstill"
                                 % (len(gps), len(fixes)))
         gps_errors = []
