@@ -324,7 +324,7 @@ void EstimatorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
     stat.add("GNSS aligned (navsat_transform)", aligned ? "yes" : "no");
     if (aligned)
       stat.add("GNSS world_T_enu yaw (rad)", gnss_->yawDelta());
-    else
+    else if (gnss_->notYet() > 0)  // fixes came and could not be used yet
       stat.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
                          "GNSS not aligned yet: %lu fixes not fused (waiting for a heading and an estimate)",
                          static_cast<unsigned long>(gnss_->notYet()));
