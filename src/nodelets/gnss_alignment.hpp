@@ -72,8 +72,7 @@ public:
   void start(ros::NodeHandle& nh, ros::NodeHandle& in_nh, const std::vector<SensorInput>& inputs,
              const Frames& frames, PoseSource pose)
   {
-    frames_ = frames;
-    pose_ = std::move(pose);
+    connect(frames, std::move(pose));
     if (opt_.publish_gps_odometry)
       gps_odom_pub_ = nh.advertise<nav_msgs::Odometry>("odometry/gps", 10);
     if (opt_.publish_filtered_gps)
@@ -86,11 +85,51 @@ public:
       // The sensor's own transport: roscpp shares one connection per topic, and its first
       // subscriber's hints would decide it.
       heading_sub_ = in_nh.subscribe<sensor_msgs::Imu>(
-          in.topic, 10, [this](const sensor_msgs::Imu::ConstPtr& m) { onHeading(*m); }, ros::VoidConstPtr(),
+          in.topic, 10, [this](const sensor_msgs::Imu::ConstPtr& m) { heading(*m); }, ros::VoidConstPtr(),
           transportHints(in.transport));
     }
   }
   void stop() { heading_sub_.shutdown(); }
+  /// The tf2 lookup and the estimate's pose, without topics (start() does this; tests call it).
+  void connect(const Frames& frames, PoseSource pose)
+  {
+    frames_ = frames;
+    pose_ = std::move(pose);
+  }
+
+  /// The earth-referenced yaw of base_link from a message of the gnss_heading input: the IMU's yaw
+  /// minus its mounting yaw in base_link (tf base_link_frame <- the message's frame, when it is
+  /// another frame; none: the IMU's yaw as it is, warned about once). A non-finite or zero
+  /// orientation is ignored (the sensor's own input reports it).
+  void heading(const sensor_msgs::Imu& m)
+  {
+    const auto& q = m.orientation;
+    if (!std::isfinite(q.x) || !std::isfinite(q.y) || !std::isfinite(q.z) || !std::isfinite(q.w) ||
+        q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w < 1e-6)
+      return;
+    double roll, pitch, yaw;
+    tf2::Matrix3x3(tf2::Quaternion(q.x, q.y, q.z, q.w).normalized()).getRPY(roll, pitch, yaw);
+    double mount = 0.0;
+    if (!m.header.frame_id.empty() && m.header.frame_id != base_ && frames_.lookup)
+    {
+      tf2::Transform t;
+      std::string why;
+      if (frames_.lookup(base_, m.header.frame_id, ros::Time(0), t, why))
+      {
+        double r, p;
+        tf2::Matrix3x3(t.getRotation()).getRPY(r, p, mount);
+      }
+      else if (!warned_mount_)
+      {
+        warned_mount_ = true;
+        ROS_WARN("Estimator: gnss_heading: no tf %s <- %s: the IMU's yaw is taken as base_link's (%s)", base_.c_str(),
+                 m.header.frame_id.c_str(), why.c_str());
+      }
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    heading_ = std::atan2(std::sin(yaw - mount), std::cos(yaw - mount));
+    has_heading_ = true;
+  }
 
   /// The fix `m` (its antenna's ENU `local` about `datum`, and its ENU covariance `cov`) in place
   /// to base_link's world position and its covariance in world_frame; the first call that has a
@@ -202,38 +241,6 @@ public:
   }
 
 private:
-  /// The earth-referenced yaw of base_link from the gnss_heading input: the IMU's yaw minus its
-  /// mounting yaw in base_link (tf base_link_frame <- the message's frame, when there is one).
-  void onHeading(const sensor_msgs::Imu& m)
-  {
-    const auto& q = m.orientation;
-    if (!std::isfinite(q.x) || !std::isfinite(q.y) || !std::isfinite(q.z) || !std::isfinite(q.w) ||
-        q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w < 1e-6)
-      return;  // its sensor's own input reports it
-    double roll, pitch, yaw;
-    tf2::Matrix3x3(tf2::Quaternion(q.x, q.y, q.z, q.w).normalized()).getRPY(roll, pitch, yaw);
-    double mount = 0.0;
-    if (!m.header.frame_id.empty() && m.header.frame_id != base_ && frames_.lookup)
-    {
-      tf2::Transform t;
-      std::string why;
-      if (frames_.lookup(base_, m.header.frame_id, ros::Time(0), t, why))
-      {
-        double r, p;
-        tf2::Matrix3x3(t.getRotation()).getRPY(r, p, mount);
-      }
-      else if (!warned_mount_)
-      {
-        warned_mount_ = true;
-        ROS_WARN("Estimator: gnss_heading: no tf %s <- %s: the IMU's yaw is taken as base_link's (%s)", base_.c_str(),
-                 m.header.frame_id.c_str(), why.c_str());
-      }
-    }
-    std::lock_guard<std::mutex> lock(mutex_);
-    heading_ = yaw - mount;
-    has_heading_ = true;
-  }
-
   /// The antenna in base_link: tf base_link_frame <- `frame`, looked up at each fix until ENU is
   /// tied to world_frame and fixed from then on (a fixed mounting; a static tf that comes late
   /// still counts); none by then: zero, with one warning naming the frame (mutex_ held).
