@@ -21,10 +21,12 @@
 #include <boost/array.hpp>
 
 #include <cmath>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include "frame_transforms.hpp"
 #include "transport_watch.hpp"

@@ -59,7 +59,7 @@ bool utmOf(double latitude, double longitude, double altitude, UtmPoint& out, st
   double gamma = 0.0, k = 1.0;
   GeographicLib::UTMUPS::Forward(latitude, longitude, out.zone, out.northp, out.easting, out.northing, gamma, k);
   out.altitude = altitude;
-  out.convergence = gamma * M_PI / 180.0;
+  out.convergence = gamma * (3.14159265358979323846 / 180.0);
   return true;
 }
 
