@@ -40,6 +40,7 @@ set(NE_CORE_SOURCES
   src/core/experiments/shard_file.cpp
   # geodesy/: latitude/longitude to local ENU (GeographicLib)
   src/core/geodesy/local_enu.cpp
+  src/core/geodesy/navsat_alignment.cpp
   # io/: the tools' CSV and JSON files, ROS bags' headers, scoring, atomic output files
   src/core/io/arrival_trace.cpp
   src/core/io/atomic_file.cpp

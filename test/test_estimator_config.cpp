@@ -846,4 +846,95 @@ TEST_F(EstimatorConfig, MotionSensorsRefusalsNameTheKey)
                   planar_)
                 .find("sensors.a.std: only for a sensor the model does not list"),
             std::string::npos);
+// gnss_alignment: enu (the default, world_frame is the ENU frame of the datum) or navsat_transform
+// (robot_localization's alignment); the navsat_transform keys only with it, and every refusal names
+// its key.
+TEST_F(EstimatorConfig, GnssAlignment)
+{
+  const std::string rover = write("rover.yaml",
+                                  "name: rover\nperiod: 0.05\nmotion: omni_2d\n"
+                                  "Q: [[1,0,0,0,0,0,0,0],[0,1,0,0,0,0,0,0],[0,0,1,0,0,0,0,0],[0,0,0,1,0,0,0,0],"
+                                  "[0,0,0,0,1,0,0,0],[0,0,0,0,0,1,0,0],[0,0,0,0,0,0,1,0],[0,0,0,0,0,0,0,1]]\n"
+                                  "sensors:\n"
+                                  "  - {name: odom, C: [[0,0,0,1,0,0,0,0],[0,0,0,0,0,1,0,0]], R: [[0.01,0],[0,0.01]]}\n"
+                                  "  - {name: imu, C: [[0,0,1,0,0,0,0,0]], R: [[0.01]]}\n"
+                                  "  - {name: gps, C: [[1,0,0,0,0,0,0,0],[0,1,0,0,0,0,0,0]], R: [[1,0],[0,1]]}\n");
+  const std::string odom = "odom: {type: nav_msgs/Odometry, fields: [twist.twist.linear.x, twist.twist.angular.z]}";
+  const std::string imu = "imu: {type: sensor_msgs/Imu, fields: [orientation.yaw]}";
+  const std::string gps = "gps: {type: sensor_msgs/NavSatFix, fields: [east, north]}";
+  const std::string mapping = "state_mapping: {x: 0, y: 1, yaw: 2}";
+  const std::string all = "algorithm: ekfio, " + mapping + ", sensors: {" + odom + ", " + imu + ", " + gps + "}";
+  // Default: enu, nothing of navsat_transform.
+  const ne::EstimatorNodeConfig enu = parse("{" + all + "}", rover);
+  EXPECT_FALSE(enu.gnss.navsat_transform);
+  EXPECT_EQ(enu.gnss.heading_sensor, -1);
+  EXPECT_FALSE(parse("{" + all + ", gnss_alignment: enu}", rover).gnss.navsat_transform);
+  // navsat_transform: the defaults, the first Imu input as the heading.
+  const ne::EstimatorNodeConfig d = parse("{" + all + ", gnss_alignment: navsat_transform}", rover);
+  EXPECT_TRUE(d.gnss.navsat_transform);
+  EXPECT_EQ(d.gnss.magnetic_declination, 0.0);
+  EXPECT_EQ(d.gnss.yaw_offset, 0.0);
+  EXPECT_FALSE(d.gnss.zero_altitude || d.gnss.use_odometry_yaw || d.gnss.publish_gps_odometry ||
+               d.gnss.publish_filtered_gps || d.gnss.broadcast_utm_transform);
+  EXPECT_EQ(d.gnss.heading_sensor, 1);
+  EXPECT_EQ(d.gnss.roll, -1);  // omni_2d: no roll or pitch state
+  // Every key read.
+  const ne::EstimatorNodeConfig c =
+      parse("{" + all + ", gnss_alignment: navsat_transform, magnetic_declination_radians: 0.2, yaw_offset: -1.5, "
+            "zero_altitude: true, publish_gps_odometry: true, publish_filtered_gps: true, "
+            "broadcast_utm_transform: true, gnss_heading: imu}", rover);
+  EXPECT_EQ(c.gnss.magnetic_declination, 0.2);
+  EXPECT_EQ(c.gnss.yaw_offset, -1.5);
+  EXPECT_TRUE(c.gnss.zero_altitude && c.gnss.publish_gps_odometry && c.gnss.publish_filtered_gps &&
+              c.gnss.broadcast_utm_transform);
+  EXPECT_EQ(c.gnss.heading_sensor, 1);
+  const ne::EstimatorNodeConfig o =
+      parse("{" + all + ", gnss_alignment: navsat_transform, use_odometry_yaw: true}", rover);
+  EXPECT_TRUE(o.gnss.use_odometry_yaw);
+  EXPECT_EQ(o.gnss.heading_sensor, -1);
+  // Without an Imu input: only with use_odometry_yaw.
+  const std::string no_imu = "algorithm: ekfio, " + mapping + ", sensors: {" + odom + ", " + gps +
+                             ", imu: {type: geometry_msgs/PoseStamped, fields: [pose.orientation.yaw]}}";
+  EXPECT_TRUE(parse("{" + no_imu + ", gnss_alignment: navsat_transform, use_odometry_yaw: true}", rover)
+                  .gnss.use_odometry_yaw);
+  const std::string p = "/est parameters: ";
+  EXPECT_EQ(error("{" + no_imu + ", gnss_alignment: navsat_transform}", rover),
+            p + "gnss_heading: gnss_alignment: navsat_transform needs base_link's earth-referenced heading at the "
+                "first fix: from a sensor_msgs/Imu input (none is configured) or, with use_odometry_yaw: true, from "
+                "the fused yaw");
+  // The keys only with navsat_transform.
+  for (const char* key : {"magnetic_declination_radians: 0.1", "yaw_offset: 0.1", "zero_altitude: true",
+                          "use_odometry_yaw: true", "publish_gps_odometry: true", "publish_filtered_gps: true",
+                          "broadcast_utm_transform: true", "gnss_heading: imu"})
+  {
+    const std::string name = std::string(key).substr(0, std::string(key).find(':'));
+    EXPECT_EQ(error("{" + all + ", " + key + "}", rover),
+              p + name + ": only with gnss_alignment: navsat_transform (found gnss_alignment: enu, where world_frame "
+                         "is the ENU frame of the datum)");
+  }
+  EXPECT_EQ(error("{" + all + ", gnss_alignment: utm}", rover).find(p + "gnss_alignment: "), 0u);
+  // navsat_transform needs a NavSatFix input and the pose in state_mapping.
+  EXPECT_EQ(error("{gnss_alignment: navsat_transform}"),
+            p + "gnss_alignment: navsat_transform needs a sensor_msgs/NavSatFix input (a sensors entry with type "
+                "sensor_msgs/NavSatFix); found none");
+  EXPECT_EQ(error("{algorithm: ekfio, state_mapping: {x: 0, y: 1}, sensors: {" + odom + ", " + imu + ", " + gps +
+                  "}, gnss_alignment: navsat_transform}", rover),
+            p + "gnss_alignment: navsat_transform needs base_link's world pose from the estimate: state_mapping.yaw "
+                "is not mapped");
+  // gnss_heading: a sensor of the model, of type Imu, not with use_odometry_yaw; the values' ranges.
+  EXPECT_EQ(error("{" + all + ", gnss_alignment: navsat_transform, gnss_heading: odom}", rover),
+            p + "gnss_heading: sensor 'odom' is nav_msgs/Odometry, expected sensor_msgs/Imu (its orientation yaw, "
+                "earth-referenced)");
+  EXPECT_EQ(error("{" + all + ", gnss_alignment: navsat_transform, gnss_heading: compass}", rover).find(
+                p + "gnss_heading"), 0u);
+  EXPECT_EQ(error("{" + all + ", gnss_alignment: navsat_transform, gnss_heading: imu, use_odometry_yaw: true}",
+                  rover),
+            p + "gnss_heading: not with use_odometry_yaw: true (the heading is then the fused yaw)");
+  for (const char* bad : {"magnetic_declination_radians: 4", "magnetic_declination_radians: .nan",
+                          "yaw_offset: 7", "yaw_offset: east", "zero_altitude: maybe", "publish_gps_odometry: 2"})
+  {
+    const std::string name = std::string(bad).substr(0, std::string(bad).find(':'));
+    EXPECT_EQ(error("{" + all + ", gnss_alignment: navsat_transform, " + bad + "}", rover).find(p + name), 0u)
+        << bad;
+  }
 }

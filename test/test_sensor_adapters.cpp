@@ -12,6 +12,7 @@
 
 #include "networked_estimation/common/random.hpp"
 #include "frame_transforms.hpp"
+#include "gnss_alignment.hpp"
 #include "input_preprocessing.hpp"
 #include "networked_estimation/online/motion_sensors.hpp"
 #include "odometry_output.hpp"
@@ -929,4 +930,144 @@ TEST(InputTransport, StatusFromTheBusInfo)
   EXPECT_TRUE(ne::transportStatus(tcp, "/fix", links).fallbacks.empty());
   tcp.tcp_nodelay = false;
   EXPECT_EQ(ne::transportStatus(tcp, "/fix", links).text, "tcp (tcp_nodelay: false)");
+}
+
+namespace
+{
+
+sensor_msgs::Imu imuWithYaw(double yaw, const std::string& frame)
+{
+  sensor_msgs::Imu m;
+  m.header.frame_id = frame;
+  m.orientation.z = std::sin(yaw / 2);
+  m.orientation.w = std::cos(yaw / 2);
+  return m;
+}
+
+}  // namespace
+
+// The nodelet's side of gnss_alignment: navsat_transform (gnss_alignment.hpp), without a master: a
+// robot whose odom has heading 0 at start faces 30 deg in ENU; its IMU reads the ENU heading minus a
+// declination of 0.2 rad; the antenna is 0.5 m ahead (tf base_link <- gps).
+TEST(GnssAligner, WaitsForAHeadingAndAnEstimateThenTakesFixesIntoWorld)
+{
+  const double heading = 30.0 * M_PI / 180.0, declination = 0.2;
+  ne::GnssAlignment opt;
+  opt.navsat_transform = true;
+  opt.magnetic_declination = declination;
+  opt.heading_sensor = 1;
+  ne::GnssAligner g(opt, "odom", "base_link");
+  tf2::Transform mount;
+  mount.setIdentity();
+  mount.setOrigin(tf2::Vector3(0.5, 0.0, 0.0));
+  bool have_pose = false;
+  ne::BasePose pose;  // odom at start: the origin, yaw 0
+  g.connect(tableFrames({{{"base_link", "gps"}, mount}}), [&](ne::BasePose& p) {
+    p = pose;
+    return have_pose;
+  });
+  const ne::LocalEnu datum(48.137, 11.575, 0.0);
+  sensor_msgs::NavSatFix fix;
+  fix.header.frame_id = "gps";
+  const Eigen::Vector3d antenna0(0.5 * std::cos(heading), 0.5 * std::sin(heading), 0.0);
+  boost::array<double, 9> cov = {0.16, 0, 0, 0, 0.04, 0, 0, 0, 1.0};
+  Eigen::Vector3d local = antenna0;
+  std::string why;
+  // No heading yet, then no estimate yet: not fused, counted.
+  EXPECT_EQ(g.apply(fix, datum, local, cov, why), ne::GnssStep::NOT_YET);
+  EXPECT_NE(why.find("no estimate"), std::string::npos) << why;
+  have_pose = true;
+  why.clear();
+  EXPECT_EQ(g.apply(fix, datum, local, cov, why), ne::GnssStep::NOT_YET);
+  EXPECT_NE(why.find("gnss_heading"), std::string::npos) << why;
+  EXPECT_EQ(g.notYet(), 2u);
+  EXPECT_FALSE(g.aligned());
+  // The heading comes: the next fix aligns and is base_link at the odom origin.
+  g.heading(imuWithYaw(heading - declination, "base_link"));
+  why.clear();
+  ASSERT_EQ(g.apply(fix, datum, local, cov, why), ne::GnssStep::OK) << why;
+  EXPECT_TRUE(g.aligned());
+  EXPECT_NEAR(g.yawDelta(), -heading, 1e-12);
+  EXPECT_LT(local.norm(), 1e-9) << local.transpose();
+  // The covariance rotated into odom (by -30 deg): xy = (0.16 - 0.04) cos(-30) sin(-30).
+  const double c = std::cos(-heading), s = std::sin(-heading);
+  EXPECT_NEAR(cov[0], 0.16 * c * c + 0.04 * s * s, 1e-12);
+  EXPECT_NEAR(cov[4], 0.16 * s * s + 0.04 * c * c, 1e-12);
+  EXPECT_NEAR(cov[1], 0.12 * c * s, 1e-12);
+  EXPECT_NEAR(cov[3], cov[1], 1e-15);
+  EXPECT_NEAR(cov[8], 1.0, 1e-12);
+  // Later: base_link at (10, 2) in odom with yaw 0.5; its antenna 0.5 m ahead, in ENU.
+  pose.position = Eigen::Vector3d(9.0, 1.0, 0.0);  // the estimate's position is not used, its yaw is
+  pose.yaw = 0.5;
+  const Eigen::Vector3d base_enu = ne::rotationRpy(0, 0, heading) * Eigen::Vector3d(10.0, 2.0, 0.0);
+  local = base_enu + ne::rotationRpy(0, 0, heading + 0.5) * Eigen::Vector3d(0.5, 0.0, 0.0);
+  ASSERT_EQ(g.apply(fix, datum, local, cov, why), ne::GnssStep::OK) << why;
+  EXPECT_LT((local - Eigen::Vector3d(10.0, 2.0, 0.0)).norm(), 1e-9) << local.transpose();
+  // A later heading does not move the alignment (it is made once).
+  g.heading(imuWithYaw(1.0, "base_link"));
+  local = base_enu + ne::rotationRpy(0, 0, heading + 0.5) * Eigen::Vector3d(0.5, 0.0, 0.0);
+  ASSERT_EQ(g.apply(fix, datum, local, cov, why), ne::GnssStep::OK) << why;
+  EXPECT_LT((local - Eigen::Vector3d(10.0, 2.0, 0.0)).norm(), 1e-9);
+  // A fix that is not finite is refused.
+  local = Eigen::Vector3d(std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0);
+  EXPECT_EQ(g.apply(fix, datum, local, cov, why), ne::GnssStep::BAD);
+  EXPECT_NE(why.find("not finite"), std::string::npos) << why;
+}
+
+TEST(GnssAligner, NoLeverArmTransformMeansZeroAndTheImuMountingIsRemoved)
+{
+  // The antenna's frame has no tf: the lever arm is zero (the fix is base_link's position). The
+  // IMU is mounted turned by 0.3 rad (tf base_link <- imu_link): its yaw minus 0.3 is base_link's.
+  const double heading = 30.0 * M_PI / 180.0;
+  ne::GnssAlignment opt;
+  opt.navsat_transform = true;
+  opt.yaw_offset = 0.1;
+  opt.heading_sensor = 0;
+  ne::GnssAligner g(opt, "odom", "base_link");
+  tf2::Transform imu_mount;
+  imu_mount.setIdentity();
+  tf2::Quaternion q;
+  q.setRPY(0.0, 0.0, 0.3);
+  imu_mount.setRotation(q);
+  g.connect(tableFrames({{{"base_link", "imu_link"}, imu_mount}}), [](ne::BasePose& p) {
+    p = ne::BasePose();
+    return true;
+  });
+  g.heading(imuWithYaw(heading - 0.1 + 0.3, "imu_link"));
+  const ne::LocalEnu datum(48.137, 11.575, 0.0);
+  sensor_msgs::NavSatFix fix;
+  fix.header.frame_id = "antenna_without_tf";
+  boost::array<double, 9> cov = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  Eigen::Vector3d local(3.0, 4.0, 0.0);
+  std::string why;
+  ASSERT_EQ(g.apply(fix, datum, local, cov, why), ne::GnssStep::OK) << why;
+  EXPECT_NEAR(g.yawDelta(), -heading, 1e-12);
+  EXPECT_LT(local.norm(), 1e-9);  // the first fix is base_link at the origin: no lever arm
+  // A point 10 m east of the first fix: in odom, 10 m along -30 deg.
+  local = Eigen::Vector3d(13.0, 4.0, 0.0);
+  ASSERT_EQ(g.apply(fix, datum, local, cov, why), ne::GnssStep::OK) << why;
+  EXPECT_NEAR(local.x(), 10.0 * std::cos(-heading), 1e-9);
+  EXPECT_NEAR(local.y(), 10.0 * std::sin(-heading), 1e-9);
+}
+
+TEST(GnssAligner, UseOdometryYawAlignsWithTheFusedYaw)
+{
+  // use_odometry_yaw: the world frame is taken as earth-aligned; the declination still applies.
+  ne::GnssAlignment opt;
+  opt.navsat_transform = true;
+  opt.use_odometry_yaw = true;
+  opt.magnetic_declination = 0.25;
+  ne::GnssAligner g(opt, "map", "base_link");
+  g.connect(tableFrames({}), [](ne::BasePose& p) {
+    p = ne::BasePose();
+    p.yaw = 1.0;
+    return true;
+  });
+  const ne::LocalEnu datum(48.137, 11.575, 0.0);
+  sensor_msgs::NavSatFix fix;
+  boost::array<double, 9> cov = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  Eigen::Vector3d local(0.0, 0.0, 0.0);
+  std::string why;
+  ASSERT_EQ(g.apply(fix, datum, local, cov, why), ne::GnssStep::OK) << why;
+  EXPECT_NEAR(g.yawDelta(), -0.25, 1e-12);
 }

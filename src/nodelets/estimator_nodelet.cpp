@@ -34,6 +34,14 @@ void EstimatorNodelet::onInit()
         return in.type == InputType::NAVSATFIX;
       }))
     datum_pub_ = pnh.advertise<sensor_msgs::NavSatFix>("datum", 1, true);
+  if (gnss_)
+    gnss_->start(nh, in_nh, inputs_, frames(), [this](BasePose& pose) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!stream_->online().started())
+        return false;
+      pose = basePoseOf(stream_->online().estimator().state(), state_map_, gnss_roll_, gnss_pitch_);
+      return true;
+    });
   for (std::size_t i = 0; i < model.sensors.size(); ++i)
   {
     const SensorInput& in = inputs_[i];
@@ -56,6 +64,11 @@ void EstimatorNodelet::onInit()
       onDisabled(i, stamp, receipt, why);
     };
     sink.datum = [this](const LocalEnu& d) { publishDatum(d); };
+    if (gnss_ && in.type == InputType::NAVSATFIX)
+      sink.gnss = [this](const sensor_msgs::NavSatFix& m, const LocalEnu& datum, Eigen::Vector3d& local,
+                         boost::array<double, 9>& cov, std::string& why) {
+        return gnss_->apply(m, datum, local, cov, why);
+      };
     sink.frames = frames();
     subs_.push_back(subscribeSensor(in_nh, in, queue_size_, sink, datum_));
     watchTransport(in_nh, i);
@@ -231,6 +244,12 @@ void EstimatorNodelet::configure(ros::NodeHandle& pnh)
   base_link_frame_ = c.base_link_frame;
   odom_frame_ = c.odom_frame;
   datum_ = c.datum;
+  if (c.gnss.navsat_transform)
+  {
+    gnss_ = std::make_unique<GnssAligner>(c.gnss, c.world_frame, c.base_link_frame);
+    gnss_roll_ = c.gnss.roll;
+    gnss_pitch_ = c.gnss.pitch;
+  }
   frame_id_ = c.frame_id;
   child_frame_id_ = c.child_frame_id;
   positions_ = c.position_indices;

@@ -80,6 +80,8 @@ public:
     for (ros::Subscriber& s : subs_)
       s.shutdown();
     cmd_sub_.shutdown();
+    if (gnss_)
+      gnss_->stop();
     schedule_sub_.shutdown();
     tf_sub_.shutdown();
     tf_static_sub_.shutdown();
@@ -161,6 +163,8 @@ private:
   /// Publishes one step's outputs (mutex held).
   void publishLocked(const Estimate::Ptr& e);
 
+  /// gps/filtered of one estimate (gnss_alignment: navsat_transform, publish_filtered_gps).
+  void publishFilteredGps(const Estimate& e);
   /// odometry/filtered of one estimate (~state_mapping, world_frame -> base_link_frame).
   void publishOdometry(const Estimate& e);
 
@@ -225,6 +229,9 @@ private:
   std::string world_frame_, base_link_frame_, odom_frame_;
   std::vector<double> datum_;
   ros::Publisher datum_pub_;
+  /// gnss_alignment: navsat_transform (gnss_alignment.hpp); null with enu.
+  std::unique_ptr<GnssAligner> gnss_;
+  int gnss_roll_ = -1, gnss_pitch_ = -1;
   std::vector<int> positions_;
   bool publish_tf_ = true;
   double trace_bound_ = std::numeric_limits<double>::infinity();

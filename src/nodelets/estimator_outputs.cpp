@@ -37,6 +37,8 @@ void EstimatorNodelet::publishLocked(const Estimate::Ptr& e)
       last_step_ = e;  // odometry/filtered and tf come from predictTimer()
     else if (odom_pub_.getNumSubscribers() > 0)
       publishOdometry(*e);
+    if (gnss_ && gnss_->wantsFiltered())
+      publishFilteredGps(*e);
     const bool want_pose = pose_pub_.getNumSubscribers() > 0;
     if (publish_tf_ && !predict_to_current_time_)
     {
@@ -68,6 +70,20 @@ void EstimatorNodelet::publishLocked(const Estimate::Ptr& e)
         p->pose.covariance[a * 6 + b] = e->covariance[static_cast<std::size_t>(positions_[a]) * n + positions_[b]];
     pose_pub_.publish(p);
   }
+}
+
+void EstimatorNodelet::publishFilteredGps(const Estimate& e)
+{
+  const int n = static_cast<int>(e.state.size());
+  const Eigen::Map<const Eigen::VectorXd> x(e.state.data(), n);
+  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> P(
+      e.covariance.data(), n, n);
+  const int xyz[3] = {state_map_.x, state_map_.y, state_map_.z};
+  Eigen::Matrix3d Pw = Eigen::Matrix3d::Zero();
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b)
+      Pw(a, b) = xyz[a] >= 0 && xyz[b] >= 0 ? P(xyz[a], xyz[b]) : (a == b ? kUnmappedVariance : 0.0);
+  gnss_->publishFiltered(basePoseOf(x, state_map_, gnss_roll_, gnss_pitch_), Pw, e.header.stamp);
 }
 
 void EstimatorNodelet::publishOdometry(const Estimate& e)
@@ -302,6 +318,17 @@ void EstimatorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   stat.add("late fused", c.late_fused);
   stat.add("duplicates", c.duplicates);
   stat.add("rejected", rejectedLocked());
+  if (gnss_)
+  {
+    const bool aligned = gnss_->aligned();
+    stat.add("GNSS aligned (navsat_transform)", aligned ? "yes" : "no");
+    if (aligned)
+      stat.add("GNSS world_T_enu yaw (rad)", gnss_->yawDelta());
+    else if (gnss_->notYet() > 0)  // fixes came and could not be used yet
+      stat.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
+                         "GNSS not aligned yet: %lu fixes not fused (waiting for a heading and an estimate)",
+                         static_cast<unsigned long>(gnss_->notYet()));
+  }
   stat.add("missing commands", c.missing_commands);
   stat.add("covariance fallbacks", covariance_fallbacks_);
   if (stream_->offsetCount() > 0)
@@ -364,6 +391,8 @@ void EstimatorNodelet::diagnoseSensors(diagnostic_updater::DiagnosticStatusWrapp
       stat.add(name + " without estimate (covariance -1)", c.disabled_per_sensor[i]);
     else if (inputs_[i].differential)
       stat.add(name + " reference poses (differential)", c.disabled_per_sensor[i]);
+    else if (gnss_ && inputs_[i].type == InputType::NAVSATFIX)
+      stat.add(name + " fixes before the GNSS alignment (not fused)", c.disabled_per_sensor[i]);
     if (f.late_fraction > 0.01)
       stat.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
                          "sensor '%s': %.1f %% of its messages over the last %d s late or refused (delay p99 %.0f ms, "

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "frame_transforms.hpp"
+#include "gnss_alignment.hpp"
 #include "input_preprocessing.hpp"
 #include "sensor_adapters.hpp"
 #include "transport_watch.hpp"
@@ -34,6 +35,12 @@ struct SensorSink
   std::function<void(const ros::Time& stamp, const ros::Time& receipt, const std::string& why)> disabled;
   /// NavSatFix only: a fix became the datum.
   std::function<void(const LocalEnu& datum)> datum;
+  /// NavSatFix with gnss_alignment: navsat_transform: the fix's ENU antenna position and ENU
+  /// covariance (row-major) in place into base_link's world position and world covariance
+  /// (GnssAligner::apply); NOT_YET goes to `disabled`. Empty: ENU about the datum is world_frame.
+  std::function<GnssStep(const sensor_msgs::NavSatFix& m, const LocalEnu& datum, Eigen::Vector3d& local,
+                         boost::array<double, 9>& cov, std::string& why)>
+      gnss;
   /// The model's frames and the tf2 lookup (frame_transforms.hpp); no lookup: frames are not used.
   Frames frames;
 };
@@ -150,9 +157,23 @@ inline ros::Subscriber subscribeNavSatFix(ros::NodeHandle& nh, const SensorInput
         }
         if (new_datum && sink.datum)
           sink.datum(*enu->datum());
+        boost::array<double, 9> cov = m->position_covariance;  // ENU already (sensor_msgs/NavSatFix)
+        if (sink.gnss)
+          switch (sink.gnss(*m, *enu->datum(), local, cov, why))
+          {
+            case GnssStep::OK:
+              break;
+            case GnssStep::NOT_YET:
+              if (sink.disabled)
+                sink.disabled(m->header.stamp, e.getReceiptTime(), why);
+              return;
+            case GnssStep::BAD:
+              sink.bad(why);
+              return;
+          }
         MessageView v;
         v.enu = &local;
-        v.enu_cov = m->position_covariance.data();  // ENU already (sensor_msgs/NavSatFix)
+        v.enu_cov = cov.data();
         v.enu_cov_type = m->position_covariance_type;
         deliver(in, v, m->header.stamp, e.getReceiptTime(), sink);
       }, in.transport);

@@ -21,12 +21,31 @@ class Node;
 namespace networked_estimation
 {
 
+class ParamReader;
+
 /// Which state entries the Odometry output takes as x, y, z, roll, pitch, yaw, the linear velocity
 /// vx, vy, vz and the angular rates (-1: not in the state).
 struct StateMap
 {
   int x = -1, y = -1, z = -1, roll = -1, pitch = -1, yaw = -1;
   int vx = -1, vy = -1, vz = -1, roll_rate = -1, pitch_rate = -1, yaw_rate = -1;
+};
+
+/// How NavSatFix inputs reach world_frame (docs/ros_interface.md "GNSS alignment").
+struct GnssAlignment
+{
+  /// false (gnss_alignment: enu): ENU about the datum is world_frame; true (navsat_transform):
+  /// ENU is tied to world_frame at the first usable fix, as robot_localization's navsat_transform.
+  bool navsat_transform = false;
+  double magnetic_declination = 0.0;  ///< magnetic_declination_radians
+  double yaw_offset = 0.0;
+  bool zero_altitude = false, use_odometry_yaw = false;
+  bool publish_gps_odometry = false, publish_filtered_gps = false, broadcast_utm_transform = false;
+  /// gnss_heading: the sensor (model index) whose sensor_msgs/Imu orientation yaw is earth-referenced;
+  /// -1 with use_odometry_yaw.
+  int heading_sensor = -1;
+  /// The state entries of roll and pitch (omni_3d; -1: none, taken as 0) for the lever arm.
+  int roll = -1, pitch = -1;
 };
 
 struct EstimatorNodeConfig
@@ -51,6 +70,8 @@ struct EstimatorNodeConfig
   /// NavSatFix inputs: the ENU origin [latitude, longitude, altitude] (degrees, m); empty = the
   /// first valid fix.
   std::vector<double> datum;
+  /// gnss_alignment and the navsat_transform keys (parseGnssAlignment).
+  GnssAlignment gnss;
   std::string frame_id = "map";
   std::string child_frame_id;      ///< default: "<algorithm>_estimate"
   std::vector<int> position_indices;  ///< default: the motion's x, y(, z); else [0, 1] (or [0] for n = 1)
@@ -83,9 +104,18 @@ struct EstimatorNodeConfig
 /// max_past_steps, input_type, frame_id, child_frame_id, position_indices, publish_tf,
 /// predict_to_current_time, frequency (only with predict_to_current_time), trace_bound,
 /// queue_size, live_stability, link_model, stability_window, stability_min_samples, sensors.<name>.{topic, type,
-/// fields, std, rate, transport, tcp_nodelay}, datum, command.{topic, type, fields, transport, tcp_nodelay}, world_frame, base_link_frame, odom_frame, state_mapping.{x, y, z, roll, pitch, yaw, vx, vy, vz, roll_rate, pitch_rate, yaw_rate}; diagnostic_period is left to
+/// fields, std, rate, transport, tcp_nodelay}, datum, command.{topic, type, fields, transport, tcp_nodelay}, world_frame, base_link_frame, odom_frame, state_mapping.{x, y, z, roll, pitch, yaw, vx, vy, vz, roll_rate, pitch_rate, yaw_rate}, the GNSS keys of parseGnssAlignment; diagnostic_period is left to
 /// diagnostic_updater). Throws ConfigError naming `source` and the key, also for an unknown key,
 /// a model file that cannot be read, an empty frame name, and ack_kf (the graph does not carry nu_k).
+/// gnss_alignment: enu | navsat_transform, and with navsat_transform only:
+/// magnetic_declination_radians, yaw_offset, zero_altitude, use_odometry_yaw, publish_gps_odometry,
+/// publish_filtered_gps, broadcast_utm_transform, gnss_heading. Takes its keys from `p`; `c` has its
+/// model, inputs and state_map already. Throws ConfigError naming the key: a key without
+/// navsat_transform, navsat_transform without a NavSatFix input or without x, y and yaw in
+/// state_mapping, gnss_heading not an Imu input reading orientation.yaw, no Imu input without
+/// use_odometry_yaw.
+GnssAlignment parseGnssAlignment(ParamReader& p, const EstimatorNodeConfig& c);
+
 EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std::string& source);
 
 }  // namespace networked_estimation

@@ -123,6 +123,71 @@ void parseSensorInputs(const YAML::Node& block, const std::string& source, Estim
 
 }  // namespace
 
+GnssAlignment parseGnssAlignment(ParamReader& p, const EstimatorNodeConfig& c)
+{
+  const std::string& source = p.source();
+  GnssAlignment g;
+  const char* keys[] = {"magnetic_declination_radians", "yaw_offset", "zero_altitude", "use_odometry_yaw",
+                        "publish_gps_odometry", "publish_filtered_gps", "broadcast_utm_transform", "gnss_heading"};
+  g.navsat_transform = p.choice("gnss_alignment", "enu", {"enu", "navsat_transform"}) == "navsat_transform";
+  const bool has_fix = std::any_of(c.inputs.begin(), c.inputs.end(),
+                                   [](const SensorInput& in) { return in.type == InputType::NAVSATFIX; });
+  if (!g.navsat_transform)
+  {
+    for (const char* key : keys)
+      if (p.has(key))
+        throw ConfigError(source + ": " + key + ": only with gnss_alignment: navsat_transform (found gnss_alignment: "
+                          "enu, where world_frame is the ENU frame of the datum)");
+    return g;
+  }
+  if (!has_fix)
+    throw ConfigError(source + ": gnss_alignment: navsat_transform needs a sensor_msgs/NavSatFix input (a sensors "
+                      "entry with type sensor_msgs/NavSatFix); found none");
+  const std::pair<const char*, int> needed[] = {
+      {"x", c.state_map.x}, {"y", c.state_map.y}, {"yaw", c.state_map.yaw}};
+  for (const auto& n : needed)
+    if (n.second < 0)
+      throw ConfigError(source + ": gnss_alignment: navsat_transform needs base_link's world pose from the estimate: "
+                        "state_mapping." + n.first + " is not mapped");
+  if (c.model.motion == Motion::OMNI_3D)
+  {
+    const std::vector<std::string>& names = motionStateNames(c.model.motion);
+    g.roll = static_cast<int>(std::find(names.begin(), names.end(), "roll") - names.begin());
+    g.pitch = static_cast<int>(std::find(names.begin(), names.end(), "pitch") - names.begin());
+  }
+  const double pi = 3.14159265358979323846;
+  g.magnetic_declination = p.number("magnetic_declination_radians", 0.0, -pi, pi);
+  g.yaw_offset = p.number("yaw_offset", 0.0, -2.0 * pi, 2.0 * pi);
+  g.zero_altitude = p.flag("zero_altitude", false);
+  g.use_odometry_yaw = p.flag("use_odometry_yaw", false);
+  g.publish_gps_odometry = p.flag("publish_gps_odometry", false);
+  g.publish_filtered_gps = p.flag("publish_filtered_gps", false);
+  g.broadcast_utm_transform = p.flag("broadcast_utm_transform", false);
+  if (p.has("gnss_heading"))
+  {
+    const std::string name = p.text("gnss_heading", "");
+    const std::string key = source + ": gnss_heading";
+    if (g.use_odometry_yaw)
+      throw ConfigError(key + ": not with use_odometry_yaw: true (the heading is then the fused yaw)");
+    const std::size_t i = sensorIndex(c.model, name, key);
+    if (c.inputs[i].type != InputType::IMU)
+      throw ConfigError(key + ": sensor '" + name + "' is " + toString(c.inputs[i].type) +
+                        ", expected sensor_msgs/Imu (its orientation yaw, earth-referenced)");
+    g.heading_sensor = static_cast<int>(i);
+  }
+  else if (!g.use_odometry_yaw)
+  {
+    for (std::size_t i = 0; i < c.inputs.size() && g.heading_sensor < 0; ++i)
+      if (c.inputs[i].type == InputType::IMU)
+        g.heading_sensor = static_cast<int>(i);
+    if (g.heading_sensor < 0)
+      throw ConfigError(source + ": gnss_heading: gnss_alignment: navsat_transform needs base_link's earth-referenced "
+                        "heading at the first fix: from a sensor_msgs/Imu input (none is configured) or, with "
+                        "use_odometry_yaw: true, from the fused yaw");
+  }
+  return g;
+}
+
 EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std::string& source)
 {
   ParamReader p(params, source);
@@ -339,6 +404,7 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
     }
     q.rejectUnknown();
   }
+  c.gnss = parseGnssAlignment(p, c);
   const double inf = std::numeric_limits<double>::infinity();
   rt.trace_bound = p.number("trace_bound", inf, 0.0, inf);
   RuntimeLimits limits;
