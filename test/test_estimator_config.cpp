@@ -564,6 +564,10 @@ TEST_F(EstimatorConfig, RobotTemplateParses)
   EXPECT_EQ(c.state_map.yaw_rate, 5);
   EXPECT_EQ(c.child_frame_id, c.base_link_frame);
   EXPECT_TRUE(c.runtime.adaptive_latency);
+  // GNSS aligned as navsat_transform does, the heading from the IMU input
+  EXPECT_TRUE(c.gnss.navsat_transform);
+  EXPECT_EQ(c.gnss.heading_sensor, 1);
+  EXPECT_TRUE(c.gnss.publish_gps_odometry);
 }
 
 // The runtime settings (dynamic_reconfigure) get the load's checks, as a whole: NaN, out of range,
@@ -846,6 +850,8 @@ TEST_F(EstimatorConfig, MotionSensorsRefusalsNameTheKey)
                   planar_)
                 .find("sensors.a.std: only for a sensor the model does not list"),
             std::string::npos);
+}
+
 // gnss_alignment: enu (the default, world_frame is the ENU frame of the datum) or navsat_transform
 // (robot_localization's alignment); the navsat_transform keys only with it, and every refusal names
 // its key.
