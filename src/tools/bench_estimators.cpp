@@ -12,6 +12,10 @@
 // yaw, vyaw, ax, ay, m = 7; n = 15: omni_3d with odometry vx, vy, vz, vyaw and an IMU of the three
 // angles, rates and accelerations, m = 13; each sensor lost with probability 0.2) next to
 // kfio_omni, kfio on the motion's linearisation at x0: the same n, m and data, target ekfio <= 2x.
+// fixed_riccati (n = 2, 4, 8) is the covariance recursion alone, hand-written with fixed-size Eigen
+// types, one step in five lost, and kfio_covariance_only the Estimator's covariance-only step
+// (setCovarianceOnly) on the same arrivals: the floor of a covariance-only Monte Carlo step
+// (montecarlo --experiment covariance) and what the estimator takes for it.
 //
 // The benchmarks are registered normally, so every --benchmark_* flag works (filter, out, ...).
 // After the run a summary table prints, per algorithm and n, the median and the minimum time per
@@ -124,18 +128,50 @@ void benchFixed(benchmark::State& state)
   }
 }
 
+/// fixed_riccati: FixedKalman's covariance recursion alone (no mean), arrivals as in sampleRing with
+/// one step in five lost: the floor of a covariance-only Monte Carlo step at this n (the estimators'
+/// own covariance-only step, kfio_covariance_only, adds the Estimator's checks and bookkeeping).
+template <int N>
+void benchFixedRiccati(benchmark::State& state)
+{
+  const Model model = benchModel(N);
+  auto kf = std::make_unique<FixedKalman<N>>(model);
+  std::size_t i = 0;
+  for (auto _ : state)
+  {
+    kf->covarianceStep(i % 5 != 4);
+    ++i;
+  }
+  benchmark::DoNotOptimize(kf->covariance().data());
+  if (!kf->covariance().allFinite())
+  {
+    state.SkipWithError("fixed-size covariance not finite");
+  }
+}
+
 struct EstimatorCase
 {
   Algorithm algorithm;
   bool arrival;
   detail::SizeChoice form = detail::SizeChoice::AUTOMATIC;  ///< DYNAMIC: the general form at any size
   bool angle = false;  ///< state 0 an angle (benchModel)
+  bool covariance_only = false;  ///< Estimator::setCovarianceOnly: P alone (one step in five lost)
 };
 
 void benchEstimator(benchmark::State& state, EstimatorCase c)
 {
   const Model model = benchModel(sizeArg(state), c.angle);
-  const std::vector<Sample> ring = sampleRing(model, c.arrival);
+  std::vector<Sample> ring = sampleRing(model, c.arrival);
+  if (c.covariance_only)
+  {
+    // what a covariance-only run gives the estimator: y 0 where it arrived, NaN where it was lost
+    for (std::size_t k = 0; k < ring.size(); ++k)
+    {
+      ring[k].gamma = k % 5 != 4;
+      ring[k].y = Eigen::VectorXd::Constant(model.m(), ring[k].gamma ? 0.0 : std::numeric_limits<double>::quiet_NaN());
+      ring[k].u.resize(0);
+    }
+  }
   EstimatorSettings settings;
   settings.algorithm = c.algorithm;
   settings.mu = 0.8;
@@ -147,6 +183,11 @@ void benchEstimator(benchmark::State& state, EstimatorCase c)
   try
   {
     est = detail::makeEstimator(model, settings, c.form);
+    if (c.covariance_only && !est->setCovarianceOnly(true))
+    {
+      state.SkipWithError("no covariance-only mode");
+      return;
+    }
     // warm up: oe reaches its component cap, caches and workspaces are sized
     for (int k = 0; k < 2 * kRingSize; ++k)
     {
@@ -275,6 +316,14 @@ void registerBenchmarks()
   configure(benchmark::RegisterBenchmark("fixed_kf", benchFixed<2>), {2});
   configure(benchmark::RegisterBenchmark("fixed_kf", benchFixed<4>), {4});
   configure(benchmark::RegisterBenchmark("fixed_kf", benchFixed<8>), {8});
+  // the covariance recursion alone: the hand-written floor and the estimator's covariance-only step
+  configure(benchmark::RegisterBenchmark("fixed_riccati", benchFixedRiccati<2>), {2});
+  configure(benchmark::RegisterBenchmark("fixed_riccati", benchFixedRiccati<4>), {4});
+  configure(benchmark::RegisterBenchmark("fixed_riccati", benchFixedRiccati<8>), {8});
+  configure(benchmark::RegisterBenchmark(
+                "kfio_covariance_only", benchEstimator,
+                EstimatorCase{Algorithm::KFIO, true, detail::SizeChoice::AUTOMATIC, false, true}),
+            {2, 4, 8});
   const std::vector<std::pair<const char*, EstimatorCase>> cases = {
     {"kf", {Algorithm::KF, true}},
     {"kfio", {Algorithm::KFIO, true}},

@@ -234,7 +234,28 @@ public:
     P_ = 0.5 * (Pn + Pn.transpose());
   }
 
+  /// The covariance recursion alone (the random Riccati recursion of a covariance-only Monte Carlo run):
+  /// the prediction, then the update when the measurement arrived, in the same form as the
+  /// estimators' (Cholesky of S, P - W'W, mirrored), without the mean.
+  void covarianceStep(bool arrived)
+  {
+    Pp_.noalias() = A_ * P_;
+    P_ = Q_;
+    P_.noalias() += Pp_ * A_.transpose();
+    if (arrived)
+    {
+      MatMN W = C_ * P_;
+      MatM S = R_;
+      S.noalias() += W * C_.transpose();
+      const Eigen::LLT<MatM> llt(S);
+      llt.matrixL().solveInPlace(W);
+      P_.noalias() -= W.transpose() * W;
+      P_.template triangularView<Eigen::StrictlyUpper>() = P_.transpose();
+    }
+  }
+
   const VecN& state() const { return x_; }
+  const MatN& covariance() const { return P_; }
 
 private:
   MatN A_;
@@ -244,6 +265,7 @@ private:
   MatN Q_;
   VecN x_;
   MatN P_;
+  MatN Pp_;  ///< covarianceStep's workspace
 };
 
 

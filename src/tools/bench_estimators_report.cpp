@@ -181,6 +181,8 @@ void printSummary(const std::map<Key, Timing>& timings, bool cpu_time, std::size
     {"rseio_arrival_dyn", "rseio_arrival_dynamic", false, 0.0},
     {"aoe", "aoe", false, 2.0},
     {"aoe_dynamic", "aoe_dynamic", false, 0.0},
+    {"fixed_riccati", "fixed_riccati", false, 0.0},
+    {"kfio_cov_only", "kfio_covariance_only", false, 0.0},
   };
   std::vector<int> sizes;
   std::size_t reps = 0;
