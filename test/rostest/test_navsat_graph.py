@@ -129,9 +129,12 @@ class NavSatDrive(unittest.TestCase):
         fix_pub = rospy.Publisher("/fix", NavSatFix, queue_size=100)
         master = rosgraph.Master(rospy.get_name())
 
+        # the node whose subscriptions are the Estimator's: itself standalone, its manager when loaded
+        estimator_node = rospy.get_param("~estimator_node", "/estimator")
+
         def subscribed(topic):
             _, subs, _ = master.getSystemState()
-            return any(t == topic and "/estimator" in nodes for t, nodes in subs)
+            return any(t == topic and estimator_node in nodes for t, nodes in subs)
 
         end = time.time() + WAIT
         while not all(subscribed(t) for t in ("/odom", "/imu", "/fix")) or odom_pub.get_num_connections() < 1 or \
@@ -160,6 +163,11 @@ class NavSatDrive(unittest.TestCase):
             o.twist.twist.linear.x = v + rng.gauss(0.0, 0.05)
             o.twist.twist.linear.y = rng.gauss(0.0, 0.05)
             o.twist.twist.angular.z = w + rng.gauss(0.0, 0.02)
+            # its covariance, as a wheel odometry driver gives it (read by covariance: message, the
+            # imported configuration's; the 1e6 of the axes it does not measure are never selected)
+            o.twist.covariance = [0.0] * 36
+            for i, var in enumerate((0.05 ** 2, 0.05 ** 2, 1e6, 1e6, 1e6, 0.02 ** 2)):
+                o.twist.covariance[7 * i] = var
             odom_pub.publish(o)
             if t < IMU_FROM:  # no IMU yet (the same draws as if published: the noise does not depend on it)
                 rng.gauss(0.0, 0.005)
@@ -233,7 +241,8 @@ class NavSatDrive(unittest.TestCase):
         # the fixes before the IMU's first heading are not fused, and counted in the diagnostics
         early = sum(1 for f in fixes if (f - t0).to_sec() < IMU_FROM)
         end = time.time() + WAIT
-        key = "gps fixes before the GNSS alignment (not fused)"
+        # the GNSS sensor's name: gps here, the importer's odom1 in estimator_navsat_imported.test
+        key = rospy.get_param("~gps_sensor", "gps") + " fixes before the GNSS alignment (not fused)"
 
         def not_fused():
             for st in reversed(diagnostics):
