@@ -1071,3 +1071,40 @@ TEST(GnssAligner, UseOdometryYawAlignsWithTheFusedYaw)
   ASSERT_EQ(g.apply(fix, datum, local, cov, why), ne::GnssStep::OK) << why;
   EXPECT_NEAR(g.yawDelta(), -0.25, 1e-12);
 }
+
+// After the filter starts over (a time jump), the alignment is made again at the next fix: the
+// world frame was anchored again, at wherever the robot then is.
+TEST(GnssAligner, RestartAlignsAgainAtTheNextFix)
+{
+  ne::GnssAlignment opt;
+  opt.navsat_transform = true;
+  opt.heading_sensor = 0;
+  ne::GnssAligner g(opt, "odom", "base_link");
+  ne::BasePose pose;  // the origin of odom, yaw 0
+  g.connect(tableFrames({}), [&](ne::BasePose& p) {
+    p = pose;
+    return true;
+  });
+  g.heading(imuWithYaw(0.5, "base_link"));
+  const ne::LocalEnu datum(48.137, 11.575, 0.0);
+  sensor_msgs::NavSatFix fix;
+  boost::array<double, 9> cov = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  Eigen::Vector3d local(3.0, 4.0, 0.0);
+  std::string why;
+  ASSERT_EQ(g.apply(fix, datum, local, cov, why), ne::GnssStep::OK) << why;
+  EXPECT_NEAR(g.yawDelta(), -0.5, 1e-12);
+  EXPECT_LT(local.norm(), 1e-9);
+  // Without a restart a new heading does not move it; after one, the next fix aligns again: the
+  // fix at ENU (20, 0) is the new odom origin, with the new heading 1.0.
+  g.heading(imuWithYaw(1.0, "base_link"));
+  local = Eigen::Vector3d(20.0, 0.0, 0.0);
+  ASSERT_EQ(g.apply(fix, datum, local, cov, why), ne::GnssStep::OK) << why;
+  EXPECT_GT(local.norm(), 10.0);
+  g.restart();
+  EXPECT_FALSE(g.aligned());
+  local = Eigen::Vector3d(20.0, 0.0, 0.0);
+  ASSERT_EQ(g.apply(fix, datum, local, cov, why), ne::GnssStep::OK) << why;
+  EXPECT_TRUE(g.aligned());
+  EXPECT_NEAR(g.yawDelta(), -1.0, 1e-12);
+  EXPECT_LT(local.norm(), 1e-9) << local.transpose();
+}

@@ -265,6 +265,8 @@ void EstimatorNodelet::configure(ros::NodeHandle& pnh)
   stream_->on_restart = [this](const std::string& why) {
     if (live_)
       live_->clear();
+    if (gnss_)
+      gnss_->restart();  // the world frame is anchored again: so is the GNSS alignment
     NODELET_WARN("Estimator %s: %s", toString(settings_.algorithm).c_str(), why.c_str());
   };
   limits_.period = c.period;

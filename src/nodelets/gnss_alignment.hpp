@@ -225,6 +225,16 @@ public:
   }
   bool wantsFiltered() const { return static_cast<bool>(filtered_pub_); }
 
+  /// The filter started over (a time jump restarts the stream from the model's x0): the world frame
+  /// it estimates in is anchored again, so the ENU -> world transform is made again at the next fix
+  /// that has a heading, and the lever arm looked up again. The heading and the counts are kept.
+  void restart()
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    align_ = NavSatAlignment(opt_.zero_altitude);
+    lever_known_ = false;
+  }
+
   /// For the diagnostics.
   bool aligned()
   {
