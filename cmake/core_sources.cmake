@@ -55,6 +55,7 @@ set(NE_CORE_SOURCES
   # link estimates the live monitors share with them, the trace-driven channel (model: trace)
   src/core/link/channel_trace.cpp
   src/core/link/link_estimates.cpp
+  src/core/link/delay_fit.cpp
   src/core/link/link_fit.cpp
   src/core/link/link_report.cpp
   src/core/link/link_trace.cpp
