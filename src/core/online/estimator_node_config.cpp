@@ -149,12 +149,10 @@ GnssAlignment parseGnssAlignment(ParamReader& p, const EstimatorNodeConfig& c)
     if (n.second < 0)
       throw ConfigError(source + ": gnss_alignment: navsat_transform needs base_link's world pose from the estimate: "
                         "state_mapping." + n.first + " is not mapped");
-  if (c.model.motion == Motion::OMNI_3D)
-  {
-    const std::vector<std::string>& names = motionStateNames(c.model.motion);
-    g.roll = static_cast<int>(std::find(names.begin(), names.end(), "roll") - names.begin());
-    g.pitch = static_cast<int>(std::find(names.begin(), names.end(), "pitch") - names.begin());
-  }
+  // The motion's roll and pitch states (omni_3d; none under omni_2d or a linear model).
+  const StateMap motion_states = motionStateMap(c.model.motion);
+  g.roll = motion_states.roll;
+  g.pitch = motion_states.pitch;
   const double pi = 3.14159265358979323846;
   g.magnetic_declination = p.number("magnetic_declination_radians", 0.0, -pi, pi);
   g.yaw_offset = p.number("yaw_offset", 0.0, -2.0 * pi, 2.0 * pi);
