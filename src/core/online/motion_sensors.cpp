@@ -64,23 +64,22 @@ YAML::Node deriveSensor(Motion motion, const std::string& name, const YAML::Node
   for (InputType t : sensorInputTypes())
     if (!inputFields(t).empty())
       allowed.push_back(t);
-  const InputType type = inputTypeFromString(p.text("type", ""), key + ".type", allowed);
-  const YAML::Node fields = p.take("fields");
-  if (!fields.IsSequence() || fields.size() == 0)
-    throw ConfigError(key + ".fields: expected a list of " + toString(type) +
-                      " fields, one per row (each names the state of motion " + toString(motion) + " it measures)");
+  // The type and fields by the sensors block's own grammar (parseInputBlock), one row per field.
+  const YAML::Node listed = block["fields"];
+  SensorInput in;
+  in.topic = "-";  // read (and defaulted) by the nodelet's parse
+  parseInputBlock(p, key, allowed, listed.IsDefined() && listed.IsSequence() ? static_cast<int>(listed.size()) : 0,
+                  "row (each names the state of motion " + toString(motion) + " it measures)", in);
   const bool differential = p.flag("differential", false);
   const std::vector<std::string>& states = motionStateNames(motion);
   const int n = motionStates(motion);
-  const int rows = static_cast<int>(fields.size());
+  const int rows = static_cast<int>(in.fields.size());
   YAML::Node C(YAML::NodeType::Sequence);
   std::vector<int> measured;
   for (int i = 0; i < rows; ++i)
   {
     const std::string at = key + ".fields[" + std::to_string(i) + "]";
-    if (!fields[i].IsScalar())
-      throw ConfigError(at + ": expected a field name");
-    const InputField f = inputFieldFromString(type, fields[i].Scalar(), at);
+    const InputField& f = in.fields[static_cast<std::size_t>(i)];
     const int state = motionState(motion, f, differential);
     if (state < 0)
     {
