@@ -54,8 +54,8 @@ set(NE_CORE_SOURCES
   # link/: a recorded link (bags, trace CSVs) and its loss and delay fits (fit_link, analyze --bag), the
   # link estimates the live monitors share with them, the trace-driven channel (model: trace)
   src/core/link/channel_trace.cpp
-  src/core/link/link_estimates.cpp
   src/core/link/delay_fit.cpp
+  src/core/link/link_estimates.cpp
   src/core/link/link_fit.cpp
   src/core/link/link_report.cpp
   src/core/link/link_trace.cpp
