@@ -26,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "networked_estimation/common/covariance.hpp"
 #include "networked_estimation/geodesy/local_enu.hpp"
 #include "networked_estimation/online/sensor_inputs.hpp"
 
@@ -298,19 +299,18 @@ inline CovarianceRead readCovariance(InputType type, const MessageView& v, const
     why = "covariance all zeros";
     return CovarianceRead::FALLBACK;
   }
-  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> M(
-      R, static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+  // R is row-major; its column-major reading is R', whose checks give the same verdict.
+  const Eigen::Map<const Eigen::MatrixXd> M(R, static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+  const CovarianceCheck check = checkCovariance(M, Definiteness::POSITIVE);
+  if (check.ok())
+    return CovarianceRead::OK;
   std::string names;
   for (const InputField& f : fields)
     names += (names.empty() ? "" : ", ") + f.name;
-  if (!M.allFinite())
-    why = "covariance of [" + names + "] is not finite";
-  else if (!((M - M.transpose()).cwiseAbs().maxCoeff() <= 1e-9 * M.cwiseAbs().maxCoeff()))
-    why = "covariance of [" + names + "] is not symmetric";
-  else if (Eigen::LLT<Eigen::MatrixXd>(M).info() != Eigen::Success)
-    why = "covariance of [" + names + "] is not positive definite";
-  else
-    return CovarianceRead::OK;
+  why = "covariance of [" + names + "] is " +
+        (check.problem == CovarianceCheck::Problem::NOT_FINITE      ? "not finite"
+         : check.problem == CovarianceCheck::Problem::NOT_SYMMETRIC ? "not symmetric"
+                                                                    : "not positive definite");
   return CovarianceRead::BAD;
 }
 

@@ -216,7 +216,7 @@ Model makeKinematicModel(const KinematicSpec& spec)
   {
     const bool normal =
         Qb.allFinite() && (Qb.array().abs() >= std::numeric_limits<double>::min()).all();
-    const std::string q_problem = normal ? definitenessProblem(Qb, true) : std::string();
+    const std::string q_problem = normal ? networked_estimation::checkCovariance(Qb, Definiteness::POSITIVE).describe("Q") : std::string();
     if (!normal || !q_problem.empty())
     {
       const std::string what =

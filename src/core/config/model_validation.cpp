@@ -147,14 +147,11 @@ void validateModel(const Model& model, const std::string& source)
                                               const Eigen::MatrixXd& M, bool strict)
   {
     checkFinite(key, label, M);
-    std::string problem = symmetryProblem(M, label);
-    if (problem.empty())
+    const CovarianceCheck check =
+        networked_estimation::checkCovariance(M, strict ? Definiteness::POSITIVE : Definiteness::SEMIDEFINITE);
+    if (!check.ok())
     {
-      problem = definitenessProblem(M, strict);
-    }
-    if (!problem.empty())
-    {
-      fail(key, problem);
+      fail(key, check.describe(label));
     }
   };
 

@@ -1,8 +1,6 @@
 // The shared YAML reader of the configuration files (see yaml_reader.hpp).
 #include "config/yaml_reader.hpp"
 
-#include <Eigen/Eigenvalues>
-
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -21,45 +19,6 @@ namespace detail
 // ---------------------------------------------------------------------------------------------
 // Formatting
 // ---------------------------------------------------------------------------------------------
-
-/// Shortest decimal text that reads back as exactly `v` (at most `max_digits` significant digits).
-std::string formatNumber(double v, int max_digits)
-{
-  if (std::isnan(v))
-  {
-    return "nan";
-  }
-  if (std::isinf(v))
-  {
-    return v > 0 ? "inf" : "-inf";
-  }
-  char buf[64];
-  for (int digits = 1; digits <= max_digits; ++digits)
-  {
-    std::snprintf(buf, sizeof(buf), "%.*g", digits, v);
-    if (digits == max_digits || std::strtod(buf, nullptr) == v)
-    {
-      break;
-    }
-  }
-  return buf;
-}
-
-std::string plainNumber(double v)
-{
-  const std::string text = formatNumber(v);
-  const double magnitude = std::abs(v);
-  if (!std::isfinite(v) || magnitude < 1.0 || magnitude >= 1e15 ||
-      text.find('e') == std::string::npos)
-  {
-    return text;
-  }
-  // %g chose an exponent because the exponent reached the digits needed: as many digits as the
-  // integer part has are at least as many, so the text still reads back as v.
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*g", static_cast<int>(std::floor(std::log10(magnitude))) + 1, v);
-  return buf;
-}
 
 std::string dims(Eigen::Index rows, Eigen::Index cols)
 {
@@ -174,98 +133,6 @@ std::string nonFiniteEntry(const Eigen::MatrixXd& M, const std::string& label)
     }
   }
   return "";
-}
-
-/// Relative tolerance 1e-9 * (largest absolute entry).
-std::string symmetryProblem(const Eigen::MatrixXd& M, const std::string& label)
-{
-  const double tol = 1e-9 * (M.size() > 0 ? M.cwiseAbs().maxCoeff() : 0.0);
-  for (Eigen::Index i = 0; i < M.rows(); ++i)
-  {
-    for (Eigen::Index j = i + 1; j < M.cols(); ++j)
-    {
-      if (std::abs(M(i, j) - M(j, i)) > tol)
-      {
-        const std::string a = label + "(" + std::to_string(i) + "," + std::to_string(j) + ")";
-        const std::string b = label + "(" + std::to_string(j) + "," + std::to_string(i) + ")";
-        return "not symmetric (" + a + " = " + formatNumber(M(i, j)) + " but " + b + " = " +
-               formatNumber(M(j, i)) + ")";
-      }
-    }
-  }
-  return "";
-}
-
-/// For a square, finite, symmetric M. strict: positive definite, to a relative precision of 1e-12
-/// after scaling to unit diagonal (see below); otherwise positive semidefinite (smallest eigenvalue
-/// >= -1e-12 * largest absolute one).
-std::string definitenessProblem(const Eigen::MatrixXd& M, bool strict)
-{
-  const Eigen::MatrixXd S = 0.5 * (M + M.transpose());
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(S, Eigen::EigenvaluesOnly);
-  if (solver.info() != Eigen::Success)
-  {
-    return "eigenvalues could not be computed";
-  }
-  const Eigen::VectorXd& ev = solver.eigenvalues();  // ascending
-  const double smallest = ev(0);
-  const double scale = ev.cwiseAbs().maxCoeff();
-  if (strict)
-  {
-    // Positive definiteness is invariant under a diagonal scaling D^{-1/2} S D^{-1/2}, and what
-    // decides whether S is numerically positive definite (whether its Cholesky factorisation, which
-    // the filters and the simulator use, succeeds and is accurate) is the condition of S scaled to
-    // unit diagonal, not of S itself (van der Sluis: Cholesky's backward error is componentwise in
-    // that scaling). A covariance whose variables have very different units or magnitudes, e.g. the
-    // exact Q of a constant-acceleration model at 1 kHz (entries from T^5 = 1e-15 to T = 1e-3), is
-    // then well conditioned although its eigenvalues span far more than 12 orders of magnitude. So
-    // with D = diag(S) > 0 the test is on the correlation matrix C = D^{-1/2} S D^{-1/2}: smallest
-    // eigenvalue > 1e-12 of the largest (which is in [1, n]). A diagonal entry <= 0 (or not finite)
-    // means S is not positive definite, and the unscaled test below refuses it. The unscaled test
-    // also still accepts on its own: C's ratio is at least S's divided by n, so it is never more than
-    // a factor n stricter, and a matrix accepted before stays accepted.
-    const Eigen::VectorXd d = S.diagonal();
-    const bool scalable = d.size() > 0 && (d.array() > 0.0).all() && d.allFinite();
-    double scaled_smallest = 0.0, scaled_largest = 0.0;
-    if (scalable)
-    {
-      const Eigen::VectorXd inv_sqrt = d.cwiseSqrt().cwiseInverse();
-      const Eigen::MatrixXd C = inv_sqrt.asDiagonal() * S * inv_sqrt.asDiagonal();
-      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> scaled(C, Eigen::EigenvaluesOnly);
-      if (scaled.info() == Eigen::Success)
-      {
-        const Eigen::VectorXd& sv = scaled.eigenvalues();  // ascending
-        scaled_smallest = sv(0);
-        scaled_largest = sv.cwiseAbs().maxCoeff();
-        if (scaled_smallest > 1e-12 * scaled_largest)
-        {
-          return "";
-        }
-      }
-    }
-    if (smallest > 1e-12 * scale)
-    {
-      return "";
-    }
-    std::string out = "not positive definite (smallest eigenvalue " + formatNumber(smallest, 6);
-    if (smallest >= 0.0)
-    {
-      out += ", largest " + formatNumber(ev(ev.size() - 1), 6);
-    }
-    out += ")";
-    if (scalable && smallest >= 0.0)
-    {
-      out += "; scaled to unit diagonal it is near-singular too "
-             "(smallest eigenvalue " + formatNumber(scaled_smallest, 6) + ", largest " +
-             formatNumber(scaled_largest, 6) + ")";
-    }
-    return out;
-  }
-  if (smallest >= -1e-12 * scale)
-  {
-    return "";
-  }
-  return "not positive semidefinite (smallest eigenvalue " + formatNumber(smallest, 6) + ")";
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -575,14 +442,11 @@ double Reader::entry(const YAML::Node& node, const std::string& key, const std::
 void checkCovariance(const Reader& in, const YAML::Node& node, const std::string& key,
                      const std::string& label, const Eigen::MatrixXd& M, bool strict)
 {
-  std::string problem = symmetryProblem(M, label);
-  if (problem.empty())
+  const CovarianceCheck check =
+      networked_estimation::checkCovariance(M, strict ? Definiteness::POSITIVE : Definiteness::SEMIDEFINITE);
+  if (!check.ok())
   {
-    problem = definitenessProblem(M, strict);
-  }
-  if (!problem.empty())
-  {
-    in.fail(node, key, problem);
+    in.fail(node, key, check.describe(label));
   }
 }
 

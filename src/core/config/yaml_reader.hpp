@@ -14,16 +14,17 @@
 #include <vector>
 
 #include "networked_estimation/common/error.hpp"
+#include "networked_estimation/common/covariance.hpp"
+#include "networked_estimation/common/number_format.hpp"
 
 namespace networked_estimation
 {
 namespace detail
 {
 
-/// Shortest decimal text that reads back as exactly `v` (at most `max_digits` significant digits).
-std::string formatNumber(double v, int max_digits = 17);
-/// formatNumber without an exponent for magnitudes in [1, 1e15): "20", not "2e+01".
-std::string plainNumber(double v);
+// Number formatting is common/number_format.hpp's.
+using networked_estimation::formatNumber;
+using networked_estimation::plainNumber;
 /// "RxC".
 std::string dims(Eigen::Index rows, Eigen::Index cols);
 /// "a, b, c".
@@ -47,12 +48,7 @@ std::string finitenessProblem(const Eigen::MatrixXd& M, const std::string& label
 /// "<label>(i,j) = inf" for M's first infinite entry (an overflow: the cause of a NaN made from
 /// it, e.g. 0 inf), else for its first NaN; "" when M is finite.
 std::string nonFiniteEntry(const Eigen::MatrixXd& M, const std::string& label);
-/// Relative tolerance 1e-9 * (largest absolute entry).
-std::string symmetryProblem(const Eigen::MatrixXd& M, const std::string& label);
-/// For a square, finite, symmetric M. strict: positive definite, smallest eigenvalue > 1e-12 *
-/// largest of M scaled to unit diagonal (D^{-1/2} M D^{-1/2}, D = diag(M) > 0; or of M itself);
-/// otherwise positive semidefinite (smallest eigenvalue >= -1e-12 * largest absolute one).
-std::string definitenessProblem(const Eigen::MatrixXd& M, bool strict);
+// Symmetry and definiteness: common/covariance.hpp (checkCovariance).
 
 /// Typed access to YAML nodes, throwing ConfigError with source, line and key path.
 class Reader

@@ -1,7 +1,7 @@
 // Checking a step's own measurement covariance (estimator.hpp, checkStepCovariance).
-#include <Eigen/Cholesky>
 #include <string>
 
+#include "networked_estimation/common/covariance.hpp"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/estimators/estimator.hpp"
 
@@ -23,14 +23,19 @@ void checkStepCovariance(const Model& model, const Sample& sample)
   {
     if (!sample.y.segment(s.offset, s.size).allFinite())
       continue;  // not fused at this step: its block is not used
-    const Eigen::MatrixXd block = R.block(s.offset, s.offset, s.size, s.size);
+    const CovarianceCheck check = checkCovariance(R.block(s.offset, s.offset, s.size, s.size), Definiteness::POSITIVE);
     const std::string where = "R: sensor '" + s.name + "': its block";
-    if (!block.allFinite())
-      throw InputError(where + " is not finite");
-    if (block != block.transpose())
-      throw InputError(where + " is not symmetric");
-    if (Eigen::LLT<Eigen::MatrixXd>(block).info() != Eigen::Success)
-      throw InputError(where + " is not positive definite");
+    switch (check.problem)
+    {
+      case CovarianceCheck::Problem::NONE:
+        break;
+      case CovarianceCheck::Problem::NOT_FINITE:
+        throw InputError(where + " is not finite");
+      case CovarianceCheck::Problem::NOT_SYMMETRIC:
+        throw InputError(where + " is not symmetric");
+      default:
+        throw InputError(where + " is not positive definite");
+    }
   }
 }
 

@@ -1,5 +1,4 @@
 // Reading the replay input, replay output and truth CSV files (replay_csv.hpp).
-#include <Eigen/Cholesky>
 #include "networked_estimation/common/numbers.hpp"
 #include <cmath>
 #include <fstream>
@@ -7,6 +6,7 @@
 #include <limits>
 
 #include "io/csv_cells.hpp"
+#include "networked_estimation/common/covariance.hpp"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/io/replay_csv.hpp"
 
@@ -50,7 +50,7 @@ void parseRowR(const std::string& source, long line, const Model& model, const s
     for (int a = 0; a < s.size; ++a)
       for (int b = a; b < s.size; ++b, ++c)
         block(a, b) = block(b, a) = parseNumber(source, line, names[c], cells[c]);
-    if (Eigen::LLT<Eigen::MatrixXd>(block).info() != Eigen::Success)
+    if (!checkCovariance(block, Definiteness::POSITIVE).ok())
       failRaw(source, line, names[first], "sensor '" + s.name + "': its R block is not positive definite",
               "a positive definite block", names[first] + ".." + names[c - 1] + " = " + cells[first] + "...");
     if (row.R.size() == 0)

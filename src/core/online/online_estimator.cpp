@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "networked_estimation/common/angles.hpp"
+#include "networked_estimation/common/covariance.hpp"
 #include "networked_estimation/common/error.hpp"
 
 namespace networked_estimation
@@ -134,13 +135,12 @@ void OnlineEstimator::setEstimate(const Eigen::VectorXd& x, const Eigen::MatrixX
                      std::to_string(P.rows()) + " x " + std::to_string(P.cols()));
   if (!x.allFinite() || !P.allFinite())
     throw InputError("set estimate: the state and covariance must be finite");
-  const double scale = std::max(1.0, P.cwiseAbs().maxCoeff());
-  if (!((P - P.transpose()).cwiseAbs().maxCoeff() <= 1e-9 * scale))
+  const CovarianceCheck check = checkCovariance(P, Definiteness::SEMIDEFINITE);
+  if (check.problem == CovarianceCheck::Problem::NOT_SYMMETRIC)
     throw InputError("set estimate: the covariance is not symmetric");
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(P, Eigen::EigenvaluesOnly);
-  if (eig.eigenvalues().minCoeff() < -1e-12 * scale)
+  if (!check.ok())
     throw InputError("set estimate: the covariance is not positive semidefinite (smallest eigenvalue " +
-                     std::to_string(eig.eigenvalues().minCoeff()) + ")");
+                     std::to_string(check.smallest) + ")");
   Model from = model_;
   from.x0 = x;
   for (const int a : model_.angles)

@@ -1,7 +1,5 @@
 #include "networked_estimation/online/set_pose.hpp"
 
-#include <Eigen/Eigenvalues>
-
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -9,6 +7,7 @@
 #include <vector>
 
 #include "networked_estimation/common/angles.hpp"
+#include "networked_estimation/common/covariance.hpp"
 #include "networked_estimation/common/error.hpp"
 
 namespace networked_estimation
@@ -43,13 +42,12 @@ void poseReset(const Model& model, const StateMap& map, const PoseWithCovariance
       block(i, j) = v;
     }
   }
-  const double scale = std::max(1.0, block.cwiseAbs().maxCoeff());
-  if (!((block - block.transpose()).cwiseAbs().maxCoeff() <= 1e-9 * scale))
+  const CovarianceCheck check = checkCovariance(block, Definiteness::SEMIDEFINITE);
+  if (check.problem == CovarianceCheck::Problem::NOT_SYMMETRIC)
     throw InputError("set_pose: the covariance of the pose is not symmetric");
-  const double low = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(block, Eigen::EigenvaluesOnly).eigenvalues().minCoeff();
-  if (low < -1e-12 * scale)
+  if (!check.ok())
     throw InputError("set_pose: the covariance of the pose is not positive semidefinite (smallest eigenvalue " +
-                     std::to_string(low) + ")");
+                     std::to_string(check.smallest) + ")");
 
   x = model.x0;
   P = model.P0;

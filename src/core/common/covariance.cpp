@@ -1,0 +1,169 @@
+// The one validity check of a covariance matrix (covariance.hpp).
+#include "networked_estimation/common/covariance.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <cmath>
+
+#include "networked_estimation/common/number_format.hpp"
+
+namespace networked_estimation
+{
+namespace
+{
+
+/// Up to 16 x 16 on the stack.
+using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 16, 16>;
+
+/// The certificate of covariance.hpp: true proves that S (symmetric, finite, n <= 16) passes the
+/// positive definite test; false proves nothing.
+bool certainlyPositiveDefinite(const Eigen::Ref<const Eigen::MatrixXd>& M)
+{
+  const Eigen::Index n = M.rows();
+  Small C(n, n);
+  for (Eigen::Index j = 0; j < n; ++j)
+  {
+    if (!(M(j, j) > 0.0))
+      return false;
+    for (Eigen::Index i = 0; i < n; ++i)
+      C(i, j) = 0.5 * (M(i, j) + M(j, i)) / std::sqrt(M(i, i) * M(j, j));
+  }
+  const Eigen::LLT<Small> llt(C);
+  if (llt.info() != Eigen::Success)
+    return false;
+  Small Linv = Small::Identity(n, n);
+  llt.matrixL().solveInPlace(Linv);
+  const double frobenius2 = Linv.squaredNorm();
+  return std::isfinite(frobenius2) && 1.0 / frobenius2 > kDefinitenessTolerance * static_cast<double>(n);
+}
+
+/// Ascending eigenvalues of the symmetric part; false when they could not be computed.
+bool eigenvalues(const Eigen::MatrixXd& S, Eigen::VectorXd& ev)
+{
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(S, Eigen::EigenvaluesOnly);
+  if (solver.info() != Eigen::Success)
+    return false;
+  ev = solver.eigenvalues();
+  return true;
+}
+
+void definiteness(const Eigen::Ref<const Eigen::MatrixXd>& M, CovarianceCheck& out)
+{
+  const Eigen::Index n = M.rows();
+  if (n == 0)
+    return;
+  if (out.definiteness == Definiteness::POSITIVE && n <= 16 && certainlyPositiveDefinite(M))
+    return;
+  const Eigen::MatrixXd S = 0.5 * (M + M.transpose());
+  Eigen::VectorXd ev;
+  if (!eigenvalues(S, ev))
+  {
+    out.problem = CovarianceCheck::Problem::NOT_DEFINITE;
+    return;
+  }
+  out.smallest = ev(0);
+  out.largest = ev(n - 1);
+  const double scale = ev.cwiseAbs().maxCoeff();
+  if (out.definiteness == Definiteness::SEMIDEFINITE)
+  {
+    if (!(out.smallest >= -kDefinitenessTolerance * scale))
+      out.problem = CovarianceCheck::Problem::NOT_DEFINITE;
+    return;
+  }
+  const Eigen::VectorXd d = S.diagonal();
+  if ((d.array() > 0.0).all() && d.allFinite())
+  {
+    const Eigen::VectorXd inv_sqrt = d.cwiseSqrt().cwiseInverse();
+    const Eigen::MatrixXd C = inv_sqrt.asDiagonal() * S * inv_sqrt.asDiagonal();
+    Eigen::VectorXd sv;
+    if (eigenvalues(C, sv))
+    {
+      out.scaled = true;
+      out.scaled_smallest = sv(0);
+      out.scaled_largest = sv.cwiseAbs().maxCoeff();
+      if (out.scaled_smallest > kDefinitenessTolerance * out.scaled_largest)
+        return;
+    }
+  }
+  if (!(out.smallest > kDefinitenessTolerance * scale))
+    out.problem = CovarianceCheck::Problem::NOT_DEFINITE;
+}
+
+std::string entry(const std::string& label, Eigen::Index i, Eigen::Index j)
+{
+  return label + "(" + std::to_string(i) + "," + std::to_string(j) + ")";
+}
+
+}  // namespace
+
+CovarianceCheck checkCovariance(const Eigen::Ref<const Eigen::MatrixXd>& M, Definiteness d)
+{
+  CovarianceCheck out;
+  out.definiteness = d;
+  const Eigen::Index n = M.rows();
+  if (M.cols() != n)
+  {
+    out.problem = CovarianceCheck::Problem::NOT_SQUARE;
+    return out;
+  }
+  double largest = 0.0;
+  for (Eigen::Index i = 0; i < n; ++i)  // row by row: the first entry as a reader sees the matrix
+    for (Eigen::Index j = 0; j < n; ++j)
+    {
+      if (!std::isfinite(M(i, j)))
+      {
+        out.problem = CovarianceCheck::Problem::NOT_FINITE;
+        out.row = i;
+        out.col = j;
+        out.value = M(i, j);
+        return out;
+      }
+      largest = std::max(largest, std::abs(M(i, j)));
+    }
+  const double tol = kSymmetryTolerance * largest;
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index j = i + 1; j < n; ++j)
+      if (std::abs(M(i, j) - M(j, i)) > tol)
+      {
+        out.problem = CovarianceCheck::Problem::NOT_SYMMETRIC;
+        out.row = i;
+        out.col = j;
+        out.value = M(i, j);
+        out.mirror = M(j, i);
+        return out;
+      }
+  definiteness(M, out);
+  return out;
+}
+
+std::string CovarianceCheck::describe(const std::string& label) const
+{
+  switch (problem)
+  {
+    case Problem::NONE:
+      return "";
+    case Problem::NOT_SQUARE:
+      return "not square";
+    case Problem::NOT_FINITE:
+      return "not finite (" + entry(label, row, col) + " = " + formatNumber(value) + ")";
+    case Problem::NOT_SYMMETRIC:
+      return "not symmetric (" + entry(label, row, col) + " = " + formatNumber(value) + " but " +
+             entry(label, col, row) + " = " + formatNumber(mirror) + ")";
+    case Problem::NOT_DEFINITE:
+      break;
+  }
+  if (std::isnan(smallest))
+    return "eigenvalues could not be computed";
+  if (definiteness == Definiteness::SEMIDEFINITE)
+    return "not positive semidefinite (smallest eigenvalue " + formatNumber(smallest, 6) + ")";
+  std::string out = "not positive definite (smallest eigenvalue " + formatNumber(smallest, 6);
+  if (smallest >= 0.0)
+    out += ", largest " + formatNumber(largest, 6);
+  out += ")";
+  if (scaled && smallest >= 0.0)
+    out += "; scaled to unit diagonal it is near-singular too (smallest eigenvalue " + formatNumber(scaled_smallest, 6) +
+           ", largest " + formatNumber(scaled_largest, 6) + ")";
+  return out;
+}
+
+}  // namespace networked_estimation
