@@ -13,6 +13,7 @@
 #include "networked_estimation/common/random.hpp"
 #include "frame_transforms.hpp"
 #include "gnss_alignment.hpp"
+#include "input_message_types.hpp"
 #include "input_preprocessing.hpp"
 #include "networked_estimation/online/motion_sensors.hpp"
 #include "odometry_output.hpp"
@@ -1107,4 +1108,23 @@ TEST(GnssAligner, RestartAlignsAgainAtTheNextFix)
   EXPECT_TRUE(g.aligned());
   EXPECT_NEAR(g.yawDelta(), -1.0, 1e-12);
   EXPECT_LT(local.norm(), 1e-9) << local.transpose();
+}
+
+// The nodelets' list of message classes (input_message_types.hpp) and the core's descriptor table
+// (sensor_inputs.hpp) agree on every type: its ROS name and whether it has a header.
+TEST(InputMessageTypes, ListMatchesTheTable)
+{
+  for (ne::InputType t : ne::inputTypes())
+  {
+    const ne::InputTypeInfo& row = ne::inputTypeInfo(t);
+    EXPECT_EQ(row.type, t);
+    const std::string name = ne::withInputMessage(t, [](auto tag) {
+      return std::string(ros::message_traits::DataType<ne::MessageOf<decltype(tag)>>::value());
+    });
+    EXPECT_EQ(name, row.name);
+    const bool stamped =
+        ne::withInputMessage(t, [](auto tag) { return ros::message_traits::HasHeader<ne::MessageOf<decltype(tag)>>::value; });
+    EXPECT_EQ(stamped, row.stamped) << row.name;
+    EXPECT_EQ(row.sensor, t != ne::InputType::CONTROL_INPUT) << row.name;
+  }
 }

@@ -40,7 +40,7 @@
 #include "networked_estimation/simulation/simulator.hpp"
 #include "load_failure.hpp"
 #include "param_yaml.hpp"
-#include "sensor_writers.hpp"
+#include "simulated_sensors.hpp"
 
 namespace networked_estimation
 {
@@ -95,9 +95,7 @@ private:
     schedule_ = std::make_unique<ScheduleSampler>(model_.schedule, model_.sensors.size(), deriveSeed(seed_, 300));
     if (model_.schedule.active())
       schedule_pub_ = nh.advertise<ScheduleStep>("schedule", 1000);
-    for (const SensorOutput& o : outputs_.sensors)
-      meas_pubs_.push_back(advertiseOutput(nh, o));
-    published_.assign(model_.sensors.size(), 0);
+    sensors_.start(nh, model_, outputs_, datum_.get(), frame_id_, child_frame_id_);
     state_pub_ = nh.advertise<PlantState>("plant_state", 1000);
     if (model_.hasControl())
       cmd_sub_ = nh.subscribe("command", 1000, &PlantSimulatorNodelet::onCommand, this,
@@ -163,108 +161,6 @@ private:
   static std::vector<int> defaultPositions(int n)
   {
     return n >= 2 ? std::vector<int>{0, 1} : std::vector<int>{0};
-  }
-
-  static ros::Publisher advertiseOutput(ros::NodeHandle& nh, const SensorOutput& o)
-  {
-    const std::string& t = o.format.topic;
-    switch (o.format.type)
-    {
-      case InputType::ODOMETRY:
-        return nh.advertise<nav_msgs::Odometry>(t, 1000);
-      case InputType::POSE_WITH_COVARIANCE:
-        return nh.advertise<geometry_msgs::PoseWithCovarianceStamped>(t, 1000);
-      case InputType::POSE:
-        return nh.advertise<geometry_msgs::PoseStamped>(t, 1000);
-      case InputType::POINT:
-        return nh.advertise<geometry_msgs::PointStamped>(t, 1000);
-      case InputType::TWIST_WITH_COVARIANCE:
-        return nh.advertise<geometry_msgs::TwistWithCovarianceStamped>(t, 1000);
-      case InputType::TWIST:
-        return nh.advertise<geometry_msgs::TwistStamped>(t, 1000);
-      case InputType::IMU:
-        return nh.advertise<sensor_msgs::Imu>(t, 1000);
-      case InputType::NAVSATFIX:
-        return nh.advertise<sensor_msgs::NavSatFix>(t, 1000);
-      case InputType::RANGE:
-        return nh.advertise<sensor_msgs::Range>(t, 1000);
-      default:
-        return nh.advertise<Measurement>(t, 1000);
-    }
-  }
-
-  /// A standard message of sensor i: y and R in its fields, the sensor's frames.
-  template <class M>
-  void publishFields(std::size_t i, M m, const ros::Time& stamp, bool world_frame, const double* y, const double* R)
-  {
-    const SensorOutput& o = outputs_.sensors[i];
-    m.header.stamp = stamp;
-    m.header.frame_id = !o.frame_id.empty() ? o.frame_id : world_frame ? frame_id_ : child_frame_id_;
-    const MessageSlots s = slots(m);
-    writeFields(s, o.format.fields, y);
-    writeCovariance(o.format.type, s, o.format.fields, R);
-    meas_pubs_[i].publish(boost::make_shared<const M>(std::move(m)));  // shared: no serialization in-process
-  }
-
-  void publishSensor(std::size_t i, const ros::Time& stamp, long k, const SimulatedSample& s)
-  {
-    const Sensor& sn = model_.sensors[i];
-    const SensorOutput& o = outputs_.sensors[i];
-    // The j-th sample of this sensor is drawn with R_j = s_j R: noise sqrt(s_j) v_k.
-    const double scale = o.scaleOf(static_cast<long>(published_[i]++));
-    y_ = s.y.segment(sn.offset, sn.size) + (std::sqrt(scale) - 1.0) * s.v.segment(sn.offset, sn.size);
-    if (o.format.type != InputType::MEASUREMENT)  // a Measurement carries no covariance
-      R_ = scale * model_.R.block(sn.offset, sn.offset, sn.size, sn.size);  // column-major = row-major: symmetric
-    switch (o.format.type)
-    {
-      case InputType::ODOMETRY:
-      {
-        nav_msgs::Odometry m;
-        m.child_frame_id = !o.child_frame_id.empty() ? o.child_frame_id : child_frame_id_;
-        publishFields(i, m, stamp, true, y_.data(), R_.data());
-        return;
-      }
-      case InputType::POSE_WITH_COVARIANCE:
-        return publishFields(i, geometry_msgs::PoseWithCovarianceStamped(), stamp, true, y_.data(), R_.data());
-      case InputType::POSE:
-        return publishFields(i, geometry_msgs::PoseStamped(), stamp, true, y_.data(), R_.data());
-      case InputType::POINT:
-        return publishFields(i, geometry_msgs::PointStamped(), stamp, true, y_.data(), R_.data());
-      case InputType::TWIST_WITH_COVARIANCE:
-        return publishFields(i, geometry_msgs::TwistWithCovarianceStamped(), stamp, false, y_.data(), R_.data());
-      case InputType::TWIST:
-        return publishFields(i, geometry_msgs::TwistStamped(), stamp, false, y_.data(), R_.data());
-      case InputType::IMU:
-        return publishFields(i, sensor_msgs::Imu(), stamp, false, y_.data(), R_.data());
-      case InputType::RANGE:
-      {
-        sensor_msgs::Range m;
-        m.radiation_type = sensor_msgs::Range::INFRARED;
-        m.min_range = -std::numeric_limits<float>::max();  // a simulated range may take any value
-        m.max_range = std::numeric_limits<float>::max();
-        return publishFields(i, m, stamp, false, y_.data(), R_.data());
-      }
-      case InputType::NAVSATFIX:
-      {
-        Eigen::Vector3d enu = Eigen::Vector3d::Zero();
-        writeFields(MessageSlots(), o.format.fields, y_.data(), &enu);
-        sensor_msgs::NavSatFix f = fixAt(*datum_, enu, o.format.fields, R_.data());
-        f.header.stamp = stamp;
-        f.header.frame_id = !o.frame_id.empty() ? o.frame_id : child_frame_id_;
-        meas_pubs_[i].publish(boost::make_shared<const sensor_msgs::NavSatFix>(std::move(f)));
-        return;
-      }
-      default:
-      {
-        Measurement::Ptr m = boost::make_shared<Measurement>();
-        m->header.stamp = stamp;
-        m->header.frame_id = sn.name;
-        m->step = static_cast<std::uint64_t>(k);
-        m->sensor = sn.name;
-        m->y.assign(y_.data(), y_.data() + y_.size());
-        meas_pubs_[i].publish(m);
-      }
-    }
   }
 
   void clockTick()
@@ -383,7 +279,7 @@ private:
     for (std::size_t i = 0; i < model_.sensors.size(); ++i)
     {
       if (transmitting[i] && outputs_.sensors[i].dueAt(s.k))  // else nothing is sent (not a loss)
-        publishSensor(i, stamp, s.k, s);
+        sensors_.publish(i, stamp, s.k, s);
     }
     publishState(stamp, s.k, s.x, s.nu && model_.hasControl());
   }
@@ -428,10 +324,7 @@ private:
   ros::Publisher schedule_pub_;
   SimulatorOutputs outputs_;
   std::unique_ptr<LocalEnu> datum_;
-  std::vector<ros::Publisher> meas_pubs_;
-  std::vector<std::uint64_t> published_;  ///< samples published per sensor (the covariance scale cycle)
-  Eigen::VectorXd y_;
-  Eigen::MatrixXd R_;
+  SimulatedSensors sensors_;
   ros::Publisher state_pub_, clock_pub_;
   ros::Subscriber cmd_sub_;
   ros::Timer ros_timer_;

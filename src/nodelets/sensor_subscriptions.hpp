@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "input_message_types.hpp"
 #include "frame_transforms.hpp"
 #include "gnss_alignment.hpp"
 #include "input_preprocessing.hpp"
@@ -184,37 +185,15 @@ inline ros::Subscriber subscribeNavSatFix(ros::NodeHandle& nh, const SensorInput
 inline ros::Subscriber subscribeSensor(ros::NodeHandle& nh, const SensorInput& in, uint32_t queue,
                                        const SensorSink& sink, const std::vector<double>& datum)
 {
-  switch (in.type)
-  {
-    case InputType::ODOMETRY:
-      return subscribeFields<nav_msgs::Odometry>(nh, in, queue, sink);
-    case InputType::POSE_WITH_COVARIANCE:
-      return subscribeFields<geometry_msgs::PoseWithCovarianceStamped>(nh, in, queue, sink);
-    case InputType::POSE:
-      return subscribeFields<geometry_msgs::PoseStamped>(nh, in, queue, sink);
-    case InputType::POINT:
-      return subscribeFields<geometry_msgs::PointStamped>(nh, in, queue, sink);
-    case InputType::TWIST_WITH_COVARIANCE:
-      return subscribeFields<geometry_msgs::TwistWithCovarianceStamped>(nh, in, queue, sink);
-    case InputType::TWIST:
-      return subscribeFields<geometry_msgs::TwistStamped>(nh, in, queue, sink);
-    case InputType::IMU:
-      return subscribeFields<sensor_msgs::Imu>(nh, in, queue, sink);
-    case InputType::NAVSATFIX:
+  return withInputMessage(in.type, [&](auto tag) {
+    using M = MessageOf<decltype(tag)>;
+    if constexpr (kWholeVector<M>)
+      return ros::Subscriber();  // read by the nodelet itself
+    else if constexpr (std::is_same<M, sensor_msgs::NavSatFix>::value)
       return subscribeNavSatFix(nh, in, queue, sink, datum);
-    case InputType::RANGE:
-      return subscribeFields<sensor_msgs::Range>(nh, in, queue, sink);
-    case InputType::FLOAT64:
-      return subscribeFields<std_msgs::Float64>(nh, in, queue, sink);
-    case InputType::TWIST_UNSTAMPED:
-      return subscribeFields<geometry_msgs::Twist>(nh, in, queue, sink);
-    case InputType::FLOAT64_ARRAY:
-      return subscribeFields<std_msgs::Float64MultiArray>(nh, in, queue, sink);
-    case InputType::MEASUREMENT:
-    case InputType::CONTROL_INPUT:
-      break;
-  }
-  return ros::Subscriber();
+    else
+      return subscribeFields<M>(nh, in, queue, sink);
+  });
 }
 
 }  // namespace networked_estimation

@@ -65,6 +65,18 @@ struct InputField
 /// Float64MultiArray fields are data[0] .. data[kMaxArrayFields - 1].
 constexpr int kMaxArrayFields = 64;
 
+/// One row of the input types' descriptor table.
+struct InputTypeInfo
+{
+  InputType type;
+  std::string name;                 ///< "nav_msgs/Odometry"
+  std::vector<InputField> fields;   ///< the fields a sensor may select, in the message's order
+  bool stamped = true;              ///< has a header (else stamped by its arrival)
+  bool sensor = true;               ///< may feed a sensor (ControlInput: commands only)
+};
+/// The row of a type.
+const InputTypeInfo& inputTypeInfo(InputType t);
+
 /// The fields a type offers (empty for MEASUREMENT and CONTROL_INPUT, taken whole).
 const std::vector<InputField>& inputFields(InputType t);
 

@@ -49,131 +49,106 @@ std::vector<InputField> twist(const std::string& prefix)
   return f;
 }
 
-std::vector<InputField> fieldsOf(InputType t)
+std::vector<InputField> join(std::vector<InputField> a, const std::vector<InputField>& b)
+{
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+std::vector<InputField> vector3(const std::string& prefix, Quantity q)
 {
   std::vector<InputField> f;
-  switch (t)
-  {
-    case InputType::MEASUREMENT:
-      break;
-    case InputType::ODOMETRY:
-      f = pose("pose.pose.");
-      for (const InputField& x : twist("twist.twist."))
-        f.push_back(x);
-      break;
-    case InputType::POSE_WITH_COVARIANCE:
-      f = pose("pose.pose.");
-      break;
-    case InputType::POSE:
-      f = pose("pose.");
-      break;
-    case InputType::POINT:
-      addVector(f, "point.", Quantity::POSITION);
-      break;
-    case InputType::TWIST_WITH_COVARIANCE:
-      f = twist("twist.twist.");
-      break;
-    case InputType::TWIST:
-      f = twist("twist.");
-      break;
-    case InputType::IMU:
-      addOrientation(f, "orientation.");
-      addVector(f, "angular_velocity.", Quantity::ANGULAR_VELOCITY);
-      addVector(f, "linear_acceleration.", Quantity::LINEAR_ACCELERATION);
-      break;
-    case InputType::NAVSATFIX:
-      f = {{"east", Quantity::ENU, 0}, {"north", Quantity::ENU, 1}, {"up", Quantity::ENU, 2}};
-      break;
-    case InputType::RANGE:
-      f = {{"range", Quantity::SCALAR, 0}};
-      break;
-    case InputType::FLOAT64:
-      f = {{"data", Quantity::SCALAR, 0}};
-      break;
-    case InputType::TWIST_UNSTAMPED:
-      f = twist("");
-      break;
-    case InputType::FLOAT64_ARRAY:
-      for (int i = 0; i < kMaxArrayFields; ++i)
-        f.push_back({"data[" + std::to_string(i) + "]", Quantity::ELEMENT, i});
-      break;
-    case InputType::CONTROL_INPUT:
-      break;
-  }
+  addVector(f, prefix, q);
   return f;
+}
+
+std::vector<InputField> orientation(const std::string& prefix)
+{
+  std::vector<InputField> f;
+  addOrientation(f, prefix);
+  return f;
+}
+
+std::vector<InputField> elements()
+{
+  std::vector<InputField> f;
+  for (int i = 0; i < kMaxArrayFields; ++i)
+    f.push_back({"data[" + std::to_string(i) + "]", Quantity::ELEMENT, i});
+  return f;
+}
+
+/// The descriptor table: one row per input type, in the order of the enum. A new message type is
+/// a row here (and its message class in the nodelets' list, input_message_types.hpp).
+const std::vector<InputTypeInfo>& table()
+{
+  static const std::vector<InputTypeInfo> rows = [] {
+    const std::vector<InputTypeInfo> r = {
+        {InputType::MEASUREMENT, "networked_estimation/Measurement", {}, true, true},
+        {InputType::ODOMETRY, "nav_msgs/Odometry", join(pose("pose.pose."), twist("twist.twist.")), true, true},
+        {InputType::POSE_WITH_COVARIANCE, "geometry_msgs/PoseWithCovarianceStamped", pose("pose.pose."), true, true},
+        {InputType::POSE, "geometry_msgs/PoseStamped", pose("pose."), true, true},
+        {InputType::POINT, "geometry_msgs/PointStamped", vector3("point.", Quantity::POSITION), true, true},
+        {InputType::TWIST_WITH_COVARIANCE, "geometry_msgs/TwistWithCovarianceStamped", twist("twist.twist."), true,
+         true},
+        {InputType::TWIST, "geometry_msgs/TwistStamped", twist("twist."), true, true},
+        {InputType::IMU, "sensor_msgs/Imu",
+         join(join(orientation("orientation."), vector3("angular_velocity.", Quantity::ANGULAR_VELOCITY)),
+              vector3("linear_acceleration.", Quantity::LINEAR_ACCELERATION)),
+         true, true},
+        {InputType::NAVSATFIX, "sensor_msgs/NavSatFix",
+         {{"east", Quantity::ENU, 0}, {"north", Quantity::ENU, 1}, {"up", Quantity::ENU, 2}}, true, true},
+        {InputType::RANGE, "sensor_msgs/Range", {{"range", Quantity::SCALAR, 0}}, true, true},
+        {InputType::FLOAT64, "std_msgs/Float64", {{"data", Quantity::SCALAR, 0}}, false, true},
+        {InputType::TWIST_UNSTAMPED, "geometry_msgs/Twist", twist(""), false, true},
+        {InputType::FLOAT64_ARRAY, "std_msgs/Float64MultiArray", elements(), false, true},
+        {InputType::CONTROL_INPUT, "networked_estimation/ControlInput", {}, true, false},
+    };
+    for (std::size_t i = 0; i < r.size(); ++i)
+      if (static_cast<std::size_t>(r[i].type) != i)
+        std::abort();  // the rows must follow the enum
+    return r;
+  }();
+  return rows;
 }
 
 }  // namespace
 
-std::string toString(InputType t)
-{
-  switch (t)
-  {
-    case InputType::MEASUREMENT:
-      return "networked_estimation/Measurement";
-    case InputType::ODOMETRY:
-      return "nav_msgs/Odometry";
-    case InputType::POSE_WITH_COVARIANCE:
-      return "geometry_msgs/PoseWithCovarianceStamped";
-    case InputType::POSE:
-      return "geometry_msgs/PoseStamped";
-    case InputType::POINT:
-      return "geometry_msgs/PointStamped";
-    case InputType::TWIST_WITH_COVARIANCE:
-      return "geometry_msgs/TwistWithCovarianceStamped";
-    case InputType::TWIST:
-      return "geometry_msgs/TwistStamped";
-    case InputType::IMU:
-      return "sensor_msgs/Imu";
-    case InputType::NAVSATFIX:
-      return "sensor_msgs/NavSatFix";
-    case InputType::RANGE:
-      return "sensor_msgs/Range";
-    case InputType::FLOAT64:
-      return "std_msgs/Float64";
-    case InputType::TWIST_UNSTAMPED:
-      return "geometry_msgs/Twist";
-    case InputType::FLOAT64_ARRAY:
-      return "std_msgs/Float64MultiArray";
-    case InputType::CONTROL_INPUT:
-      return "networked_estimation/ControlInput";
-  }
-  return "?";
-}
+const InputTypeInfo& inputTypeInfo(InputType t) { return table().at(static_cast<std::size_t>(t)); }
+
+std::string toString(InputType t) { return inputTypeInfo(t).name; }
 
 const std::vector<InputType>& inputTypes()
 {
-  static const std::vector<InputType> all = {
-      InputType::MEASUREMENT, InputType::ODOMETRY,  InputType::POSE_WITH_COVARIANCE, InputType::POSE,
-      InputType::POINT,       InputType::TWIST_WITH_COVARIANCE, InputType::TWIST,   InputType::IMU,
-      InputType::NAVSATFIX,   InputType::RANGE,     InputType::FLOAT64,
-      InputType::TWIST_UNSTAMPED, InputType::FLOAT64_ARRAY, InputType::CONTROL_INPUT};
+  static const std::vector<InputType> all = [] {
+    std::vector<InputType> out;
+    for (const InputTypeInfo& row : table())
+      out.push_back(row.type);
+    return out;
+  }();
   return all;
 }
 
 const std::vector<InputType>& sensorInputTypes()
 {
-  static const std::vector<InputType> sensors(inputTypes().begin(), inputTypes().end() - 1);
+  static const std::vector<InputType> sensors = [] {
+    std::vector<InputType> out;
+    for (const InputTypeInfo& row : table())
+      if (row.sensor)
+        out.push_back(row.type);
+    return out;
+  }();
   return sensors;
 }
 
 const std::vector<InputType>& commandInputTypes()
 {
+  // The first is the default of a `command` block.
   static const std::vector<InputType> commands = {InputType::CONTROL_INPUT, InputType::TWIST_UNSTAMPED,
                                                   InputType::TWIST, InputType::FLOAT64_ARRAY};
   return commands;
 }
 
-const std::vector<InputField>& inputFields(InputType t)
-{
-  static const std::vector<std::vector<InputField>> table = [] {
-    std::vector<std::vector<InputField>> out;
-    for (InputType x : inputTypes())
-      out.push_back(fieldsOf(x));
-    return out;
-  }();
-  return table[static_cast<std::size_t>(t)];
-}
+const std::vector<InputField>& inputFields(InputType t) { return inputTypeInfo(t).fields; }
 
 CovarianceSource covarianceOf(InputType type, const InputField& f)
 {
