@@ -24,30 +24,29 @@ void EstimatorNodelet::onInit()
   {
     refuseLoad(getName(), std::string("Estimator not started: ") + e.what());
   }
-  estimate_pub_ = nh.advertise<Estimate>("estimate", 1000);
-  trace_pub_ = nh.advertise<std_msgs::Float64>("covariance_trace", 1000);
-  pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 100);
-  odom_pub_ = nh.advertise<nav_msgs::Odometry>("odometry/filtered", 100);
+  frames_.configure(nh, config_.world_frame, config_.base_link_frame);
+  outputs_.start(nh, config_, getName(), [this]() -> const Frames& { return frames_.get(); }, gnss_.get());
   startSetPose(nh);
   const Model& model = stream_->online().model();
-  if (!datum_.empty() || std::any_of(inputs_.begin(), inputs_.end(), [](const SensorInput& in) {
+  const std::vector<SensorInput>& inputs = config_.inputs;
+  if (!config_.datum.empty() || std::any_of(inputs.begin(), inputs.end(), [](const SensorInput& in) {
         return in.type == InputType::NAVSATFIX;
       }))
     datum_pub_ = pnh.advertise<sensor_msgs::NavSatFix>("datum", 1, true);
   if (gnss_)
-    gnss_->start(nh, in_nh, inputs_, frames(), [this](BasePose& pose) {
+    gnss_->start(nh, in_nh, inputs, frames_.get(), [this](BasePose& pose) {
       std::lock_guard<std::mutex> lock(mutex_);
       if (!stream_->online().started())
         return false;
-      pose = basePoseOf(stream_->online().estimator().state(), state_map_, gnss_roll_, gnss_pitch_);
+      pose = basePoseOf(stream_->online().estimator().state(), config_.state_map, config_.gnss.roll, config_.gnss.pitch);
       return true;
     });
   for (std::size_t i = 0; i < model.sensors.size(); ++i)
   {
-    const SensorInput& in = inputs_[i];
+    const SensorInput& in = inputs[i];
     if (in.type == InputType::MEASUREMENT)
     {
-      subs_.push_back(subscribeEvents<Measurement>(in_nh, in.topic, queue_size_,
+      subs_.push_back(subscribeEvents<Measurement>(in_nh, in.topic, queueSize(),
                                                    [this, i](const ros::MessageEvent<Measurement const>& e) {
                                                      onMeasurement(i, e.getConstMessage(), e.getReceiptTime());
                                                    }, in.transport));
@@ -69,237 +68,102 @@ void EstimatorNodelet::onInit()
                          boost::array<double, 9>& cov, std::string& why) {
         return gnss_->apply(m, datum, local, cov, why);
       };
-    sink.frames = frames();
-    subs_.push_back(subscribeSensor(in_nh, in, queue_size_, sink, datum_));
+    sink.frames = frames_.get();
+    subs_.push_back(subscribeSensor(in_nh, in, queueSize(), sink, config_.datum));
     watchTransport(in_nh, i);
   }
-  if (!datum_.empty())
+  if (!config_.datum.empty())
   {
-    const LocalEnu d(datum_[0], datum_[1], datum_[2]);
+    const LocalEnu d(config_.datum[0], config_.datum[1], config_.datum[2]);
     publishDatum(d);
   }
-  if (model.hasControl() && command_.type == InputType::CONTROL_INPUT)
-    cmd_sub_ = in_nh.subscribe(command_.topic, queue_size_, &EstimatorNodelet::onCommand, this,
-                               transportHints(command_.transport));
+  const SensorInput& command = config_.command;
+  if (model.hasControl() && command.type == InputType::CONTROL_INPUT)
+    cmd_sub_ = in_nh.subscribe(command.topic, queueSize(), &EstimatorNodelet::onCommand, this,
+                               transportHints(command.transport));
   else if (model.hasControl())
   {
     SensorSink sink;
     sink.ok = [this](const ros::Time& stamp, const ros::Time&, const double* u, std::size_t n, const double*) {
       onHeldCommand(stamp, u, n);
     };
-    const std::string who = "command (" + toString(command_.type) + " on " + command_.topic + ")";
+    const std::string who = "command (" + toString(command.type) + " on " + command.topic + ")";
     sink.bad = [this, who](const std::string& why) { reject(who + ": " + why); };
-    sink.frames = frames();
-    cmd_sub_ = subscribeSensor(in_nh, command_, queue_size_, sink, {});
+    sink.frames = frames_.get();
+    cmd_sub_ = subscribeSensor(in_nh, command, queueSize(), sink, {});
   }
   if (model.hasControl())
-    transports_.add("command (" + in_nh.resolveName(command_.topic) + ")", "command transport",
-                    in_nh.resolveName(command_.topic), command_.transport, cmd_sub_);
+    transports_.add("command (" + in_nh.resolveName(command.topic) + ")", "command transport",
+                    in_nh.resolveName(command.topic), command.transport, cmd_sub_);
   if (model.schedule.kind == Schedule::Kind::RANDOM)
-    schedule_sub_ = in_nh.subscribe("schedule", queue_size_, &EstimatorNodelet::onSchedule, this, hints());
+    schedule_sub_ = in_nh.subscribe("schedule", queueSize(), &EstimatorNodelet::onSchedule, this, hints());
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
-  diagnostics_->setHardwareID(toString(settings_.algorithm));
+  diagnostics_->setHardwareID(toString(config_.settings.algorithm));
   diagnostics_->add("estimator", this, &EstimatorNodelet::diagnose);
-  if (live_)  // live_stability: false: no window, no verdict, no status
-    diagnostics_->add("link stability", this, &EstimatorNodelet::diagnoseLink);
+  if (link_.enabled())  // live_stability: false: no window, no verdict, no status
+    diagnostics_->add("link stability", [this](diagnostic_updater::DiagnosticStatusWrapper& stat) {
+      link_.diagnose(stat, mutex_, [this] { return Eigen::VectorXd(stream_->online().estimator().state()); });
+    });
   // force_update: the updater's own period check uses ROS time, which stalls or jumps under sim time.
-  link_status_pub_ = pnh.advertise<LinkStatus>("link_status", 10);
+  link_.advertise(pnh);
   latency_figures_.assign(model.sensors.size(), LatencyBudget::Figures());
   diag_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) {
     diagnostics_->force_update();
-    publishLinkStatus();
+    link_.publishStatus(stream_->online().model(), latency_figures_);
   });
-  if (publish_tf_)
-  {
-    if (child_frame_id_ == base_link_frame_)
-    {
-      frames();  // listen to tf from the start: base_link's parent decides what we publish
-      // With the message event (a plain callback would lose the publisher's name).
-      for (const bool static_tf : {false, true})
-      {
-        ros::SubscribeOptions o;
-        o.initByFullCallbackType<const ros::MessageEvent<tf2_msgs::TFMessage const>&>(
-            static_tf ? "/tf_static" : "/tf", 100,
-            [this, static_tf](const ros::MessageEvent<tf2_msgs::TFMessage const>& e) { onTf(e, static_tf); });
-        (static_tf ? tf_static_sub_ : tf_sub_) = nh.subscribe(o);
-      }
-    }
-    tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
-    tf_timer_ = nh.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { tfTimer(); });
-  }
-  if (predict_to_current_time_)
-  {
-    predict_timer_ = nh.createWallTimer(ros::WallDuration(1.0 / frequency_), [this](const ros::WallTimerEvent&) {
-      predictTimer();
-    });
-    NODELET_INFO("Estimator: odometry/filtered%s at %g Hz, predicted to the current time (predict_to_current_time)",
-                 publish_tf_ ? " and tf" : "", frequency_);
-  }
   startReconfigure(pnh);
   clock_watch_.start(getNodeHandle(), [this] { dispatch_.wake(); });
   dispatch_.start([this] { return deadlineWork(); });
-  std::string inputs;
-  for (std::size_t i = 0; i < inputs_.size(); ++i)
-    inputs += (i ? ", " : "") + model.sensors[i].name + " (" + toString(inputs_[i].type) + " on " +
-              nh.resolveName(inputs_[i].topic) + ")";
-  NODELET_INFO("Estimator %s on '%s' (n = %d): period %g s, %s; inputs: %s", toString(settings_.algorithm).c_str(),
-               model.name.c_str(), model.n(), limits_.period, describe(stream_->runtime()).c_str(), inputs.c_str());
+  std::string names;
+  for (std::size_t i = 0; i < config_.inputs.size(); ++i)
+    names += (i ? ", " : "") + model.sensors[i].name + " (" + toString(config_.inputs[i].type) + " on " +
+             nh.resolveName(config_.inputs[i].topic) + ")";
+  NODELET_INFO("Estimator %s on '%s' (n = %d): period %g s, %s; inputs: %s", toString(config_.settings.algorithm).c_str(),
+               model.name.c_str(), model.n(), limits_.period, describe(stream_->runtime()).c_str(), names.c_str());
+}
+
+void EstimatorNodelet::publishDatum(const LocalEnu& d)
+{
+  sensor_msgs::NavSatFix m;
+  m.header.stamp = ros::Time::now();
+  m.header.frame_id = config_.frame_id;
+  m.status.status = sensor_msgs::NavSatStatus::STATUS_FIX;
+  m.latitude = d.latitude();
+  m.longitude = d.longitude();
+  m.altitude = d.altitude();
+  m.position_covariance_type = sensor_msgs::NavSatFix::COVARIANCE_TYPE_UNKNOWN;
+  datum_pub_.publish(m);
+  NODELET_INFO("Estimator: NavSatFix datum (ENU origin) %.9f, %.9f, %.3f%s", d.latitude(), d.longitude(),
+               d.altitude(), config_.datum.empty() ? " (the first valid fix; set ~datum to pin it)" : "");
 }
 
 void EstimatorNodelet::watchTransport(ros::NodeHandle& nh, std::size_t i)
 {
   const std::string& name = stream_->online().model().sensors[i].name;
-  const std::string topic = nh.resolveName(inputs_[i].topic);
-  transports_.add("sensor '" + name + "' (" + topic + ")", name + " transport", topic, inputs_[i].transport,
+  const std::string topic = nh.resolveName(config_.inputs[i].topic);
+  transports_.add("sensor '" + name + "' (" + topic + ")", name + " transport", topic, config_.inputs[i].transport,
                   subs_.back());
-}
-
-void EstimatorNodelet::startReconfigure(ros::NodeHandle& pnh)
-{
-  // In ~reconfigure: the server writes its values back as parameters, which must not become
-  // parameters of the nodelet's next load.
-  reconfigure_ = std::make_unique<dynamic_reconfigure::Server<EstimatorConfig>>(
-      reconfigure_mutex_, ros::NodeHandle(pnh, "reconfigure"));
-  const RuntimeSettings& r = stream_->runtime();
-  shown_.adaptive_latency = r.adaptive_latency;
-  shown_.latency_budget = r.adaptive_latency ? stream_->budget() : r.latency_budget;
-  shown_.latency_budget_min = r.latency_budget_min;
-  shown_.latency_budget_max = r.latency_budget_max;
-  shown_.late_policy = r.late_policy;
-  shown_.trace_bound = std::min(r.trace_bound, 1e300);
-  reconfigure_->setCallback([this](EstimatorConfig& c, uint32_t) {
-    if (reconfigure_ready_)
-      reconfigure(c);
-  });
-  reconfigure_ready_ = true;
-  reconfigure_->updateConfig(shown_);
-}
-
-void EstimatorNodelet::reconfigure(EstimatorConfig& c)
-{
-  RuntimeSettings r;
-  r.adaptive_latency = c.adaptive_latency;
-  r.latency_budget = c.latency_budget;
-  r.latency_budget_min = c.latency_budget_min;
-  r.latency_budget_max = c.latency_budget_max;
-  r.late_policy = c.late_policy;
-  r.trace_bound = c.trace_bound >= 1e300 ? std::numeric_limits<double>::infinity() : c.trace_bound;
-  std::lock_guard<std::mutex> lock(mutex_);
-  try
-  {
-    validateRuntimeSettings(r, limits_, "reconfigure");
-  }
-  catch (const ConfigError& e)
-  {
-    NODELET_ERROR("Estimator: change refused: %s; the settings stay %s", e.what(), describe(stream_->runtime()).c_str());
-    c = shown_;  // the server shows these back
-    return;
-  }
-  stream_->setRuntime(r);
-  trace_bound_ = r.trace_bound;
-  shown_ = c;
-  NODELET_INFO("Estimator reconfigured: %s", describe(r).c_str());
-  dispatch_.wake();  // the deadlines moved
-}
-
-const Frames& EstimatorNodelet::frames()
-{
-  if (tf_buffer_)
-    return frames_;
-  tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
-  // tf messages on the nodelet's own callback queue (spin_thread = false): no dedicated listener
-  // thread waking 100 times a second when no tf flows.
-  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, getNodeHandle(), false);
-  frames_.world = world_frame_;
-  frames_.base = base_link_frame_;
-  tf2_ros::Buffer* buffer = tf_buffer_.get();
-  frames_.lookup = [buffer](const std::string& target, const std::string& source, const ros::Time& stamp,
-                            tf2::Transform& out, std::string& why) {
-    try
-    {
-      const geometry_msgs::TransformStamped t = buffer->lookupTransform(target, source, stamp);
-      const auto& r = t.transform.rotation;
-      const auto& x = t.transform.translation;
-      out = tf2::Transform(tf2::Quaternion(r.x, r.y, r.z, r.w), tf2::Vector3(x.x, x.y, x.z));
-      return true;
-    }
-    catch (const tf2::TransformException& e)
-    {
-      why = "no transform " + target + " <- " + source + " at the message's stamp: " + e.what();
-      return false;
-    }
-  };
-  return frames_;
 }
 
 void EstimatorNodelet::configure(ros::NodeHandle& pnh)
 {
-  const EstimatorNodeConfig c = parseEstimatorNodeConfig(privateParameters(pnh), pnh.getNamespace() + " parameters");
-  settings_ = c.settings;
-  input_type_ = c.input_type;
-  inputs_ = c.inputs;
-  command_ = c.command;
-  state_map_ = c.state_map;
-  world_frame_ = c.world_frame;
-  base_link_frame_ = c.base_link_frame;
-  odom_frame_ = c.odom_frame;
-  datum_ = c.datum;
+  config_ = parseEstimatorNodeConfig(privateParameters(pnh), pnh.getNamespace() + " parameters");
+  const EstimatorNodeConfig& c = config_;
   if (c.gnss.navsat_transform)
-  {
     gnss_ = std::make_unique<GnssAligner>(c.gnss, c.world_frame, c.base_link_frame);
-    gnss_roll_ = c.gnss.roll;
-    gnss_pitch_ = c.gnss.pitch;
-  }
-  frame_id_ = c.frame_id;
-  child_frame_id_ = c.child_frame_id;
-  positions_ = c.position_indices;
-  publish_tf_ = c.publish_tf;
-  predict_to_current_time_ = c.predict_to_current_time;
-  frequency_ = c.frequency;
-  if (predict_to_current_time_)
-    predict_model_ = std::make_unique<const Model>(c.model);
   trace_bound_ = c.runtime.trace_bound;
-  queue_size_ = static_cast<uint32_t>(c.queue_size);
-  stream_ = std::make_unique<OnlineStream>(c.model, settings_, c.online, c.timeline, c.runtime);
-  stream_->after_step = [this](long k) { publishLocked(stepLocked(k)); };
+  stream_ = std::make_unique<OnlineStream>(c.model, c.settings, c.online, c.timeline, c.runtime);
+  stream_->after_step = [this](long k) { outputs_.publishStep(stepLocked(k)); };
   stream_->on_restart = [this](const std::string& why) {
-    if (live_)
-      live_->clear();
+    link_.clear();
     if (gnss_)
       gnss_->restart();  // the world frame is anchored again: so is the GNSS alignment
-    NODELET_WARN("Estimator %s: %s", toString(settings_.algorithm).c_str(), why.c_str());
+    NODELET_WARN("Estimator %s: %s", toString(config_.settings.algorithm).c_str(), why.c_str());
   };
   limits_.period = c.period;
   limits_.max_future_steps = c.online.max_future_steps;
   limits_.max_stamp_behind = c.timeline.max_behind;
-  // Live stability (stability/live_stability.hpp): one window per sensor and the joint verdict
-  // of the same core test as `analyze`, the critical rates of a single i.i.d. sensor, and Gan
-  // and Liu's evidence.
-  LiveStabilityOptions live;
-  live.window = c.stability_window;
-  live.markov = c.markov_link;
-  live.min_samples = c.stability_min_samples;
-  live.late_data_dropped = c.online.late_policy == LatePolicy::DROP;
-  // Sensors at their own rates: the verdicts see each sensor only at its own steps.
-  std::string rates_note;
-  rate_ratios_.clear();
-  for (double r : c.online.rate_ratio)
-    rate_ratios_.push_back(SensorLattice::whole(r));  // a 9.996 Hz sensor in a 30 Hz model: every 3rd step
-  // A built-in motion: the verdicts of its linearisation over the steps' period, at x0 until the
-  // first diagnostic, then at the estimate (a local verdict, docs/stability.md 5)
-  if (c.model.nonlinear())
-  {
-    NODELET_INFO("Estimator: model '%s' has motion %s: the link verdicts are local, for its linearisation at the "
-                 "current estimate",
-                 c.model.name.c_str(), toString(c.model.motion).c_str());
-    motion_model_ = std::make_unique<const Model>(c.model);
-  }
-  const Model stability_model =
-      withSensorRates(linearisedModel(c.model, c.model.x0, c.period), rate_ratios_, &rates_note);
-  if (!rates_note.empty())
-    NODELET_WARN("Estimator: %s", rates_note.c_str());
-  if (c.live_stability)
-    live_ = std::make_unique<LiveStability>(stability_model, settings_, live);
+  link_.configure(c, getName());
 }
 
 void EstimatorNodelet::onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m, const ros::Time& receipt)
@@ -372,7 +236,7 @@ Clocks EstimatorNodelet::clocks(const ros::Time& receipt) const
 
 void EstimatorNodelet::warnRejected(const char* what, const OfferResult& r)
 {
-  NODELET_WARN_THROTTLE(1.0, "Estimator %s: %s rejected: %s (%lu rejected so far)", toString(settings_.algorithm).c_str(),
+  NODELET_WARN_THROTTLE(1.0, "Estimator %s: %s rejected: %s (%lu rejected so far)", toString(config_.settings.algorithm).c_str(),
                         what, r.reason.c_str(), rejectedLocked());
 }
 
@@ -422,7 +286,7 @@ void EstimatorNodelet::rejectLocked(const std::string& why)
 {
   ++rejected_topic_;
   NODELET_WARN_THROTTLE(1.0, "Estimator %s: message rejected: %s (%lu rejected so far)",
-                        toString(settings_.algorithm).c_str(), why.c_str(), rejectedLocked());
+                        toString(config_.settings.algorithm).c_str(), why.c_str(), rejectedLocked());
 }
 
 unsigned long EstimatorNodelet::rejectedLocked() const
@@ -433,33 +297,21 @@ unsigned long EstimatorNodelet::rejectedLocked() const
   return static_cast<unsigned long>(stream_->online().counters().rejected + rejected_topic_ + refused);
 }
 
-Estimate::Ptr EstimatorNodelet::stepLocked(long k)
+StepEstimatePtr EstimatorNodelet::stepLocked(long k)
 {
   const OnlineEstimator& online = stream_->online();
   const Estimator& est = online.estimator();
-  Estimate::Ptr e = boost::make_shared<Estimate>();
-  e->header.stamp.fromSec(stream_->timeline().clock().stamp(k));
-  e->header.frame_id = frame_id_;
+  auto e = std::make_shared<StepEstimate>();
+  e->stamp.fromSec(stream_->timeline().clock().stamp(k));
   e->step = static_cast<std::uint64_t>(k);
-  e->algorithm = toString(settings_.algorithm);
   e->gamma = online.lastGamma();
-  const Eigen::VectorXd& x = est.state();
-  const Eigen::MatrixXd& P = est.covariance();
-  const int n = static_cast<int>(x.size());
-  e->state.assign(x.data(), x.data() + n);
-  e->covariance.resize(static_cast<std::size_t>(n) * n);
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j)
-      e->covariance[static_cast<std::size_t>(i) * n + j] = P(i, j);  // row-major (REP-103)
-  e->covariance_trace = P.trace();
-  e->covariance_is_pseudo = settings_.algorithm == Algorithm::RSEIO;
-  const std::uint64_t resets = online.counters().divergence_resets;
-  if (live_)
-    live_->add(online.lastArrived(), online.lastDue(), online.lastGamma(), P, resets != resets_seen_);
-  resets_seen_ = resets;
+  e->x = est.state();
+  e->P = est.covariance();
+  e->trace = e->P.trace();
   const double q = est.commandArrivalProbability();
   e->command_arrival_probability = std::isfinite(q) ? q : -1.0;
-  last_trace_ = e->covariance_trace;
+  link_.step(online);
+  last_trace_ = e->trace;
   return e;
 }
 

@@ -1,5 +1,8 @@
-// Estimator nodelet: one estimator (kf, kfio, rseio, aoe, oe) on a measurement stream
-// (estimator_nodelet.cpp: parameters, inputs and steps; estimator_outputs.cpp: what it publishes).
+// Estimator nodelet: one estimator (kf, kfio, rseio, aoe, oe, ekfio) on a measurement stream. The
+// nodelet keeps its configuration whole (EstimatorNodeConfig) and owns its parts: the inputs and
+// steps (estimator_nodelet.cpp), what it publishes (EstimatorOutputs, estimator_outputs.hpp), its
+// tf lookups (FrameLookup), the link diagnostics (LinkDiagnostics) and the estimator diagnostics
+// (estimator_diagnostics.cpp), set_pose (estimator_set_pose.cpp).
 //
 // The input side is the core OnlineStream (online/online_stream.hpp): which stamps are believed and
 // when the timeline starts and restarts, the latency budget the sensors' delays call for, and the
@@ -31,40 +34,29 @@
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
-#include <std_msgs/Float64.h>
-#include <tf2_ros/buffer.h>
-#include <tf2_ros/transform_broadcaster.h>
-#include <tf2_ros/transform_listener.h>
 
 #include <algorithm>
 #include <atomic>
-#include <condition_variable>
-#include <map>
 #include <mutex>
-#include <thread>
 
+#include "dispatch_thread.hpp"
+#include "estimator_outputs.hpp"
+#include "frame_lookup.hpp"
+#include "gnss_alignment.hpp"
+#include "link_diagnostics.hpp"
+#include "load_failure.hpp"
 #include "networked_estimation/ControlInput.h"
 #include "networked_estimation/EstimatorConfig.h"
-#include "networked_estimation/Estimate.h"
 #include "networked_estimation/Measurement.h"
 #include "networked_estimation/ScheduleStep.h"
 #include "networked_estimation/SetPose.h"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/online/estimator_node_config.hpp"
-#include "networked_estimation/config/rate_schedule.hpp"
-#include "networked_estimation/stability/live_stability.hpp"
 #include "networked_estimation/online/online_stream.hpp"
-#include "networked_estimation/stability/stability.hpp"
-#include "load_failure.hpp"
 #include "param_yaml.hpp"
-#include "odometry_output.hpp"
-#include "link_status_message.hpp"
-#include "tf_output.hpp"
 #include "sensor_subscriptions.hpp"
-#include "transport_watch.hpp"
-#include "dispatch_thread.hpp"
 #include "sim_clock_watch.hpp"
-#include <tf2_msgs/TFMessage.h>
+#include "transport_watch.hpp"
 
 namespace networked_estimation
 {
@@ -83,14 +75,14 @@ public:
     if (gnss_)
       gnss_->stop();
     schedule_sub_.shutdown();
-    tf_sub_.shutdown();
-    tf_static_sub_.shutdown();
+    outputs_.stop();
   }
 
 private:
   void onInit() override;
 
   static ros::TransportHints hints() { return ros::TransportHints().tcpNoDelay(); }
+  uint32_t queueSize() const { return static_cast<uint32_t>(config_.queue_size); }
 
   /// dynamic_reconfigure: adaptive_latency, latency_budget, latency_budget_min/_max, late_policy,
   /// trace_bound (1e300 = no bound). Starts from the values in use (the server's first call, with
@@ -102,11 +94,6 @@ private:
   /// The filter starts over from the pose (into world_frame); false with `why` when refused.
   bool setPose(const geometry_msgs::PoseWithCovarianceStamped& m, std::string& why);
   void reconfigure(EstimatorConfig& c);
-
-  /// world_frame and base_link_frame, looked up in tf2 at the message's stamp (a missing or
-  /// extrapolated transform rejects the message, naming both frames).
-  /// (Built once, with the tf2 buffer and listener, on the first call.)
-  const Frames& frames();
 
   /// The ENU origin of the NavSatFix inputs, latched on ~datum and logged (pin it with ~datum).
   void publishDatum(const LocalEnu& d);
@@ -157,29 +144,8 @@ private:
 
   // --- steps -------------------------------------------------------------------------------------
 
-  /// The message of step k, just taken (mutex held).
-  Estimate::Ptr stepLocked(long k);
-
-  /// Publishes one step's outputs (mutex held).
-  void publishLocked(const Estimate::Ptr& e);
-
-  /// gps/filtered of one estimate (gnss_alignment: navsat_transform, publish_filtered_gps).
-  void publishFilteredGps(const Estimate& e);
-  /// odometry/filtered of one estimate (~state_mapping, world_frame -> base_link_frame).
-  void publishOdometry(const Estimate& e);
-
-  /// predict_to_current_time: at ~frequency, the last step's estimate predicted to ROS time now
-  /// (predictAhead; not fed back into the filter) on odometry/filtered and as the tf, in place of
-  /// the steps' own. Off the filter's lock but for copying the last step.
-  void predictTimer();
-
-  /// The latest estimate as the tf frame_id -> child_frame_id, 20 times a second, from the
-  /// manager's queue (tf is for viewing; sending it from the thread that takes the steps stalled
-  /// the manager's callback queues). The timer stops at a tick with no new estimate, and the next
-  /// estimate starts it again.
-  void tfTimer();
-  /// /tf and /tf_static: base_link's parent from other publishers than ourselves (ForeignParent).
-  void onTf(const ros::MessageEvent<tf2_msgs::TFMessage const>& e, bool static_tf);
+  /// The estimate of step k, just taken (mutex held).
+  StepEstimatePtr stepLocked(long k);
 
   /// Takes the steps whose deadline has passed (in ROS time) and restarts on a time jump (the
   /// stream's deadlines()); returns the wall seconds until the next deadline (the dispatch
@@ -204,75 +170,30 @@ private:
   /// rate (mutex held).
   void diagnoseSensors(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
-  void diagnoseLink(diagnostic_updater::DiagnosticStatusWrapper& stat);
-  /// ~link_status: one LinkStatus per sensor from the numbers of the diagnostics just sent
-  /// (diagnoseSensors' latency figures, diagnoseLink's report), after each update, on its thread.
-  void publishLinkStatus();
-
-  EstimatorSettings settings_;
+  /// The configuration, whole (read-only after onInit).
+  EstimatorNodeConfig config_;
   std::unique_ptr<OnlineStream> stream_;
   RuntimeLimits limits_;
-  std::unique_ptr<LiveStability> live_;
-  /// A built-in motion (docs/stability.md 5): the motion model, the sensors' rate ratios, and the
-  /// verdicts of its linearisation at the estimate, rebuilt in diagnoseLink when the Jacobian moved
-  /// (the diagnostics' thread only).
-  std::unique_ptr<const Model> motion_model_;
-  std::vector<double> rate_ratios_;
-  std::unique_ptr<LiveStability> local_;
-  std::uint64_t relinearisations_ = 0;
-  std::uint64_t resets_seen_ = 0;  ///< divergence resets of the filter already told to live_
-
-  std::string input_type_, frame_id_, child_frame_id_;
-  std::vector<SensorInput> inputs_;
-  SensorInput command_;
-  StateMap state_map_;
-  std::string world_frame_, base_link_frame_, odom_frame_;
-  std::vector<double> datum_;
-  ros::Publisher datum_pub_;
   /// gnss_alignment: navsat_transform (gnss_alignment.hpp); null with enu.
   std::unique_ptr<GnssAligner> gnss_;
-  int gnss_roll_ = -1, gnss_pitch_ = -1;
-  std::vector<int> positions_;
-  bool publish_tf_ = true;
-  double trace_bound_ = std::numeric_limits<double>::infinity();
-  uint32_t queue_size_ = 1000;
+  FrameLookup frames_;
+  EstimatorOutputs outputs_;
+  LinkDiagnostics link_;
+  double trace_bound_ = std::numeric_limits<double>::infinity();  ///< reconfigurable (mutex_)
+  ros::Publisher datum_pub_;
 
   DispatchThread dispatch_;  ///< serves the inputs and the deadlines (before the subscribers: outlives them)
   SimClockWatch clock_watch_;  ///< sim time: wakes dispatch_ when a /clock tick reaches the next deadline
   std::vector<ros::Subscriber> subs_;
-  ros::Subscriber cmd_sub_, schedule_sub_, tf_sub_, tf_static_sub_, set_pose_sub_;
+  ros::Subscriber cmd_sub_, schedule_sub_, set_pose_sub_;
   /// The transport each input got (udp may fall back to TCPROS); the diagnostics' thread only.
   TransportWatch transports_;
   ros::ServiceServer set_pose_srv_;
   std::atomic<unsigned long> set_pose_refused_{0};
-  ros::Publisher estimate_pub_, trace_pub_, pose_pub_, odom_pub_;
-  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
-  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
-  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
-  Frames frames_;
-  /// child_frame_id = base_link_frame: the transforms we sent, and base_link's parent from others.
-  std::mutex tf_mutex_;
-  OwnTransforms own_tf_;
-  ForeignParent foreign_parent_;
-  ros::WallTimer tf_timer_;
-  bool tf_timer_idle_ = false;  ///< tf_timer_ stopped for want of a new estimate (mutex_)
-  Estimate::ConstPtr last_estimate_;
-  ros::Time last_tf_;
-  /// predict_to_current_time: the model (a copy: the stream's may be rebuilt), the last step's
-  /// estimate (mutex_), and the stamp of the last prediction published (the timer's thread).
-  bool predict_to_current_time_ = false;
-  double frequency_ = 0.0;
-  std::unique_ptr<const Model> predict_model_;
-  Estimate::ConstPtr last_step_;
-  ros::Time last_predicted_;
-  ros::WallTimer predict_timer_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTimer diag_timer_;
-  /// The last diagnostics' per-sensor numbers, for ~link_status (the diagnostics' thread only).
-  ros::Publisher link_status_pub_;
+  /// The last diagnostics' per-sensor latency figures, for ~link_status (the diagnostics' thread only).
   std::vector<LatencyBudget::Figures> latency_figures_;
-  LiveStabilityReport link_report_;
-  bool link_reported_ = false;
 
   boost::recursive_mutex reconfigure_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<EstimatorConfig>> reconfigure_;

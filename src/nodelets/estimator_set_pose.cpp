@@ -41,8 +41,8 @@ bool EstimatorNodelet::setPose(const geometry_msgs::PoseWithCovarianceStamped& i
   }
   // Into the world frame (the latest transform: a pose set by hand has no meaningful past).
   m.header.stamp = ros::Time(0);
-  if (!m.header.frame_id.empty() && m.header.frame_id != world_frame_ &&
-      !poseToWorld(frames(), m.header.frame_id, m.header.stamp, m.pose.pose, why, m.pose.covariance.data()))
+  if (!m.header.frame_id.empty() && m.header.frame_id != config_.world_frame &&
+      !poseToWorld(frames_.get(), m.header.frame_id, m.header.stamp, m.pose.pose, why, m.pose.covariance.data()))
   {
     ++set_pose_refused_;
     return false;
@@ -58,7 +58,7 @@ bool EstimatorNodelet::setPose(const geometry_msgs::PoseWithCovarianceStamped& i
     std::lock_guard<std::mutex> lock(mutex_);
     Eigen::VectorXd x;
     Eigen::MatrixXd P;
-    poseReset(stream_->online().model(), state_map_, p, x, P);
+    poseReset(stream_->online().model(), config_.state_map, p, x, P);
     stream_->setEstimate(x, P);
   }
   catch (const std::exception& e)
@@ -68,7 +68,7 @@ bool EstimatorNodelet::setPose(const geometry_msgs::PoseWithCovarianceStamped& i
     return false;
   }
   NODELET_INFO("Estimator: pose set to x %.3f, y %.3f, z %.3f, yaw %.3f (in %s)", p.pose[0], p.pose[1], p.pose[2],
-               p.pose[5], world_frame_.c_str());
+               p.pose[5], config_.world_frame.c_str());
   why = "pose set";
   return true;
 }

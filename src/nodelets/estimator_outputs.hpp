@@ -1,0 +1,102 @@
+// What the Estimator publishes, an owned part of the nodelet: `estimate` (Estimate),
+// `covariance_trace`, `pose`, `odometry/filtered`, `gps/filtered` (navsat_transform) and the tf,
+// each built by a pure function from one step's estimate as the filter left it (StepEstimate: x
+// and P in Eigen, no message in between), and only when someone listens (tf: always).
+//
+// Threads: publishStep runs in the thread that took the step, with the filter's lock held (so that
+// the estimates leave in step order); the tf and predict_to_current_time timers run on the
+// nodelet's queue and share only the latest estimate with it, under this part's own lock.
+#pragma once
+
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <ros/ros.h>
+#include <tf2_msgs/TFMessage.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "frame_transforms.hpp"
+#include "gnss_alignment.hpp"
+#include "networked_estimation/Estimate.h"
+#include "networked_estimation/config/model.hpp"
+#include "networked_estimation/online/estimator_node_config.hpp"
+#include "tf_output.hpp"
+
+namespace networked_estimation
+{
+
+/// One step's estimate, as the filter left it: what every output is built from.
+struct StepEstimate
+{
+  ros::Time stamp;
+  std::uint64_t step = 0;
+  bool gamma = false;
+  Eigen::VectorXd x;  ///< x_{k|k}
+  Eigen::MatrixXd P;  ///< P_{k|k} (rseio: its pseudo-covariance)
+  double trace = 0.0;
+  double command_arrival_probability = -1.0;  ///< -1: the algorithm has none
+};
+using StepEstimatePtr = std::shared_ptr<const StepEstimate>;
+
+/// The Estimate message of a step (covariance row-major, REP-103).
+Estimate::Ptr estimateMessage(const StepEstimate& e, const std::string& frame_id, Algorithm algorithm);
+/// The pose of ~position_indices with their block of P; the orientation is identity and the axes
+/// not estimated get kUnmappedVariance.
+geometry_msgs::PoseWithCovarianceStamped::Ptr poseMessage(const StepEstimate& e, const std::vector<int>& positions,
+                                                          const std::string& frame_id);
+
+class EstimatorOutputs
+{
+public:
+  /// `name`: the nodelet's, for the logs; `frames`: base_link's tf lookups (map -> odom, made on
+  /// first use); `gnss`: the GNSS alignment or null. Advertises the topics and starts the timers.
+  void start(ros::NodeHandle& nh, const EstimatorNodeConfig& config, const std::string& name,
+             std::function<const Frames&()> frames, GnssAligner* gnss);
+  /// Unsubscribes from /tf (before the tf buffer goes).
+  void stop();
+
+  /// One step's outputs (the filter's lock held).
+  void publishStep(const StepEstimatePtr& e);
+
+private:
+  void publishOdometry(const StepEstimate& e);
+  void publishFilteredGps(const StepEstimate& e);
+  /// The latest estimate for the tf timer, which it (re)starts.
+  void offerTf(const StepEstimatePtr& e);
+  /// predict_to_current_time: at ~frequency, the last step predicted to ROS time now (predictAhead;
+  /// not fed back into the filter) on odometry/filtered and as the tf.
+  void predictTimer();
+  /// The latest estimate as the tf, 20 times a second; stops at a tick with nothing new.
+  void tfTimer();
+  geometry_msgs::TransformStamped positionTransform(const StepEstimate& e) const;
+  /// /tf and /tf_static: base_link's parent from other publishers than ourselves.
+  void onTf(const ros::MessageEvent<tf2_msgs::TFMessage const>& e, bool static_tf);
+
+  const EstimatorNodeConfig* config_ = nullptr;
+  std::string name_;
+  std::function<const Frames&()> frames_;
+  GnssAligner* gnss_ = nullptr;
+  ros::Publisher estimate_pub_, trace_pub_, pose_pub_, odom_pub_;
+  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
+  ros::Subscriber tf_sub_, tf_static_sub_;
+  ros::WallTimer tf_timer_, predict_timer_;
+
+  std::mutex mutex_;  ///< the three below
+  StepEstimatePtr last_tf_estimate_, last_step_;
+  bool tf_timer_idle_ = false;
+
+  ros::Time last_tf_, last_predicted_;  ///< the timers' own threads
+  /// child_frame_id = base_link_frame: the transforms we sent, and base_link's parent from others.
+  std::mutex tf_mutex_;
+  OwnTransforms own_tf_;
+  ForeignParent foreign_parent_;
+};
+
+}  // namespace networked_estimation
