@@ -1,7 +1,6 @@
 // The one validity check of a covariance matrix (covariance.hpp).
 #include "networked_estimation/common/covariance.hpp"
 
-#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <cmath>
 
@@ -12,28 +11,52 @@ namespace networked_estimation
 namespace
 {
 
-/// Up to 16 x 16 on the stack.
-using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 16, 16>;
+/// The largest matrix the certificate takes (on the stack).
+constexpr Eigen::Index kCertificateMax = 16;
 
-/// The certificate of covariance.hpp: true proves that S (symmetric, finite, n <= 16) passes the
-/// positive definite test; false proves nothing.
+/// The certificate of covariance.hpp: true proves that M (finite, symmetric within the tolerance,
+/// n <= kCertificateMax) passes the positive definite test; false proves nothing. Plain loops on
+/// the stack: C = D^-1/2 S D^-1/2 (S = (M + M') / 2), its Cholesky factor L in place, then the
+/// squared Frobenius norm of L^-1 column by column (forward substitution on the unit vectors).
 bool certainlyPositiveDefinite(const Eigen::Ref<const Eigen::MatrixXd>& M)
 {
   const Eigen::Index n = M.rows();
-  Small C(n, n);
-  for (Eigen::Index j = 0; j < n; ++j)
+  double s[kCertificateMax];
+  for (Eigen::Index i = 0; i < n; ++i)
   {
-    if (!(M(j, j) > 0.0))
+    if (!(M(i, i) > 0.0))
       return false;
-    for (Eigen::Index i = 0; i < n; ++i)
-      C(i, j) = 0.5 * (M(i, j) + M(j, i)) / std::sqrt(M(i, i) * M(j, j));
+    s[i] = 1.0 / std::sqrt(M(i, i));
   }
-  const Eigen::LLT<Small> llt(C);
-  if (llt.info() != Eigen::Success)
-    return false;
-  Small Linv = Small::Identity(n, n);
-  llt.matrixL().solveInPlace(Linv);
-  const double frobenius2 = Linv.squaredNorm();
+  double L[kCertificateMax * kCertificateMax];  // row-major, lower triangle
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index j = 0; j <= i; ++j)
+    {
+      double v = 0.5 * (M(i, j) + M(j, i)) * s[i] * s[j];
+      for (Eigen::Index k = 0; k < j; ++k)
+        v -= L[i * n + k] * L[j * n + k];
+      if (i == j)
+      {
+        if (!(v > 0.0))
+          return false;
+        L[i * n + i] = std::sqrt(v);
+      }
+      else
+        L[i * n + j] = v / L[j * n + j];
+    }
+  double frobenius2 = 0.0;
+  double x[kCertificateMax];
+  for (Eigen::Index c = 0; c < n; ++c)  // column c of L^-1: L x = e_c, zero above row c
+  {
+    for (Eigen::Index i = c; i < n; ++i)
+    {
+      double v = i == c ? 1.0 : 0.0;
+      for (Eigen::Index k = c; k < i; ++k)
+        v -= L[i * n + k] * x[k];
+      x[i] = v / L[i * n + i];
+      frobenius2 += x[i] * x[i];
+    }
+  }
   return std::isfinite(frobenius2) && 1.0 / frobenius2 > kDefinitenessTolerance * static_cast<double>(n);
 }
 
@@ -52,7 +75,7 @@ void definiteness(const Eigen::Ref<const Eigen::MatrixXd>& M, CovarianceCheck& o
   const Eigen::Index n = M.rows();
   if (n == 0)
     return;
-  if (out.definiteness == Definiteness::POSITIVE && n <= 16 && certainlyPositiveDefinite(M))
+  if (out.definiteness == Definiteness::POSITIVE && n <= kCertificateMax && certainlyPositiveDefinite(M))
     return;
   const Eigen::MatrixXd S = 0.5 * (M + M.transpose());
   Eigen::VectorXd ev;
