@@ -1,7 +1,9 @@
 #include "networked_estimation/config/param_reader.hpp"
 
+#include <limits>
 #include <sstream>
 
+#include "config/yaml_reader.hpp"
 #include "networked_estimation/common/error.hpp"
 
 namespace networked_estimation
@@ -57,15 +59,11 @@ long ParamReader::integer(const std::string& key, long def, long lo, long hi)
   const YAML::Node n = params_[key];
   if (!n)
     return def;
-  long v = 0;
-  try
-  {
-    v = n.as<long>();
-  }
-  catch (const YAML::Exception&)
-  {
+  long long parsed = 0;
+  if (!n.IsScalar() || !detail::integerText(n.Scalar(), parsed) || parsed < std::numeric_limits<long>::min() ||
+      parsed > std::numeric_limits<long>::max())
     throw ConfigError(source_ + ": " + key + ": expected an integer, found '" + show(n) + "'");
-  }
+  const long v = static_cast<long>(parsed);
   if (v < lo || v > hi)
     throw ConfigError(source_ + ": " + key + ": expected an integer in [" + std::to_string(lo) + ", " +
                       std::to_string(hi) + "], found " + std::to_string(v));
@@ -78,14 +76,10 @@ bool ParamReader::flag(const std::string& key, bool def)
   const YAML::Node n = params_[key];
   if (!n)
     return def;
-  try
-  {
-    return n.as<bool>();
-  }
-  catch (const YAML::Exception&)
-  {
+  bool v = false;
+  if (!n.IsScalar() || !detail::booleanText(n.Scalar(), v))
     throw ConfigError(source_ + ": " + key + ": expected true or false, found '" + show(n) + "'");
-  }
+  return v;
 }
 
 std::string ParamReader::text(const std::string& key, const std::string& def)

@@ -20,6 +20,34 @@ namespace detail
 // Formatting
 // ---------------------------------------------------------------------------------------------
 
+bool booleanText(const std::string& t, bool& out)
+{
+  if (t == "true" || t == "True" || t == "TRUE")
+  {
+    out = true;
+    return true;
+  }
+  if (t == "false" || t == "False" || t == "FALSE")
+  {
+    out = false;
+    return true;
+  }
+  return false;
+}
+
+bool integerText(const std::string& t, long long& out)
+{
+  const std::size_t first = !t.empty() && (t[0] == '+' || t[0] == '-') ? 1 : 0;
+  if (first == t.size() || !std::all_of(t.begin() + static_cast<long>(first), t.end(),
+                                        [](char c) { return c >= '0' && c <= '9'; }))
+  {
+    return false;
+  }
+  errno = 0;
+  out = std::strtoll(t.c_str(), nullptr, 10);
+  return errno != ERANGE;
+}
+
 std::string dims(Eigen::Index rows, Eigen::Index cols)
 {
   return std::to_string(rows) + "x" + std::to_string(cols);
@@ -304,17 +332,10 @@ std::uint64_t Reader::integer(const YAML::Node& node, const std::string& key, st
 
 bool Reader::boolean(const YAML::Node& node, const std::string& key) const
 {
-  if (node.IsScalar())
+  bool value = false;
+  if (node.IsScalar() && booleanText(node.Scalar(), value))
   {
-    const std::string& t = node.Scalar();
-    if (t == "true" || t == "True" || t == "TRUE")
-    {
-      return true;
-    }
-    if (t == "false" || t == "False" || t == "FALSE")
-    {
-      return false;
-    }
+    return value;
   }
   fail(node, key, "expected true or false, found " + describe(node));
 }

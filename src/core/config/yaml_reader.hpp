@@ -25,6 +25,12 @@ namespace detail
 // Number formatting is common/number_format.hpp's.
 using networked_estimation::formatNumber;
 using networked_estimation::plainNumber;
+/// The one grammar of a boolean in every configuration (files, ROS parameters, settings):
+/// true, True, TRUE, false, False, FALSE. False when `text` is none of them.
+bool booleanText(const std::string& text, bool& out);
+/// The one grammar of an integer: an optional sign and decimal digits. False when `text` is not
+/// one or it is beyond long long.
+bool integerText(const std::string& text, long long& out);
 /// "RxC".
 std::string dims(Eigen::Index rows, Eigen::Index cols);
 /// "a, b, c".

@@ -944,3 +944,48 @@ TEST_F(EstimatorConfig, GnssAlignment)
         << bad;
   }
 }
+
+// ROS parameters read booleans and integers with the same grammar as the configuration files:
+// true/false (in three cases) and decimal digits, nothing else (yaml-cpp alone would take yes, on
+// and 0x10).
+TEST(ParamReader, OneGrammarForBooleansAndIntegers)
+{
+  auto flag = [](const std::string& value) {
+    ne::ParamReader p(YAML::Load("k: " + value), "/n parameters");
+    return p.flag("k", false);
+  };
+  EXPECT_TRUE(flag("true"));
+  EXPECT_TRUE(flag("True"));
+  EXPECT_FALSE(flag("FALSE"));
+  for (const std::string bad : {"yes", "on", "y", "1", "[true]"})
+  {
+    try
+    {
+      flag(bad);
+      ADD_FAILURE() << bad << " taken as a boolean";
+    }
+    catch (const ne::ConfigError& e)
+    {
+      EXPECT_NE(std::string(e.what()).find("/n parameters: k: expected true or false"), std::string::npos) << e.what();
+    }
+  }
+  auto integer = [](const std::string& value) {
+    ne::ParamReader p(YAML::Load("k: " + value), "/n parameters");
+    return p.integer("k", 0, -100, 100);
+  };
+  EXPECT_EQ(integer("42"), 42);
+  EXPECT_EQ(integer("-7"), -7);
+  EXPECT_EQ(integer("+3"), 3);
+  for (const std::string bad : {"0x10", "2.5", "1e2", "ten", "99999999999999999999999"})
+  {
+    try
+    {
+      integer(bad);
+      ADD_FAILURE() << bad << " taken as an integer";
+    }
+    catch (const ne::ConfigError& e)
+    {
+      EXPECT_NE(std::string(e.what()).find("/n parameters: k: expected an integer"), std::string::npos) << e.what();
+    }
+  }
+}
