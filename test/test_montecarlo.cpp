@@ -442,10 +442,8 @@ TEST(MonteCarloShards, MergedBlocksEqualUnshardedBitForBit)
           {
             BlockSession session = BlockSession::shard(k, n);
             std::vector<double> shard_raw;
-            {
-              BlockSessionScope scope(session);
-              runMonteCarlo(runs, values, 3, awkwardValues(nonfinite), nullptr, raw ? &shard_raw : nullptr);
-            }
+            runMonteCarlo(runs, values, 3, awkwardValues(nonfinite), nullptr, raw ? &shard_raw : nullptr, nullptr,
+                          &session);
             std::vector<CallBlocks> calls = session.takeCalls();
             ASSERT_EQ(calls.size(), 1u);
             long expected_blocks = 0;
@@ -479,13 +477,13 @@ TEST(MonteCarloShards, MergedBlocksEqualUnshardedBitForBit)
           EXPECT_TRUE(!raw || sameBits(merged_raw, plain_raw));
           // a replay returns the merged moments without running anything
           BlockSession replay = BlockSession::replay({merged});
-          BlockSessionScope scope(replay);
           WorkerFactory never = []() -> RunFunction {
             ADD_FAILURE() << "a replay ran a worker";
             return [](long, double*) {};
           };
           std::vector<double> replay_raw;
-          EXPECT_TRUE(sameMoments(runMonteCarlo(runs, values, 2, never, nullptr, raw ? &replay_raw : nullptr), plain));
+          EXPECT_TRUE(sameMoments(
+              runMonteCarlo(runs, values, 2, never, nullptr, raw ? &replay_raw : nullptr, nullptr, &replay), plain));
           EXPECT_TRUE(!raw || sameBits(replay_raw, plain_raw));
           EXPECT_EQ(replay.replayed(), 1u);
         }
@@ -495,10 +493,7 @@ TEST(MonteCarloShards, MergedBlocksEqualUnshardedBitForBit)
 TEST(MonteCarloShards, ReplayAndCombineRefuseWrongBlocks)
 {
   BlockSession session = BlockSession::shard(1, 1);
-  {
-    BlockSessionScope scope(session);
-    runMonteCarlo(200, 5, 1, awkwardValues(false));
-  }
+  runMonteCarlo(200, 5, 1, awkwardValues(false), nullptr, nullptr, nullptr, &session);
   const CallBlocks all = session.takeCalls().at(0);
   ASSERT_EQ(all.blocks.size(), 4u);
   CallBlocks gap = all;
@@ -516,12 +511,10 @@ TEST(MonteCarloShards, ReplayAndCombineRefuseWrongBlocks)
 
   // a replay asked for another call size, or for more calls than recorded
   BlockSession replay = BlockSession::replay({all});
-  BlockSessionScope scope(replay);
-  EXPECT_THROW(runMonteCarlo(199, 5, 1, awkwardValues(false)), InputError);
+  EXPECT_THROW(runMonteCarlo(199, 5, 1, awkwardValues(false), nullptr, nullptr, nullptr, &replay), InputError);
   BlockSession replay2 = BlockSession::replay({all});
-  BlockSessionScope scope2(replay2);
-  EXPECT_EQ(runMonteCarlo(200, 5, 1, awkwardValues(false)).n, 200);
-  EXPECT_THROW(runMonteCarlo(200, 5, 1, awkwardValues(false)), InputError);
+  EXPECT_EQ(runMonteCarlo(200, 5, 1, awkwardValues(false), nullptr, nullptr, nullptr, &replay2).n, 200);
+  EXPECT_THROW(runMonteCarlo(200, 5, 1, awkwardValues(false), nullptr, nullptr, nullptr, &replay2), InputError);
 }
 
 TEST(MonteCarloShards, ExperimentMergeEqualsUnsharded)

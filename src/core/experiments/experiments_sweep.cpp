@@ -737,7 +737,7 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
   };
 
   const CallStatistics stats = callStatistics(rc);
-  const Moments m = runMonteCarlo(rc.runs, values, rc.threads, factory, rc.progress, nullptr, &stats);
+  const Moments m = runMonteCarlo(rc.runs, values, rc.threads, factory, rc.progress, nullptr, &stats, rc.session);
   const std::size_t nt = m.thresholds.size();
   for (std::size_t p = 0; p < np; ++p)
     for (std::size_t j = 0; j < nf; ++j)

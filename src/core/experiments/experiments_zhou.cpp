@@ -129,7 +129,8 @@ Moments squaredErrorRuns(const RunConfig& rc, const Model& model, const ChannelS
   CallStatistics stats = callStatistics(rc);
   for (std::size_t j = 0; j < nf; ++j)
     addSpan(stats, j * static_cast<std::size_t>(T), stepAxis(T), window0, window1);
-  return runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress, nullptr, &stats);
+  return runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress,
+                       nullptr, &stats, rc.session);
 }
 
 std::string stem(const std::string& path)
@@ -251,7 +252,7 @@ ExperimentResult zhouFig2(const RunConfig& rc)
     SampleSet samples;
     samples.case_name = names[c];
     const CallStatistics stats = callStatistics(rc);
-    const Moments m = runMonteCarlo(rc.runs, 4, rc.threads, factory, rc.progress, &samples.values, &stats);
+    const Moments m = runMonteCarlo(rc.runs, 4, rc.threads, factory, rc.progress, &samples.values, &stats, rc.session);
     CaseResult cr;
     cr.name = names[c];
     cr.title = "P_0|0 = " + fmt(p0s[c]) + " I";
@@ -370,7 +371,8 @@ ExperimentResult customExperiment(const RunConfig& rc)
   for (std::size_t j = 0; j < nf; ++j)
     addSpan(stats, j * static_cast<std::size_t>(T), stepAxis(T), 1.0, static_cast<double>(T));
   const Moments m =
-      runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress, nullptr, &stats);
+      runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress,
+                    nullptr, &stats, rc.session);
   ExperimentResult res;
   CaseResult c;
   c.name = model.name.empty() ? stem(cfg.model_path) : model.name;
