@@ -44,6 +44,8 @@ set(CMAKE_ARCHIVE_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/lib)
 # All of it: the simulator's sensor outputs use online/'s datum reader, and that geodesy/.
 add_library(${PROJECT_NAME}_core STATIC ${NE_CORE_SOURCES})
 target_sources(${PROJECT_NAME}_core PRIVATE src/core/common/eigenvalues.cpp)
+target_sources(${PROJECT_NAME}_core PRIVATE ${NE_EMBEDDED_MODELS_SOURCE})
+set_source_files_properties(${NE_EMBEDDED_MODELS_SOURCE} PROPERTIES SKIP_UNITY_BUILD_INCLUSION ON)
 set_target_properties(${PROJECT_NAME}_core PROPERTIES POSITION_INDEPENDENT_CODE ON)
 target_include_directories(${PROJECT_NAME}_core PUBLIC include ${EIGEN3_INCLUDE_DIRS} PRIVATE src/core)
 target_include_directories(${PROJECT_NAME}_core SYSTEM PRIVATE ${GeographicLib_INCLUDE_DIR} ${BZIP2_INCLUDE_DIR}

@@ -10,7 +10,9 @@
 #include <sstream>
 #include <string>
 
+#include "experiments/paper_models.hpp"  // private header (src/core)
 #include "networked_estimation/common/error.hpp"
+#include "networked_estimation/config/model.hpp"
 #include "networked_estimation/experiments/montecarlo.hpp"
 #include "networked_estimation/experiments/montecarlo_shards.hpp"
 
@@ -620,4 +622,140 @@ TEST(MonteCarloShards, MergeRefusesShardsThatDoNotBelongTogether)
   std::string edited = text;
   edited.replace(edited.find("\"fingerprint\": \""), 16, "\"fingerprint\": \"0");
   malformed(edited, "'fingerprint'");
+}
+
+// The papers' models: Zhou's and Lin et al.'s examples are config/models' files compiled into the
+// core (cmake/embedded_models.cmake) with the varied parameter applied, and equal, number for
+// number, the models the experiments ran when they were written in C++ (the references below).
+
+namespace
+{
+
+bool sameModel(const Model& a, const Model& b, std::string& why)
+{
+  auto mat = [&](const char* name, const Eigen::MatrixXd& x, const Eigen::MatrixXd& y) {
+    if (x.rows() == y.rows() && x.cols() == y.cols() && x == y)
+      return true;
+    std::ostringstream os;
+    os << name << ": " << x.rows() << "x" << x.cols() << " [" << x << "] vs " << y.rows() << "x" << y.cols() << " ["
+       << y << "]";
+    why = os.str();
+    return false;
+  };
+  if (a.name != b.name || a.period != b.period)
+  {
+    why = "name or period: " + a.name + " " + std::to_string(a.period) + " vs " + b.name + " " + std::to_string(b.period);
+    return false;
+  }
+  if (!mat("A", a.A, b.A) || !mat("B", a.B, b.B) || !mat("Q", a.Q, b.Q) || !mat("C", a.C, b.C) ||
+      !mat("R", a.R, b.R) || !mat("x0", a.x0, b.x0) || !mat("P0", a.P0, b.P0) || !mat("Bu", a.Bu, b.Bu))
+    return false;
+  if (a.sensors.size() != b.sensors.size() || a.uncertainty.size() != b.uncertainty.size())
+  {
+    why = "sensor or uncertainty count";
+    return false;
+  }
+  for (std::size_t i = 0; i < a.sensors.size(); ++i)
+    if (a.sensors[i].name != b.sensors[i].name || a.sensors[i].offset != b.sensors[i].offset ||
+        a.sensors[i].size != b.sensors[i].size)
+    {
+      why = "sensor " + std::to_string(i);
+      return false;
+    }
+  for (std::size_t i = 0; i < a.uncertainty.size(); ++i)
+  {
+    if (!mat("dA", a.uncertainty[i].dA, b.uncertainty[i].dA) || !mat("dB", a.uncertainty[i].dB, b.uncertainty[i].dB) ||
+        !mat("dC", a.uncertainty[i].dC, b.uncertainty[i].dC))
+      return false;
+    if (a.uncertainty[i].range != b.uncertainty[i].range)
+    {
+      why = "range";
+      return false;
+    }
+  }
+  if (a.schedule.active() || b.schedule.active() || a.states != b.states || a.angles != b.angles ||
+      a.motion != b.motion || a.two_d_mode != b.two_d_mode)
+  {
+    why = "schedule, states, angles or motion";
+    return false;
+  }
+  return true;
+}
+
+/// Zhou's example as montecarlo.cpp wrote it before the models were read from config/models.
+Model zhouReference(double delta)
+{
+  Model m;
+  m.name = "zhou_example";
+  m.period = 0.01;
+  m.A.resize(2, 2);
+  m.A << 0.9802, 0.0196, 0.0, 0.9802;
+  m.B = Eigen::MatrixXd::Identity(2, 2);
+  m.Q.resize(2, 2);
+  m.Q << 1.9608, 0.0195, 0.0195, 1.9605;
+  m.C.resize(1, 2);
+  m.C << 1, -1;
+  m.R = Eigen::MatrixXd::Identity(1, 1);
+  m.x0 = Eigen::Vector2d(1, 0);
+  m.P0 = Eigen::MatrixXd::Identity(2, 2);
+  m.sensors.push_back({"y", 0, 1});
+  Uncertainty u;
+  u.dA = Eigen::MatrixXd::Zero(2, 2);
+  u.dA(0, 1) = 0.099;
+  u.dB = Eigen::MatrixXd::Zero(2, 2);
+  u.dC = Eigen::MatrixXd::Zero(1, 2);
+  u.range = delta;
+  m.uncertainty.push_back(u);
+  m.Bu.resize(2, 0);
+  return m;
+}
+
+/// Lin et al.'s example as montecarlo.cpp wrote it before.
+Model aoeReference(double rhoA)
+{
+  Model m;
+  m.name = "aoe_example";
+  m.period = 0.01;
+  m.A.resize(2, 2);
+  m.A << rhoA, 0, 0, 1.005;
+  m.B = Eigen::MatrixXd::Identity(2, 2);
+  m.Q = 20.0 * Eigen::MatrixXd::Identity(2, 2);
+  m.C.resize(2, 2);
+  m.C << 1, -1, 0, 1;
+  m.R = 20.0 * Eigen::MatrixXd::Identity(2, 2);
+  m.x0 = Eigen::Vector2d::Zero();
+  m.P0 = Eigen::MatrixXd::Identity(2, 2);
+  m.sensors.push_back({"y", 0, 2});
+  m.Bu.resize(2, 1);
+  m.Bu << -1, 1;
+  return m;
+}
+
+}  // namespace
+
+TEST(PaperModels, BuiltInFilesAreConfigModels)
+{
+  const std::string root = NE_SOURCE_DIR;
+  for (const std::string name : {"zhou_example", "aoe_example"})
+  {
+    std::string why;
+    EXPECT_TRUE(sameModel(mc::builtInModel(name), loadModel(root + "/config/models/" + name + ".yaml"), why))
+        << name << ": " << why;
+  }
+  EXPECT_THROW(mc::builtInModel("no_such_model"), std::logic_error);
+}
+
+TEST(PaperModels, ExperimentsRunTheModelsOfBefore)
+{
+  // zhou_fig1 and zhou_fig2 use delta 1 and 10, lin_fig2..5 the rho of their cases
+  for (double delta : {1.0, 10.0, 0.5})
+  {
+    std::string why;
+    EXPECT_TRUE(sameModel(mc::zhouExampleModel(delta), zhouReference(delta), why)) << "delta " << delta << ": " << why;
+  }
+  for (double rho : {1.2910, 1.8257, 1.1, 0.9})
+  {
+    std::string why;
+    EXPECT_TRUE(sameModel(mc::aoeExampleModel(rho), aoeReference(rho), why)) << "rhoA " << rho << ": " << why;
+  }
 }

@@ -1,56 +1,72 @@
-// The papers' example models (paper_models.hpp).
+// The papers' example models (paper_models.hpp): Zhou's and Lin et al.'s from the model files in
+// config/models compiled into the core (embedded_models.hpp), Yang et al.'s written here.
 #include "experiments/paper_models.hpp"
+
+#include <map>
+#include <mutex>
+#include <stdexcept>
+#include <yaml-cpp/yaml.h>
+
+#include "experiments/embedded_models.hpp"
+#include "networked_estimation/common/error.hpp"
 
 namespace networked_estimation
 {
 namespace mc
 {
 
+namespace
+{
+
+/// The parsed model of the embedded file config/models/NAME.yaml, parsed once.
+const Model& embeddedModel(const std::string& name)
+{
+  static std::mutex mutex;
+  static std::map<std::string, Model> parsed;
+  std::lock_guard<std::mutex> lock(mutex);
+  const auto found = parsed.find(name);
+  if (found != parsed.end())
+    return found->second;
+  for (const EmbeddedModel& e : embeddedModels())
+    if (name == e.name)
+    {
+      const std::string source = std::string(e.path) + " (built in)";
+      YAML::Node root;
+      try
+      {
+        root = YAML::Load(e.text);
+      }
+      catch (const YAML::Exception& ex)
+      {
+        throw ConfigError(source + ":" + std::to_string(ex.mark.line + 1) + ": " + ex.msg);
+      }
+      return parsed.emplace(name, parseModel(root, source)).first->second;
+    }
+  throw std::logic_error("no built-in model file config/models/" + name + ".yaml (cmake/embedded_models.cmake)");
+}
+
+}  // namespace
+
+Model builtInModel(const std::string& name)
+{
+  return embeddedModel(name);
+}
+
 Model zhouExampleModel(double delta)
 {
-  Model m;
-  m.name = "zhou_example";
-  m.period = 0.01;
-  m.A.resize(2, 2);
-  m.A << 0.9802, 0.0196, 0.0, 0.9802;
-  m.B = Eigen::MatrixXd::Identity(2, 2);
-  m.Q.resize(2, 2);
-  m.Q << 1.9608, 0.0195, 0.0195, 1.9605;
-  m.C.resize(1, 2);
-  m.C << 1, -1;
-  m.R = Eigen::MatrixXd::Identity(1, 1);
-  m.x0 = Eigen::Vector2d(1, 0);
-  m.P0 = Eigen::MatrixXd::Identity(2, 2);
-  m.sensors.push_back({"y", 0, 1});
-  Uncertainty u;
-  u.dA = Eigen::MatrixXd::Zero(2, 2);
-  u.dA(0, 1) = 0.099;
-  u.dB = Eigen::MatrixXd::Zero(2, 2);
-  u.dC = Eigen::MatrixXd::Zero(1, 2);
-  u.range = delta;
-  m.uncertainty.push_back(u);
-  m.Bu.resize(2, 0);
+  Model m = embeddedModel("zhou_example");
+  if (m.uncertainty.size() != 1)
+    throw std::logic_error("config/models/zhou_example.yaml: expected one uncertain parameter, found " +
+                           std::to_string(m.uncertainty.size()));
+  m.uncertainty[0].range = delta;
   validateModel(m, "zhou_example");
   return m;
 }
 
 Model aoeExampleModel(double rhoA)
 {
-  Model m;
-  m.name = "aoe_example";
-  m.period = 0.01;
-  m.A.resize(2, 2);
-  m.A << rhoA, 0, 0, 1.005;
-  m.B = Eigen::MatrixXd::Identity(2, 2);
-  m.Q = 20.0 * Eigen::MatrixXd::Identity(2, 2);
-  m.C.resize(2, 2);
-  m.C << 1, -1, 0, 1;
-  m.R = 20.0 * Eigen::MatrixXd::Identity(2, 2);
-  m.x0 = Eigen::Vector2d::Zero();
-  m.P0 = Eigen::MatrixXd::Identity(2, 2);
-  m.sensors.push_back({"y", 0, 2});
-  m.Bu.resize(2, 1);
-  m.Bu << -1, 1;
+  Model m = embeddedModel("aoe_example");
+  m.A(0, 0) = rhoA;
   validateModel(m, "aoe_example");
   return m;
 }
