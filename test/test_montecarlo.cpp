@@ -2,6 +2,7 @@
 // qualitative claims of Zhou's Fig. 1, the bounds (28) of Lin et al.'s Theorem 3, Yang et al.'s Example 1;
 // sharding (montecarlo_shards.hpp): shards merged equal the unsharded run bit for bit.
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -758,4 +759,49 @@ TEST(PaperModels, ExperimentsRunTheModelsOfBefore)
     std::string why;
     EXPECT_TRUE(sameModel(mc::aoeExampleModel(rho), aoeReference(rho), why)) << "rhoA " << rho << ": " << why;
   }
+}
+
+// Plot hints: each experiment says in its JSON how it is drawn (the "plot" member), so that the
+// plot script has no per-experiment code (docs/formats.md, "Plot hints").
+TEST(MonteCarlo, JsonCarriesPlotHints)
+{
+  const nlohmann::json fig1 = nlohmann::json::parse(experimentJson(run("zhou_fig1", 64, 100, 2)));
+  ASSERT_TRUE(fig1.contains("plot")) << fig1.dump();
+  EXPECT_EQ(fig1["plot"]["kind"], "averaged");
+  EXPECT_EQ(fig1["plot"]["tails"], true);
+  EXPECT_EQ(fig1["plot"]["zoom"], nlohmann::json::parse("[80, 500]"));
+  EXPECT_EQ(fig1["x_label"], "k");
+  EXPECT_EQ(fig1["log_y"], true);
+
+  const ExperimentResult r2 = run("zhou_fig2", 64, 20, 2);
+  const nlohmann::json fig2 = nlohmann::json::parse(experimentJson(r2));
+  const nlohmann::json& p2 = fig2["plot"];
+  EXPECT_EQ(p2["kind"], "density");
+  EXPECT_EQ(p2["tails"], false);
+  EXPECT_EQ(p2["title"], "EPDF of the elements of $P_{20|20}$");
+  ASSERT_EQ(p2["columns"].size(), 3u);
+  const std::vector<std::string> ij = {"11", "12", "22"};
+  for (std::size_t i = 0; i < 3; ++i)
+  {
+    const nlohmann::json& c = p2["columns"][i];
+    EXPECT_EQ(c["column"], "P" + ij[i]);
+    EXPECT_EQ(c["label"], "$[P_{20|20}]_{" + ij[i] + "}$");
+    EXPECT_EQ(c["title"], "$P_{" + ij[i] + "}$");
+    // every column drawn is one of the samples file's
+    EXPECT_NE(std::find(r2.sample_columns.begin(), r2.sample_columns.end(), c["column"].get<std::string>()),
+              r2.sample_columns.end());
+  }
+  ASSERT_EQ(p2["case_labels"].size(), r2.cases.size());
+  EXPECT_EQ(p2["case_labels"]["P0_0.1"], "$P_{0|0} = 0.1\\,I_2$");
+  EXPECT_EQ(p2["case_labels"]["P0_100"], "$P_{0|0} = 100\\,I_2$");
+
+  const nlohmann::json lin = nlohmann::json::parse(experimentJson(run("lin_fig4", 64, 10, 2)));
+  EXPECT_EQ(lin["plot"], nlohmann::json::parse(R"({"kind": "series", "tails": true})"));
+
+  ExperimentResult sweep;
+  sweep.experiment = "sweep";
+  sweep.plot.kind = PlotHints::Kind::SWEEP;
+  sweep.plot.tails = false;
+  EXPECT_EQ(nlohmann::json::parse(experimentJson(sweep))["plot"],
+            nlohmann::json::parse(R"({"kind": "sweep", "tails": false})"));
 }

@@ -2,7 +2,7 @@
 //
 // Output contract (read by the plot scripts, docs/formats.md):
 //   DIR/<experiment>.csv    case,series,x,mean,sd,n,se,p5,p25,median,p75,p95[,P_gt_M...]  (%.10g)
-//   DIR/<experiment>.json   metadata and per-series summaries (experimentJson)
+//   DIR/<experiment>.json   metadata, plot hints and per-series summaries (experimentJson)
 //   DIR/zhou_fig2_samples.csv  case,run,P11,P12,P21,P22   (zhou_fig2 only)
 //   sweep: DIR/sweep.csv holds one row per (grid point, estimator) instead (sweep.hpp), and
 //   DIR/sweep.json a "sweep" member with the grid, the verdicts and the critical curve
@@ -13,6 +13,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace networked_estimation
@@ -65,6 +66,39 @@ struct SampleSet
 
 struct SweepResult;  // sweep.hpp
 
+/// How an experiment is drawn (scripts/plot_montecarlo.py reads them from the JSON's "plot" member;
+/// the axes' labels and scales are ExperimentResult's x_label, y_label, log_x and log_y).
+struct PlotHints
+{
+  enum class Kind
+  {
+    SERIES,    ///< "series": NAME.png, one panel per case, every series against x
+    AVERAGED,  ///< "averaged": NAME_<case>.png per case, the full x range and a zoom whose legend
+               ///< gives each series' time average
+    DENSITY,   ///< "density": NAME.png, the kernel density of the per-run samples (NAME_samples.csv)
+    SWEEP      ///< "sweep": NAME.png, the stability map of the "sweep" member
+  };
+  Kind kind = Kind::SERIES;
+  /// NAME_tail.png besides when the CSV has P_gt_M columns (series and averaged).
+  bool tails = true;
+  /// averaged: the x range of the zoom panel (the second half of x when it holds fewer than 2 points).
+  double zoom0 = 0.0, zoom1 = 0.0;
+  /// density: one panel per column of the samples file drawn.
+  struct DensityColumn
+  {
+    std::string column;  ///< a column of sample_columns
+    std::string label;   ///< the x axis' label
+    std::string title;   ///< the panel's title
+  };
+  std::vector<DensityColumn> density_columns;
+  std::string density_title;  ///< density: the figure's title (after "NAME: ")
+  /// density: the legend text of each case (case name, label); a case not named here shows its title.
+  std::vector<std::pair<std::string, std::string>> case_labels;
+};
+
+/// The name of a plot kind in the JSON: "series", "averaged", "density" or "sweep".
+std::string plotKindName(PlotHints::Kind kind);
+
 struct ExperimentResult
 {
   std::string experiment;
@@ -75,6 +109,7 @@ struct ExperimentResult
   double wall_seconds = 0.0;
   std::string x_label, y_label;
   bool log_x = false, log_y = false;
+  PlotHints plot;  ///< how the plot script draws it (the JSON's "plot" member)
   std::vector<std::string> assumptions, notes;
   std::vector<CaseResult> cases;
   std::vector<std::string> sample_columns;  ///< empty: no samples file
@@ -89,7 +124,7 @@ void summarise(ExperimentResult& result);
 /// `case,series,x,mean,sd,n,se,p5,p25,median,p75,p95` and a P_gt_M column per threshold, rows
 /// (numbers with %.10g, NaN as nan, empty where not computed).
 std::string experimentCsv(const ExperimentResult& result);
-/// The JSON metadata document (written by hand, strings escaped).
+/// The JSON metadata document with the plot hints (docs/formats.md, "NAME.json"; strings escaped).
 std::string experimentJson(const ExperimentResult& result);
 /// `case,run,<columns>` rows of the samples (empty string when there are none).
 std::string samplesCsv(const ExperimentResult& result);

@@ -134,6 +134,52 @@ std::string experimentCsv(const ExperimentResult& result)
   return os.str();
 }
 
+std::string plotKindName(PlotHints::Kind kind)
+{
+  switch (kind)
+  {
+    case PlotHints::Kind::SERIES:
+      return "series";
+    case PlotHints::Kind::AVERAGED:
+      return "averaged";
+    case PlotHints::Kind::DENSITY:
+      return "density";
+    case PlotHints::Kind::SWEEP:
+      return "sweep";
+  }
+  return "series";
+}
+
+namespace
+{
+
+/// The "plot" member: the kind, whether to draw the tails, and the kind's own hints.
+void writePlotHints(JsonWriter& w, const PlotHints& p)
+{
+  w.beginObject().member("kind", plotKindName(p.kind)).member("tails", p.tails);
+  if (p.kind == PlotHints::Kind::AVERAGED)
+    w.key("zoom").beginArray().value(mc::rounded(p.zoom0)).value(mc::rounded(p.zoom1)).endArray();
+  if (p.kind == PlotHints::Kind::DENSITY)
+  {
+    w.member("title", p.density_title);
+    w.br(4).key("columns").beginArray();
+    for (const PlotHints::DensityColumn& c : p.density_columns)
+    {
+      w.br(6).beginObject().member("column", c.column).member("label", c.label).member("title", c.title);
+      w.endObject();
+    }
+    w.br(4).endArray();
+    w.br(4).key("case_labels").beginObject();
+    for (const auto& c : p.case_labels)
+      w.br(6).member(c.first, c.second);
+    w.br(4).endObject();
+    w.br(2);
+  }
+  w.endObject();
+}
+
+}  // namespace
+
 std::string experimentJson(const ExperimentResult& r)
 {
   JsonWriter w;
@@ -148,6 +194,8 @@ std::string experimentJson(const ExperimentResult& r)
   w.br(2).member("y_label", r.y_label);
   w.br(2).member("log_x", r.log_x);
   w.br(2).member("log_y", r.log_y);
+  w.br(2).key("plot");
+  writePlotHints(w, r.plot);
   w.br(2).key("thresholds").value(r.thresholds);
   w.br(2).member("quantile_relative_error", QuantileSketch::kRelativeError);
   w.br(2).key("assumptions");
