@@ -87,6 +87,7 @@ set(NE_CORE_SOURCES
   src/core/simulation/simulator.cpp
   # stability/: critical rates, verdicts, the live link monitor
   src/core/stability/analysis_json.cpp
+  src/core/stability/analysis_text.cpp
   src/core/stability/eigen_structure.cpp
   src/core/stability/estimator_theorems.cpp
   src/core/stability/exact_schedules.cpp
