@@ -645,7 +645,8 @@ bool sameModel(const Model& a, const Model& b, std::string& why)
   };
   if (a.name != b.name || a.period != b.period)
   {
-    why = "name or period: " + a.name + " " + std::to_string(a.period) + " vs " + b.name + " " + std::to_string(b.period);
+    why = "name or period: " + a.name + " " + std::to_string(a.period) + " vs " + b.name + " " +
+          std::to_string(b.period);
     return false;
   }
   if (!mat("A", a.A, b.A) || !mat("B", a.B, b.B) || !mat("Q", a.Q, b.Q) || !mat("C", a.C, b.C) ||

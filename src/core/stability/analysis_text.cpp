@@ -65,8 +65,8 @@ void writeRateSet(std::ostream& os, const RateAnalysis& r, const std::string& in
     os << in << "margin                          per sensor, the other links fixed: see [per-sensor links]\n";
   else if (!r.stable_intervals.empty())
     os << in << "margin                          " << r.margin_quantity << " " << textNumber(r.channel_value)
-       << ", stable for " << textIntervals(r.stable_intervals) << ": distance to the nearest edge " << textNumber(r.margin)
-       << (r.margin > 0 ? " (inside)" : " (outside)") << "\n";
+       << ", stable for " << textIntervals(r.stable_intervals) << ": distance to the nearest edge "
+       << textNumber(r.margin) << (r.margin > 0 ? " (inside)" : " (outside)") << "\n";
   else if (unboundedAtEveryRate(r.sufficient_threshold))
     os << in << "margin                          none: no " << r.margin_quantity << " keeps E[P] bounded\n";
   else
@@ -89,8 +89,8 @@ void writeLinkNeeds(std::ostream& os, const std::vector<SensorLinkReport>& links
     if (m.quantity.empty())
       os << m.note << "\n";
     else if (!m.half_line)
-      os << m.quantity << " " << textNumber(m.value) << ", stable for " << textIntervals(m.stable) << ", distance to the nearest edge "
-         << textNumber(m.margin) << "\n    (" << m.note << ")\n";
+      os << m.quantity << " " << textNumber(m.value) << ", stable for " << textIntervals(m.stable)
+         << ", distance to the nearest edge " << textNumber(m.margin) << "\n    (" << m.note << ")\n";
     else if (!m.grows_regardless.empty())
       os << m.quantity << " " << textNumber(m.value) << ", needs: none (" << growRegardless(m.grows_regardless)
          << "); the observed modes alone need " << textRate(m.converges_at_observed)
@@ -101,13 +101,13 @@ void writeLinkNeeds(std::ostream& os, const std::vector<SensorLinkReport>& links
       os << m.quantity << " " << textNumber(m.value) << ", needs > 0 (any positive rate; unbounded at 0), margin "
          << textNumber(m.margin) << "\n    (" << m.note << ")\n";
     else if (m.band.converges_at == 0.0)
-      os << m.quantity << " " << textNumber(m.value) << ", needs 0 (bounded even without it), margin " << textNumber(m.margin)
-         << "\n    (" << m.note << ")\n";
+      os << m.quantity << " " << textNumber(m.value) << ", needs 0 (bounded even without it), margin "
+         << textNumber(m.margin) << "\n    (" << m.note << ")\n";
     else
       os << m.quantity << " " << textNumber(m.value) << ", needs " << textRate(m.band.converges_at) << " (diverges at "
          << textRate(m.band.diverges_at) << ", converges at " << textRate(m.band.converges_at)
-         << (m.band.undecided_band ? ", undecided band between" : "") << "), margin " << textNumber(m.margin) << "\n    ("
-         << m.note << ")\n";
+         << (m.band.undecided_band ? ", undecided band between" : "") << "), margin " << textNumber(m.margin)
+         << "\n    (" << m.note << ")\n";
     os << "    Markov threshold: " << l.markov_note << "\n";
   }
 }
