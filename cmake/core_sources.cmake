@@ -27,15 +27,20 @@ set(NE_CORE_SOURCES
   src/core/estimators/prior.cpp
   src/core/estimators/rseio.cpp
   src/core/estimators/step_covariance.cpp
-  # experiments/: Monte Carlo engine and the papers' experiments
+  # experiments/: the Monte Carlo engine, its results and files, the experiments by name, and the
+  # papers' experiments and models
+  src/core/experiments/experiment_registry.cpp
+  src/core/experiments/experiment_support.cpp
   src/core/experiments/experiments_covariance.cpp
   src/core/experiments/experiments_lin.cpp
   src/core/experiments/experiments_sinopoli.cpp
   src/core/experiments/experiments_sweep.cpp
   src/core/experiments/experiments_yang.cpp
   src/core/experiments/experiments_zhou.cpp
-  src/core/experiments/montecarlo.cpp
+  src/core/experiments/montecarlo_engine.cpp
+  src/core/experiments/montecarlo_output.cpp
   src/core/experiments/montecarlo_shards.cpp
+  src/core/experiments/paper_models.cpp
   src/core/experiments/quantile_sketch.cpp
   src/core/experiments/shard_file.cpp
   # geodesy/: latitude/longitude to local ENU (GeographicLib)
@@ -82,6 +87,7 @@ set(NE_CORE_SOURCES
   src/core/simulation/simulator.cpp
   # stability/: critical rates, verdicts, the live link monitor
   src/core/stability/analysis_json.cpp
+  src/core/stability/analysis_text.cpp
   src/core/stability/eigen_structure.cpp
   src/core/stability/estimator_theorems.cpp
   src/core/stability/exact_schedules.cpp

@@ -51,6 +51,9 @@ target_include_directories(${PROJECT_NAME}_core SYSTEM PRIVATE ${GeographicLib_I
   ${LZ4_INCLUDE_DIR})
 target_link_libraries(${PROJECT_NAME}_core PUBLIC ${YAML_CPP_LIBRARIES} ${GeographicLib_LIBRARY} Threads::Threads
   ${BZIP2_LIBRARIES} ${LZ4_LIBRARY} PRIVATE nlohmann_json::nlohmann_json)
+# The papers' model files (cmake/embedded_models.cmake), compiled on their own.
+target_sources(${PROJECT_NAME}_core PRIVATE ${NE_EMBEDDED_MODELS_SOURCE})
+set_source_files_properties(${NE_EMBEDDED_MODELS_SOURCE} PROPERTIES SKIP_UNITY_BUILD_INCLUSION ON)
 
 # The Python package in build/python: the module next to a copy of the package's Python files.
 set(_ne_python_dir ${CMAKE_BINARY_DIR}/python/networked_estimation)

@@ -6,15 +6,19 @@ usage: plot_montecarlo.py DIR [--out OUTDIR] [--experiment NAME ...] [--dpi 100]
 
 DIR holds, for each experiment NAME, `NAME.csv` (header `case,series,x,mean,sd,n`, then optionally
 `se,p5,p25,median,p75,p95` and `P_gt_M` columns) and `NAME.json` (the run's settings and summary;
-each series' "statistic" says whether its mean is estimable); zhou_fig2 also needs
-`zhou_fig2_samples.csv` (header
-`case,run,P11,P12,P21,P22`). Every experiment found in DIR (every `NAME.json`), or only the named
-ones, is drawn into OUTDIR (default DIR); the PNGs written are listed on stdout, one per line:
+each series' "statistic" says whether its mean is estimable). Every experiment found in DIR (every
+`NAME.json`), or only the named ones, is drawn into OUTDIR (default DIR); the PNGs written are listed
+on stdout, one per line. The script knows no experiment by name: the JSON's "plot" member says how to
+draw it (docs/formats.md, "Plot hints"), its x_label, y_label, log_x and log_y label and scale the
+axes:
 
-  zhou_fig1   NAME_<case>.png per case: the full horizon and a zoom on 80 <= k <= 500
-  zhou_fig2   NAME.png: empirical PDF (Gaussian KDE) of P11, P12, P22 at the last step, one panel
-              per element, the initial P0 values overlaid; plus NAME_series.png only when a series
-              of NAME.csv has more than one x (the tool writes one x, the last step: no extra file)
+  series      NAME.png: one panel per case (lin_fig2..5, yang_fig2, custom, covariance, ...)
+  averaged    NAME_<case>.png per case: the full x range and a zoom on "zoom": [lo, hi] (zhou_fig1:
+              80 <= k <= 500) whose legend gives each series' time average
+  density     NAME.png: empirical PDF (Gaussian KDE) of the samples file's "columns"
+              (`NAME_samples.csv`, header `case,run,<columns>`; zhou_fig2: P11, P12, P22 at the last
+              step), one panel per column, the cases overlaid; plus NAME_series.png only when a
+              series of NAME.csv has more than one x (zhou_fig2 writes one x, the last step)
   sweep       NAME.png (a stability map; the JSON has a "sweep" member and NAME.csv one row per
               grid point and estimator, see docs/formats.md section 8): per estimator, two axes:
               a heat map of log10 of the mean tr P_T (colours over at most 5 decades above the
@@ -24,9 +28,12 @@ ones, is drawn into OUTDIR (default DIR); the PNGs written are listed on stdout,
               one axis: mean tr P_T against the axis value (log y) with a vertical line at the
               critical value. Grid points without a mean (runs that diverged or crossed the
               rounding floor) are grey.
-  any other   NAME.png: one panel per case (lin_fig2..5, yang_fig2, custom, covariance, ...)
-  tails       NAME_tail.png besides, when NAME.csv has P_gt_M columns (montecarlo --threshold M):
-              per case, P(value > M) against x for every series and threshold (log y)
+  tails       NAME_tail.png besides, when "tails" is true and NAME.csv has P_gt_M columns
+              (montecarlo --threshold M): per case, P(value > M) against x for every series and
+              threshold (log y)
+
+A JSON without "plot" (an older montecarlo) is drawn as a sweep when it has a "sweep" member, as
+series with tails otherwise.
 
 Mean lines, with a light band of +-2 standard errors (sd / sqrt(n)) where n > 1 and sd > 0. Where
 the mean is not estimable (the JSON's series "statistic": "median": a mean that is not finite, a
@@ -63,10 +70,9 @@ SYSTEM_PYTHON = "/usr/bin/python3"
 CSV_HEADER = ["case", "series", "x", "mean", "sd", "n"]
 QUANTILE_COLUMNS = ["p5", "p25", "median", "p75", "p95"]
 STATISTIC = "auto"  # --statistic
-SAMPLES_HEADER = ["case", "run", "P11", "P12", "P21", "P22"]
+SAMPLES_HEADER = ["case", "run"]
 SWEEP_HEADER = ["point", "i1", "i2", "x1", "x2", "estimator", "n", "diverged", "floored",
                 "trP_mean", "trP_sd"]
-ZOOM_ZHOU_FIG1 = (80.0, 500.0)
 MAP_DECADES = 5.0  # the colour range of a stability map, in decades of tr P
 
 
@@ -202,17 +208,54 @@ def read_json(path):
     return meta
 
 
-def read_samples_csv(path):
-    """Returns {case: {element: samples}} for zhou_fig2_samples.csv, cases in file order."""
+def read_samples_csv(path, columns):
+    """Returns {case: {column: samples}} of NAME_samples.csv (header `case,run,<columns>...`) for the
+    columns asked for, cases in file order."""
+    rows = csv_rows(path, SAMPLES_HEADER, "missing (the density plot is drawn from it)", prefix=True)
+    header = csv_header(path)
+    index = {}
+    for column in columns:
+        if column not in header[2:]:
+            raise InputError(path, "no column %r (the JSON's \"plot\" draws it)" % column)
+        index[column] = header.index(column)
     data = {}
-    for line, row in csv_rows(path, SAMPLES_HEADER, "missing (the zhou_fig2 PDF is drawn from it)"):
-        per_case = data.setdefault(row[0].strip(), {k: [] for k in SAMPLES_HEADER[2:]})
-        for column, text in zip(SAMPLES_HEADER[2:], row[2:6]):
-            per_case[column].append(parse_float(text, path, line, column))
+    for line, row in rows:
+        per_case = data.setdefault(row[0].strip(), {k: [] for k in columns})
+        for column, i in index.items():
+            if i >= len(row):
+                raise InputError(path, "line %d: %d fields, expected %d" % (line, len(row), len(header)))
+            per_case[column].append(parse_float(row[i], path, line, column))
     if not data:
         raise InputError(path, "no data rows")
     return {case: {k: np.array(v, dtype=float) for k, v in cols.items()}
             for case, cols in data.items()}
+
+
+PLOT_KINDS = ("series", "averaged", "density", "sweep")
+
+
+def plot_hints(meta, path):
+    """The JSON's "plot" member: {"kind", "tails", and the kind's own hints} (docs/formats.md). A JSON
+    without one (written by an older montecarlo): a sweep when it has a "sweep" member, else series."""
+    hints = meta.get("plot")
+    if hints is None:
+        return {"kind": "sweep" if "sweep" in meta else "series", "tails": "sweep" not in meta}
+    if not isinstance(hints, dict):
+        raise InputError(path, "\"plot\" must be an object")
+    if hints.get("kind") not in PLOT_KINDS:
+        raise InputError(path, "\"plot\": \"kind\" must be one of %s, found %r"
+                         % (", ".join(PLOT_KINDS), hints.get("kind")))
+    if hints["kind"] == "averaged":
+        zoom = hints.get("zoom")
+        if not (isinstance(zoom, list) and len(zoom) == 2
+                and all(isinstance(v, (int, float)) for v in zoom)):
+            raise InputError(path, "\"plot\": an averaged plot needs \"zoom\": [lo, hi]")
+    if hints["kind"] == "density":
+        columns = hints.get("columns")
+        if not (isinstance(columns, list) and columns
+                and all(isinstance(c, dict) and isinstance(c.get("column"), str) for c in columns)):
+            raise InputError(path, "\"plot\": a density plot needs \"columns\": [{\"column\": ...}, ...]")
+    return hints
 
 
 # ---------------------------------------------------------------------------------------------
@@ -537,14 +580,15 @@ def plot_tails(name, meta, data, outdir, dpi):
     return [path]
 
 
-def plot_zhou_fig1(name, meta, data, outdir, dpi):
-    """One figure per case: full horizon, and the paper's zoom on 80 <= k <= 500."""
+def plot_averaged(name, meta, hints, data, outdir, dpi):
+    """One figure per case: the full x range, and a zoom on the hints' "zoom" range whose legend
+    gives each series' time average."""
     cases = case_order(meta, data)
     styler = Styler(all_series(meta, data, cases))
     written = []
     for case in cases:
         xs = np.concatenate([v["x"] for v in data.get(case, {}).values()] or [np.zeros(0)])
-        lo, hi = ZOOM_ZHOU_FIG1
+        lo, hi = float(hints["zoom"][0]), float(hints["zoom"][1])
         if xs.size and not ((xs >= lo) & (xs <= hi)).sum() >= 2:
             # too short a horizon for the paper's window: zoom on the second half instead
             lo, hi = float(xs.min() + 0.5 * (xs.max() - xs.min())), float(xs.max())
@@ -563,7 +607,7 @@ def plot_zhou_fig1(name, meta, data, outdir, dpi):
             return label
 
         draw_panel(zoom, meta, data, case, styler, xwin=(lo, hi), legend_extra=with_average)
-        zoom.set_title(r"$%g \leq k \leq %g$" % (lo, hi), fontsize=10)
+        zoom.set_title(r"$%g \leq %s \leq %g$" % (lo, x_symbol(meta), hi), fontsize=10)
         if zoom.get_legend() is not None:
             window = None
             for entry in series_meta(meta, case).values():
@@ -601,24 +645,30 @@ def kde(samples, grid):
     return density / (n * bw * math.sqrt(2.0 * math.pi)), bw
 
 
-def p0_label(case, meta):
-    match = re.fullmatch(r"P0_([0-9.eE+-]+)", case)
-    if match:
-        return r"$P_{0|0} = %s\,I_2$" % match.group(1)
+def x_symbol(meta):
+    """The x axis' label as a mathtext symbol when it is one plain word (k, M), else x."""
+    label = str(meta.get("x_label", "x"))
+    return label if re.fullmatch(r"[A-Za-z]\w*", label) else "x"
+
+
+def case_label(hints, meta, case):
+    labels = hints.get("case_labels")
+    if isinstance(labels, dict) and isinstance(labels.get(case), str):
+        return labels[case]
     return case_title(meta, case)
 
 
-def plot_zhou_fig2(name, meta, samples, outdir, dpi):
-    """Empirical PDFs of P11, P12, P22 at the last step; the P0 cases overlaid (x o square
-    diamond, as in the paper)."""
+def plot_density(name, meta, hints, samples, outdir, dpi):
+    """Empirical PDFs (Gaussian KDE) of the hints' sample columns, one panel each, the cases
+    overlaid (x o square diamond, as in Zhou's Fig. 2)."""
     cases = [c for c in case_order(meta, {}) if c in samples] + \
         [c for c in samples if c not in case_order(meta, {})]
     markers = ["x", "o", "s", "D"]
     colors = ["tab:blue", "tab:orange", "tab:green", "tab:red"]
-    steps = meta.get("steps", "N")
-    elements = [("P11", "11"), ("P12", "12"), ("P22", "22")]
+    elements = [(c["column"], str(c.get("label", c["column"])), str(c.get("title", c["column"])))
+                for c in hints["columns"]]
     fig, axes = plt.subplots(len(elements), 1, figsize=(6.4, 3.1 * len(elements)), squeeze=False)
-    for ax, (column, ij) in zip(axes[:, 0], elements):
+    for ax, (column, xlabel, title) in zip(axes[:, 0], elements):
         finite = {c: samples[c][column][np.isfinite(samples[c][column])] for c in cases}
         usable = [c for c in cases if finite[c].size >= 2]
         if not usable:
@@ -633,16 +683,16 @@ def plot_zhou_fig2(name, meta, samples, outdir, dpi):
             k = cases.index(c)
             ax.plot(grid, density, "-", color=colors[k % 4], lw=1.1, marker=markers[k % 4],
                     markevery=(5 + (10 * k) % 40, 40), ms=5, mfc="none", mew=1.1,
-                    label="%s (%d runs)" % (p0_label(c, meta), finite[c].size))
+                    label="%s (%d runs)" % (case_label(hints, meta, c), finite[c].size))
         ax.set_xlim(grid[0], grid[-1])
         ax.set_ylim(bottom=0)
-        ax.set_xlabel(r"$[P_{%s|%s}]_{%s}$" % (steps, steps, ij))
+        ax.set_xlabel(xlabel)
         ax.set_ylabel("EPDF")
-        ax.set_title(r"$P_{%s}$" % ij, fontsize=10)
+        ax.set_title(title, fontsize=10)
         ax.grid(True, color="0.9", lw=0.6)
         if column == elements[0][0]:
             legend(ax)
-    fig.suptitle("%s: EPDF of the elements of $P_{%s|%s}$" % (name, steps, steps), fontsize=11)
+    fig.suptitle("%s: %s" % (name, hints.get("title", "empirical PDFs of the samples")), fontsize=11)
     path = os.path.join(outdir, "%s.png" % name)
     finish(fig, meta, path, dpi, "Gaussian KDE, normal-reference bandwidth")
     return [path]
@@ -833,24 +883,32 @@ def plot_sweep(name, meta, indir, outdir, dpi):
 # ---------------------------------------------------------------------------------------------
 
 def plot_experiment(name, indir, outdir, dpi):
-    meta = read_json(os.path.join(indir, name + ".json"))
+    json_path = os.path.join(indir, name + ".json")
+    meta = read_json(json_path)
     meta.setdefault("experiment", name)
-    if "sweep" in meta:
+    hints = plot_hints(meta, json_path)
+    kind = hints["kind"]
+    if kind == "sweep":
         return plot_sweep(name, meta, indir, outdir, dpi)
     data = read_results_csv(os.path.join(indir, name + ".csv"))
-    if name == "zhou_fig2":
-        samples = read_samples_csv(os.path.join(indir, name + "_samples.csv"))
-        written = plot_zhou_fig2(name, meta, samples, outdir, dpi)
-        # The tool's table holds only the mean/sd of P_T|T (one x per series): nothing to draw
-        # beyond the PDFs. A table with curves over x gets its own figure.
+    if kind == "density":
+        samples = read_samples_csv(os.path.join(indir, name + "_samples.csv"),
+                                   [c["column"] for c in hints["columns"]])
+        written = plot_density(name, meta, hints, samples, outdir, dpi)
+        # The table of a density experiment summarises the samples (one x per series): nothing to
+        # draw beyond the PDFs. A table with curves over x gets its own figure.
         if any(len(v["x"]) > 1 for per_case in data.values() for v in per_case.values()):
             written += plot_generic(name, meta, data, outdir, dpi, suffix="_series")
-        return written
-    if not data:
-        raise InputError(os.path.join(indir, name + ".csv"), "no data rows")
-    if name == "zhou_fig1":
-        return plot_zhou_fig1(name, meta, data, outdir, dpi) + plot_tails(name, meta, data, outdir, dpi)
-    return plot_generic(name, meta, data, outdir, dpi) + plot_tails(name, meta, data, outdir, dpi)
+    else:
+        if not data:
+            raise InputError(os.path.join(indir, name + ".csv"), "no data rows")
+        if kind == "averaged":
+            written = plot_averaged(name, meta, hints, data, outdir, dpi)
+        else:
+            written = plot_generic(name, meta, data, outdir, dpi)
+    if hints.get("tails", True):
+        written += plot_tails(name, meta, data, outdir, dpi)
+    return written
 
 
 def main(argv):

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Checks scripts/plot_montecarlo.py on small synthetic montecarlo outputs (zhou_fig1, zhou_fig2,
-# lin_fig4, a two-axis and a one-axis sweep) and on bad inputs.
+# lin_fig4, a two-axis and a one-axis sweep), on the JSON's plot hints and on bad inputs.
 #   usage: test_plot_montecarlo.sh REPO_ROOT
 # Needs Debian's python3 with python3-matplotlib (run with /usr/bin/python3: a pyenv python lacks
 # Debian's modules). Prints "N passed, M failed" and exits non-zero when any check failed.
@@ -63,11 +63,15 @@ for c in ("delta1_mu0.8", "delta1_mu0.95", "delta10_mu0.8"):
         series.append(dict(name=s, time_average=lvl, final=lvl, window=[80, 120]))
     cases.append(dict(name=c, title=c, series=series))
 open(d + "zhou_fig1.csv", "w").write(header + "\n".join(rows) + "\n")
-meta("zhou_fig1", cases)
+meta("zhou_fig1", cases, plot=dict(kind="averaged", tails=True, zoom=[80, 500]))
 # zhou_fig2: an empty results table and 4 x 300 samples of P_120|120
 open(d + "zhou_fig2.csv", "w").write(header)
 p0 = ("P0_0.1", "P0_1", "P0_10", "P0_100")
-meta("zhou_fig2", [dict(name=c, title=c, series=[]) for c in p0], runs=300, log_y=False)
+meta("zhou_fig2", [dict(name=c, title=c, series=[]) for c in p0], runs=300, log_y=False,
+     plot=dict(kind="density", tails=False, title="EPDF of the elements of $P_{120|120}$",
+               columns=[dict(column="P" + ij, label="$[P_{120|120}]_{%s}$" % ij, title="$P_{%s}$" % ij)
+                        for ij in ("11", "12", "22")],
+               case_labels={c: r"$P_{0|0} = %s\,I_2$" % c[3:] for c in p0}))
 rows = []
 for c in p0:
     for r in range(300):
@@ -250,6 +254,32 @@ run_rc rc "$PY" "$SCRIPT" "$NOS"
 check "zhou_fig2 without samples gives exit 2" [ "$rc" = 2 ]
 check "zhou_fig2 without samples names the file" \
   grep -q "^error: $NOS/zhou_fig2_samples.csv: " "$WORK/err.txt"
+
+# --- the JSON's "plot" hints, not the experiment's name, choose the figure ----------------------
+HINTS=$WORK/hints
+mkdir -p "$HINTS"
+for ext in json csv; do cp "$IN/zhou_fig1.$ext" "$HINTS/my_fig.$ext"; done
+cp "$IN/zhou_fig2.json" "$HINTS/pdfs.json"
+cp "$IN/zhou_fig2.csv" "$HINTS/pdfs.csv"
+cp "$IN/zhou_fig2_samples.csv" "$HINTS/pdfs_samples.csv"
+run_rc rc "$PY" "$SCRIPT" "$HINTS" --out "$HINTS/out"
+check "renamed experiments: exit 0" [ "$rc" = 0 ]
+check "an averaged plot under another name: one figure per case with its zoom" \
+  [ "$(ls "$HINTS/out" | tr '\n' ' ')" = "my_fig_delta10_mu0.8.png my_fig_delta1_mu0.8.png my_fig_delta1_mu0.95.png pdfs.png " ]
+"$PY" - "$HINTS/my_fig.json" <<'EOF2'
+import json, sys
+m = json.load(open(sys.argv[1]))
+m["plot"] = dict(kind="series", tails=True)
+json.dump(m, open(sys.argv[1], "w"))
+EOF2
+run_rc rc "$PY" "$SCRIPT" "$HINTS" --out "$HINTS/series" --experiment my_fig
+check "zhou_fig1's data with series hints: one panel per case in my_fig.png" \
+  [ "$(ls "$HINTS/series" | tr '\n' ' ')" = "my_fig.png " ]
+printf '{"experiment": "lin_fig4", "plot": {"kind": "pie"}}' >"$HINTS/my_fig.json"
+run_rc rc "$PY" "$SCRIPT" "$HINTS" --experiment my_fig
+check "an unknown plot kind gives exit 2 naming the file and the key" \
+  bash -c "[ $rc = 2 ] && grep -q '^error: $HINTS/my_fig.json: \"plot\": \"kind\" must be one of' '$WORK/err.txt'"
+check "an unknown plot kind: no traceback" no_traceback
 
 echo "$passed passed, $failed failed"
 [ "$failed" = 0 ]

@@ -1,4 +1,5 @@
-// analyze: stability analysis of a model with a lossy link per sensor (stability.hpp, sensor_links.hpp).
+// analyze: stability analysis of a model with a lossy link per sensor (stability.hpp, sensor_links.hpp);
+// the reports are written by the core (analysis_text.hpp, analysis_json.hpp).
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
@@ -13,6 +14,7 @@
 #include "networked_estimation/link/measured_links.hpp"
 #include "networked_estimation/motion/linearised_model.hpp"
 #include "networked_estimation/stability/analysis_json.hpp"
+#include "networked_estimation/stability/analysis_text.hpp"
 #include "networked_estimation/stability/excitation.hpp"
 #include "networked_estimation/stability/link_design.hpp"
 #include "networked_estimation/stability/stability.hpp"
@@ -21,105 +23,6 @@ using namespace networked_estimation;
 
 namespace
 {
-
-std::string txt(double v)
-{
-  if (std::isnan(v))
-    return "n/a";
-  if (std::isinf(v))
-    return v > 0.0 ? "unbounded" : "-unbounded";
-  std::ostringstream os;
-  os.precision(6);
-  os << v;
-  return os.str();
-}
-
-/// A critical rate, +infinity in words.
-std::string rate(double v)
-{
-  return unboundedAtEveryRate(v) ? "none (unbounded at every rate)" : txt(v);
-}
-
-std::string intervals(const std::vector<RateInterval>& v)
-{
-  std::string out;
-  for (const RateInterval& in : v)
-    out += (out.empty() ? "" : ", ") + std::string("[") + txt(in.lower) + ", " + txt(in.upper) + "]";
-  return out.empty() ? "none" : out;
-}
-
-void printSet(std::ostream& os, const RateAnalysis& r, const std::string& in = "  ")
-{
-  if (in == "  ")
-    os << "[" << r.name << "]\n";
-  os << in << "lower bound (necessary)         " << rate(r.lower_bound) << "\n";
-  if (!r.mare_note.empty())
-    os << in << "MARE upper bound                " << r.mare_note << "\n";
-  else
-    os << in << "MARE upper bound                diverges at " << rate(r.mare.diverges_at) << ", converges at "
-       << rate(r.mare.converges_at) << (r.mare.undecided_band ? " (undecided band between)" : "") << "\n";
-  os << in << "closed-form upper bound         " << rate(r.closed_form_upper) << "\n";
-  os << in << "exact critical arrival rate     " << rate(r.exact_rate) << "  (" << r.exact_method << ")\n";
-  os << in << "Markov: critical recovery rate  ";
-  if (!r.recovery_stable.empty())
-    os << "none (not a half-line): stable for r in " << intervals(r.recovery_stable);
-  else
-    os << rate(r.recovery_exact);
-  os << " (necessary " << rate(r.recovery_lower_bound) << "; " << r.recovery_note << ")\n";
-  os << in << "Lin et al.'s Theorem 5          " << describe(r.aoe_theorem5) << "\n";
-  os << in << "verdict                         " << describe(r.verdict) << "\n";
-  if (!r.observed.empty())
-    os << in << "links' verdict                  " << describe(r.links_verdict) << "\n";
-  if (r.margin_quantity.rfind("per-sensor", 0) == 0)
-    os << in << "margin                          per sensor, the other links fixed: see [per-sensor links]\n";
-  else if (!r.stable_intervals.empty())
-    os << in << "margin                          " << r.margin_quantity << " " << txt(r.channel_value)
-       << ", stable for " << intervals(r.stable_intervals) << ": distance to the nearest edge " << txt(r.margin)
-       << (r.margin > 0 ? " (inside)" : " (outside)") << "\n";
-  else if (unboundedAtEveryRate(r.sufficient_threshold))
-    os << in << "margin                          none: no " << r.margin_quantity << " keeps E[P] bounded\n";
-  else
-    os << in << "margin                          " << r.margin_quantity << " " << txt(r.channel_value)
-       << " - critical " << txt(r.sufficient_threshold) << " = " << txt(r.margin) << "\n";
-  if (!r.observed.empty())
-  {
-    os << in << "observed modes only (what the links can change; " << growRegardless(r.dead_states) << "):\n";
-    printSet(os, r.observed.front(), in + "  ");
-  }
-}
-
-void printLinks(std::ostream& os, const std::vector<SensorLinkReport>& links)
-{
-  os << "[per-sensor links: the rate each sensor needs, the other sensors' links fixed]\n";
-  for (const SensorLinkReport& l : links)
-  {
-    const SensorMargin& m = l.margin;
-    os << "  " << l.sensor << ": ";
-    if (m.quantity.empty())
-      os << m.note << "\n";
-    else if (!m.half_line)
-      os << m.quantity << " " << txt(m.value) << ", stable for " << intervals(m.stable) << ", distance to the nearest edge "
-         << txt(m.margin) << "\n    (" << m.note << ")\n";
-    else if (!m.grows_regardless.empty())
-      os << m.quantity << " " << txt(m.value) << ", needs: none (" << growRegardless(m.grows_regardless)
-         << "); the observed modes alone need " << rate(m.converges_at_observed)
-         << "\n    (" << m.note << ")\n";
-    else if (std::isnan(m.band.converges_at))
-      os << m.quantity << " " << txt(m.value) << ", no stable rate: " << m.note << "\n";
-    else if (m.any_positive)
-      os << m.quantity << " " << txt(m.value) << ", needs > 0 (any positive rate; unbounded at 0), margin "
-         << txt(m.margin) << "\n    (" << m.note << ")\n";
-    else if (m.band.converges_at == 0.0)
-      os << m.quantity << " " << txt(m.value) << ", needs 0 (bounded even without it), margin " << txt(m.margin)
-         << "\n    (" << m.note << ")\n";
-    else
-      os << m.quantity << " " << txt(m.value) << ", needs " << rate(m.band.converges_at) << " (diverges at "
-         << rate(m.band.diverges_at) << ", converges at " << rate(m.band.converges_at)
-         << (m.band.undecided_band ? ", undecided band between" : "") << "), margin " << txt(m.margin) << "\n    ("
-         << m.note << ")\n";
-    os << "    Markov threshold: " << l.markov_note << "\n";
-  }
-}
 
 int printDesign(const Model& model, const cli::CommandLine& cl)
 {
@@ -137,20 +40,7 @@ int printDesign(const Model& model, const cli::CommandLine& cl)
     std::cout << designJson(model, d, c);
     return 0;
   }
-  std::cout << "link design for model " << model.name << " (i.i.d. links; cost: "
-            << (c == "capacity" ? "sum of -ln(1 - rate)" : "sum of the arrival rates") << ")\n";
-  if (!d.applicable)
-  {
-    std::cout << "  " << d.note << "\n";
-    return 0;
-  }
-  std::cout << "  " << d.note << "\n";
-  std::cout << "  least-cost rates (cost " << txt(d.cost_value) << "), verdict " << describe(d.check) << ":\n";
-  for (std::size_t j = 0; j < model.sensors.size(); ++j)
-    std::cout << "    " << model.sensors[j].name << ": arrival rate " << rate(d.rates[j])
-              << " (alone, the others lossless: " << rate(d.alone[j]) << ")\n";
-  std::cout << "  For a Gilbert-Elliott link give it with --channel NAME=FILE (without --design): the per-sensor\n"
-               "  margins then give the least recovery rate at its failure rate p, the other links fixed.\n";
+  std::cout << designText(model, d, c);
   return 0;
 }
 
@@ -286,13 +176,7 @@ int main(int argc, char** argv)
                                        : withMember(json, "measured_links", measuredJson(measured, measured_verdict)));
         return 0;
       }
-      std::cout << "model " << model.name << local_note << "\n";
-      if (!v.dead_reckoned.empty())
-        std::cout << "dead-reckoned: " << v.dead_reckoned << "\n";
-      std::cout << "verdict: " << describe(v.verdict) << "\n";
-      std::cout << "links' verdict: " << describe(v.links_verdict) << "\n";
-      if (v.has_channel)
-        printLinks(std::cout, v.links);
+      std::cout << verdictText(model.name, local_note, v);
       if (!measured.empty())
         std::cout << measuredText(measured, measured_verdict);
       return 0;
@@ -327,75 +211,7 @@ int main(int argc, char** argv)
                                      : withMember(json, "measured_links", measuredJson(measured, measured_verdict)));
       return 0;
     }
-    std::cout << "model " << rep.model_name << ": n = " << model.n() << ", " << model.sensors.size() << " sensor(s)\n";
-    std::cout << "eigenvalues:";
-    for (int i = 0; i < rep.eigenvalues.size(); ++i)
-    {
-      const auto& e = rep.eigenvalues[i];
-      std::cout << " " << txt(e.real());
-      if (e.imag() != 0.0)
-        std::cout << (e.imag() > 0 ? "+" : "-") << txt(std::abs(e.imag())) << "i";
-    }
-    std::cout << "\nrho(A) = " << txt(rep.spectral_radius) << ", M(A) = " << txt(rep.mahler_measure)
-              << ", diagonalizable: " << (rep.diagonalizable ? "yes" : "no") << "\n";
-    std::cout << "strong observability: " << describe(rep.strong_observability) << "\n";
-    if (!rep.dead_reckoned.empty())
-      std::cout << "dead-reckoned: " << rep.dead_reckoned
-                << " (no rate keeps E[P] bounded: the verdict is unstable; the links' verdict and the 'observed "
-                   "modes only' lines concern what the links can change)\n";
-    if (model.schedule.active())
-    {
-      std::vector<std::string> names;
-      for (const Sensor& sn : model.sensors)
-        names.push_back(sn.name);
-      std::cout << "schedule: " << model.schedule.describe(names)
-                << " (verdicts by the cyclostationary Theorem 14; links advance every step)\n";
-    }
-    if (rep.has_channel)
-    {
-      std::cout << "links:\n";
-      std::istringstream lines(links.describe());
-      for (std::string line; std::getline(lines, line);)
-        std::cout << "  " << line << "\n";
-      if (rep.uniform_links)
-        std::cout << "channel: arrival rate " << txt(rep.arrival_rate) << ", recovery rate " << txt(rep.recovery_rate)
-                  << "\n";
-      else
-        for (const SensorLinkReport& l : rep.links)
-          std::cout << "channel " << l.sensor << ": arrival rate " << txt(l.arrival_rate) << ", recovery rate "
-                    << txt(l.recovery_rate) << "\n";
-      std::cout << "capacity c = " << txt(rep.capacity.total) << " (c_lower = ln rho(A) = " << txt(rep.capacity.lower)
-                << ", c_upper = h(A) = " << txt(rep.capacity.upper) << "): " << rep.capacity_note << "\n";
-      std::cout << "MARE bound at these rates: " << rep.mare_at_rates << "\n";
-    }
-    std::cout << "estimator " << rep.estimator << ": " << rep.estimator_note << "\n";
-    if (rep.estimator == "rseio")
-      std::cout << "rseio: " << describe(rep.rseio) << "\n";
-    printSet(std::cout, rep.model);
-    if (rep.has_channel)
-      printLinks(std::cout, rep.links);
-    if (model.sensors.size() > 1)
-      for (const RateAnalysis& r : rep.sensors)
-        printSet(std::cout, r);
-    if (!traces.empty())
-    {
-      std::cout << "Gan and Liu, from the recorded arrivals (any loss pattern; " << ExcitationReport::caveat() << "):\n";
-      for (const TraceEvidence& e : traces)
-      {
-        std::cout << "  " << e.sensor << " (" << e.samples << " samples): ";
-        if (!e.applicable)
-        {
-          std::cout << e.reason << "\n";
-          continue;
-        }
-        const ExcitationReport& r = e.report;
-        std::cout << "h = " << r.h << ", smallest block excitation " << txt(r.lambda_block) << ", lambda = "
-                  << txt(r.lambda) << ", ||A|| = " << txt(r.norm_A) << "\n    A3 (printed / proof form):";
-        for (const ExcitationA3& a : r.a3)
-          std::cout << " p = " << a.p << ": " << txt(a.printed) << " / " << txt(a.proof) << (a.holds() ? " holds;" : " fails;");
-        std::cout << "\n    verdict: " << describe(r.verdict) << "\n";
-      }
-    }
+    std::cout << analysisText(model, rep, links, traces);
     if (!measured.empty())
       std::cout << measuredText(measured, measured_verdict);
     return 0;

@@ -3,7 +3,8 @@
 //   montecarlo merge DIR... [--out DIR]    checks the shards, merges them, writes DIR/NAME.csv, .json
 // Shard K of N computes, in every runMonteCarlo call of the experiment, the blocks b (of kBlockRuns
 // runs) with b % N == K - 1 and records their Welford accumulators (and per-run values) exactly.
-// The merge re-runs the experiment with runMonteCarlo replaying the merged blocks (BlockSession),
+// The merge re-runs the experiment with runMonteCarlo replaying the merged blocks (a BlockSession
+// passed to runExperiment),
 // so its outputs are those of the unsharded run, bit for bit; only `threads` and `wall_seconds` of
 // the JSON differ. docs/formats.md, "Shard files", has the format and the rules.
 #pragma once

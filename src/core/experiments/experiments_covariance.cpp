@@ -114,7 +114,7 @@ ExperimentResult covarianceExperiment(const RunConfig& rc)
   CallStatistics stats = callStatistics(rc);
   for (std::size_t j = 0; j < nf; ++j)
     addSpan(stats, j * static_cast<std::size_t>(T), stepAxis(T), w0, w1);
-  const Moments m = runMonteCarlo(rc.runs, values, rc.threads, factory, rc.progress, nullptr, &stats);
+  const Moments m = runMonteCarlo(rc.runs, values, rc.threads, factory, rc.progress, nullptr, &stats, rc.session);
 
   ExperimentResult res;
   CaseResult c;

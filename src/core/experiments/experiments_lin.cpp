@@ -153,7 +153,8 @@ Moments linRuns(const RunConfig& rc, const LinParams& lp)
   CallStatistics stats = callStatistics(rc);
   for (std::size_t j = 0; j < 4; ++j)
     addSpan(stats, j * static_cast<std::size_t>(T), stepAxis(T), 1.0, static_cast<double>(T));
-  return runMonteCarlo(rc.runs, 4 * static_cast<std::size_t>(T), rc.threads, factory, rc.progress, nullptr, &stats);
+  return runMonteCarlo(rc.runs, 4 * static_cast<std::size_t>(T), rc.threads, factory, rc.progress,
+                       nullptr, &stats, rc.session);
 }
 
 std::vector<std::string> commonAssumptions()

@@ -113,7 +113,7 @@ ExperimentResult sinopoliFig2(const RunConfig& rc)
     };
   };
   const CallStatistics stats = callStatistics(rc);
-  const Moments m = runMonteCarlo(rc.runs, nl * np, rc.threads, factory, rc.progress, nullptr, &stats);
+  const Moments m = runMonteCarlo(rc.runs, nl * np, rc.threads, factory, rc.progress, nullptr, &stats, rc.session);
 
   ExperimentResult res;
   res.x_label = "arrival rate lambda";
@@ -205,7 +205,7 @@ ExperimentResult moSinopoliTail(const RunConfig& rc)
       }
     };
   };
-  const Moments m = runMonteCarlo(rc.runs, nl * nm, rc.threads, factory, rc.progress, nullptr, nullptr);
+  const Moments m = runMonteCarlo(rc.runs, nl * nm, rc.threads, factory, rc.progress, nullptr, nullptr, rc.session);
 
   // The exact bracket of the stationary tail: P- = f^(L+1)(P+) with f(P) = a^2 P + q, L the losses
   // since the last arrival (P(L >= j) = (1 - lambda)^j) and P+ at that arrival in [q r / (q + r), r).

@@ -737,7 +737,7 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
   };
 
   const CallStatistics stats = callStatistics(rc);
-  const Moments m = runMonteCarlo(rc.runs, values, rc.threads, factory, rc.progress, nullptr, &stats);
+  const Moments m = runMonteCarlo(rc.runs, values, rc.threads, factory, rc.progress, nullptr, &stats, rc.session);
   const std::size_t nt = m.thresholds.size();
   for (std::size_t p = 0; p < np; ++p)
     for (std::size_t j = 0; j < nf; ++j)
@@ -779,6 +779,8 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
   res.x_label = axes[0].name();
   res.y_label = axes.size() > 1 ? axes[1].name() : "tr P_T";
   res.log_y = axes.size() == 1;
+  res.plot.kind = PlotHints::Kind::SWEEP;  // the stability map of the "sweep" member
+  res.plot.tails = false;
   std::string described = su.links.describe();
   for (char& ch : described)
     if (ch == '\n')

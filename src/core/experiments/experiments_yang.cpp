@@ -67,7 +67,8 @@ ExperimentResult yangFig2(const RunConfig& rc)
   CallStatistics stats = callStatistics(rc);
   addSpan(stats, 0, stepAxis(T), 1.0, static_cast<double>(T));
   const Moments mcm =
-      runMonteCarlo(rc.runs, static_cast<std::size_t>(T), rc.threads, factory, rc.progress, nullptr, &stats);
+      runMonteCarlo(rc.runs, static_cast<std::size_t>(T), rc.threads, factory, rc.progress,
+                    nullptr, &stats, rc.session);
 
   // Deterministic bounds (stability module): G_{k+1} = m(G_k) (Prop. 1) and V_{k+1} = g(V_k) (MARE (18)).
   // R_i = I, so the whitened sensor matrices are the rows of C.

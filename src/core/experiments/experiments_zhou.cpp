@@ -129,7 +129,8 @@ Moments squaredErrorRuns(const RunConfig& rc, const Model& model, const ChannelS
   CallStatistics stats = callStatistics(rc);
   for (std::size_t j = 0; j < nf; ++j)
     addSpan(stats, j * static_cast<std::size_t>(T), stepAxis(T), window0, window1);
-  return runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress, nullptr, &stats);
+  return runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress,
+                       nullptr, &stats, rc.session);
 }
 
 std::string stem(const std::string& path)
@@ -194,6 +195,10 @@ ExperimentResult zhouFig1(const RunConfig& rc)
   res.x_label = "k";
   res.y_label = "MSE_k = mean ||x_k - xhat_k|k||^2";
   res.log_y = true;
+  // the paper's figure: the full horizon, and a zoom on 80 <= k <= 500 with the time averages
+  res.plot.kind = PlotHints::Kind::AVERAGED;
+  res.plot.zoom0 = 80.0;
+  res.plot.zoom1 = 500.0;
   res.assumptions = {
       "plant of Zhou's example: eps_k ~ U[-delta, delta] fresh every step, A(eps)(1,2) = 0.0196 + 0.099 eps",
       "x_0 ~ N([1, 0]', I); xhat_0|0 = [1, 0]', P_0|0 = I; y_0 not used (first sample k = 1)",
@@ -251,7 +256,7 @@ ExperimentResult zhouFig2(const RunConfig& rc)
     SampleSet samples;
     samples.case_name = names[c];
     const CallStatistics stats = callStatistics(rc);
-    const Moments m = runMonteCarlo(rc.runs, 4, rc.threads, factory, rc.progress, &samples.values, &stats);
+    const Moments m = runMonteCarlo(rc.runs, 4, rc.threads, factory, rc.progress, &samples.values, &stats, rc.session);
     CaseResult cr;
     cr.name = names[c];
     cr.title = "P_0|0 = " + fmt(p0s[c]) + " I";
@@ -264,6 +269,16 @@ ExperimentResult zhouFig2(const RunConfig& rc)
   }
   res.x_label = "k";
   res.y_label = "element of P_k|k (RSEIO)";
+  // the paper's figure: the empirical PDFs of P11, P12 and P22 at the last step, the P0 cases overlaid
+  res.plot.kind = PlotHints::Kind::DENSITY;
+  res.plot.tails = false;
+  const std::string TT = std::to_string(T) + "|" + std::to_string(T);
+  res.plot.density_title = "EPDF of the elements of $P_{" + TT + "}$";
+  for (const char* ij : {"11", "12", "22"})
+    res.plot.density_columns.push_back(
+        {std::string("P") + ij, "$[P_{" + TT + "}]_{" + ij + "}$", std::string("$P_{") + ij + "}$"});
+  for (std::size_t c = 0; c < p0s.size(); ++c)
+    res.plot.case_labels.emplace_back(names[c], "$P_{0|0} = " + fmt(p0s[c]) + "\\,I_2$");
   res.assumptions = {
       "delta = 10, mu = 0.8, gamma_k i.i.d. Bernoulli(0.8) with the channel seed of zhou_fig1 "
       "(deriveSeed(deriveSeed(seed, r), 1)); P does not depend on the data, so only the arrivals are simulated",
@@ -370,7 +385,8 @@ ExperimentResult customExperiment(const RunConfig& rc)
   for (std::size_t j = 0; j < nf; ++j)
     addSpan(stats, j * static_cast<std::size_t>(T), stepAxis(T), 1.0, static_cast<double>(T));
   const Moments m =
-      runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress, nullptr, &stats);
+      runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress,
+                    nullptr, &stats, rc.session);
   ExperimentResult res;
   CaseResult c;
   c.name = model.name.empty() ? stem(cfg.model_path) : model.name;

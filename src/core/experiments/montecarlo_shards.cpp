@@ -195,11 +195,7 @@ ShardFile runShard(const MonteCarloConfig& config, int index, int count, Progres
   shard.inputs = hashInputs(shard.config);
   shard.fingerprint = inputsFingerprint(shard.inputs);
   BlockSession session = BlockSession::shard(index, count);
-  ExperimentResult result;
-  {
-    BlockSessionScope scope(session);
-    result = runExperiment(shard.config, progress);
-  }
+  const ExperimentResult result = runExperiment(shard.config, progress, &session);
   shard.threads = result.threads;
   shard.wall_seconds = result.wall_seconds;
   shard.calls = session.takeCalls();
@@ -373,10 +369,9 @@ ExperimentResult mergeShards(std::vector<ShardFile> shards)
   ExperimentResult result;
   try
   {
-    BlockSessionScope scope(session);
     MonteCarloConfig replay = config;
     replay.threads = 1;
-    result = runExperiment(replay, nullptr);
+    result = runExperiment(replay, nullptr, &session);
   }
   catch (const InputError& e)
   {

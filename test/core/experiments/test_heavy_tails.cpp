@@ -238,11 +238,8 @@ TEST(HeavyTailStatistics, EngineMatchesTheDirectComputation)
   for (int k = 1; k <= 3; ++k)
   {
     BlockSession session = BlockSession::shard(k, 3);
-    {
-      BlockSessionScope scope(session);
-      std::vector<double> part;
-      runMonteCarlo(runs, 24, 2, seriesValues(), nullptr, &part, &st);
-    }
+    std::vector<double> part;
+    runMonteCarlo(runs, 24, 2, seriesValues(), nullptr, &part, &st, &session);
     std::vector<CallBlocks> c = session.takeCalls();
     ASSERT_EQ(c.size(), 1u);
     ASSERT_TRUE(c[0].quantiles);
@@ -258,12 +255,8 @@ TEST(HeavyTailStatistics, EngineMatchesTheDirectComputation)
       calls[0].sketches[v].merge(c[0].sketches[v]);
   }
   BlockSession replay = BlockSession::replay(calls);
-  Moments merged;
   std::vector<double> merged_raw;
-  {
-    BlockSessionScope scope(replay);
-    merged = runMonteCarlo(runs, 24, 1, seriesValues(), nullptr, &merged_raw, &st);
-  }
+  const Moments merged = runMonteCarlo(runs, 24, 1, seriesValues(), nullptr, &merged_raw, &st, &replay);
   EXPECT_EQ(merged.mean, m.mean);
   EXPECT_EQ(merged.exceed, m.exceed);
   EXPECT_EQ(merged.growth_mean, m.growth_mean);

@@ -2,6 +2,7 @@
 // qualitative claims of Zhou's Fig. 1, the bounds (28) of Lin et al.'s Theorem 3, Yang et al.'s Example 1;
 // sharding (montecarlo_shards.hpp): shards merged equal the unsharded run bit for bit.
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +11,9 @@
 #include <sstream>
 #include <string>
 
+#include "experiments/paper_models.hpp"  // private header (src/core)
 #include "networked_estimation/common/error.hpp"
+#include "networked_estimation/config/model.hpp"
 #include "networked_estimation/experiments/montecarlo.hpp"
 #include "networked_estimation/experiments/montecarlo_shards.hpp"
 
@@ -442,10 +445,8 @@ TEST(MonteCarloShards, MergedBlocksEqualUnshardedBitForBit)
           {
             BlockSession session = BlockSession::shard(k, n);
             std::vector<double> shard_raw;
-            {
-              BlockSessionScope scope(session);
-              runMonteCarlo(runs, values, 3, awkwardValues(nonfinite), nullptr, raw ? &shard_raw : nullptr);
-            }
+            runMonteCarlo(runs, values, 3, awkwardValues(nonfinite), nullptr, raw ? &shard_raw : nullptr, nullptr,
+                          &session);
             std::vector<CallBlocks> calls = session.takeCalls();
             ASSERT_EQ(calls.size(), 1u);
             long expected_blocks = 0;
@@ -479,13 +480,13 @@ TEST(MonteCarloShards, MergedBlocksEqualUnshardedBitForBit)
           EXPECT_TRUE(!raw || sameBits(merged_raw, plain_raw));
           // a replay returns the merged moments without running anything
           BlockSession replay = BlockSession::replay({merged});
-          BlockSessionScope scope(replay);
           WorkerFactory never = []() -> RunFunction {
             ADD_FAILURE() << "a replay ran a worker";
             return [](long, double*) {};
           };
           std::vector<double> replay_raw;
-          EXPECT_TRUE(sameMoments(runMonteCarlo(runs, values, 2, never, nullptr, raw ? &replay_raw : nullptr), plain));
+          EXPECT_TRUE(sameMoments(
+              runMonteCarlo(runs, values, 2, never, nullptr, raw ? &replay_raw : nullptr, nullptr, &replay), plain));
           EXPECT_TRUE(!raw || sameBits(replay_raw, plain_raw));
           EXPECT_EQ(replay.replayed(), 1u);
         }
@@ -495,10 +496,7 @@ TEST(MonteCarloShards, MergedBlocksEqualUnshardedBitForBit)
 TEST(MonteCarloShards, ReplayAndCombineRefuseWrongBlocks)
 {
   BlockSession session = BlockSession::shard(1, 1);
-  {
-    BlockSessionScope scope(session);
-    runMonteCarlo(200, 5, 1, awkwardValues(false));
-  }
+  runMonteCarlo(200, 5, 1, awkwardValues(false), nullptr, nullptr, nullptr, &session);
   const CallBlocks all = session.takeCalls().at(0);
   ASSERT_EQ(all.blocks.size(), 4u);
   CallBlocks gap = all;
@@ -516,12 +514,10 @@ TEST(MonteCarloShards, ReplayAndCombineRefuseWrongBlocks)
 
   // a replay asked for another call size, or for more calls than recorded
   BlockSession replay = BlockSession::replay({all});
-  BlockSessionScope scope(replay);
-  EXPECT_THROW(runMonteCarlo(199, 5, 1, awkwardValues(false)), InputError);
+  EXPECT_THROW(runMonteCarlo(199, 5, 1, awkwardValues(false), nullptr, nullptr, nullptr, &replay), InputError);
   BlockSession replay2 = BlockSession::replay({all});
-  BlockSessionScope scope2(replay2);
-  EXPECT_EQ(runMonteCarlo(200, 5, 1, awkwardValues(false)).n, 200);
-  EXPECT_THROW(runMonteCarlo(200, 5, 1, awkwardValues(false)), InputError);
+  EXPECT_EQ(runMonteCarlo(200, 5, 1, awkwardValues(false), nullptr, nullptr, nullptr, &replay2).n, 200);
+  EXPECT_THROW(runMonteCarlo(200, 5, 1, awkwardValues(false), nullptr, nullptr, nullptr, &replay2), InputError);
 }
 
 TEST(MonteCarloShards, ExperimentMergeEqualsUnsharded)
@@ -627,4 +623,186 @@ TEST(MonteCarloShards, MergeRefusesShardsThatDoNotBelongTogether)
   std::string edited = text;
   edited.replace(edited.find("\"fingerprint\": \""), 16, "\"fingerprint\": \"0");
   malformed(edited, "'fingerprint'");
+}
+
+// The papers' models: Zhou's and Lin et al.'s examples are config/models' files compiled into the
+// core (cmake/embedded_models.cmake) with the varied parameter applied, and equal, number for
+// number, the models the experiments ran when they were written in C++ (the references below).
+
+namespace
+{
+
+bool sameModel(const Model& a, const Model& b, std::string& why)
+{
+  auto mat = [&](const char* name, const Eigen::MatrixXd& x, const Eigen::MatrixXd& y) {
+    if (x.rows() == y.rows() && x.cols() == y.cols() && x == y)
+      return true;
+    std::ostringstream os;
+    os << name << ": " << x.rows() << "x" << x.cols() << " [" << x << "] vs " << y.rows() << "x" << y.cols() << " ["
+       << y << "]";
+    why = os.str();
+    return false;
+  };
+  if (a.name != b.name || a.period != b.period)
+  {
+    why = "name or period: " + a.name + " " + std::to_string(a.period) + " vs " + b.name + " " +
+          std::to_string(b.period);
+    return false;
+  }
+  if (!mat("A", a.A, b.A) || !mat("B", a.B, b.B) || !mat("Q", a.Q, b.Q) || !mat("C", a.C, b.C) ||
+      !mat("R", a.R, b.R) || !mat("x0", a.x0, b.x0) || !mat("P0", a.P0, b.P0) || !mat("Bu", a.Bu, b.Bu))
+    return false;
+  if (a.sensors.size() != b.sensors.size() || a.uncertainty.size() != b.uncertainty.size())
+  {
+    why = "sensor or uncertainty count";
+    return false;
+  }
+  for (std::size_t i = 0; i < a.sensors.size(); ++i)
+    if (a.sensors[i].name != b.sensors[i].name || a.sensors[i].offset != b.sensors[i].offset ||
+        a.sensors[i].size != b.sensors[i].size)
+    {
+      why = "sensor " + std::to_string(i);
+      return false;
+    }
+  for (std::size_t i = 0; i < a.uncertainty.size(); ++i)
+  {
+    if (!mat("dA", a.uncertainty[i].dA, b.uncertainty[i].dA) || !mat("dB", a.uncertainty[i].dB, b.uncertainty[i].dB) ||
+        !mat("dC", a.uncertainty[i].dC, b.uncertainty[i].dC))
+      return false;
+    if (a.uncertainty[i].range != b.uncertainty[i].range)
+    {
+      why = "range";
+      return false;
+    }
+  }
+  if (a.schedule.active() || b.schedule.active() || a.states != b.states || a.angles != b.angles ||
+      a.motion != b.motion || a.two_d_mode != b.two_d_mode)
+  {
+    why = "schedule, states, angles or motion";
+    return false;
+  }
+  return true;
+}
+
+/// Zhou's example as montecarlo.cpp wrote it before the models were read from config/models.
+Model zhouReference(double delta)
+{
+  Model m;
+  m.name = "zhou_example";
+  m.period = 0.01;
+  m.A.resize(2, 2);
+  m.A << 0.9802, 0.0196, 0.0, 0.9802;
+  m.B = Eigen::MatrixXd::Identity(2, 2);
+  m.Q.resize(2, 2);
+  m.Q << 1.9608, 0.0195, 0.0195, 1.9605;
+  m.C.resize(1, 2);
+  m.C << 1, -1;
+  m.R = Eigen::MatrixXd::Identity(1, 1);
+  m.x0 = Eigen::Vector2d(1, 0);
+  m.P0 = Eigen::MatrixXd::Identity(2, 2);
+  m.sensors.push_back({"y", 0, 1});
+  Uncertainty u;
+  u.dA = Eigen::MatrixXd::Zero(2, 2);
+  u.dA(0, 1) = 0.099;
+  u.dB = Eigen::MatrixXd::Zero(2, 2);
+  u.dC = Eigen::MatrixXd::Zero(1, 2);
+  u.range = delta;
+  m.uncertainty.push_back(u);
+  m.Bu.resize(2, 0);
+  return m;
+}
+
+/// Lin et al.'s example as montecarlo.cpp wrote it before.
+Model aoeReference(double rhoA)
+{
+  Model m;
+  m.name = "aoe_example";
+  m.period = 0.01;
+  m.A.resize(2, 2);
+  m.A << rhoA, 0, 0, 1.005;
+  m.B = Eigen::MatrixXd::Identity(2, 2);
+  m.Q = 20.0 * Eigen::MatrixXd::Identity(2, 2);
+  m.C.resize(2, 2);
+  m.C << 1, -1, 0, 1;
+  m.R = 20.0 * Eigen::MatrixXd::Identity(2, 2);
+  m.x0 = Eigen::Vector2d::Zero();
+  m.P0 = Eigen::MatrixXd::Identity(2, 2);
+  m.sensors.push_back({"y", 0, 2});
+  m.Bu.resize(2, 1);
+  m.Bu << -1, 1;
+  return m;
+}
+
+}  // namespace
+
+TEST(PaperModels, BuiltInFilesAreConfigModels)
+{
+  const std::string root = NE_SOURCE_DIR;
+  for (const std::string name : {"zhou_example", "aoe_example"})
+  {
+    std::string why;
+    EXPECT_TRUE(sameModel(mc::builtInModel(name), loadModel(root + "/config/models/" + name + ".yaml"), why))
+        << name << ": " << why;
+  }
+  EXPECT_THROW(mc::builtInModel("no_such_model"), std::logic_error);
+}
+
+TEST(PaperModels, ExperimentsRunTheModelsOfBefore)
+{
+  // zhou_fig1 and zhou_fig2 use delta 1 and 10, lin_fig2..5 the rho of their cases
+  for (double delta : {1.0, 10.0, 0.5})
+  {
+    std::string why;
+    EXPECT_TRUE(sameModel(mc::zhouExampleModel(delta), zhouReference(delta), why)) << "delta " << delta << ": " << why;
+  }
+  for (double rho : {1.2910, 1.8257, 1.1, 0.9})
+  {
+    std::string why;
+    EXPECT_TRUE(sameModel(mc::aoeExampleModel(rho), aoeReference(rho), why)) << "rhoA " << rho << ": " << why;
+  }
+}
+
+// Plot hints: each experiment says in its JSON how it is drawn (the "plot" member), so that the
+// plot script has no per-experiment code (docs/formats.md, "Plot hints").
+TEST(MonteCarlo, JsonCarriesPlotHints)
+{
+  const nlohmann::json fig1 = nlohmann::json::parse(experimentJson(run("zhou_fig1", 64, 100, 2)));
+  ASSERT_TRUE(fig1.contains("plot")) << fig1.dump();
+  EXPECT_EQ(fig1["plot"]["kind"], "averaged");
+  EXPECT_EQ(fig1["plot"]["tails"], true);
+  EXPECT_EQ(fig1["plot"]["zoom"], nlohmann::json::parse("[80, 500]"));
+  EXPECT_EQ(fig1["x_label"], "k");
+  EXPECT_EQ(fig1["log_y"], true);
+
+  const ExperimentResult r2 = run("zhou_fig2", 64, 20, 2);
+  const nlohmann::json fig2 = nlohmann::json::parse(experimentJson(r2));
+  const nlohmann::json& p2 = fig2["plot"];
+  EXPECT_EQ(p2["kind"], "density");
+  EXPECT_EQ(p2["tails"], false);
+  EXPECT_EQ(p2["title"], "EPDF of the elements of $P_{20|20}$");
+  ASSERT_EQ(p2["columns"].size(), 3u);
+  const std::vector<std::string> ij = {"11", "12", "22"};
+  for (std::size_t i = 0; i < 3; ++i)
+  {
+    const nlohmann::json& c = p2["columns"][i];
+    EXPECT_EQ(c["column"], "P" + ij[i]);
+    EXPECT_EQ(c["label"], "$[P_{20|20}]_{" + ij[i] + "}$");
+    EXPECT_EQ(c["title"], "$P_{" + ij[i] + "}$");
+    // every column drawn is one of the samples file's
+    EXPECT_NE(std::find(r2.sample_columns.begin(), r2.sample_columns.end(), c["column"].get<std::string>()),
+              r2.sample_columns.end());
+  }
+  ASSERT_EQ(p2["case_labels"].size(), r2.cases.size());
+  EXPECT_EQ(p2["case_labels"]["P0_0.1"], "$P_{0|0} = 0.1\\,I_2$");
+  EXPECT_EQ(p2["case_labels"]["P0_100"], "$P_{0|0} = 100\\,I_2$");
+
+  const nlohmann::json lin = nlohmann::json::parse(experimentJson(run("lin_fig4", 64, 10, 2)));
+  EXPECT_EQ(lin["plot"], nlohmann::json::parse(R"({"kind": "series", "tails": true})"));
+
+  ExperimentResult sweep;
+  sweep.experiment = "sweep";
+  sweep.plot.kind = PlotHints::Kind::SWEEP;
+  sweep.plot.tails = false;
+  EXPECT_EQ(nlohmann::json::parse(experimentJson(sweep))["plot"],
+            nlohmann::json::parse(R"({"kind": "sweep", "tails": false})"));
 }
