@@ -1,5 +1,5 @@
 # The model files the papers' experiments run (src/core/experiments/paper_models.cpp), compiled into
-# the core: the text of each config/models/NAME.yaml, read here, goes into a generated source that
+# the core: the text of each config/models/<name>.yaml, read here, goes into a generated source that
 # paper_models.cpp parses with the model parser. config/models stays the one source of the numbers,
 # and the tools and the Python module need no path to the source tree at run time. Editing one of
 # the files re-runs CMake (CMAKE_CONFIGURE_DEPENDS), which regenerates the source.

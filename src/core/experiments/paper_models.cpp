@@ -18,7 +18,7 @@ namespace mc
 namespace
 {
 
-/// The parsed model of the embedded file config/models/NAME.yaml, parsed once.
+/// The parsed model of the embedded file config/models/<name>.yaml, parsed once.
 const Model& embeddedModel(const std::string& name)
 {
   static std::mutex mutex;

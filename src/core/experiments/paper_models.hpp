@@ -11,7 +11,7 @@ namespace networked_estimation
 namespace mc
 {
 
-/// The model of config/models/NAME.yaml as it was when the core was built (the files of
+/// The model of config/models/<name>.yaml as it was when the core was built (the files of
 /// NE_EMBEDDED_MODELS, cmake/embedded_models.cmake). Throws std::logic_error for another NAME.
 Model builtInModel(const std::string& name);
 /// Zhou's example (Section IV of the paper) with eps ~ U[-delta, delta]: config/models/zhou_example.yaml
