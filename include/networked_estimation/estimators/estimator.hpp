@@ -189,19 +189,12 @@ protected:
   bool last_updated_ = false;
 };
 
-/// The prior of a step from (x, P) = (x_{k-1|k-1}, P_{k-1|k-1}), as kfio and ekfio predict: for a linear
-/// model xp = A x + Bu u (u empty: zero input), Pp = A P A' + B Q B'; for a built-in motion
-/// xp = f(x, dt), Pp = F P F' + Q dt (dt = 0: the model's period), two_d_mode applied. Used by the
-/// rejection thresholds (OnlineOptions).
-void predictPrior(const Model& model, const Eigen::VectorXd& x, const Eigen::MatrixXd& P, const Eigen::VectorXd& u,
-                  double dt, Eigen::VectorXd& xp, Eigen::MatrixXd& Pp);
-
 /// The most whole periods predictAhead takes a linear model over (k matrix products).
 constexpr long kMaxPredictAheadSteps = 1000;
 
 /// An estimate (x, P) predicted `dt` seconds past its step, with no measurement and not fed back
-/// into any filter (the Estimator's predict_to_current_time), by predictPrior's equations with zero
-/// input: a built-in motion once over dt (xp = f(x, dt), Pp = F P F' + Q dt, two_d_mode applied);
+/// into any filter (the Estimator's predict_to_current_time), by kfio's and ekfio's prediction with
+/// zero input (predict_ahead.cpp): a built-in motion once over dt (xp = f(x, dt), Pp = F P F' + Q dt, two_d_mode applied);
 /// a linear model, whose steps are whole periods of `period` s, k = round(dt / period) times
 /// (xp = A^k x, Pp = A Pp A' + B Q B' k times). Returns the time predicted over: dt, or k periods
 /// (0: (x, P) as they are). Throws InputError naming dt for a dt that is negative or not finite, a

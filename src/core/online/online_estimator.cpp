@@ -201,11 +201,14 @@ void OnlineEstimator::fillSample(long k, Sample& sample) const
     sample.u.resize(0);  // zero input
 }
 
-void OnlineEstimator::stepChecked(Estimator& est, const Sample& sample)
+void OnlineEstimator::stepChecked(Estimator& est, const Sample& sample, bool predicted)
 {
   try
   {
-    est.step(sample);
+    if (predicted)
+      est.update(sample);  // the prediction the gate made (process)
+    else
+      est.step(sample);
   }
   catch (const DivergenceError&)
   {
@@ -259,8 +262,8 @@ void OnlineEstimator::process()
   const long k = next_;
   Slot& s = slot(k);
   fillSample(k, sample_);
-  if (s.k == k && !options_.rejection_threshold.empty())
-    gate(s, sample_);
+  // The gate predicts once with the live filter; the step then updates that prediction.
+  const bool predicted = s.k == k && !options_.rejection_threshold.empty() && gate(s, sample_);
   last_sensors_ = 0;
   const Slot* held = s.k == k ? &s : nullptr;
   for (std::size_t i = 0; i < last_arrived_.size(); ++i)
@@ -280,7 +283,7 @@ void OnlineEstimator::process()
   }
   // DROP keeps late data out of the filter: a late measurement may sit in the slot for duplicate
   // detection, but only data accepted before this deadline is used.
-  stepChecked(*live_, sample_);
+  stepChecked(*live_, sample_, predicted);
   last_gamma_ = sample_.gamma;
   ++counters_.processed;
   if (last_gamma_)
@@ -313,29 +316,32 @@ void OnlineEstimator::setLatePolicy(LatePolicy policy)
     checkpoint_.reset();
 }
 
-void OnlineEstimator::gate(Slot& s, Sample& sample)
+bool OnlineEstimator::gate(Slot& s, Sample& sample)
 {
-  const Estimator& est = *live_;
-  bool predicted = false;
-  Eigen::VectorXd xp;
-  Eigen::MatrixXd Pp;
+  const Prior* prior = nullptr;
   for (std::size_t i = 0; i < model_.sensors.size(); ++i)
   {
     const double threshold = options_.rejection_threshold[i];
     if (!s.have[i] || s.gated[i] || !std::isfinite(threshold))
       continue;
-    if (!predicted)
+    if (!prior)
     {
-      predictPrior(model_, est.state(), est.covariance(), sample.u, sample.dt, xp, Pp);
-      predicted = true;
+      try
+      {
+        prior = &live_->predict(sample);  // the filter's own prior of this step
+      }
+      catch (const std::runtime_error&)
+      {
+        // InputError or DivergenceError: nothing is gated; the step raises it again and
+        // stepChecked deals with it as without a threshold.
+        break;
+      }
     }
     const Sensor& sn = model_.sensors[i];
     const auto C = model_.C.middleRows(sn.offset, sn.size);
-    const Eigen::MatrixXd& R = sample.R.size() ? sample.R : model_.R;
-    const Eigen::MatrixXd S = C * Pp * C.transpose() + R.block(sn.offset, sn.offset, sn.size, sn.size);
-    Eigen::VectorXd nu = sample.y.segment(sn.offset, sn.size) - C * xp;
+    Eigen::VectorXd nu = sample.y.segment(sn.offset, sn.size) - C * prior->mean();
     wrapEntries(nu, angle_rows_[i]);  // the sensor's angular rows (docs/algorithms.md 2.7)
-    const Eigen::LDLT<Eigen::MatrixXd> ldlt(S);
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(prior->innovationCovariance(i));
     const double d2 = nu.dot(ldlt.solve(nu));
     if (!(d2 <= threshold * threshold))  // beyond it, or not computable (S singular, overflow)
     {
@@ -349,6 +355,7 @@ void OnlineEstimator::gate(Slot& s, Sample& sample)
   for (std::size_t i = 0; i < s.have.size(); ++i)
     any = any || (s.have[i] && !s.gated[i]);
   sample.gamma = any;
+  return prior != nullptr;
 }
 
 void OnlineEstimator::rewind()
