@@ -231,6 +231,9 @@ private:
   /// est.step(sample) (est.update(sample) when `predicted`: the gate predicted with it), a
   /// divergence reset and a malformed sample dealt with.
   void stepChecked(Estimator& est, const Sample& sample, bool predicted = false);
+  /// REWIND: the checkpoint filter takes the live filter's state (a value copy) at step
+  /// nextStep() - 1; `rebuild`: it is built again first (the live one was built from another model).
+  void newCheckpoint(bool rebuild);
   void rewind();
   OfferResult checkStep(long k) const;
   /// The rejection thresholds at step k: refuses (in `sample` and the slot) every arrived sensor
@@ -252,9 +255,13 @@ private:
   EstimatorSettings settings_;
   OnlineOptions options_;
   std::unique_ptr<Estimator> live_;
-  std::unique_ptr<Estimator> checkpoint_;  ///< REWIND: the filter at step checkpoint_k_
+  /// REWIND: a filter at step checkpoint_k_, stepped along behind the live one; a rewind copies
+  /// its state (a value) into the live filter.
+  std::unique_ptr<Estimator> checkpoint_;
   long checkpoint_k_ = 0;
+  EstimatorState saved_;  ///< the state copied at a rewind or a new checkpoint (storage reused)
   bool estimate_set_ = false;  ///< live_ was built from a setEstimate (reset() rebuilds it from model_)
+  Model set_model_;            ///< estimate_set_: the model live_ was built from (x0, P0 = the estimate)
   std::vector<Slot> ring_;
   long next_ = 1;
   bool started_ = false;

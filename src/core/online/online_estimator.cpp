@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <utility>
 
 #include "networked_estimation/common/angles.hpp"
 #include "networked_estimation/common/error.hpp"
@@ -58,7 +59,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const EstimatorSettings& se
   validateOnlineOptions(options_, "online estimator options");
   live_ = makeEstimator(model_, settings_);
   if (options_.late_policy == LatePolicy::REWIND)
-    checkpoint_ = live_->clone();
+    newCheckpoint(false);
   const std::size_t width = options_.history_length + static_cast<std::size_t>(options_.max_future_steps) + 1;
   ring_.resize(width);
   for (Slot& s : ring_)
@@ -105,6 +106,7 @@ void OnlineEstimator::start(long first_step)
 
 void OnlineEstimator::reset()
 {
+  const bool rebuilt = estimate_set_;
   if (estimate_set_)
   {
     live_ = makeEstimator(model_, settings_);  // back to the model's own x0, P0
@@ -112,12 +114,12 @@ void OnlineEstimator::reset()
   }
   else
     live_->reset();
-  if (checkpoint_)
-    checkpoint_ = live_->clone();
-  for (Slot& s : ring_)
-    s.k = -1;
   next_ = 1;
   checkpoint_k_ = 0;
+  if (checkpoint_)
+    newCheckpoint(rebuilt);
+  for (Slot& s : ring_)
+    s.k = -1;
   started_ = false;
   for (SensorLattice& l : lattice_)
     l.reset();
@@ -147,12 +149,10 @@ void OnlineEstimator::setEstimate(const Eigen::VectorXd& x, const Eigen::MatrixX
     from.x0[a] = wrapAngle(from.x0[a]);
   from.P0 = 0.5 * (P + P.transpose());
   live_ = makeEstimator(from, settings_);
-  if (checkpoint_)
-  {
-    checkpoint_ = live_->clone();
-    checkpoint_k_ = next_ - 1;
-  }
+  set_model_ = std::move(from);
   estimate_set_ = true;
+  if (checkpoint_)
+    newCheckpoint(true);
   ++counters_.estimates_set;
 }
 
@@ -199,6 +199,15 @@ void OnlineEstimator::fillSample(long k, Sample& sample) const
     sample.u = s.u;
   else
     sample.u.resize(0);  // zero input
+}
+
+void OnlineEstimator::newCheckpoint(bool rebuild)
+{
+  if (!checkpoint_ || rebuild)  // a filter whose reset() goes where the live one's goes
+    checkpoint_ = makeEstimator(estimate_set_ ? set_model_ : model_, settings_);
+  live_->snapshot(saved_);
+  checkpoint_->restore(saved_);
+  checkpoint_k_ = next_ - 1;
 }
 
 void OnlineEstimator::stepChecked(Estimator& est, const Sample& sample, bool predicted)
@@ -308,10 +317,7 @@ void OnlineEstimator::setLatePolicy(LatePolicy policy)
     return;
   options_.late_policy = policy;
   if (policy == LatePolicy::REWIND)
-  {
-    checkpoint_ = live_->clone();
-    checkpoint_k_ = next_ - 1;
-  }
+    newCheckpoint(false);
   else
     checkpoint_.reset();
 }
@@ -361,7 +367,8 @@ bool OnlineEstimator::gate(Slot& s, Sample& sample)
 void OnlineEstimator::rewind()
 {
   ++counters_.rewinds;
-  live_ = checkpoint_->clone();
+  checkpoint_->snapshot(saved_);  // the checkpoint's state, a value: the filter itself stays
+  live_->restore(saved_);
   for (long j = checkpoint_k_ + 1; j < next_; ++j)
   {
     fillSample(j, sample_);
