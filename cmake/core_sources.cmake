@@ -24,7 +24,7 @@ set(NE_CORE_SOURCES
   src/core/estimators/estimator_common.cpp
   src/core/estimators/estimator_factory.cpp
   src/core/estimators/kalman.cpp
-  src/core/estimators/prior.cpp
+  src/core/estimators/predict_ahead.cpp
   src/core/estimators/rseio.cpp
   src/core/estimators/step_covariance.cpp
   # experiments/: the Monte Carlo engine, its results and files, the experiments by name, and the

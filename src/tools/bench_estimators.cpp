@@ -15,7 +15,9 @@
 // fixed_riccati (n = 2, 4, 8) is the covariance recursion alone, hand-written with fixed-size Eigen
 // types, one step in five lost, and kfio_covariance_only the Estimator's covariance-only step
 // (setCovarianceOnly) on the same arrivals: the floor of a covariance-only Monte Carlo step
-// (montecarlo --experiment covariance) and what the estimator takes for it.
+// (montecarlo --experiment covariance) and what the estimator takes for it. online_ekfio and
+// online_ekfio_gated (n = 15) time the OnlineEstimator's step (offer every sensor, process) with
+// ekfio on the omni_3d motion, without and with rejection thresholds (the gate's prior).
 //
 // The benchmarks are registered normally, so every --benchmark_* flag works (filter, out, ...).
 // After the run a summary table prints, per algorithm and n, the median and the minimum time per
@@ -58,6 +60,7 @@
 #include "networked_estimation/estimators/estimator.hpp"
 #include "networked_estimation/config/model.hpp"
 #include "networked_estimation/common/random.hpp"
+#include "networked_estimation/online/online_estimator.hpp"
 #include "networked_estimation/config/estimator_settings.hpp"
 #include "networked_estimation/config/omni_model.hpp"
 #include "networked_estimation/motion/linearised_model.hpp"
@@ -289,6 +292,43 @@ void benchOmni(benchmark::State& state, Algorithm algorithm)
   state.SetLabel(est->implementation());
 }
 
+/// The OnlineEstimator's cost per step (ekfio on the robot motion): every sensor's sample offered,
+/// then process(). `gated`: every sensor has a rejection threshold (1e6: nothing is refused), so
+/// that each step also forms the prior the gate tests the innovations on.
+void benchOnline(benchmark::State& state, bool gated)
+{
+  const Model omni = omniBenchModel(sizeArg(state));
+  PlantSimulator sim(omni, 17);
+  std::vector<Eigen::VectorXd> ys(kRingSize);
+  for (Eigen::VectorXd& y : ys)
+    y = sim.step().y;
+  OnlineOptions options;
+  if (gated)
+    options.rejection_threshold.assign(omni.sensors.size(), 1e6);
+  EstimatorSettings settings;
+  settings.algorithm = Algorithm::EKFIO;
+  try
+  {
+    OnlineEstimator online(omni, settings, options);
+    online.start(1);
+    long k = 1;
+    for (auto _ : state)
+    {
+      const Eigen::VectorXd& y = ys[static_cast<std::size_t>(k) & (kRingSize - 1)];
+      for (std::size_t i = 0; i < omni.sensors.size(); ++i)
+        online.offerMeasurement(k, i, y.data() + omni.sensors[i].offset, static_cast<std::size_t>(omni.sensors[i].size));
+      online.process();
+      ++k;
+    }
+    benchmark::DoNotOptimize(online.estimator().state().data());
+    state.SetLabel(gated ? "rejection thresholds on" : "no thresholds");
+  }
+  catch (const std::exception& e)
+  {
+    state.SkipWithError(e.what());
+  }
+}
+
 double statMin(const std::vector<double>& v)
 {
   return v.empty() ? 0.0 : *std::min_element(v.begin(), v.end());
@@ -356,6 +396,9 @@ void registerBenchmarks()
   // robot motions: ekfio next to kfio at the same n, m and data
   configure(benchmark::RegisterBenchmark("ekfio_omni", benchOmni, Algorithm::EKFIO), {8, 15});
   configure(benchmark::RegisterBenchmark("kfio_omni", benchOmni, Algorithm::KFIO), {8, 15});
+  // the OnlineEstimator's step (offers and process) on the robot motion, with and without the gate
+  configure(benchmark::RegisterBenchmark("online_ekfio", benchOnline, false), {15});
+  configure(benchmark::RegisterBenchmark("online_ekfio_gated", benchOnline, true), {15});
 }
 
 }  // namespace

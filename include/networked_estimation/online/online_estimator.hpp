@@ -55,12 +55,14 @@ struct OnlineOptions
   /// first sample it is not due.
   std::vector<double> rate_ratio;
   /// Per sensor (empty = none): the largest Mahalanobis distance sqrt(nu' S^-1 nu) of the
-  /// sensor's innovation nu = y - C xpred (its angular rows wrapped), S = C Ppred C' + R, that is still fused (as
-  /// robot_localization's *_rejection_threshold); +inf = off. xpred and Ppred are predictPrior's
-  /// (A x + Bu u and A P A' + B Q B', or a built-in motion's f and F P F' + Q dt) from the
-  /// estimator's x_{k-1|k-1}, P_{k-1|k-1} (for rseio its pseudo-
-  /// covariance, for aoe/oe the mixture's moments, with the command as sent). A measurement beyond
-  /// it is not fused and counts as not arrived (a loss for the link statistics).
+  /// sensor's innovation nu = y - C xpred (its angular rows wrapped), S = C Ppred C' + R, that is
+  /// still fused (as robot_localization's *_rejection_threshold); +inf = off. xpred, Ppred and S
+  /// are the estimator's own prior of the step (Estimator::predict, the Prior): kf/kfio's
+  /// A x + Bu u and A P A' + B Q B', ekfio's f and F P F' + Q dt for a built-in motion, rseio's
+  /// robust prediction and pseudo-covariance for the sensors in hand, aoe/oe's moments of the
+  /// predicted mixture over the command's outcome (docs/algorithms.md 2.8), with the command as
+  /// sent. The step then updates that same prediction (one prediction per step). A measurement
+  /// beyond it is not fused and counts as not arrived (a loss for the link statistics).
   std::vector<double> rejection_threshold;
   /// Seconds from one step to the next (Sample::dt of every step; 0: the model's period). The
   /// Estimator sets its `period`, which may differ from the model's: a built-in motion then
@@ -226,12 +228,18 @@ private:
   Slot* slotFor(long k);
   /// The filter input of step k from its slot (a loss when nothing arrived for k).
   void fillSample(long k, Sample& sample) const;
-  void stepChecked(Estimator& est, const Sample& sample);
+  /// est.step(sample) (est.update(sample) when `predicted`: the gate predicted with it), a
+  /// divergence reset and a malformed sample dealt with.
+  void stepChecked(Estimator& est, const Sample& sample, bool predicted = false);
+  /// REWIND: the checkpoint filter takes the live filter's state (a value copy) at step
+  /// nextStep() - 1; `rebuild`: it is built again first (the live one was built from another model).
+  void newCheckpoint(bool rebuild);
   void rewind();
   OfferResult checkStep(long k) const;
   /// The rejection thresholds at step k: refuses (in `sample` and the slot) every arrived sensor
-  /// whose innovation is beyond its threshold.
-  void gate(Slot& s, Sample& sample);
+  /// whose innovation on the live filter's prior (Estimator::predict) is beyond its threshold.
+  /// Returns whether it predicted (the step then only updates: stepChecked).
+  bool gate(Slot& s, Sample& sample);
   /// Keeps a sensor's own R_k block in the slot (no-op for R = nullptr).
   void storeR(Slot& s, std::size_t sensor, const double* R);
   /// Whether sensor `sensor` is due at step k (slot `s` holds k, or is null when nothing is in
@@ -247,9 +255,13 @@ private:
   EstimatorSettings settings_;
   OnlineOptions options_;
   std::unique_ptr<Estimator> live_;
-  std::unique_ptr<Estimator> checkpoint_;  ///< REWIND: the filter at step checkpoint_k_
+  /// REWIND: a filter at step checkpoint_k_, stepped along behind the live one; a rewind copies
+  /// its state (a value) into the live filter.
+  std::unique_ptr<Estimator> checkpoint_;
   long checkpoint_k_ = 0;
+  EstimatorState saved_;  ///< the state copied at a rewind or a new checkpoint (storage reused)
   bool estimate_set_ = false;  ///< live_ was built from a setEstimate (reset() rebuilds it from model_)
+  Model set_model_;            ///< estimate_set_: the model live_ was built from (x0, P0 = the estimate)
   std::vector<Slot> ring_;
   long next_ = 1;
   bool started_ = false;

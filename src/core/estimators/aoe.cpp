@@ -15,11 +15,12 @@ namespace
 {
 
 template <class S>
-class Aoe : public EstimatorBase<S>
+class Aoe final : public EstimatorBase<S, Aoe<S>>
 {
-  using Base = EstimatorBase<S>;
+  using Base = EstimatorBase<S, Aoe<S>>;
+  friend Base;
   using Base::last_updated_;
-  using Base::sel_;
+  using Base::rows_;
   using Base::A_;
   using Base::bu_;
   using Base::x_;
@@ -37,68 +38,101 @@ public:
     nu1_ = link_.stationary();
   }
 
-  void step(const Sample& sample) override
-  {
-    this->checkNotDiverged();
-    sel_.checkInput(sample);
-    const int rows = this->select(sample, false);
-    this->guardedStep([&] {
-      // 1. mode prediction (19a,b)
-      const double nubar1 = link_.next(nu1_);
-      const double nubar0 = 1.0 - nubar1;
-      // 2. conditional prediction (20a,b): zbar0 = A x, zbar1 = zbar0 + Bu u; Zbar = A P A' + BQB'
-      const bool has_input = this->commandEffect(sample);
-      z0_.noalias() = A_ * x_;
-      this->predictCovariance(P_);
-      dlt_ = bu_;  // zhat1 - zhat0, before the update
-      last_updated_ = rows > 0;
-      double nuhat1 = nubar1;
-      if (last_updated_)
-      {
-        // 3-5. gain, mode update (19c) in log-odds form, conditional update (20c,d)
-        this->withArrived([&](auto& upd, const auto& C, const auto& R, const auto& y) {
-          upd.factor(Ppred_, C, R);
-          const auto& innov = upd.updateMean(y, z0_);  // L^{-1} e0; z0 += W' L^{-1} e0
-          if (has_input)
-          {
-            const auto& wd = upd.whitenedImage(bu_);  // L^{-1} C Bu u
-            const double L = innov.dot(wd) - 0.5 * wd.squaredNorm() + std::log(nubar1) - std::log(nubar0);
-            nuhat1 = 1.0 / (1.0 + std::exp(-L));
-            dlt_.noalias() -= upd.W().transpose() * wd;  // (I - K C) Bu u
-          }
-          upd.downdate(Ppred_);  // Zhat
-        });
-      }
-      // 6. collapse (21), (22): x = zhat0 + nuhat1 dlt, P = Zhat + nuhat0 nuhat1 dlt dlt'
-      x_ = z0_;
-      if (has_input)
-      {
-        x_ += nuhat1 * dlt_;
-        const double spread = nuhat1 * (1.0 - nuhat1);
-        if (spread > 0.0)
-        {
-          Ppred_.noalias() += spread * (dlt_ * dlt_.transpose());
-          mirrorLower(Ppred_);
-        }
-      }
-      nu1_ = nuhat1;
-      this->commit(P_, Ppred_);
-    });
-  }
-
 private:
+  // EstimatorBase's halves of a step
+  void predictStep(const Sample& sample)
+  {
+    // 1. mode prediction (19a,b)
+    nubar1_ = link_.next(nu1_);
+    nubar0_ = 1.0 - nubar1_;
+    // 2. conditional prediction (20a,b): zbar0 = A x, zbar1 = zbar0 + Bu u; Zbar = A P A' + BQB'
+    has_input_ = this->commandEffect(sample);
+    z0_.noalias() = A_ * x_;
+    this->predictCovariance(P_);
+    dlt_ = bu_;  // zhat1 - zhat0, before the update
+  }
+  void updateStep()
+  {
+    const bool has_input = has_input_;
+    const double nubar1 = nubar1_, nubar0 = nubar0_;
+    last_updated_ = rows_ > 0;
+    double nuhat1 = nubar1;
+    if (last_updated_)
+    {
+      // 3-5. gain, mode update (19c) in log-odds form, conditional update (20c,d)
+      this->withArrived([&](auto& upd, const auto& C, const auto& R, const auto& y) {
+        upd.factor(Ppred_, C, R);
+        const auto& innov = upd.updateMean(y, z0_);  // L^{-1} e0; z0 += W' L^{-1} e0
+        if (has_input)
+        {
+          const auto& wd = upd.whitenedImage(bu_);  // L^{-1} C Bu u
+          const double L = innov.dot(wd) - 0.5 * wd.squaredNorm() + std::log(nubar1) - std::log(nubar0);
+          nuhat1 = 1.0 / (1.0 + std::exp(-L));
+          dlt_.noalias() -= upd.W().transpose() * wd;  // (I - K C) Bu u
+        }
+        upd.downdate(Ppred_);  // Zhat
+      });
+    }
+    // 6. collapse (21), (22): x = zhat0 + nuhat1 dlt, P = Zhat + nuhat0 nuhat1 dlt dlt'
+    x_ = z0_;
+    if (has_input)
+    {
+      x_ += nuhat1 * dlt_;
+      const double spread = nuhat1 * (1.0 - nuhat1);
+      if (spread > 0.0)
+      {
+        Ppred_.noalias() += spread * (dlt_ * dlt_.transpose());
+        mirrorLower(Ppred_);
+      }
+    }
+    nu1_ = nuhat1;
+    this->commit(P_, Ppred_);
+  }
+  /// The moments of the predicted two-component mixture (docs/algorithms.md 2.8):
+  /// xp = zbar0 + nubar1 Bu u, Pp = Zbar + nubar0 nubar1 (Bu u)(Bu u)'.
+  void fillPrior(Prior& prior)
+  {
+    xp_ = z0_;
+    Pp_ = Ppred_;
+    if (has_input_)
+    {
+      xp_ += nubar1_ * bu_;
+      const double spread = nubar0_ * nubar1_;
+      if (spread > 0.0)
+      {
+        Pp_.noalias() += spread * (bu_ * bu_.transpose());
+        mirrorLower(Pp_);
+      }
+    }
+    prior.setMoments(xp_, Pp_);
+  }
+  void saveExtra(EstimatorState& out) const { out.command_arrival = nu1_; }
+  void checkExtra(const EstimatorState& s) const
+  {
+    if (!(s.command_arrival >= 0.0 && s.command_arrival <= 1.0))
+      throw InputError("restore: command_arrival: expected a probability in [0, 1], found " +
+                       std::to_string(s.command_arrival));
+  }
+  void restoreExtra(const EstimatorState& s) { nu1_ = s.command_arrival; }
+
   ControlLink link_;
   double nu1_;  ///< nuhat_k^[1]
+  // the prediction (predictStep) the update reads
+  double nubar1_ = 0.0, nubar0_ = 1.0;
+  bool has_input_ = false;
   typename S::VecN z0_, dlt_;
+  typename S::VecN xp_;  ///< the prior's moments (fillPrior)
+  typename S::MatN Pp_;
 };
 
 template <class S>
-class OptimalFilter : public EstimatorBase<S>, public OptimalEstimator
+class OptimalFilter final : public EstimatorBase<S, OptimalFilter<S>>, public OptimalEstimator
 {
-  using Base = EstimatorBase<S>;
+  using Base = EstimatorBase<S, OptimalFilter<S>>;
+  friend Base;
   using Base::last_updated_;
   using Base::model_;
-  using Base::sel_;
+  using Base::rows_;
   using Base::A_;
   using Base::bu_;
   using Base::x_;
@@ -145,80 +179,147 @@ public:
     capped_ = false;
   }
 
-  void step(const Sample& sample) override
+private:
+  // EstimatorBase's halves of a step. The prediction leaves the mixture as it is: the predicted
+  // shared covariance goes to Ppred_, the children to next_means_, next_logw_, next_q_
+  // (next_count_ of them); the update takes them over.
+  void predictStep(const Sample& sample)
   {
-    this->checkNotDiverged();
-    sel_.checkInput(sample);
-    const int rows = this->select(sample, false);
-    this->guardedStep([&] {
-      const int n = model_.n();
-      const bool split = this->commandEffect(sample);
-      // prediction of the shared covariance (12)
-      this->predictCovariance(M_);
-      this->commit(M_, Ppred_);
-      // children: nu_k = 0 (A m) and nu_k = 1 (A m + Bu u), prior weights (15) through the link chain.
-      // Without an input effect both children have the same mean: they stay one component whose
-      // newest-bit probability carries the chain (exact, and no doubling).
-      const Eigen::Index children = split ? 2 * count_ : count_;
-      if (next_means_.cols() < children)
+    const int n = model_.n();
+    const bool split = this->commandEffect(sample);
+    // prediction of the shared covariance (12)
+    this->predictCovariance(M_);
+    // children: nu_k = 0 (A m) and nu_k = 1 (A m + Bu u), prior weights (15) through the link chain.
+    // Without an input effect both children have the same mean: they stay one component whose
+    // newest-bit probability carries the chain (exact, and no doubling).
+    const Eigen::Index children = split ? 2 * count_ : count_;
+    if (next_means_.cols() < children)
+    {
+      next_means_.resize(n, children);
+      next_logw_.resize(children);
+      next_q_.resize(children);
+    }
+    Am_.noalias() = A_ * means_.leftCols(count_);  // A m for every parent, one product
+    Eigen::Index c = 0;
+    for (Eigen::Index i = 0; i < count_; ++i)
+    {
+      const double t1 = link_.next(q_[i]);
+      if (!split)
       {
-        next_means_.resize(n, children);
-        next_logw_.resize(children);
-        next_q_.resize(children);
+        next_means_.col(c) = Am_.col(i);
+        next_logw_[c] = logw_[i];
+        next_q_[c] = t1;
+        ++c;
+        continue;
       }
-      Am_.noalias() = A_ * means_.leftCols(count_);  // A m for every parent, one product
-      Eigen::Index c = 0;
-      for (Eigen::Index i = 0; i < count_; ++i)
+      const double lw[2] = {logw_[i] + std::log(1.0 - t1), logw_[i] + std::log(t1)};
+      for (int b = 0; b < 2; ++b)
       {
-        const double t1 = link_.next(q_[i]);
-        if (!split)
-        {
-          next_means_.col(c) = Am_.col(i);
-          next_logw_[c] = logw_[i];
-          next_q_[c] = t1;
-          ++c;
-          continue;
-        }
-        const double lw[2] = {logw_[i] + std::log(1.0 - t1), logw_[i] + std::log(t1)};
-        for (int b = 0; b < 2; ++b)
-        {
-          if (!(lw[b] > -std::numeric_limits<double>::infinity()))
-            continue;  // a hypothesis of probability zero
-          next_means_.col(c) = Am_.col(i);
-          if (b == 1)
-            next_means_.col(c) += bu_;
-          next_logw_[c] = lw[b];
-          next_q_[c] = b;
-          ++c;
-        }
+        if (!(lw[b] > -std::numeric_limits<double>::infinity()))
+          continue;  // a hypothesis of probability zero
+        next_means_.col(c) = Am_.col(i);
+        if (b == 1)
+          next_means_.col(c) += bu_;
+        next_logw_[c] = lw[b];
+        next_q_[c] = b;
+        ++c;
       }
-      count_ = c;
-      means_.swap(next_means_);
-      logw_.swap(next_logw_);
-      q_.swap(next_q_);
-      // measurement update (13), (14): shared gain, per-component innovations and likelihoods
-      last_updated_ = rows > 0;
-      if (last_updated_)
-      {
-        this->withArrived([&](auto& upd, const auto& C, const auto& R, const auto& y) {
-          upd.factor(M_, C, R);
-          auto mc = means_.leftCols(count_);
-          E_.noalias() = -C * mc;  // no temporary: E_ keeps its storage across steps
-          E_.colwise() += y;
-          upd.wrapInnovations(E_);
-          upd.whiten(E_);
-          logw_.head(count_) -= 0.5 * E_.colwise().squaredNorm().transpose();
-          mc.noalias() += upd.W().transpose() * E_;
-          upd.downdate(M_);
-        });
-      }
-      // normalise (log-sum-exp)
-      const double mx = logw_.head(count_).maxCoeff();
-      const double lse = mx + std::log((logw_.head(count_).array() - mx).exp().sum());
-      logw_.head(count_).array() -= lse;
-      cap();
-      output();
-    });
+    }
+    next_count_ = c;
+  }
+  void updateStep()
+  {
+    this->commit(M_, Ppred_);
+    count_ = next_count_;
+    means_.swap(next_means_);
+    logw_.swap(next_logw_);
+    q_.swap(next_q_);
+    // measurement update (13), (14): shared gain, per-component innovations and likelihoods
+    last_updated_ = rows_ > 0;
+    if (last_updated_)
+    {
+      this->withArrived([&](auto& upd, const auto& C, const auto& R, const auto& y) {
+        upd.factor(M_, C, R);
+        auto mc = means_.leftCols(count_);
+        E_.noalias() = -C * mc;  // no temporary: E_ keeps its storage across steps
+        E_.colwise() += y;
+        upd.wrapInnovations(E_);
+        upd.whiten(E_);
+        logw_.head(count_) -= 0.5 * E_.colwise().squaredNorm().transpose();
+        mc.noalias() += upd.W().transpose() * E_;
+        upd.downdate(M_);
+      });
+    }
+    // normalise (log-sum-exp)
+    const double mx = logw_.head(count_).maxCoeff();
+    const double lse = mx + std::log((logw_.head(count_).array() - mx).exp().sum());
+    logw_.head(count_).array() -= lse;
+    cap();
+    output();
+  }
+  /// The moments of the predicted mixture (docs/algorithms.md 2.8): the children's weights
+  /// normalised, xp = sum w m, Pp = M + sum w (m - xp)(m - xp)' (angles as in output()).
+  void fillPrior(Prior& prior)
+  {
+    const Eigen::Index c = next_count_;
+    pw_ = next_logw_.head(c);
+    pw_.array() -= pw_.maxCoeff();
+    pw_ = pw_.array().exp();
+    pw_ /= pw_.sum();
+    pm_ = next_means_.leftCols(c);
+    for (const int a : this->angle_states_)
+      for (Eigen::Index j = 1; j < c; ++j)
+        pm_(a, j) = pm_(a, 0) + wrapAngle(pm_(a, j) - pm_(a, 0));
+    xp_.noalias() = pm_ * pw_;
+    Pp_ = Ppred_;
+    if (c > 1)
+    {
+      D_ = pm_.colwise() - xp_;
+      D_ = D_ * pw_.cwiseSqrt().asDiagonal();
+      Pp_.noalias() += D_ * D_.transpose();
+      mirrorLower(Pp_);
+    }
+    prior.setMoments(xp_, Pp_);
+  }
+  void saveExtra(EstimatorState& out) const
+  {
+    out.command_arrival = nu1_;
+    out.means = means_.leftCols(count_);
+    out.log_weights = logw_.head(count_);
+    out.newest_bit = q_.head(count_);
+    out.shared_covariance = M_;
+    out.capped = capped_;
+  }
+  void checkExtra(const EstimatorState& s) const
+  {
+    const Eigen::Index c = s.means.cols();
+    const int n = model_.n();
+    if (s.means.rows() != n || c < 1 || s.log_weights.size() != c || s.newest_bit.size() != c)
+      throw InputError("restore: means, log_weights, newest_bit: expected an oe mixture of n = " + std::to_string(n) +
+                       " rows and as many weights and bits as components, found " + std::to_string(s.means.rows()) +
+                       " x " + std::to_string(c) + ", " + std::to_string(s.log_weights.size()) + " and " +
+                       std::to_string(s.newest_bit.size()));
+    if (s.shared_covariance.rows() != n || s.shared_covariance.cols() != n)
+      throw InputError("restore: shared_covariance: expected " + std::to_string(n) + " x " + std::to_string(n) +
+                       ", found " + std::to_string(s.shared_covariance.rows()) + " x " +
+                       std::to_string(s.shared_covariance.cols()));
+  }
+  void restoreExtra(const EstimatorState& s)
+  {
+    const Eigen::Index c = s.means.cols();
+    if (means_.cols() < c)
+    {
+      means_.resize(model_.n(), c);
+      logw_.resize(c);
+      q_.resize(c);
+    }
+    count_ = c;
+    means_.leftCols(c) = s.means;
+    logw_.head(c) = s.log_weights;
+    q_.head(c) = s.newest_bit;
+    M_ = s.shared_covariance;
+    nu1_ = s.command_arrival;
+    capped_ = s.capped;
   }
 
 private:
@@ -278,6 +379,7 @@ private:
   ControlLink link_;
   std::size_t max_components_;
   Eigen::Index count_ = 1;
+  Eigen::Index next_count_ = 1;         ///< children of the pending prediction
   MatNX means_, next_means_;            ///< n x capacity
   Eigen::VectorXd logw_, next_logw_;    ///< log weights
   Eigen::VectorXd q_, next_q_;          ///< P(newest bit = 1 | component)
@@ -287,6 +389,10 @@ private:
   mutable Eigen::MatrixXd Md_;          ///< fixed sizes: the dynamic copy componentCovariance() returns
   Eigen::VectorXd w_;
   std::vector<Eigen::Index> order_;
+  MatNX pm_;                            ///< the prior's components (fillPrior)
+  Eigen::VectorXd pw_;                  ///< their weights
+  typename S::VecN xp_;                 ///< the prior's moments
+  typename S::MatN Pp_;
   double nu1_;
   bool capped_ = false;
 };

@@ -14,12 +14,13 @@ namespace
 {
 
 template <class S>
-class ExtendedFilter : public EstimatorBase<S>
+class ExtendedFilter final : public EstimatorBase<S, ExtendedFilter<S>>
 {
-  using Base = EstimatorBase<S>;
+  using Base = EstimatorBase<S, ExtendedFilter<S>>;
+  friend Base;
   using Base::last_updated_;
   using Base::model_;
-  using Base::sel_;
+  using Base::rows_;
   using Base::A_;
   using Base::bu_;
   using Base::x_;
@@ -43,33 +44,33 @@ public:
     this->publish();
   }
 
-  void step(const Sample& sample) override
+private:
+  // EstimatorBase's halves of a step
+  void checkSample(const Sample& sample) { dt_ = stepDuration(sample, model_); }  // InputError for a bad dt
+  void predictStep(const Sample& sample)
   {
-    this->checkNotDiverged();
-    sel_.checkInput(sample);
-    const double dt = stepDuration(sample, model_);  // InputError for a bad Sample::dt
-    const int rows = this->select(sample, false);
-    this->guardedStep([&] {
-      if (model_.motion == Motion::LINEAR)
-      {
-        // exactly kfio's prediction (the same operations: ekfio equals kfio on a linear model)
-        xpred_.noalias() = A_ * x_;
-        if (this->commandEffect(sample))
-          xpred_ += bu_;
-        this->predictCovariance(P_);
-      }
-      else
-      {
-        prediction_.predict(x_, P_, dt, xpred_, Ppred_, F_, AP_);
-      }
-      last_updated_ = rows > 0;
-      this->updateAndCommit();
-    });
+    if (model_.motion == Motion::LINEAR)
+    {
+      // exactly kfio's prediction (the same operations: ekfio equals kfio on a linear model)
+      xpred_.noalias() = A_ * x_;
+      if (this->commandEffect(sample))
+        xpred_ += bu_;
+      this->predictCovariance(P_);
+    }
+    else
+    {
+      prediction_.predict(x_, P_, dt_, xpred_, Ppred_, F_, AP_);
+    }
+  }
+  void updateStep()
+  {
+    last_updated_ = rows_ > 0;
+    this->updateAndCommit();
   }
 
-private:
   MotionPrediction<typename S::VecN, typename S::MatN> prediction_;
   typename S::MatN F_;
+  double dt_ = 0.0;  ///< this step's duration (checkSample)
 };
 
 }  // namespace

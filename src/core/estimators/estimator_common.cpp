@@ -94,3 +94,37 @@ int ArrivalSelector::selectSome(const Sample& sample, bool ignore_gamma)
 
 }  // namespace detail
 }  // namespace networked_estimation
+
+namespace networked_estimation
+{
+
+void Prior::begin(const Model& model, const Eigen::MatrixXd* step_R)
+{
+  model_ = &model;
+  own_R_ = step_R != nullptr;
+  if (own_R_)
+    R_ = *step_R;
+  const std::size_t sensors = model.sensors.size();
+  S_.resize(sensors);
+  have_S_.assign(sensors, 0);
+}
+
+const Eigen::MatrixXd& Prior::innovationCovariance(std::size_t sensor) const
+{
+  if (sensor >= S_.size())
+    throw InputError("prior: sensor " + std::to_string(sensor) + ": expected an index below " +
+                     std::to_string(S_.size()) + " (the model's sensors)");
+  Eigen::MatrixXd& S = S_[sensor];
+  if (!have_S_[sensor])
+  {
+    const Sensor& sn = model_->sensors[sensor];
+    const auto C = model_->C.middleRows(sn.offset, sn.size);
+    const Eigen::MatrixXd& R = own_R_ ? R_ : model_->R;
+    S = R.block(sn.offset, sn.offset, sn.size, sn.size);
+    S.noalias() += C * P_ * C.transpose();
+    have_S_[sensor] = 1;
+  }
+  return S;
+}
+
+}  // namespace networked_estimation

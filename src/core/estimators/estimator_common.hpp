@@ -8,6 +8,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -353,7 +354,15 @@ private:
 /// Shared state of the linear-Gaussian estimators, for the sizes S (estimator_sizes.hpp). The
 /// model's matrices and the estimate are held in S's types; with fixed sizes, state() and
 /// covariance() return dynamic copies refreshed at the end of every step (the public interface).
-template <class S>
+///
+/// A step is written once, in two halves that the algorithm (Derived) gives: predictStep(sample),
+/// from (x_, P_) and the command into (xpred_, Ppred_) and the algorithm's own workspace, without
+/// changing the estimate; and updateStep(), which fuses the selected rows and commits. step() runs
+/// both; predict() runs the first and forms the Prior (Derived::fillPrior); update() the second.
+/// The algorithm may also give checkSample(sample) (checks beyond sizes, before anything changes),
+/// ignoresGamma(), kPredictionReadsArrivals (its prediction depends on which sensors arrived),
+/// saveExtra / checkExtra / restoreExtra (the state it carries beyond x and P).
+template <class S, class Derived>
 class EstimatorBase : public Estimator
 {
 public:
@@ -374,6 +383,7 @@ public:
     ya_.resize(C_.rows());
     bu_ = VecN::Zero(model_.n());
     x_ = model_.x0;
+    xpred_ = VecN::Zero(model_.n());  // (the covariance-only mode never writes it)
     P_ = model_.P0;
     Ppred_.resize(model_.n(), model_.n());
     AP_.resize(model_.n(), model_.n());
@@ -383,6 +393,97 @@ public:
     angle_rows_ = angularRows(model_);
     publish();
   }
+
+  void step(const Sample& sample) final
+  {
+    pending_ = false;
+    prepare(sample);
+    guardedStep([&] {
+      self().predictStep(sample);
+      self().updateStep();
+    });
+  }
+  const Prior& predict(const Sample& sample) final
+  {
+    pending_ = false;
+    prepare(sample);
+    try
+    {
+      self().predictStep(sample);
+    }
+    catch (const DivergenceError&)
+    {
+      diverged_ = true;
+      throw;
+    }
+    if constexpr (Derived::kPredictionReadsArrivals)
+    {
+      pred_rows_ = rows_;
+      pred_all_ = sel_.all();
+      if (rows_ > 0 && !pred_all_)
+        pred_idx_ = sel_.arrivedRows();
+    }
+    prior_.begin(model_, own_R_ ? &sample.R : nullptr);
+    self().fillPrior(prior_);
+    pending_ = true;
+    return prior_;
+  }
+  void update(const Sample& sample) final
+  {
+    if (!pending_)
+      throw InputError(toString(algorithm_) +
+                       ": update without a pending prediction: call predict(sample) first (step, reset and restore "
+                       "end a prediction)");
+    rows_ = select(sample, self().ignoresGamma());
+    pending_ = false;
+    bool again = false;
+    if constexpr (Derived::kPredictionReadsArrivals)
+      again = rows_ != pred_rows_ || sel_.all() != pred_all_ ||
+              (rows_ > 0 && !pred_all_ && sel_.arrivedRows() != pred_idx_);
+    guardedStep([&] {
+      if (again)
+        self().predictStep(sample);
+      self().updateStep();
+    });
+  }
+
+  using Estimator::snapshot;
+  void snapshot(EstimatorState& out) const final
+  {
+    out.algorithm = algorithm_;
+    out.x = x_;
+    out.P = P_;
+    out.steps = steps_;
+    out.last_updated = last_updated_;
+    out.diverged = diverged_;
+    out.command_arrival = std::numeric_limits<double>::quiet_NaN();
+    out.means.resize(0, 0);
+    out.log_weights.resize(0);
+    out.newest_bit.resize(0);
+    out.shared_covariance.resize(0, 0);
+    out.capped = false;
+    self().saveExtra(out);
+  }
+  void restore(const EstimatorState& s) final
+  {
+    const int n = model_.n();
+    if (s.algorithm != algorithm_)
+      throw InputError("restore: algorithm: expected " + toString(algorithm_) + ", found " + toString(s.algorithm));
+    if (s.x.size() != n || s.P.rows() != n || s.P.cols() != n)
+      throw InputError("restore: x, P: expected " + std::to_string(n) + " and " + std::to_string(n) + " x " +
+                       std::to_string(n) + ", found " + std::to_string(s.x.size()) + " and " +
+                       std::to_string(s.P.rows()) + " x " + std::to_string(s.P.cols()));
+    self().checkExtra(s);
+    x_ = s.x;
+    P_ = s.P;
+    steps_ = s.steps;
+    last_updated_ = s.last_updated;
+    diverged_ = s.diverged;
+    pending_ = false;
+    self().restoreExtra(s);
+    publish();
+  }
+
   const Eigen::VectorXd& state() const override
   {
     if constexpr (S::kFixed)
@@ -406,11 +507,35 @@ public:
     steps_ = 0;
     last_updated_ = false;
     diverged_ = false;
+    pending_ = false;
     publish();
   }
 
 protected:
   using Update = KalmanUpdate<S::N, S::M>;
+
+  // The algorithm's defaults (Derived hides the ones it gives).
+  static constexpr bool kPredictionReadsArrivals = false;
+  void checkSample(const Sample& /*sample*/) const {}
+  bool ignoresGamma() const { return false; }
+  /// The prior of the one-Gaussian prediction: (xpred_, Ppred_).
+  void fillPrior(Prior& prior) const { prior.setMoments(xpred_, Ppred_); }
+  void saveExtra(EstimatorState& /*out*/) const {}
+  void checkExtra(const EstimatorState& /*s*/) const {}
+  void restoreExtra(const EstimatorState& /*s*/) {}
+
+  Derived& self() { return static_cast<Derived&>(*this); }
+  const Derived& self() const { return static_cast<const Derived&>(*this); }
+
+  /// The checks of a step that come before anything changes (InputError), then the selection of
+  /// the arrived rows (rows_).
+  void prepare(const Sample& sample)
+  {
+    checkNotDiverged();
+    sel_.checkInput(sample);
+    self().checkSample(sample);
+    rows_ = select(sample, self().ignoresGamma());
+  }
 
   /// sel_.select, then the arrived part of y (and, when the set changed, of C and R) is copied:
   /// compacted with dynamic sizes; with fixed sizes in place, a missing row of C zero, its row and
@@ -607,6 +732,13 @@ protected:
   std::vector<int> angle_rows_;    ///< angularRows(model_): rows of C_ (and of the fixed-size Ca_)
   std::vector<int> angle_rows_a_;  ///< dynamic sizes: the angular rows' positions in the compacted Ca_
   bool diverged_ = false;
+  int rows_ = 0;          ///< the rows selected for this step (prepare, update)
+  bool pending_ = false;  ///< predict() ran and its update() has not
+  Prior prior_;
+  // kPredictionReadsArrivals: the selection predict() predicted for
+  int pred_rows_ = 0;
+  bool pred_all_ = false;
+  std::vector<int> pred_idx_;
   /// Estimator::setCovarianceOnly: set by the estimators that offer it (their P does not depend on the data).
   bool covariance_only_ = false;
 };

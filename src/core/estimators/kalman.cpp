@@ -14,13 +14,14 @@ namespace
 {
 
 template <class S>
-class KalmanFilter : public EstimatorBase<S>
+class KalmanFilter final : public EstimatorBase<S, KalmanFilter<S>>
 {
-  using Base = EstimatorBase<S>;
+  using Base = EstimatorBase<S, KalmanFilter<S>>;
+  friend Base;
   using Base::algorithm_;
   using Base::last_updated_;
   using Base::model_;
-  using Base::sel_;
+  using Base::rows_;
   using Base::A_;
   using Base::bu_;
   using Base::x_;
@@ -31,35 +32,6 @@ public:
   /// algorithm: KF, KFIO or ACK_KF.
   KalmanFilter(const Model& model, Algorithm algorithm) : Base(model, algorithm) {}
   std::unique_ptr<Estimator> clone() const override { return std::make_unique<KalmanFilter>(*this); }
-
-  void step(const Sample& sample) override
-  {
-    this->checkNotDiverged();
-    sel_.checkInput(sample);
-    if (algorithm_ == Algorithm::ACK_KF && model_.p() > 0 && sample.u.size() != 0 && sample.nu != 0 &&
-        sample.nu != 1)
-      throw InputError("ack_kf: nu_k (whether the command reached the actuator) must be 0 or 1, found " +
-                       std::to_string(sample.nu));
-    const int rows = this->select(sample, algorithm_ == Algorithm::KF);
-    this->guardedStep([&] {
-      // prediction
-      bool apply = this->commandEffect(sample);
-      if (algorithm_ == Algorithm::ACK_KF)
-      {
-        apply = apply && sample.nu == 1;
-        nu_ = sample.nu;
-      }
-      if (!this->covariance_only_)
-      {
-        xpred_.noalias() = A_ * x_;
-        if (apply)
-          xpred_ += bu_;
-      }
-      this->predictCovariance(P_);
-      last_updated_ = rows > 0;
-      this->updateAndCommit();
-    });
-  }
 
   /// P depends on which sensors arrived only (the command moves the mean alone).
   bool setCovarianceOnly(bool on) override
@@ -76,7 +48,51 @@ public:
   }
 
 private:
+  // EstimatorBase's halves of a step
+  bool ignoresGamma() const { return algorithm_ == Algorithm::KF; }
+  void checkSample(const Sample& sample) const
+  {
+    if (algorithm_ == Algorithm::ACK_KF && model_.p() > 0 && sample.u.size() != 0 && sample.nu != 0 &&
+        sample.nu != 1)
+      throw InputError("ack_kf: nu_k (whether the command reached the actuator) must be 0 or 1, found " +
+                       std::to_string(sample.nu));
+  }
+  void predictStep(const Sample& sample)
+  {
+    bool apply = this->commandEffect(sample);
+    if (algorithm_ == Algorithm::ACK_KF)
+    {
+      apply = apply && sample.nu == 1;
+      told_nu_ = sample.nu;
+    }
+    if (!this->covariance_only_)
+    {
+      xpred_.noalias() = A_ * x_;
+      if (apply)
+        xpred_ += bu_;
+    }
+    this->predictCovariance(P_);
+  }
+  void updateStep()
+  {
+    if (algorithm_ == Algorithm::ACK_KF)
+      nu_ = told_nu_;
+    last_updated_ = rows_ > 0;
+    this->updateAndCommit();
+  }
+  void saveExtra(EstimatorState& out) const
+  {
+    if (algorithm_ == Algorithm::ACK_KF)
+      out.command_arrival = nu_;
+  }
+  void restoreExtra(const EstimatorState& s)
+  {
+    if (algorithm_ == Algorithm::ACK_KF)
+      nu_ = s.command_arrival == 0.0 || s.command_arrival == 1.0 ? static_cast<int>(s.command_arrival) : -1;
+  }
+
   int nu_ = -1;
+  int told_nu_ = -1;  ///< the sample's nu_k, committed by the update
 };
 
 }  // namespace

@@ -1,6 +1,6 @@
 // The prediction through a built-in motion (docs/algorithms.md 7.4): xpred = f(x, dt),
 // Ppred = F P F' + Q dt, then omni_3d's two_d_mode constraint. One implementation, used by ekfio
-// (in its compiled sizes) and by predictPrior (the rejection thresholds' prior, dynamic sizes).
+// (in its compiled sizes) and by predictAhead (predict_ahead.cpp, dynamic sizes).
 #pragma once
 
 #include <cmath>

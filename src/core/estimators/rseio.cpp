@@ -227,11 +227,13 @@ RseioGrams<DynamicSizes> makeGrams(const Model& model, const std::vector<int>& r
 }
 
 template <class S>
-class RseioFilter : public EstimatorBase<S>, public Rseio
+class RseioFilter final : public EstimatorBase<S, RseioFilter<S>>, public Rseio
 {
-  using Base = EstimatorBase<S>;
+  using Base = EstimatorBase<S, RseioFilter<S>>;
+  friend Base;
   using Base::last_updated_;
   using Base::model_;
+  using Base::rows_;
   using Base::sel_;
   using Base::A_;
   using Base::BQBt_;
@@ -264,33 +266,37 @@ public:
     return true;
   }
 
-  void step(const Sample& sample) override
+private:
+  // EstimatorBase's halves of a step. The robust prediction depends on which rows arrived.
+  static constexpr bool kPredictionReadsArrivals = true;
+  void predictStep(const Sample& sample)
   {
-    this->checkNotDiverged();
-    sel_.checkInput(sample);
-    const int rows = this->select(sample, false);
-    this->guardedStep([&] {
-      const bool has_input = this->commandEffect(sample);
-      last_updated_ = rows > 0;
-      const Grams* g = last_updated_ && lambda_ > 0.0 ? &grams() : nullptr;
-      if (g && (g->hasS || g->hasT))
-      {
-        if (g->rankForm)
-          rankPrediction(*g, has_input, sample.u);
-        else
-          arrivalPrediction(*g, has_input, sample.u);
-        last_form_ = g->rankForm ? "rank" : "gram";
-      }
+    const bool has_input = this->commandEffect(sample);
+    const Grams* g = rows_ > 0 && lambda_ > 0.0 ? &grams() : nullptr;
+    form_ = nullptr;
+    if (g && (g->hasS || g->hasT))
+    {
+      if (g->rankForm)
+        rankPrediction(*g, has_input, sample.u);
       else
-      {
-        // dropped (or nothing uncertain, or mu = 1): the nominal prediction, exactly kfio's
-        xpred_.noalias() = A_ * x_;
-        if (has_input)
-          xpred_ += bu_;
-        this->predictCovariance(P_);
-      }
-      this->updateAndCommit();
-    });
+        arrivalPrediction(*g, has_input, sample.u);
+      form_ = g->rankForm ? "rank" : "gram";
+    }
+    else
+    {
+      // dropped (or nothing uncertain, or mu = 1): the nominal prediction, exactly kfio's
+      xpred_.noalias() = A_ * x_;
+      if (has_input)
+        xpred_ += bu_;
+      this->predictCovariance(P_);
+    }
+  }
+  void updateStep()
+  {
+    last_updated_ = rows_ > 0;
+    if (form_)
+      last_form_ = form_;
+    this->updateAndCommit();
   }
 
 private:
@@ -432,6 +438,7 @@ private:
   }
 
   const char* last_form_ = "";
+  const char* form_ = nullptr;  ///< the form of the pending prediction (nullptr: the nominal one)
   double lambda_;
   Mat<N, NW> B_;
   Mat<NW, NW> Q_, Qinv_;

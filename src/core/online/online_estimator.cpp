@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <utility>
 
 #include "networked_estimation/common/angles.hpp"
 #include "networked_estimation/common/covariance.hpp"
@@ -59,7 +60,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const EstimatorSettings& se
   validateOnlineOptions(options_, "online estimator options");
   live_ = makeEstimator(model_, settings_);
   if (options_.late_policy == LatePolicy::REWIND)
-    checkpoint_ = live_->clone();
+    newCheckpoint(false);
   const std::size_t width = options_.history_length + static_cast<std::size_t>(options_.max_future_steps) + 1;
   ring_.resize(width);
   for (Slot& s : ring_)
@@ -106,6 +107,7 @@ void OnlineEstimator::start(long first_step)
 
 void OnlineEstimator::reset()
 {
+  const bool rebuilt = estimate_set_;
   if (estimate_set_)
   {
     live_ = makeEstimator(model_, settings_);  // back to the model's own x0, P0
@@ -113,12 +115,12 @@ void OnlineEstimator::reset()
   }
   else
     live_->reset();
-  if (checkpoint_)
-    checkpoint_ = live_->clone();
-  for (Slot& s : ring_)
-    s.k = -1;
   next_ = 1;
   checkpoint_k_ = 0;
+  if (checkpoint_)
+    newCheckpoint(rebuilt);
+  for (Slot& s : ring_)
+    s.k = -1;
   started_ = false;
   for (SensorLattice& l : lattice_)
     l.reset();
@@ -147,12 +149,10 @@ void OnlineEstimator::setEstimate(const Eigen::VectorXd& x, const Eigen::MatrixX
     from.x0[a] = wrapAngle(from.x0[a]);
   from.P0 = 0.5 * (P + P.transpose());
   live_ = makeEstimator(from, settings_);
-  if (checkpoint_)
-  {
-    checkpoint_ = live_->clone();
-    checkpoint_k_ = next_ - 1;
-  }
+  set_model_ = std::move(from);
   estimate_set_ = true;
+  if (checkpoint_)
+    newCheckpoint(true);
   ++counters_.estimates_set;
 }
 
@@ -201,11 +201,23 @@ void OnlineEstimator::fillSample(long k, Sample& sample) const
     sample.u.resize(0);  // zero input
 }
 
-void OnlineEstimator::stepChecked(Estimator& est, const Sample& sample)
+void OnlineEstimator::newCheckpoint(bool rebuild)
+{
+  if (!checkpoint_ || rebuild)  // a filter whose reset() goes where the live one's goes
+    checkpoint_ = makeEstimator(estimate_set_ ? set_model_ : model_, settings_);
+  live_->snapshot(saved_);
+  checkpoint_->restore(saved_);
+  checkpoint_k_ = next_ - 1;
+}
+
+void OnlineEstimator::stepChecked(Estimator& est, const Sample& sample, bool predicted)
 {
   try
   {
-    est.step(sample);
+    if (predicted)
+      est.update(sample);  // the prediction the gate made (process)
+    else
+      est.step(sample);
   }
   catch (const DivergenceError&)
   {
@@ -259,8 +271,8 @@ void OnlineEstimator::process()
   const long k = next_;
   Slot& s = slot(k);
   fillSample(k, sample_);
-  if (s.k == k && !options_.rejection_threshold.empty())
-    gate(s, sample_);
+  // The gate predicts once with the live filter; the step then updates that prediction.
+  const bool predicted = s.k == k && !options_.rejection_threshold.empty() && gate(s, sample_);
   last_sensors_ = 0;
   const Slot* held = s.k == k ? &s : nullptr;
   for (std::size_t i = 0; i < last_arrived_.size(); ++i)
@@ -280,7 +292,7 @@ void OnlineEstimator::process()
   }
   // DROP keeps late data out of the filter: a late measurement may sit in the slot for duplicate
   // detection, but only data accepted before this deadline is used.
-  stepChecked(*live_, sample_);
+  stepChecked(*live_, sample_, predicted);
   last_gamma_ = sample_.gamma;
   ++counters_.processed;
   if (last_gamma_)
@@ -305,37 +317,37 @@ void OnlineEstimator::setLatePolicy(LatePolicy policy)
     return;
   options_.late_policy = policy;
   if (policy == LatePolicy::REWIND)
-  {
-    checkpoint_ = live_->clone();
-    checkpoint_k_ = next_ - 1;
-  }
+    newCheckpoint(false);
   else
     checkpoint_.reset();
 }
 
-void OnlineEstimator::gate(Slot& s, Sample& sample)
+bool OnlineEstimator::gate(Slot& s, Sample& sample)
 {
-  const Estimator& est = *live_;
-  bool predicted = false;
-  Eigen::VectorXd xp;
-  Eigen::MatrixXd Pp;
+  const Prior* prior = nullptr;
   for (std::size_t i = 0; i < model_.sensors.size(); ++i)
   {
     const double threshold = options_.rejection_threshold[i];
     if (!s.have[i] || s.gated[i] || !std::isfinite(threshold))
       continue;
-    if (!predicted)
+    if (!prior)
     {
-      predictPrior(model_, est.state(), est.covariance(), sample.u, sample.dt, xp, Pp);
-      predicted = true;
+      try
+      {
+        prior = &live_->predict(sample);  // the filter's own prior of this step
+      }
+      catch (const std::runtime_error&)
+      {
+        // InputError or DivergenceError: nothing is gated; the step raises it again and
+        // stepChecked deals with it as without a threshold.
+        break;
+      }
     }
     const Sensor& sn = model_.sensors[i];
     const auto C = model_.C.middleRows(sn.offset, sn.size);
-    const Eigen::MatrixXd& R = sample.R.size() ? sample.R : model_.R;
-    const Eigen::MatrixXd S = C * Pp * C.transpose() + R.block(sn.offset, sn.offset, sn.size, sn.size);
-    Eigen::VectorXd nu = sample.y.segment(sn.offset, sn.size) - C * xp;
+    Eigen::VectorXd nu = sample.y.segment(sn.offset, sn.size) - C * prior->mean();
     wrapEntries(nu, angle_rows_[i]);  // the sensor's angular rows (docs/algorithms.md 2.7)
-    const Eigen::LDLT<Eigen::MatrixXd> ldlt(S);
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(prior->innovationCovariance(i));
     const double d2 = nu.dot(ldlt.solve(nu));
     if (!(d2 <= threshold * threshold))  // beyond it, or not computable (S singular, overflow)
     {
@@ -349,12 +361,14 @@ void OnlineEstimator::gate(Slot& s, Sample& sample)
   for (std::size_t i = 0; i < s.have.size(); ++i)
     any = any || (s.have[i] && !s.gated[i]);
   sample.gamma = any;
+  return prior != nullptr;
 }
 
 void OnlineEstimator::rewind()
 {
   ++counters_.rewinds;
-  live_ = checkpoint_->clone();
+  checkpoint_->snapshot(saved_);  // the checkpoint's state, a value: the filter itself stays
+  live_->restore(saved_);
   for (long j = checkpoint_k_ + 1; j < next_; ++j)
   {
     fillSample(j, sample_);

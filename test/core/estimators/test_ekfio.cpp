@@ -576,22 +576,31 @@ TEST(Ekfio, OnlineRewindEqualsOffline)
   EXPECT_EQ(online.counters().gated, 0u);
 }
 
-// The rejection threshold gates on the motion's prior (predictPrior: f and F P F' + Q dt, the prior
-// ekfio's own step forms): a heading reading 1 rad off (50 of its 0.02 rad sigmas) is refused, the
-// same reading at the predicted heading is fused.
+// The rejection threshold gates on the motion's prior, ekfio's own prediction (Estimator::predict):
+// f(x0, T) and F P0 F' + Q T, checked against that closed form; a heading reading 1 rad off (50 of
+// its 0.02 rad sigmas) is refused, the same reading at the predicted heading is fused.
 TEST(Ekfio, TheRejectionThresholdGatesOnTheMotionPrior)
 {
   const Model m = makeOmniModel(omni2dSpec());
+  ASSERT_FALSE(m.two_d_mode);
+  auto est = makeEstimator(m, ekfioSettings());
+  Sample loss;  // the prior of step 1 (dt 0: the model's period, as the online estimator's)
+  loss.gamma = false;
+  loss.y = VectorXd::Constant(m.m(), std::numeric_limits<double>::quiet_NaN());
+  const Prior& prior = est->predict(loss);
+  VectorXd xp;
+  MatrixXd F;
+  propagate(m.motion, m.x0, m.period, xp, &F);
+  const MatrixXd Pp = F * m.P0 * F.transpose() + m.Q * m.period;
+  EXPECT_LE((prior.mean() - xp).cwiseAbs().maxCoeff(), 1e-12 * (1.0 + xp.cwiseAbs().maxCoeff()));
+  EXPECT_LE((prior.covariance() - Pp).cwiseAbs().maxCoeff(), 1e-12 * Pp.cwiseAbs().maxCoeff());
   OnlineOptions o;
   o.rejection_threshold = {5.0, 5.0, 5.0};
   for (const double offset : {0.0, 1.0})
   {
     OnlineEstimator online(m, ekfioSettings(), o);
     online.start(1);
-    VectorXd xp;
-    MatrixXd Pp;
-    predictPrior(m, m.x0, m.P0, VectorXd(), 0.0, xp, Pp);
-    const double imu[4] = {wrapAngle(xp[2] + offset), xp[5], xp[6], xp[7]};
+    const double imu[4] = {wrapAngle(prior.mean()[2] + offset), prior.mean()[5], prior.mean()[6], prior.mean()[7]};
     online.offerMeasurement(1, 1, imu, 4);
     online.process();
     EXPECT_EQ(online.counters().gated, offset > 0.0 ? 1u : 0u) << offset;

@@ -336,3 +336,207 @@ TEST(FixedSize, FactoryPicksTheFormFromTheSizes)
   for (Algorithm a : kAlgorithms)
     EXPECT_EQ(detail::makeEstimator(small, settingsFor(a), detail::SizeChoice::DYNAMIC)->implementation(), "dynamic");
 }
+
+namespace
+{
+
+/// Whether a and b show the same estimate, bit for bit (state, covariance, steps, lastUpdated,
+/// command arrival probability, components).
+void expectIdentical(const Estimator& a, const Estimator& b, const std::string& what)
+{
+  ASSERT_TRUE(a.state() == b.state()) << what << "\n" << a.state().transpose() << "\n" << b.state().transpose();
+  ASSERT_TRUE(a.covariance() == b.covariance()) << what;
+  ASSERT_EQ(a.steps(), b.steps()) << what;
+  ASSERT_EQ(a.lastUpdated(), b.lastUpdated()) << what;
+  ASSERT_EQ(a.components(), b.components()) << what;
+  const double pa = a.commandArrivalProbability(), pb = b.commandArrivalProbability();
+  ASSERT_TRUE(pa == pb || (std::isnan(pa) && std::isnan(pb))) << what;
+}
+
+/// The sample with one of its arrived sensors (chosen by rng) removed, as a gate refuses it.
+Sample withoutOneSensor(Rng& rng, const Model& m, const Sample& s)
+{
+  Sample g = s;
+  std::vector<std::size_t> arrived;
+  for (std::size_t i = 0; i < m.sensors.size(); ++i)
+    if (s.y.size() == m.m() && std::isfinite(s.y[m.sensors[i].offset]))
+      arrived.push_back(i);
+  if (arrived.empty())
+    return g;
+  const Sensor& sn = m.sensors[arrived[static_cast<std::size_t>(rng.uniform() * arrived.size()) % arrived.size()]];
+  g.y.segment(sn.offset, sn.size).setConstant(kNaN);
+  g.gamma = arrived.size() > 1 && s.gamma;
+  return g;
+}
+
+const std::vector<Algorithm> kEveryAlgorithm = {Algorithm::KF, Algorithm::KFIO, Algorithm::ACK_KF, Algorithm::RSEIO,
+                                                Algorithm::AOE, Algorithm::OE, Algorithm::EKFIO};
+
+}  // namespace
+
+// step(s) is predict(s) then update(s), bit for bit, for every algorithm in both forms over every
+// shape; and predict(s) then update(s') with a sensor of s refused (what the rejection threshold
+// does) equals step(s'): rseio, whose prediction depends on the sensors in hand, predicts again.
+// (New API: does not compile on the code before Estimator::predict.)
+TEST(PredictUpdate, EqualsStepBitForBitInBothForms)
+{
+  Rng rng(20261207);
+  int refused = 0;
+  for (std::size_t c = 0; c < kShapes.size(); ++c)
+  {
+    const Model m = shapedModel(rng, kShapes[c], c % 2 ? 1.05 : 0.9);
+    for (Algorithm a : kEveryAlgorithm)
+      for (detail::SizeChoice choice : {detail::SizeChoice::AUTOMATIC, detail::SizeChoice::DYNAMIC})
+      {
+        auto whole = make(m, a, choice);
+        auto split = make(m, a, choice);
+        const std::string what = toString(a) + " " + whole->implementation() + " shape " + std::to_string(c);
+        Rng data(deriveSeed(91, c));
+        for (int k = 0; k < 300; ++k)
+        {
+          const Sample s = randomSample(data, m);
+          const bool refuse = data.uniform() < 0.3;
+          const Sample t = refuse ? withoutOneSensor(data, m, s) : s;
+          refused += (t.y.array() == t.y.array()).count() < (s.y.array() == s.y.array()).count() ? 1 : 0;
+          whole->step(t);
+          const VectorXd before = split->state();
+          const MatrixXd before_P = split->covariance();
+          const Prior& prior = split->predict(s);
+          ASSERT_EQ(prior.mean().size(), m.n()) << what;
+          // the estimate is not touched by the prediction
+          ASSERT_EQ(split->steps(), k) << what;
+          ASSERT_TRUE(split->state() == before && split->covariance() == before_P) << what;
+          split->update(t);
+          expectIdentical(*whole, *split, what + " k " + std::to_string(k));
+        }
+      }
+  }
+  EXPECT_GT(refused, 1000);
+}
+
+// update() without a pending prediction is refused, naming the cause; step() and reset() end a
+// prediction. (New API.)
+TEST(PredictUpdate, UpdateNeedsAPendingPrediction)
+{
+  Rng rng(4);
+  const Model m = shapedModel(rng, {2, 2, {1}, 1, 1}, 0.9);
+  for (Algorithm a : kEveryAlgorithm)
+  {
+    auto est = make(m, a, detail::SizeChoice::AUTOMATIC);
+    const Sample s = randomSample(rng, m);
+    try
+    {
+      est->update(s);
+      ADD_FAILURE() << toString(a) << ": update without predict was accepted";
+    }
+    catch (const InputError& e)
+    {
+      EXPECT_NE(std::string(e.what()).find("call predict(sample) first"), std::string::npos) << e.what();
+    }
+    est->predict(s);
+    est->step(s);
+    EXPECT_THROW(est->update(s), InputError) << toString(a);
+    est->predict(s);
+    est->reset();
+    EXPECT_THROW(est->update(s), InputError) << toString(a);
+    EXPECT_EQ(est->steps(), 0) << toString(a);
+  }
+}
+
+// snapshot() is the whole state: an estimator restored from it (a fresh one, or one that ran
+// elsewhere, of either form) steps exactly as the original, bit for bit in the same form and
+// within 1e-12 across forms; a snapshot of another algorithm or size is refused. (New API.)
+TEST(Snapshot, RestoreThenStepEqualsTheOriginal)
+{
+  Rng rng(77);
+  for (std::size_t c = 0; c < kShapes.size(); ++c)
+  {
+    const Model m = shapedModel(rng, kShapes[c], 1.05);
+    for (Algorithm a : kEveryAlgorithm)
+    {
+      auto original = make(m, a, detail::SizeChoice::AUTOMATIC);
+      auto same = make(m, a, detail::SizeChoice::AUTOMATIC);
+      auto other = make(m, a, detail::SizeChoice::DYNAMIC);
+      const std::string what = toString(a) + " " + original->implementation() + " shape " + std::to_string(c);
+      Rng data(deriveSeed(5, c));
+      for (int k = 0; k < 60; ++k)
+      {
+        const Sample s = randomSample(data, m);
+        original->step(s);
+        if (k < 20)
+          same->step(randomSample(data, m));  // elsewhere: another history
+      }
+      const EstimatorState state = original->snapshot();
+      EXPECT_EQ(state.steps, 60) << what;
+      same->predict(randomSample(data, m));  // a pending prediction is dropped by restore
+      same->restore(state);
+      other->restore(state);
+      expectIdentical(*original, *same, what + " restored");
+      EXPECT_THROW(same->update(randomSample(data, m)), InputError) << what;
+      for (int k = 0; k < 60; ++k)
+      {
+        const Sample s = randomSample(data, m);
+        original->step(s);
+        same->step(s);
+        other->step(s);
+        expectIdentical(*original, *same, what + " k " + std::to_string(k));
+        compare(*other, *original, what + " other form k " + std::to_string(k));
+        if (::testing::Test::HasFailure())
+          return;
+      }
+    }
+  }
+  Rng r2(8);
+  const Model m = shapedModel(r2, {2, 2, {1}, 1, 1}, 0.9);
+  auto kfio = make(m, Algorithm::KFIO, detail::SizeChoice::AUTOMATIC);
+  auto oe = make(m, Algorithm::OE, detail::SizeChoice::AUTOMATIC);
+  EXPECT_THROW(kfio->restore(oe->snapshot()), InputError);
+  EstimatorState wrong = kfio->snapshot();
+  wrong.P = MatrixXd::Identity(3, 3);
+  EXPECT_THROW(kfio->restore(wrong), InputError);
+  EstimatorState no_mixture = oe->snapshot();
+  no_mixture.means.resize(2, 0);
+  EXPECT_THROW(oe->restore(no_mixture), InputError);
+}
+
+// kfio's Prior: the mean A x + Bu u, the covariance A P A' + B Q B', and each sensor's S_i =
+// C_i Pp C_i' + R_i, with the model's R or the sample's own; in both forms. (New API.)
+TEST(PredictUpdate, KfioPriorIsItsPrediction)
+{
+  Rng rng(12);
+  const Model m = shapedModel(rng, {4, 4, {2, 2}, 1, 1}, 0.95);
+  for (detail::SizeChoice choice : {detail::SizeChoice::AUTOMATIC, detail::SizeChoice::DYNAMIC})
+  {
+    auto est = make(m, Algorithm::KFIO, choice);
+    Rng data(3);
+    for (int k = 0; k < 30; ++k)
+    {
+      Sample s = randomSample(data, m);
+      if (k % 3 == 0)
+      {
+        s.R = m.R;
+        s.R.block(2, 2, 2, 2) = randomSpd(data, 2);
+      }
+      const VectorXd x = est->state();
+      const MatrixXd P = est->covariance();
+      const Prior& prior = est->predict(s);
+      VectorXd xp = m.A * x;
+      if (s.u.size())
+        xp += m.Bu * s.u;
+      const MatrixXd Pp = m.A * P * m.A.transpose() + m.B * m.Q * m.B.transpose();
+      EXPECT_LE(relDiff(prior.mean(), xp), 1e-13) << k;
+      EXPECT_LE(relDiff(prior.covariance(), Pp), 1e-13) << k;
+      ASSERT_EQ(prior.sensors(), 2u);
+      const MatrixXd& R = s.R.size() ? s.R : m.R;
+      for (std::size_t i = 0; i < 2; ++i)
+      {
+        const Sensor& sn = m.sensors[i];
+        const MatrixXd Ci = m.C.middleRows(sn.offset, sn.size);
+        const MatrixXd Si = Ci * Pp * Ci.transpose() + R.block(sn.offset, sn.offset, sn.size, sn.size);
+        EXPECT_LE(relDiff(prior.innovationCovariance(i), Si), 1e-13) << est->implementation() << " k " << k;
+      }
+      EXPECT_THROW(prior.innovationCovariance(2), InputError);
+      est->update(s);
+    }
+  }
+}

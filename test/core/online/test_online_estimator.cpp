@@ -692,3 +692,51 @@ TEST(OnlineEstimator, RejectionThresholdForEveryAlgorithm)
   bad.rejection_threshold = {0.0};
   EXPECT_THROW(ne::OnlineEstimator(ne::test::aoeModel(), settingsFor(ne::Algorithm::KFIO), bad), ne::ConfigError);
 }
+
+// The rejection threshold of aoe and oe gates on their own prior, the moments of the predicted
+// mixture over the command's outcome (docs/algorithms.md 2.8), not on kfio's A x + Bu u. Scalar
+// plant x_k = x_{k-1} + nu_k u_k + w_k, y = x + v, x0 = 0, P0 = 1/2, Q = 1/2, R = 1, a command
+// link with P(nu = 1) = 1/2 at every step (q1 = q2 = 1/2), u_1 = 10: the mixture
+// 1/2 N(0, 1) + 1/2 N(10, 1) has mean 5 and variance 1 + 1/4 * 10^2 = 26, so S = 27, where kfio's
+// prior would have mean 10 and S = 2. A reading d sqrt(S) away from the mixture's mean is fused
+// for d = 0 and 2.9 and refused for d = 3.1 (threshold 3); on kfio's prior the first two are 3.5
+// and 7.1 of its sigmas away and would be refused.
+TEST(OnlineEstimator, AoeAndOeGateOnTheMixturesPrior)
+{
+  ne::Model m;
+  m.name = "scalar_command";
+  m.period = 0.1;
+  m.A = Eigen::MatrixXd::Identity(1, 1);
+  m.B = Eigen::MatrixXd::Identity(1, 1);
+  m.Q = Eigen::MatrixXd::Constant(1, 1, 0.5);
+  m.Bu = Eigen::MatrixXd::Identity(1, 1);
+  m.C = Eigen::MatrixXd::Identity(1, 1);
+  m.R = Eigen::MatrixXd::Identity(1, 1);
+  m.sensors.push_back({"y", 0, 1});
+  m.x0 = Eigen::VectorXd::Zero(1);
+  m.P0 = Eigen::MatrixXd::Constant(1, 1, 0.5);
+  ne::validateModel(m, "test");
+  ne::EstimatorSettings st;
+  st.has_control_link = true;
+  st.recovery = 0.5;
+  st.failure = 0.5;
+  ne::OnlineOptions o;
+  o.rejection_threshold = {3.0};
+  const double u = 10.0;
+  const double mean = 0.5 * u, S = 0.5 + 0.5 + 0.25 * u * u + 1.0;
+  for (ne::Algorithm a : {ne::Algorithm::AOE, ne::Algorithm::OE})
+    for (const double d : {0.0, 2.9, 3.1})
+    {
+      st.algorithm = a;
+      ne::OnlineEstimator on(m, st, o);
+      on.start(1);
+      on.offerCommand(1, &u, 1);
+      const double y = mean + d * std::sqrt(S);
+      ASSERT_EQ(on.offerMeasurement(1, 0, &y, 1).offer, Offer::ACCEPTED);
+      on.process();
+      const bool refused = d > 3.0;
+      EXPECT_EQ(on.counters().gated, refused ? 1u : 0u) << ne::toString(a) << " d " << d;
+      EXPECT_EQ(static_cast<bool>(on.lastArrived()[0]), !refused) << ne::toString(a) << " d " << d;
+      EXPECT_EQ(on.estimator().lastUpdated(), !refused) << ne::toString(a) << " d " << d;
+    }
+}

@@ -1,5 +1,6 @@
-// predictPrior (estimator.hpp): the prediction of kfio and ekfio for callers outside an estimator
-// (the rejection thresholds' gate); the motion's part is ekfio's own (motion_prediction.hpp).
+// predictAhead (estimator.hpp): an estimate predicted past its step for predict_to_current_time,
+// by kfio's equations (a linear model) or the motion's prediction (motion_prediction.hpp), with
+// zero input and outside any filter.
 #include "estimators/motion_prediction.hpp"
 #include "networked_estimation/estimators/estimator.hpp"
 
@@ -8,24 +9,6 @@
 
 namespace networked_estimation
 {
-
-void predictPrior(const Model& model, const Eigen::VectorXd& x, const Eigen::MatrixXd& P, const Eigen::VectorXd& u,
-                  double dt, Eigen::VectorXd& xp, Eigen::MatrixXd& Pp)
-{
-  if (model.nonlinear())
-  {
-    Sample timing;
-    timing.dt = dt;
-    const detail::MotionPrediction<Eigen::VectorXd, Eigen::MatrixXd> prediction(model);
-    Eigen::MatrixXd F, FP;
-    prediction.predict(x, P, detail::stepDuration(timing, model), xp, Pp, F, FP);
-    return;
-  }
-  xp = model.A * x;
-  if (model.hasControl() && u.size() == model.p())
-    xp += model.Bu * u;
-  Pp = model.A * P * model.A.transpose() + model.B * model.Q * model.B.transpose();
-}
 
 double predictAhead(const Model& model, double period, const Eigen::VectorXd& x, const Eigen::MatrixXd& P,
                     double dt, Eigen::VectorXd& xp, Eigen::MatrixXd& Pp)
@@ -38,11 +21,11 @@ double predictAhead(const Model& model, double period, const Eigen::VectorXd& x,
   Pp = P;
   if (model.nonlinear())
   {
-    if (dt > 0.0)  // (predictPrior reads dt = 0 as a whole period)
+    if (dt > 0.0)  // once over dt: xp = f(x, dt), Pp = F P F' + Q dt, two_d_mode applied
     {
-      const Eigen::VectorXd x0 = xp;
-      const Eigen::MatrixXd P0 = Pp;
-      predictPrior(model, x0, P0, Eigen::VectorXd(), dt, xp, Pp);
+      const detail::MotionPrediction<Eigen::VectorXd, Eigen::MatrixXd> prediction(model);
+      Eigen::MatrixXd F, FP;
+      prediction.predict(x, P, dt, xp, Pp, F, FP);
     }
     return dt;
   }
@@ -51,11 +34,15 @@ double predictAhead(const Model& model, double period, const Eigen::VectorXd& x,
     throw InputError("dt: " + std::to_string(dt) + " s is " + std::to_string(static_cast<long long>(steps)) +
                      " periods past the step; at most " + std::to_string(kMaxPredictAheadSteps) + " are predicted");
   const long k = static_cast<long>(steps);
+  if (k == 0)
+    return 0.0;
+  // k periods with zero input: xp = A xp, Pp = A Pp A' + B Q B'
   for (long i = 0; i < k; ++i)
   {
     const Eigen::VectorXd x0 = xp;
     const Eigen::MatrixXd P0 = Pp;
-    predictPrior(model, x0, P0, Eigen::VectorXd(), 0.0, xp, Pp);
+    xp = model.A * x0;
+    Pp = model.A * P0 * model.A.transpose() + model.B * model.Q * model.B.transpose();
   }
   return static_cast<double>(k) * period;
 }
