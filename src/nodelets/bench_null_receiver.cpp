@@ -45,8 +45,9 @@ private:
     if (!relay.empty() && std::find(topics.begin(), topics.end(), relay) == topics.end())
       refuseLoad(getName(), "BenchNullReceiver not started: ~relay: expected one of ~topics, found '" + relay + "'");
     if (!relay.empty() && in_receive_thread)
-      refuseLoad(getName(), "BenchNullReceiver not started: ~relay and ~inline: roscpp's receive thread must not "
-                            "publish (dispatch_thread.hpp)");
+      refuseLoad(getName(),
+                 "BenchNullReceiver not started: ~relay and ~inline: roscpp's receive thread must not "
+                 "publish (dispatch_thread.hpp)");
     dispatch_.start([] { return std::numeric_limits<double>::infinity(); });
     ros::NodeHandle nh(getNodeHandle());
     nh.setCallbackQueue(in_receive_thread ? static_cast<ros::CallbackQueueInterface*>(&inline_) : dispatch_.queue());
@@ -57,7 +58,8 @@ private:
       if (t == relay)
         subs_.push_back(nh.subscribe<nav_msgs::Odometry>(
             t, 1000,
-            [this](const nav_msgs::Odometry::ConstPtr& m) {
+            [this](const nav_msgs::Odometry::ConstPtr& m)
+            {
               ++received_;
               relay_pub_.publish(m);
             },

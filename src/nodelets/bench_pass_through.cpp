@@ -21,9 +21,9 @@ private:
     if (typed)  // Measurement in, the same object out: the cheapest nodelet hop there is
     {
       pub_ = nh.advertise<Measurement>("out", static_cast<uint32_t>(queue_size_));
-      sub_ = nh.subscribe<Measurement>("in", static_cast<uint32_t>(queue_size_),
-                                       [this](const Measurement::ConstPtr& m) { pub_.publish(m); }, ros::VoidConstPtr(),
-                                       ros::TransportHints().tcpNoDelay());
+      sub_ = nh.subscribe<Measurement>(
+          "in", static_cast<uint32_t>(queue_size_), [this](const Measurement::ConstPtr& m) { pub_.publish(m); },
+          ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
     }
     else  // any type (ShapeShifter), as the LossyChannel
       sub_ = nh.subscribe("in", static_cast<uint32_t>(queue_size_), &BenchPassThrough::onMessage, this,

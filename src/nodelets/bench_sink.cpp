@@ -26,8 +26,14 @@ using namespace bench;
 /// Messages a sink counts as missed: an Estimate of a step whose measurement was not in hand at
 /// its deadline (gamma = 0); a Measurement later than ~late_after seconds after its stamp (the
 /// same criterion for a bare hop, when the source stamps its scheduled times).
-inline bool missed(const Measurement&, double latency_s, double late_after) { return latency_s > late_after; }
-inline bool missed(const Estimate& e, double, double) { return !e.gamma; }
+inline bool missed(const Measurement&, double latency_s, double late_after)
+{
+  return latency_s > late_after;
+}
+inline bool missed(const Estimate& e, double, double)
+{
+  return !e.gamma;
+}
 
 template <class M>
 class BenchSinkT : public nodelet::Nodelet
@@ -61,17 +67,19 @@ private:
     // came after its step was taken is a missed one, whatever gamma says).
     pnh.param("diagnostics", diagnostics_, std::string());
     if (!diagnostics_.empty())
-      diag_sub_ = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
-          "/diagnostics", 100, [this](const diagnostic_msgs::DiagnosticArray::ConstPtr& a) {
-            for (const auto& st : a->status)
-              if (st.name.find(diagnostics_) != std::string::npos)
-              {
-                std::lock_guard<std::mutex> lock(diag_mutex_);
-                for (const auto& kv : st.values)
-                  diag_[kv.key] = kv.value;
-                ++diag_updates_;
-              }
-          });
+      diag_sub_ =
+          nh.subscribe<diagnostic_msgs::DiagnosticArray>("/diagnostics", 100,
+                                                         [this](const diagnostic_msgs::DiagnosticArray::ConstPtr& a)
+                                                         {
+                                                           for (const auto& st : a->status)
+                                                             if (st.name.find(diagnostics_) != std::string::npos)
+                                                             {
+                                                               std::lock_guard<std::mutex> lock(diag_mutex_);
+                                                               for (const auto& kv : st.values)
+                                                                 diag_[kv.key] = kv.value;
+                                                               ++diag_updates_;
+                                                             }
+                                                         });
     // Preallocated: no reallocation while recording (50 % headroom over rate * duration).
     latency_us_.assign(static_cast<std::size_t>(std::max(1000.0, 1.5 * rate * duration_ + 1000.0)), 0.0);
     sample_every_ = static_cast<std::uint64_t>(std::max(10.0, rate / 100.0));
@@ -168,7 +176,8 @@ private:
     std::vector<double> all(latency_us_.begin(), latency_us_.begin() + static_cast<std::ptrdiff_t>(n));
     // Growth of the latency during the run, in arrival order: p99 of each half, and the median of the
     // first and of the last tenth (robust to one stall: a backlog that keeps growing raises the last).
-    const auto part = [&](std::size_t from, std::size_t to) {
+    const auto part = [&](std::size_t from, std::size_t to)
+    {
       return std::vector<double>(all.begin() + static_cast<std::ptrdiff_t>(from),
                                  all.begin() + static_cast<std::ptrdiff_t>(to));
     };
@@ -195,7 +204,8 @@ private:
     const long late = diagValue("late dropped"), accepted = diagValue("accepted"), rejected = diagValue("rejected");
     char line[640];
     std::snprintf(line, sizeof line,
-                  "sent=%" PRIu64 " received=%" PRIu64 " rate=%.1f latency_us median=%.1f p90=%.1f p99=%.1f "
+                  "sent=%" PRIu64 " received=%" PRIu64
+                  " rate=%.1f latency_us median=%.1f p90=%.1f p99=%.1f "
                   "max=%.1f p99_first_half=%.1f p99_second_half=%.1f median_first_tenth=%.1f median_last_tenth=%.1f "
                   "cpu_us_per_msg=%.2f cpu_cores=%.2f other_cores=%.2f missed=%" PRIu64
                   " late_dropped=%ld accepted=%ld rejected=%ld",

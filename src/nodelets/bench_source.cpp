@@ -37,7 +37,7 @@ private:
     pnh.param("duration", duration_, 5.0);
     pnh.param("start_delay", start_delay_, 2.0);
     pnh.param("frame_id", frame_id_, std::string("bench"));
-    pnh.param("dimension", dimension_, 2);  // values per Measurement
+    pnh.param("dimension", dimension_, 2);                // values per Measurement
     pnh.param("nominal_stamps", nominal_stamps_, false);  // stamp = scheduled time instead of now
     if (!(rate_ > 0.0) || !(duration_ > 0.0) || !(start_delay_ >= 0.0))
     {
@@ -97,8 +97,8 @@ private:
     getPrivateNodeHandle().setParam("sent", static_cast<int>(sent));
     NODELET_INFO("bench_source: sent=%" PRIu64 " of %" PRIu64 " in %.3f s (%.0f Hz) wakeups=%" PRIu64
                  " max_batch=%" PRIu64 " max_lag_us=%.0f",
-                 sent, total, elapsed, elapsed > 0.0 ? static_cast<double>(sent) / elapsed : 0.0, wakeups,
-                 max_batch, std::chrono::duration<double, std::micro>(max_lag).count());
+                 sent, total, elapsed, elapsed > 0.0 ? static_cast<double>(sent) / elapsed : 0.0, wakeups, max_batch,
+                 std::chrono::duration<double, std::micro>(max_lag).count());
   }
 
   void publish(std::uint64_t step, const ros::Time& scheduled)

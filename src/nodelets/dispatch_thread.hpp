@@ -34,13 +34,16 @@ inline bool inRoscppPollThread()
 {
   static std::atomic<std::thread::id> poll_thread{std::thread::id()};
   static std::once_flag once;
-  std::call_once(once, [] {
-    ros::PollManager::instance()->addPollThreadListener([] { poll_thread = std::this_thread::get_id(); });
-    ros::PollManager::instance()->getPollSet().signal();  // a turn now, not within 100 ms
-    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(1);
-    while (poll_thread.load() == std::thread::id() && std::chrono::steady_clock::now() < until)
-      std::this_thread::sleep_for(std::chrono::microseconds(100));
-  });
+  std::call_once(
+      once,
+      []
+      {
+        ros::PollManager::instance()->addPollThreadListener([] { poll_thread = std::this_thread::get_id(); });
+        ros::PollManager::instance()->getPollSet().signal();  // a turn now, not within 100 ms
+        const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+        while (poll_thread.load() == std::thread::id() && std::chrono::steady_clock::now() < until)
+          std::this_thread::sleep_for(std::chrono::microseconds(100));
+      });
   return std::this_thread::get_id() == poll_thread.load();
 }
 

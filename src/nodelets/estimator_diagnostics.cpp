@@ -33,7 +33,8 @@ std::vector<std::string> EstimatorNodelet::wrongTypes()
     return wrong_;
   std::vector<std::string> out;
   const ros::NodeHandle& nh = getNodeHandle();
-  auto check = [&](const std::string& who, const std::string& topic, const std::string& expected) {
+  auto check = [&](const std::string& who, const std::string& topic, const std::string& expected)
+  {
     const std::string name = nh.resolveName(topic);
     for (const ros::master::TopicInfo& t : topics)
       if (t.name == name && t.datatype != expected)
@@ -67,11 +68,10 @@ void EstimatorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& sta
   if (!online.started())
     stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "waiting for measurements");
   else if (!(last_trace_ <= trace_bound_))
-    stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "covariance trace %.4g above trace_bound %.4g",
-                  last_trace_, trace_bound_);
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "covariance trace %.4g above trace_bound %.4g", last_trace_,
+                  trace_bound_);
   else
-    stat.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "step %ld, arrival rate %.3f", online.nextStep() - 1,
-                  arrival);
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "step %ld, arrival rate %.3f", online.nextStep() - 1, arrival);
   if (!wrong.empty())
     stat.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN, "wrong message type: %s", wrong.front().c_str());
   // Messages refused for their stamp (stamp 0, ahead of ROS time...) and timeline restarts, over

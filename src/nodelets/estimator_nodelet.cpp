@@ -25,31 +25,35 @@ void EstimatorNodelet::onInit()
     refuseLoad(getName(), std::string("Estimator not started: ") + e.what());
   }
   frames_.configure(nh, config_.world_frame, config_.base_link_frame);
-  outputs_.start(nh, config_, getName(), [this]() -> const Frames& { return frames_.get(); }, gnss_.get());
+  outputs_.start(
+      nh, config_, getName(), [this]() -> const Frames& { return frames_.get(); }, gnss_.get());
   startSetPose(nh);
   const Model& model = stream_->online().model();
   const std::vector<SensorInput>& inputs = config_.inputs;
-  if (!config_.datum.empty() || std::any_of(inputs.begin(), inputs.end(), [](const SensorInput& in) {
-        return in.type == InputType::NAVSATFIX;
-      }))
+  if (!config_.datum.empty() ||
+      std::any_of(inputs.begin(), inputs.end(), [](const SensorInput& in) { return in.type == InputType::NAVSATFIX; }))
     datum_pub_ = pnh.advertise<sensor_msgs::NavSatFix>("datum", 1, true);
   if (gnss_)
-    gnss_->start(nh, in_nh, inputs, frames_.get(), [this](BasePose& pose) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (!stream_->online().started())
-        return false;
-      pose = basePoseOf(stream_->online().estimator().state(), config_.state_map, config_.gnss.roll, config_.gnss.pitch);
-      return true;
-    });
+    gnss_->start(nh, in_nh, inputs, frames_.get(),
+                 [this](BasePose& pose)
+                 {
+                   std::lock_guard<std::mutex> lock(mutex_);
+                   if (!stream_->online().started())
+                     return false;
+                   pose = basePoseOf(stream_->online().estimator().state(), config_.state_map, config_.gnss.roll,
+                                     config_.gnss.pitch);
+                   return true;
+                 });
   for (std::size_t i = 0; i < model.sensors.size(); ++i)
   {
     const SensorInput& in = inputs[i];
     if (in.type == InputType::MEASUREMENT)
     {
-      subs_.push_back(subscribeEvents<Measurement>(in_nh, in.topic, queueSize(),
-                                                   [this, i](const ros::MessageEvent<Measurement const>& e) {
-                                                     onMeasurement(i, e.getConstMessage(), e.getReceiptTime());
-                                                   }, in.transport));
+      subs_.push_back(subscribeEvents<Measurement>(
+          in_nh, in.topic, queueSize(),
+          [this, i](const ros::MessageEvent<Measurement const>& e)
+          { onMeasurement(i, e.getConstMessage(), e.getReceiptTime()); },
+          in.transport));
       watchTransport(in_nh, i);
       continue;
     }
@@ -59,15 +63,13 @@ void EstimatorNodelet::onInit()
     const std::string who = "sensor '" + model.sensors[i].name + "' (" + toString(in.type) + " on " + in.topic + ")";
     sink.bad = [this, who](const std::string& why) { reject(who + ": " + why); };
     sink.fallback = [this, who](const std::string& why) { covarianceFallback(who + ": " + why); };
-    sink.disabled = [this, i](const ros::Time& stamp, const ros::Time& receipt, const std::string& why) {
-      onDisabled(i, stamp, receipt, why);
-    };
+    sink.disabled = [this, i](const ros::Time& stamp, const ros::Time& receipt, const std::string& why)
+    { onDisabled(i, stamp, receipt, why); };
     sink.datum = [this](const LocalEnu& d) { publishDatum(d); };
     if (gnss_ && in.type == InputType::NAVSATFIX)
       sink.gnss = [this](const sensor_msgs::NavSatFix& m, const LocalEnu& datum, Eigen::Vector3d& local,
-                         boost::array<double, 9>& cov, std::string& why) {
-        return gnss_->apply(m, datum, local, cov, why);
-      };
+                         boost::array<double, 9>& cov, std::string& why)
+      { return gnss_->apply(m, datum, local, cov, why); };
     sink.frames = frames_.get();
     subs_.push_back(subscribeSensor(in_nh, in, queueSize(), sink, config_.datum));
     watchTransport(in_nh, i);
@@ -84,9 +86,8 @@ void EstimatorNodelet::onInit()
   else if (model.hasControl())
   {
     SensorSink sink;
-    sink.ok = [this](const ros::Time& stamp, const ros::Time&, const double* u, std::size_t n, const double*) {
-      onHeldCommand(stamp, u, n);
-    };
+    sink.ok = [this](const ros::Time& stamp, const ros::Time&, const double* u, std::size_t n, const double*)
+    { onHeldCommand(stamp, u, n); };
     const std::string who = "command (" + toString(command.type) + " on " + command.topic + ")";
     sink.bad = [this, who](const std::string& why) { reject(who + ": " + why); };
     sink.frames = frames_.get();
@@ -101,16 +102,18 @@ void EstimatorNodelet::onInit()
   diagnostics_->setHardwareID(toString(config_.settings.algorithm));
   diagnostics_->add("estimator", this, &EstimatorNodelet::diagnose);
   if (link_.enabled())  // live_stability: false: no window, no verdict, no status
-    diagnostics_->add("link stability", [this](diagnostic_updater::DiagnosticStatusWrapper& stat) {
-      link_.diagnose(stat, mutex_, [this] { return Eigen::VectorXd(stream_->online().estimator().state()); });
-    });
+    diagnostics_->add(
+        "link stability", [this](diagnostic_updater::DiagnosticStatusWrapper& stat)
+        { link_.diagnose(stat, mutex_, [this] { return Eigen::VectorXd(stream_->online().estimator().state()); }); });
   // force_update: the updater's own period check uses ROS time, which stalls or jumps under sim time.
   link_.advertise(pnh);
   latency_figures_.assign(model.sensors.size(), LatencyBudget::Figures());
-  diag_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) {
-    diagnostics_->force_update();
-    link_.publishStatus(stream_->online().model(), latency_figures_);
-  });
+  diag_timer_ = nh.createWallTimer(ros::WallDuration(1.0),
+                                   [this](const ros::WallTimerEvent&)
+                                   {
+                                     diagnostics_->force_update();
+                                     link_.publishStatus(stream_->online().model(), latency_figures_);
+                                   });
   startReconfigure(pnh);
   clock_watch_.start(getNodeHandle(), [this] { dispatch_.wake(); });
   dispatch_.start([this] { return deadlineWork(); });
@@ -118,8 +121,9 @@ void EstimatorNodelet::onInit()
   for (std::size_t i = 0; i < config_.inputs.size(); ++i)
     names += (i ? ", " : "") + model.sensors[i].name + " (" + toString(config_.inputs[i].type) + " on " +
              nh.resolveName(config_.inputs[i].topic) + ")";
-  NODELET_INFO("Estimator %s on '%s' (n = %d): period %g s, %s; inputs: %s", toString(config_.settings.algorithm).c_str(),
-               model.name.c_str(), model.n(), limits_.period, describe(stream_->runtime()).c_str(), names.c_str());
+  NODELET_INFO("Estimator %s on '%s' (n = %d): period %g s, %s; inputs: %s",
+               toString(config_.settings.algorithm).c_str(), model.name.c_str(), model.n(), limits_.period,
+               describe(stream_->runtime()).c_str(), names.c_str());
 }
 
 void EstimatorNodelet::publishDatum(const LocalEnu& d)
@@ -133,8 +137,8 @@ void EstimatorNodelet::publishDatum(const LocalEnu& d)
   m.altitude = d.altitude();
   m.position_covariance_type = sensor_msgs::NavSatFix::COVARIANCE_TYPE_UNKNOWN;
   datum_pub_.publish(m);
-  NODELET_INFO("Estimator: NavSatFix datum (ENU origin) %.9f, %.9f, %.3f%s", d.latitude(), d.longitude(),
-               d.altitude(), config_.datum.empty() ? " (the first valid fix; set ~datum to pin it)" : "");
+  NODELET_INFO("Estimator: NavSatFix datum (ENU origin) %.9f, %.9f, %.3f%s", d.latitude(), d.longitude(), d.altitude(),
+               config_.datum.empty() ? " (the first valid fix; set ~datum to pin it)" : "");
 }
 
 void EstimatorNodelet::watchTransport(ros::NodeHandle& nh, std::size_t i)
@@ -154,7 +158,8 @@ void EstimatorNodelet::configure(ros::NodeHandle& pnh)
   trace_bound_ = c.runtime.trace_bound;
   stream_ = std::make_unique<OnlineStream>(c.model, c.settings, c.online, c.timeline, c.runtime);
   stream_->after_step = [this](long k) { outputs_.publishStep(stepLocked(k)); };
-  stream_->on_restart = [this](const std::string& why) {
+  stream_->on_restart = [this](const std::string& why)
+  {
     link_.clear();
     if (gnss_)
       gnss_->restart();  // the world frame is anchored again: so is the GNSS alignment
@@ -211,8 +216,10 @@ void EstimatorNodelet::onDisabled(std::size_t sensor, const ros::Time& stamp, co
   if (r.offer == Offer::REJECTED)
     warnRejected("measurement", r);
   else
-    NODELET_WARN_THROTTLE(10.0, "Estimator: sensor '%s': not fused: %s (%lu such messages so far; the sensor is "
-                          "not due at their steps)", stream_->online().model().sensors[sensor].name.c_str(), why.c_str(),
+    NODELET_WARN_THROTTLE(10.0,
+                          "Estimator: sensor '%s': not fused: %s (%lu such messages so far; the sensor is "
+                          "not due at their steps)",
+                          stream_->online().model().sensors[sensor].name.c_str(), why.c_str(),
                           static_cast<unsigned long>(stream_->online().counters().disabled_per_sensor[sensor]));
 }
 
@@ -236,8 +243,8 @@ Clocks EstimatorNodelet::clocks(const ros::Time& receipt) const
 
 void EstimatorNodelet::warnRejected(const char* what, const OfferResult& r)
 {
-  NODELET_WARN_THROTTLE(1.0, "Estimator %s: %s rejected: %s (%lu rejected so far)", toString(config_.settings.algorithm).c_str(),
-                        what, r.reason.c_str(), rejectedLocked());
+  NODELET_WARN_THROTTLE(1.0, "Estimator %s: %s rejected: %s (%lu rejected so far)",
+                        toString(config_.settings.algorithm).c_str(), what, r.reason.c_str(), rejectedLocked());
 }
 
 void EstimatorNodelet::onCommand(const ControlInput::ConstPtr& c)
@@ -263,7 +270,8 @@ void EstimatorNodelet::onSchedule(const ScheduleStep::ConstPtr& sc)
     return;
   }
   const std::vector<bool> transmitting(sc->transmitting.begin(), sc->transmitting.end());
-  const OfferResult r = stream_->schedule(static_cast<long>(sc->step), sc->header.stamp.toSec(), transmitting, clocks());
+  const OfferResult r =
+      stream_->schedule(static_cast<long>(sc->step), sc->header.stamp.toSec(), transmitting, clocks());
   if (r.offer == Offer::REJECTED)
     warnRejected("schedule", r);
 }

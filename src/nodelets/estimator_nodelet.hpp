@@ -102,7 +102,6 @@ private:
   /// Sensor i's subscription (the last in subs_) to the transport watch.
   void watchTransport(ros::NodeHandle& nh, std::size_t i);
 
-
   // --- inputs (the dispatch thread) ---------------------------------------------------------------
 
   /// `receipt`: the ROS time roscpp received the message at (its lateness is judged by it).
@@ -182,7 +181,7 @@ private:
   double trace_bound_ = std::numeric_limits<double>::infinity();  ///< reconfigurable (mutex_)
   ros::Publisher datum_pub_;
 
-  DispatchThread dispatch_;  ///< serves the inputs and the deadlines (before the subscribers: outlives them)
+  DispatchThread dispatch_;    ///< serves the inputs and the deadlines (before the subscribers: outlives them)
   SimClockWatch clock_watch_;  ///< sim time: wakes dispatch_ when a /clock tick reaches the next deadline
   std::vector<ros::Subscriber> subs_;
   ros::Subscriber cmd_sub_, schedule_sub_, set_pose_sub_;

@@ -80,8 +80,10 @@ void EstimatorOutputs::start(ros::NodeHandle& nh, const EstimatorNodeConfig& con
   {
     predict_timer_ = nh.createWallTimer(ros::WallDuration(1.0 / config.frequency),
                                         [this](const ros::WallTimerEvent&) { predictTimer(); });
-    ROS_INFO_NAMED(name_, "Estimator: odometry/filtered%s at %g Hz, predicted to the current time "
-                          "(predict_to_current_time)", config.publish_tf ? " and tf" : "", config.frequency);
+    ROS_INFO_NAMED(name_,
+                   "Estimator: odometry/filtered%s at %g Hz, predicted to the current time "
+                   "(predict_to_current_time)",
+                   config.publish_tf ? " and tf" : "", config.frequency);
   }
 }
 
@@ -242,8 +244,8 @@ void EstimatorOutputs::tfTimer()
     std::string why;
     if (!frames_().lookup(c.odom_frame, c.base_link_frame, ros::Time(0), odom_base, why))
     {
-      ROS_WARN_THROTTLE_NAMED(10.0, name_, "Estimator: no %s -> %s tf: %s", c.world_frame.c_str(),
-                              c.odom_frame.c_str(), why.c_str());
+      ROS_WARN_THROTTLE_NAMED(10.0, name_, "Estimator: no %s -> %s tf: %s", c.world_frame.c_str(), c.odom_frame.c_str(),
+                              why.c_str());
       return;
     }
     world_base = mapToOdom(world_base, odom_base);

@@ -9,8 +9,8 @@ void EstimatorNodelet::startReconfigure(ros::NodeHandle& pnh)
 {
   // In ~reconfigure: the server writes its values back as parameters, which must not become
   // parameters of the nodelet's next load.
-  reconfigure_ = std::make_unique<dynamic_reconfigure::Server<EstimatorConfig>>(
-      reconfigure_mutex_, ros::NodeHandle(pnh, "reconfigure"));
+  reconfigure_ = std::make_unique<dynamic_reconfigure::Server<EstimatorConfig>>(reconfigure_mutex_,
+                                                                                ros::NodeHandle(pnh, "reconfigure"));
   const RuntimeSettings& r = stream_->runtime();
   shown_.adaptive_latency = r.adaptive_latency;
   shown_.latency_budget = r.adaptive_latency ? stream_->budget() : r.latency_budget;
@@ -18,10 +18,12 @@ void EstimatorNodelet::startReconfigure(ros::NodeHandle& pnh)
   shown_.latency_budget_max = r.latency_budget_max;
   shown_.late_policy = r.late_policy;
   shown_.trace_bound = std::min(r.trace_bound, 1e300);
-  reconfigure_->setCallback([this](EstimatorConfig& c, uint32_t) {
-    if (reconfigure_ready_)
-      reconfigure(c);
-  });
+  reconfigure_->setCallback(
+      [this](EstimatorConfig& c, uint32_t)
+      {
+        if (reconfigure_ready_)
+          reconfigure(c);
+      });
   reconfigure_ready_ = true;
   reconfigure_->updateConfig(shown_);
 }
@@ -42,7 +44,8 @@ void EstimatorNodelet::reconfigure(EstimatorConfig& c)
   }
   catch (const ConfigError& e)
   {
-    NODELET_ERROR("Estimator: change refused: %s; the settings stay %s", e.what(), describe(stream_->runtime()).c_str());
+    NODELET_ERROR("Estimator: change refused: %s; the settings stay %s", e.what(),
+                  describe(stream_->runtime()).c_str());
     c = shown_;  // the server shows these back
     return;
   }

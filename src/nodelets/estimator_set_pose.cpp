@@ -12,13 +12,17 @@ namespace networked_estimation
 void EstimatorNodelet::startSetPose(ros::NodeHandle& nh)
 {
   set_pose_sub_ = nh.subscribe<geometry_msgs::PoseWithCovarianceStamped>(
-      "set_pose", 10, [this](const geometry_msgs::PoseWithCovarianceStamped::ConstPtr& m) {
+      "set_pose", 10,
+      [this](const geometry_msgs::PoseWithCovarianceStamped::ConstPtr& m)
+      {
         std::string why;
         if (!setPose(*m, why))
           NODELET_WARN("Estimator: set_pose refused: %s", why.c_str());
       });
   set_pose_srv_ = nh.advertiseService<SetPose::Request, SetPose::Response>(
-      "set_pose", [this](SetPose::Request& req, SetPose::Response& res) {
+      "set_pose",
+      [this](SetPose::Request& req, SetPose::Response& res)
+      {
         res.success = setPose(req.pose, res.message);
         if (!res.success)
           NODELET_WARN("Estimator: set_pose refused: %s", res.message.c_str());
@@ -29,10 +33,9 @@ void EstimatorNodelet::startSetPose(ros::NodeHandle& nh)
 bool EstimatorNodelet::setPose(const geometry_msgs::PoseWithCovarianceStamped& in, std::string& why)
 {
   geometry_msgs::PoseWithCovarianceStamped m = in;
-  const double n2 = m.pose.pose.orientation.x * m.pose.pose.orientation.x +
-                    m.pose.pose.orientation.y * m.pose.pose.orientation.y +
-                    m.pose.pose.orientation.z * m.pose.pose.orientation.z +
-                    m.pose.pose.orientation.w * m.pose.pose.orientation.w;
+  const double n2 =
+      m.pose.pose.orientation.x * m.pose.pose.orientation.x + m.pose.pose.orientation.y * m.pose.pose.orientation.y +
+      m.pose.pose.orientation.z * m.pose.pose.orientation.z + m.pose.pose.orientation.w * m.pose.pose.orientation.w;
   if (!(n2 > 0.0) || !std::isfinite(n2))
   {
     why = "the orientation is not a rotation (a zero or non-finite quaternion)";

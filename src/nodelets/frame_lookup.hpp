@@ -43,7 +43,8 @@ private:
     listener_ = std::make_unique<tf2_ros::TransformListener>(*buffer_, nh_, false);
     tf2_ros::Buffer* buffer = buffer_.get();
     frames_.lookup = [buffer](const std::string& target, const std::string& source, const ros::Time& stamp,
-                              tf2::Transform& out, std::string& why) {
+                              tf2::Transform& out, std::string& why)
+    {
       try
       {
         const geometry_msgs::TransformStamped t = buffer->lookupTransform(target, source, stamp);

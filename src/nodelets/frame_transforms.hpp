@@ -25,19 +25,25 @@ struct Frames
 {
   std::string world, base;
   /// target <- source at `stamp` (ros::Time(0): the latest); false with `why` naming both frames.
-  std::function<bool(const std::string& target, const std::string& source, const ros::Time& stamp,
-                     tf2::Transform& out, std::string& why)>
+  std::function<bool(const std::string& target, const std::string& source, const ros::Time& stamp, tf2::Transform& out,
+                     std::string& why)>
       lookup;
 };
 
-inline tf2::Vector3 toTf(const geometry_msgs::Vector3& v) { return tf2::Vector3(v.x, v.y, v.z); }
+inline tf2::Vector3 toTf(const geometry_msgs::Vector3& v)
+{
+  return tf2::Vector3(v.x, v.y, v.z);
+}
 inline void fromTf(const tf2::Vector3& t, geometry_msgs::Vector3& v)
 {
   v.x = t.x();
   v.y = t.y();
   v.z = t.z();
 }
-inline tf2::Quaternion toTf(const geometry_msgs::Quaternion& q) { return tf2::Quaternion(q.x, q.y, q.z, q.w); }
+inline tf2::Quaternion toTf(const geometry_msgs::Quaternion& q)
+{
+  return tf2::Quaternion(q.x, q.y, q.z, q.w);
+}
 inline void fromTf(const tf2::Quaternion& t, geometry_msgs::Quaternion& q)
 {
   q.x = t.x();

@@ -71,8 +71,8 @@ public:
 
   /// Topics on `nh`; the heading input's subscription on `in_nh` (the queue of the fixes);
   /// `frames`: the tf2 lookup (for the lever arm and the IMU's mounting).
-  void start(ros::NodeHandle& nh, ros::NodeHandle& in_nh, const std::vector<SensorInput>& inputs,
-             const Frames& frames, PoseSource pose)
+  void start(ros::NodeHandle& nh, ros::NodeHandle& in_nh, const std::vector<SensorInput>& inputs, const Frames& frames,
+             PoseSource pose)
   {
     connect(frames, std::move(pose));
     if (opt_.publish_gps_odometry)
@@ -151,8 +151,9 @@ public:
       else if (opt_.use_odometry_yaw)
         reading = pose.yaw;
       else if (!has_heading_)
-        why = "not fused: no heading yet from the gnss_heading Imu input (ENU is tied to world_frame at the first "
-              "fix after one)";
+        why =
+            "not fused: no heading yet from the gnss_heading Imu input (ENU is tied to world_frame at the first "
+            "fix after one)";
       if (!why.empty())
       {
         ++not_yet_;
@@ -168,13 +169,14 @@ public:
                  m.header.frame_id.c_str(), base_.c_str(), m.header.frame_id.c_str(), lever_why_.c_str());
       datum_ = std::make_unique<LocalEnu>(datum.latitude(), datum.longitude(), datum.altitude());
       fix_frame_ = m.header.frame_id;
-      ROS_INFO("Estimator: GNSS aligned (navsat_transform) at the fix of %.3f: base_link's ENU heading %.4f rad "
-               "(%s %.4f + magnetic_declination_radians %.4f + yaw_offset %.4f), world pose (%.3f, %.3f, %.3f, yaw "
-               "%.4f), world_T_enu yaw %.4f rad, translation (%.3f, %.3f, %.3f); %lu fixes before it not fused",
-               m.header.stamp.toSec(), theta, opt_.use_odometry_yaw ? "fused yaw" : "IMU yaw", reading,
-               opt_.magnetic_declination, opt_.yaw_offset, pose.position.x(), pose.position.y(), pose.position.z(),
-               pose.yaw, align_.yawDelta(), align_.translation().x(), align_.translation().y(),
-               align_.translation().z(), static_cast<unsigned long>(not_yet_));
+      ROS_INFO(
+          "Estimator: GNSS aligned (navsat_transform) at the fix of %.3f: base_link's ENU heading %.4f rad "
+          "(%s %.4f + magnetic_declination_radians %.4f + yaw_offset %.4f), world pose (%.3f, %.3f, %.3f, yaw "
+          "%.4f), world_T_enu yaw %.4f rad, translation (%.3f, %.3f, %.3f); %lu fixes before it not fused",
+          m.header.stamp.toSec(), theta, opt_.use_odometry_yaw ? "fused yaw" : "IMU yaw", reading,
+          opt_.magnetic_declination, opt_.yaw_offset, pose.position.x(), pose.position.y(), pose.position.z(), pose.yaw,
+          align_.yawDelta(), align_.translation().x(), align_.translation().y(), align_.translation().z(),
+          static_cast<unsigned long>(not_yet_));
       if (static_tf_)
         broadcastUtm(m.header.stamp);
     }
@@ -322,9 +324,10 @@ private:
     q.setRPY(0.0, 0.0, yaw);
     fromTf(q, m.transform.rotation);
     static_tf_->sendTransform(m);
-    ROS_INFO("Estimator: broadcast_utm_transform: %s -> utm (zone %d%s, datum easting %.3f, northing %.3f, meridian "
-             "convergence %.5f rad)", world_.c_str(), u.zone, u.northp ? "N" : "S", u.easting, u.northing,
-             u.convergence);
+    ROS_INFO(
+        "Estimator: broadcast_utm_transform: %s -> utm (zone %d%s, datum easting %.3f, northing %.3f, meridian "
+        "convergence %.5f rad)",
+        world_.c_str(), u.zone, u.northp ? "N" : "S", u.easting, u.northing, u.convergence);
   }
 
   GnssAlignment opt_;

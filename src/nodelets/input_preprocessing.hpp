@@ -95,9 +95,18 @@ const geometry_msgs::Pose* poseOf(const M&)
 {
   return nullptr;
 }
-inline const geometry_msgs::Pose* poseOf(const nav_msgs::Odometry& m) { return &m.pose.pose; }
-inline const geometry_msgs::Pose* poseOf(const geometry_msgs::PoseWithCovarianceStamped& m) { return &m.pose.pose; }
-inline const geometry_msgs::Pose* poseOf(const geometry_msgs::PoseStamped& m) { return &m.pose; }
+inline const geometry_msgs::Pose* poseOf(const nav_msgs::Odometry& m)
+{
+  return &m.pose.pose;
+}
+inline const geometry_msgs::Pose* poseOf(const geometry_msgs::PoseWithCovarianceStamped& m)
+{
+  return &m.pose.pose;
+}
+inline const geometry_msgs::Pose* poseOf(const geometry_msgs::PoseStamped& m)
+{
+  return &m.pose;
+}
 
 /// A pose relative to the first one seen (which becomes the origin). False with `why` when the
 /// first pose has no valid orientation (it is not taken as the origin then).
@@ -133,8 +142,9 @@ inline bool removeGravity(sensor_msgs::Imu& m, std::string& why)
   const tf2::Quaternion q = toTf(m.orientation);
   if (m.orientation_covariance[0] == -1.0 || !(q.length2() > 0.0) || !std::isfinite(q.length2()))
   {
-    why = "remove_gravitational_acceleration: the message has no orientation to rotate gravity by "
-          "(orientation_covariance[0] = -1 or a zero quaternion)";
+    why =
+        "remove_gravitational_acceleration: the message has no orientation to rotate gravity by "
+        "(orientation_covariance[0] = -1 or a zero quaternion)";
     return false;
   }
   const tf2::Vector3 g = tf2::Matrix3x3(q.normalized()).transpose() * tf2::Vector3(0.0, 0.0, kGravity);

@@ -27,20 +27,25 @@ void LinkDiagnostics::configure(const EstimatorNodeConfig& c, const std::string&
   // first diagnostic, then at the estimate.
   if (c.model.nonlinear())
   {
-    ROS_INFO_NAMED(name, "Estimator: model '%s' has motion %s: the link verdicts are local, for its linearisation "
-                         "at the current estimate", c.model.name.c_str(), toString(c.model.motion).c_str());
+    ROS_INFO_NAMED(name,
+                   "Estimator: model '%s' has motion %s: the link verdicts are local, for its linearisation "
+                   "at the current estimate",
+                   c.model.name.c_str(), toString(c.model.motion).c_str());
     motion_model_ = std::make_unique<const Model>(c.model);
   }
   std::string rates_note;
-  const Model stability_model = withSensorRates(linearisedModel(c.model, c.model.x0, c.period), rate_ratios_,
-                                                &rates_note);
+  const Model stability_model =
+      withSensorRates(linearisedModel(c.model, c.model.x0, c.period), rate_ratios_, &rates_note);
   if (!rates_note.empty())
     ROS_WARN_NAMED(name, "Estimator: %s", rates_note.c_str());
   if (c.live_stability)
     live_ = std::make_unique<LiveStability>(stability_model, c.settings, live);
 }
 
-void LinkDiagnostics::advertise(ros::NodeHandle& pnh) { status_pub_ = pnh.advertise<LinkStatus>("link_status", 10); }
+void LinkDiagnostics::advertise(ros::NodeHandle& pnh)
+{
+  status_pub_ = pnh.advertise<LinkStatus>("link_status", 10);
+}
 
 void LinkDiagnostics::step(const OnlineEstimator& online)
 {
@@ -97,9 +102,9 @@ void LinkDiagnostics::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat
   }
   LiveStabilityReport report = evaluated->evaluate();
   if (motion_model_)
-    report.values.emplace_back("linearisation", "at the estimate (a local verdict), rebuilt " +
-                                                    std::to_string(relinearisations_) +
-                                                    " times: when the Jacobian moves by over 0.1 % of its largest entry");
+    report.values.emplace_back("linearisation",
+                               "at the estimate (a local verdict), rebuilt " + std::to_string(relinearisations_) +
+                                   " times: when the Jacobian moves by over 0.1 % of its largest entry");
   const unsigned char level = report.status.level == LinkCondition::Level::OK ? diagnostic_msgs::DiagnosticStatus::OK
                               : report.status.level == LinkCondition::Level::WARN
                                   ? diagnostic_msgs::DiagnosticStatus::WARN

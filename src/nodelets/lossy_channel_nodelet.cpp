@@ -58,7 +58,9 @@ private:
     const std::string source = pnh.getNamespace() + " parameters";
     try
     {
-      settings_ = parseChannelSettings(privateParameters(pnh, {"diagnostic_period", "queue_size", "type", "reconfigure", "transport", "tcp_nodelay"}), source);
+      settings_ = parseChannelSettings(privateParameters(pnh, {"diagnostic_period", "queue_size", "type", "reconfigure",
+                                                               "transport", "tcp_nodelay"}),
+                                       source);
       ParamReader transport_keys(privateParameters(pnh), source);  // ~transport, ~tcp_nodelay of `in`
       transport_ = parseInputTransport(transport_keys, source + ": ");
       pnh.param("type", type_, std::string());
@@ -81,15 +83,15 @@ private:
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
     diagnostics_->setHardwareID("lossy_channel");
     diagnostics_->add("channel", this, &LossyChannelNodelet::diagnose);
-    diag_timer_ = nh.createWallTimer(ros::WallDuration(0.5), [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
+    diag_timer_ =
+        nh.createWallTimer(ros::WallDuration(0.5), [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
     // `in` is served by the channel's own thread, which also publishes the delayed deliveries.
     dispatch_.start([this] { return deliveryWork(); });
     const auto q = static_cast<uint32_t>(queue_size_);
     if (type_.empty())  // any type: ShapeShifter, `out` advertised with the first message's type
     {
-      publish_ = [this](const boost::shared_ptr<const void>& m) {
-        out_pub_.publish(boost::static_pointer_cast<const topic_tools::ShapeShifter>(m));
-      };
+      publish_ = [this](const boost::shared_ptr<const void>& m)
+      { out_pub_.publish(boost::static_pointer_cast<const topic_tools::ShapeShifter>(m)); };
       ros::SubscribeOptions o;
       o.template initByFullCallbackType<const ros::MessageEvent<topic_tools::ShapeShifter const>&>(
           "in", q, [this](const ros::MessageEvent<topic_tools::ShapeShifter const>& e) { onMessage(e); });
@@ -97,18 +99,19 @@ private:
     }
     else  // ~type: typed in and out, the received object forwarded as it is (no serialization in-process)
     {
-      const bool known = withKnownType(type_, [&](auto tag) {
-        using M = typename decltype(tag)::type;
-        out_pub_ = nh.advertise<M>("out", q);
-        publish_ = [this](const boost::shared_ptr<const void>& m) {
-          out_pub_.publish(boost::static_pointer_cast<const M>(m));
-        };
-        ros::SubscribeOptions o;
-        o.template init<M>("in", q, [this](const boost::shared_ptr<const M>& m) {
-          onInput(m, [&m] { return stampOf(*m); });
-        });
-        subscribeIn(nh, o, dispatch_.directQueue());
-      });
+      const bool known = withKnownType(type_,
+                                       [&](auto tag)
+                                       {
+                                         using M = typename decltype(tag)::type;
+                                         out_pub_ = nh.advertise<M>("out", q);
+                                         publish_ = [this](const boost::shared_ptr<const void>& m)
+                                         { out_pub_.publish(boost::static_pointer_cast<const M>(m)); };
+                                         ros::SubscribeOptions o;
+                                         o.template init<M>("in", q,
+                                                            [this](const boost::shared_ptr<const M>& m)
+                                                            { onInput(m, [&m] { return stampOf(*m); }); });
+                                         subscribeIn(nh, o, dispatch_.directQueue());
+                                       });
       if (!known)
         refuseLoad(getName(), "LossyChannel not started: " + source + ": type: expected one of " +
                                   std::string(kKnownTypes) + ", found '" + type_ + "'");
@@ -132,16 +135,19 @@ private:
     sub_ = nh.subscribe(o);
     const std::string in = nh.resolveName("in");
     transports_.add("LossyChannel input (" + in + ")", "transport", in, transport_, sub_);
-    diagnostics_->add("input transport", [this](diagnostic_updater::DiagnosticStatusWrapper& stat) {
-      transports_.update([this](const std::string& w) { NODELET_WARN("%s", w.c_str()); });
-      const std::vector<std::string> fallbacks = transports_.fallbacks();
-      if (fallbacks.empty())
-        stat.summary(diagnostic_msgs::DiagnosticStatus::OK, transports_.values().front().second);
-      else
-        stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, fallbacks.front() + ": udp fell back to TCPROS");
-      for (const auto& kv : transports_.values())
-        stat.add(kv.first, kv.second);
-    });
+    diagnostics_->add("input transport",
+                      [this](diagnostic_updater::DiagnosticStatusWrapper& stat)
+                      {
+                        transports_.update([this](const std::string& w) { NODELET_WARN("%s", w.c_str()); });
+                        const std::vector<std::string> fallbacks = transports_.fallbacks();
+                        if (fallbacks.empty())
+                          stat.summary(diagnostic_msgs::DiagnosticStatus::OK, transports_.values().front().second);
+                        else
+                          stat.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                                       fallbacks.front() + ": udp fell back to TCPROS");
+                        for (const auto& kv : transports_.values())
+                          stat.add(kv.first, kv.second);
+                      });
   }
 
   std::string describe() const
@@ -262,25 +268,27 @@ private:
   {
     reconfigure_ = std::make_unique<dynamic_reconfigure::Server<LossyChannelConfig>>(
         reconfigure_mutex_, ros::NodeHandle(pnh, "reconfigure"));
-    reconfigure_->setCallback([this](LossyChannelConfig& c, uint32_t) {
-      if (!reconfigure_ready_)
-        return;
-      std::lock_guard<std::mutex> lock(mutex_);
-      try
-      {
-        const ChannelSettings next = mergeChannelSettings(
-            settings_, toChanges(c), getPrivateNodeHandle().getNamespace() + "/reconfigure");
-        channel_->reconfigure(next);
-        settings_ = next;
-        NODELET_INFO("LossyChannel reconfigured: %s", describe().c_str());
-        dispatch_.wake();
-      }
-      catch (const ConfigError& e)
-      {
-        NODELET_WARN("LossyChannel: rejected reconfigure: %s", e.what());
-        c = toConfig(settings_);  // the server publishes what is in use
-      }
-    });
+    reconfigure_->setCallback(
+        [this](LossyChannelConfig& c, uint32_t)
+        {
+          if (!reconfigure_ready_)
+            return;
+          std::lock_guard<std::mutex> lock(mutex_);
+          try
+          {
+            const ChannelSettings next =
+                mergeChannelSettings(settings_, toChanges(c), getPrivateNodeHandle().getNamespace() + "/reconfigure");
+            channel_->reconfigure(next);
+            settings_ = next;
+            NODELET_INFO("LossyChannel reconfigured: %s", describe().c_str());
+            dispatch_.wake();
+          }
+          catch (const ConfigError& e)
+          {
+            NODELET_WARN("LossyChannel: rejected reconfigure: %s", e.what());
+            c = toConfig(settings_);  // the server publishes what is in use
+          }
+        });
     reconfigure_ready_ = true;
     reconfigure_->updateConfig(toConfig(settings_));
   }
@@ -372,8 +380,8 @@ private:
   ros::Time t0_;
   DispatchThread dispatch_;  ///< serves `in` and the delayed deliveries (before sub_: outlives it)
   ros::Subscriber sub_;
-  InputTransport transport_;     ///< ~transport, ~tcp_nodelay of `in`
-  TransportWatch transports_;   ///< the transport `in` got (the diagnostics' thread)
+  InputTransport transport_;   ///< ~transport, ~tcp_nodelay of `in`
+  TransportWatch transports_;  ///< the transport `in` got (the diagnostics' thread)
   ros::Publisher out_pub_, events_pub_;
   ros::ServiceServer set_srv_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
@@ -383,7 +391,7 @@ private:
   bool reconfigure_ready_ = false;
   std::mutex mutex_;
   double armed_due_ = std::numeric_limits<double>::infinity();  ///< the dispatch thread waits for it (mutex_)
-  std::mutex publishing_;  ///< held by the one thread that publishes the outbox (flush)
+  std::mutex publishing_;                               ///< held by the one thread that publishes the outbox (flush)
   std::vector<boost::shared_ptr<const void>> outbox_;   ///< due, not yet published (mutex_)
   std::vector<boost::shared_ptr<const void>> sending_;  ///< being published (publishing_)
 

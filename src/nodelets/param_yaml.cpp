@@ -56,4 +56,3 @@ YAML::Node privateParameters(const ros::NodeHandle& pnh, const std::set<std::str
 }
 
 }  // namespace networked_estimation
-

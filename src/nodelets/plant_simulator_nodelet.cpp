@@ -83,7 +83,8 @@ private:
       start_after_ = p.text("start_after", "");
       outputs_ = parseSimulatorOutputs(p, model_, period_, p.source());
       if (!outputs_.datum.empty())
-        datum_ = std::make_unique<LocalEnu>(outputs_.datum[0], outputs_.datum[1], outputs_.datum[2], p.source() + ": datum");
+        datum_ =
+            std::make_unique<LocalEnu>(outputs_.datum[0], outputs_.datum[1], outputs_.datum[2], p.source() + ": datum");
       p.rejectUnknown();
     }
     catch (const ConfigError& e)
@@ -98,21 +99,24 @@ private:
     sensors_.start(nh, model_, outputs_, datum_.get(), frame_id_, child_frame_id_);
     state_pub_ = nh.advertise<PlantState>("plant_state", 1000);
     if (model_.hasControl())
-      cmd_sub_ = nh.subscribe("command", 1000, &PlantSimulatorNodelet::onCommand, this,
-                              ros::TransportHints().tcpNoDelay());
+      cmd_sub_ =
+          nh.subscribe("command", 1000, &PlantSimulatorNodelet::onCommand, this, ros::TransportHints().tcpNoDelay());
     if (publish_clock_)
       clock_pub_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
     if (start_after_.empty())
       scheduleStart();
     else  // e.g. estimate_summary's latched ~ready: every listener is connected
-      start_sub_ = nh.subscribe<std_msgs::Empty>(start_after_, 1, [this](const std_msgs::Empty::ConstPtr&) {
-        if (!start_scheduled_)
-          scheduleStart();
-      });
-    NODELET_INFO("PlantSimulator '%s': n = %d, %zu sensor(s), period %g s, %s, seed %llu%s", model_.name.c_str(),
-                 model_.n(), model_.sensors.size(), period_,
-                 max_steps_ > 0 ? ("stops after " + std::to_string(max_steps_) + " steps").c_str() : "runs until shut down",
-                 static_cast<unsigned long long>(seed_), model_.hasControl() ? ", control input on 'command'" : "");
+      start_sub_ = nh.subscribe<std_msgs::Empty>(start_after_, 1,
+                                                 [this](const std_msgs::Empty::ConstPtr&)
+                                                 {
+                                                   if (!start_scheduled_)
+                                                     scheduleStart();
+                                                 });
+    NODELET_INFO(
+        "PlantSimulator '%s': n = %d, %zu sensor(s), period %g s, %s, seed %llu%s", model_.name.c_str(), model_.n(),
+        model_.sensors.size(), period_,
+        max_steps_ > 0 ? ("stops after " + std::to_string(max_steps_) + " steps").c_str() : "runs until shut down",
+        static_cast<unsigned long long>(seed_), model_.hasControl() ? ", control input on 'command'" : "");
   }
 
   /// Starts stepping after ~start_delay (wall seconds), giving subscribers time to connect.
@@ -120,18 +124,24 @@ private:
   {
     start_scheduled_ = true;
     ros::NodeHandle& nh = getNodeHandle();
-    start_timer_ = nh.createWallTimer(ros::WallDuration(start_delay_ + 1e-3), [this](const ros::WallTimerEvent&) {
-      ros::NodeHandle& n = getNodeHandle();
-      if (publish_clock_)
-      {
-        sim_now_ = ros::Time(1.0);  // sim time starts at 1 s (0 means "no clock yet" to roscpp)
-        wall_timer_ = n.createWallTimer(ros::WallDuration(period_ / time_scale_), [this](const ros::WallTimerEvent&) { clockTick(); });
-      }
-      else if (!ros::Time::isSimTime())
-        stepper_ = std::thread(&PlantSimulatorNodelet::stepOnWallClock, this);
-      else  // someone else's /clock
-        ros_timer_ = n.createTimer(ros::Duration(period_), [this](const ros::TimerEvent& e) { tick(e.current_expected); });
-    }, true);
+    start_timer_ = nh.createWallTimer(
+        ros::WallDuration(start_delay_ + 1e-3),
+        [this](const ros::WallTimerEvent&)
+        {
+          ros::NodeHandle& n = getNodeHandle();
+          if (publish_clock_)
+          {
+            sim_now_ = ros::Time(1.0);  // sim time starts at 1 s (0 means "no clock yet" to roscpp)
+            wall_timer_ = n.createWallTimer(ros::WallDuration(period_ / time_scale_),
+                                            [this](const ros::WallTimerEvent&) { clockTick(); });
+          }
+          else if (!ros::Time::isSimTime())
+            stepper_ = std::thread(&PlantSimulatorNodelet::stepOnWallClock, this);
+          else  // someone else's /clock
+            ros_timer_ =
+                n.createTimer(ros::Duration(period_), [this](const ros::TimerEvent& e) { tick(e.current_expected); });
+        },
+        true);
   }
 
   /// Wall time: steps from this thread at t0 + k period (steady clock, sleep_until), stamped with
@@ -158,10 +168,7 @@ private:
     }
   }
 
-  static std::vector<int> defaultPositions(int n)
-  {
-    return n >= 2 ? std::vector<int>{0, 1} : std::vector<int>{0};
-  }
+  static std::vector<int> defaultPositions(int n) { return n >= 2 ? std::vector<int>{0, 1} : std::vector<int>{0}; }
 
   void clockTick()
   {
@@ -197,7 +204,8 @@ private:
     if (static_cast<long>(msg->step) <= k_)
     {
       ++late_commands_;
-      NODELET_WARN_THROTTLE(1.0, "PlantSimulator: command for step %lu arrived after the step was taken (zero input "
+      NODELET_WARN_THROTTLE(1.0,
+                            "PlantSimulator: command for step %lu arrived after the step was taken (zero input "
                             "was applied); %lu such commands so far",
                             static_cast<unsigned long>(msg->step), static_cast<unsigned long>(late_commands_));
       return;

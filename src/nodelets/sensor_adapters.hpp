@@ -83,14 +83,20 @@ inline MessageView view(const geometry_msgs::PoseWithCovarianceStamped& m)
   v.pose_cov = m.pose.covariance.data();
   return v;
 }
-inline MessageView view(const geometry_msgs::PoseStamped& m) { return view(m.pose); }
+inline MessageView view(const geometry_msgs::PoseStamped& m)
+{
+  return view(m.pose);
+}
 inline MessageView view(const geometry_msgs::TwistWithCovarianceStamped& m)
 {
   MessageView v = view(m.twist.twist);
   v.twist_cov = m.twist.covariance.data();
   return v;
 }
-inline MessageView view(const geometry_msgs::TwistStamped& m) { return view(m.twist); }
+inline MessageView view(const geometry_msgs::TwistStamped& m)
+{
+  return view(m.twist);
+}
 inline MessageView view(const geometry_msgs::PointStamped& m)
 {
   MessageView v;
@@ -127,8 +133,14 @@ inline MessageView view(const std_msgs::Float64& m)
   return v;
 }
 
-inline double axisOf(const geometry_msgs::Vector3& v, int axis) { return axis == 0 ? v.x : axis == 1 ? v.y : v.z; }
-inline double axisOf(const geometry_msgs::Point& v, int axis) { return axis == 0 ? v.x : axis == 1 ? v.y : v.z; }
+inline double axisOf(const geometry_msgs::Vector3& v, int axis)
+{
+  return axis == 0 ? v.x : axis == 1 ? v.y : v.z;
+}
+inline double axisOf(const geometry_msgs::Point& v, int axis)
+{
+  return axis == 0 ? v.x : axis == 1 ? v.y : v.z;
+}
 
 /// Fills y (fields.size() values) from a message's view. False, with `why` naming the field, when
 /// a value is not finite or an orientation is not a rotation (a zero or non-finite quaternion;

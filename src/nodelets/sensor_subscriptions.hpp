@@ -53,9 +53,18 @@ ros::Time stampOf(const M& m, const ros::Time&)
 }
 /// std_msgs/Float64, Float64MultiArray and geometry_msgs/Twist have no header: they are stamped by
 /// their arrival.
-inline ros::Time stampOf(const std_msgs::Float64&, const ros::Time& receipt) { return receipt; }
-inline ros::Time stampOf(const std_msgs::Float64MultiArray&, const ros::Time& receipt) { return receipt; }
-inline ros::Time stampOf(const geometry_msgs::Twist&, const ros::Time& receipt) { return receipt; }
+inline ros::Time stampOf(const std_msgs::Float64&, const ros::Time& receipt)
+{
+  return receipt;
+}
+inline ros::Time stampOf(const std_msgs::Float64MultiArray&, const ros::Time& receipt)
+{
+  return receipt;
+}
+inline ros::Time stampOf(const geometry_msgs::Twist&, const ros::Time& receipt)
+{
+  return receipt;
+}
 
 /// A subscription whose callback gets the message event (publisher, receipt time), on the node
 /// handle's callback queue, over the input's transport (transportHints). (A callback taking a
@@ -114,31 +123,35 @@ template <class M>
 ros::Subscriber subscribeFields(ros::NodeHandle& nh, const SensorInput& in, uint32_t queue, const SensorSink& sink)
 {
   auto memory = std::make_shared<InputMemory>();
-  return subscribeEvents<M>(nh, in.topic, queue, [in, sink, memory](const ros::MessageEvent<M const>& e) {
-    std::string why;
-    M local = *e.getConstMessage();  // into the model's frames, then relative / without gravity
-    if (!intoFrames(sink.frames, local, why) || !preprocess(in, *memory, local, why))
-    {
-      sink.bad(why);
-      return;
-    }
-    const ros::Time stamp = stampOf(local, e.getReceiptTime());
-    MessageView v = view(local);
-    if (in.differential)
-      switch (differentiate(*memory, poseOf(local), stamp.toSec(), v, why))
+  return subscribeEvents<M>(
+      nh, in.topic, queue,
+      [in, sink, memory](const ros::MessageEvent<M const>& e)
       {
-        case Differential::OK:
-          break;
-        case Differential::FIRST:  // not a loss: nothing was due yet
-          if (sink.disabled)
-            sink.disabled(stamp, e.getReceiptTime(), why);
-          return;
-        case Differential::BAD:
+        std::string why;
+        M local = *e.getConstMessage();  // into the model's frames, then relative / without gravity
+        if (!intoFrames(sink.frames, local, why) || !preprocess(in, *memory, local, why))
+        {
           sink.bad(why);
           return;
-      }
-    deliver(in, v, stamp, e.getReceiptTime(), sink);
-  }, in.transport);
+        }
+        const ros::Time stamp = stampOf(local, e.getReceiptTime());
+        MessageView v = view(local);
+        if (in.differential)
+          switch (differentiate(*memory, poseOf(local), stamp.toSec(), v, why))
+          {
+            case Differential::OK:
+              break;
+            case Differential::FIRST:  // not a loss: nothing was due yet
+              if (sink.disabled)
+                sink.disabled(stamp, e.getReceiptTime(), why);
+              return;
+            case Differential::BAD:
+              sink.bad(why);
+              return;
+          }
+        deliver(in, v, stamp, e.getReceiptTime(), sink);
+      },
+      in.transport);
 }
 
 inline ros::Subscriber subscribeNavSatFix(ros::NodeHandle& nh, const SensorInput& in, uint32_t queue,
@@ -146,7 +159,9 @@ inline ros::Subscriber subscribeNavSatFix(ros::NodeHandle& nh, const SensorInput
 {
   auto enu = std::make_shared<NavSatFixEnu>(datum);
   return subscribeEvents<sensor_msgs::NavSatFix>(
-      nh, in.topic, queue, [in, sink, enu](const ros::MessageEvent<sensor_msgs::NavSatFix const>& e) {
+      nh, in.topic, queue,
+      [in, sink, enu](const ros::MessageEvent<sensor_msgs::NavSatFix const>& e)
+      {
         const sensor_msgs::NavSatFix::ConstPtr m = e.getConstMessage();
         Eigen::Vector3d local;
         std::string why;
@@ -177,7 +192,8 @@ inline ros::Subscriber subscribeNavSatFix(ros::NodeHandle& nh, const SensorInput
         v.enu_cov = cov.data();
         v.enu_cov_type = m->position_covariance_type;
         deliver(in, v, m->header.stamp, e.getReceiptTime(), sink);
-      }, in.transport);
+      },
+      in.transport);
 }
 
 /// A subscription of any type but networked_estimation/Measurement and ControlInput (which carry
@@ -185,15 +201,17 @@ inline ros::Subscriber subscribeNavSatFix(ros::NodeHandle& nh, const SensorInput
 inline ros::Subscriber subscribeSensor(ros::NodeHandle& nh, const SensorInput& in, uint32_t queue,
                                        const SensorSink& sink, const std::vector<double>& datum)
 {
-  return withInputMessage(in.type, [&](auto tag) {
-    using M = MessageOf<decltype(tag)>;
-    if constexpr (kWholeVector<M>)
-      return ros::Subscriber();  // read by the nodelet itself
-    else if constexpr (std::is_same<M, sensor_msgs::NavSatFix>::value)
-      return subscribeNavSatFix(nh, in, queue, sink, datum);
-    else
-      return subscribeFields<M>(nh, in, queue, sink);
-  });
+  return withInputMessage(in.type,
+                          [&](auto tag)
+                          {
+                            using M = MessageOf<decltype(tag)>;
+                            if constexpr (kWholeVector<M>)
+                              return ros::Subscriber();  // read by the nodelet itself
+                            else if constexpr (std::is_same<M, sensor_msgs::NavSatFix>::value)
+                              return subscribeNavSatFix(nh, in, queue, sink, datum);
+                            else
+                              return subscribeFields<M>(nh, in, queue, sink);
+                          });
 }
 
 }  // namespace networked_estimation

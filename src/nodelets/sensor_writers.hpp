@@ -30,7 +30,7 @@ struct MessageSlots
   geometry_msgs::Vector3* linear = nullptr;
   geometry_msgs::Vector3* angular = nullptr;
   geometry_msgs::Vector3* acceleration = nullptr;
-  float* range = nullptr;  ///< sensor_msgs/Range.range (single precision)
+  float* range = nullptr;      ///< sensor_msgs/Range.range (single precision)
   double* pose_cov = nullptr;  ///< 6 x 6, row-major
   double* twist_cov = nullptr;
   double* orientation_cov = nullptr;  ///< 3 x 3
@@ -111,7 +111,9 @@ inline MessageSlots slots(sensor_msgs::Range& m)
 inline void writeFields(const MessageSlots& s, const std::vector<InputField>& fields, const double* y,
                         Eigen::Vector3d* enu = nullptr)
 {
-  auto axis = [](auto& v, int a) -> double& { return a == 0 ? v.x : a == 1 ? v.y : v.z; };
+  auto axis = [](auto& v, int a) -> double& {
+    return a == 0 ? v.x : a == 1 ? v.y : v.z;
+  };
   std::array<double, 3> rpy{0.0, 0.0, 0.0};
   bool any_rpy = false;
   if (s.orientation)
@@ -125,8 +127,10 @@ inline void writeFields(const MessageSlots& s, const std::vector<InputField>& fi
         axis(*s.position, f.axis) = y[i];
         break;
       case Quantity::ORIENTATION:
-        (f.axis == 0 ? s.orientation->x : f.axis == 1 ? s.orientation->y : f.axis == 2 ? s.orientation->z
-                                                                                     : s.orientation->w) = y[i];
+        (f.axis == 0   ? s.orientation->x
+         : f.axis == 1 ? s.orientation->y
+         : f.axis == 2 ? s.orientation->z
+                       : s.orientation->w) = y[i];
         break;
       case Quantity::ORIENTATION_RPY:
         rpy[static_cast<std::size_t>(f.axis)] = y[i];
@@ -170,8 +174,9 @@ inline void writeFields(const MessageSlots& s, const std::vector<InputField>& fi
 inline void writeCovariance(InputType type, const MessageSlots& s, const std::vector<InputField>& fields,
                             const double* R)
 {
-  const CovarianceBlock all[] = {CovarianceBlock::POSE,    CovarianceBlock::TWIST,        CovarianceBlock::ORIENTATION,
-                                 CovarianceBlock::ANGULAR, CovarianceBlock::ACCELERATION, CovarianceBlock::POSITION_ENU};
+  const CovarianceBlock all[] = {CovarianceBlock::POSE,         CovarianceBlock::TWIST,
+                                 CovarianceBlock::ORIENTATION,  CovarianceBlock::ANGULAR,
+                                 CovarianceBlock::ACCELERATION, CovarianceBlock::POSITION_ENU};
   const std::size_t n = fields.size();
   for (CovarianceBlock b : all)
   {

@@ -43,7 +43,8 @@ public:
     reached_ = std::move(reached);
     nh.setCallbackQueue(&queue_);
     ros::SubscribeOptions o;
-    o.init<rosgraph_msgs::Clock>("/clock", 1, [this](const rosgraph_msgs::Clock::ConstPtr& c) { tick(c->clock.toSec()); });
+    o.init<rosgraph_msgs::Clock>("/clock", 1,
+                                 [this](const rosgraph_msgs::Clock::ConstPtr& c) { tick(c->clock.toSec()); });
     o.transport_hints = ros::TransportHints().tcpNoDelay();
     sub_ = nh.subscribe(o);
     active_ = true;

@@ -69,37 +69,39 @@ public:
     // The j-th sample of this sensor is drawn with R_j = s_j R: noise sqrt(s_j) v_k.
     const double scale = o.scaleOf(static_cast<long>(published_[i]++));
     y_ = s.y.segment(sn.offset, sn.size) + (std::sqrt(scale) - 1.0) * s.v.segment(sn.offset, sn.size);
-    if (o.format.type != InputType::MEASUREMENT)  // a Measurement carries no covariance
+    if (o.format.type != InputType::MEASUREMENT)                             // a Measurement carries no covariance
       R_ = scale * model_->R.block(sn.offset, sn.offset, sn.size, sn.size);  // column-major = row-major: symmetric
-    withInputMessage(o.format.type, [&](auto tag) {
-      using M = MessageOf<decltype(tag)>;
-      if constexpr (kWholeVector<M>)
-      {
-        Measurement::Ptr m = boost::make_shared<Measurement>();
-        m->header.stamp = stamp;
-        m->header.frame_id = sn.name;
-        m->step = static_cast<std::uint64_t>(k);
-        m->sensor = sn.name;
-        m->y.assign(y_.data(), y_.data() + y_.size());
-        meas_pubs_[i].publish(m);
-      }
-      else if constexpr (std::is_same<M, sensor_msgs::NavSatFix>::value)
-      {
-        Eigen::Vector3d enu = Eigen::Vector3d::Zero();
-        writeFields(MessageSlots(), o.format.fields, y_.data(), &enu);
-        sensor_msgs::NavSatFix f = fixAt(*datum_, enu, o.format.fields, R_.data());
-        f.header.stamp = stamp;
-        f.header.frame_id = !o.frame_id.empty() ? o.frame_id : child_frame_id_;
-        meas_pubs_[i].publish(boost::make_shared<const sensor_msgs::NavSatFix>(std::move(f)));
-      }
-      else if constexpr (ros::message_traits::HasHeader<M>::value)  // sensorOutputTypes(): all stamped
-      {
-        M m;
-        prepare(m, o);
-        const bool world = inWorldFrame(m);
-        publishFields(i, std::move(m), stamp, world, y_.data(), R_.data());
-      }
-    });
+    withInputMessage(o.format.type,
+                     [&](auto tag)
+                     {
+                       using M = MessageOf<decltype(tag)>;
+                       if constexpr (kWholeVector<M>)
+                       {
+                         Measurement::Ptr m = boost::make_shared<Measurement>();
+                         m->header.stamp = stamp;
+                         m->header.frame_id = sn.name;
+                         m->step = static_cast<std::uint64_t>(k);
+                         m->sensor = sn.name;
+                         m->y.assign(y_.data(), y_.data() + y_.size());
+                         meas_pubs_[i].publish(m);
+                       }
+                       else if constexpr (std::is_same<M, sensor_msgs::NavSatFix>::value)
+                       {
+                         Eigen::Vector3d enu = Eigen::Vector3d::Zero();
+                         writeFields(MessageSlots(), o.format.fields, y_.data(), &enu);
+                         sensor_msgs::NavSatFix f = fixAt(*datum_, enu, o.format.fields, R_.data());
+                         f.header.stamp = stamp;
+                         f.header.frame_id = !o.frame_id.empty() ? o.frame_id : child_frame_id_;
+                         meas_pubs_[i].publish(boost::make_shared<const sensor_msgs::NavSatFix>(std::move(f)));
+                       }
+                       else if constexpr (ros::message_traits::HasHeader<M>::value)  // sensorOutputTypes(): all stamped
+                       {
+                         M m;
+                         prepare(m, o);
+                         const bool world = inWorldFrame(m);
+                         publishFields(i, std::move(m), stamp, world, y_.data(), R_.data());
+                       }
+                     });
   }
 
 private:
@@ -122,7 +124,8 @@ private:
   template <class M>
   static bool inWorldFrame(const M&)
   {
-    return std::is_same<M, nav_msgs::Odometry>::value || std::is_same<M, geometry_msgs::PoseWithCovarianceStamped>::value ||
+    return std::is_same<M, nav_msgs::Odometry>::value ||
+           std::is_same<M, geometry_msgs::PoseWithCovarianceStamped>::value ||
            std::is_same<M, geometry_msgs::PoseStamped>::value || std::is_same<M, geometry_msgs::PointStamped>::value;
   }
 

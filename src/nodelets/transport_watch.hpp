@@ -186,7 +186,9 @@ public:
         if (in.told.insert(p).second)
           warn(in.who + ": transport udp, but the connection from " + p +
                " is TCPROS: the publisher cannot serve UDPROS (rospy cannot; roscpp and rosbag play can), or "
-               "another subscription of " + in.topic + " in this process asked for TCPROS first (roscpp keeps one "
+               "another subscription of " +
+               in.topic +
+               " in this process asked for TCPROS first (roscpp keeps one "
                "connection per topic and process); its lost packets arrive late instead of not at all");
     }
   }

@@ -72,8 +72,10 @@ int main(int argc, char** argv)
   pnh.param("truth", truth_topic, std::string("plant_state"));
   if (topics.empty() || steps < 0 || !(timeout > 0.0))
   {
-    ROS_FATAL("estimate_summary: ~estimates must list Estimate topics (found %zu), ~steps must be >= 0 (found %d), "
-              "~timeout > 0 (found %g)", topics.size(), steps, timeout);
+    ROS_FATAL(
+        "estimate_summary: ~estimates must list Estimate topics (found %zu), ~steps must be >= 0 (found %d), "
+        "~timeout > 0 (found %g)",
+        topics.size(), steps, timeout);
     return 2;
   }
 
@@ -83,26 +85,30 @@ int main(int argc, char** argv)
   ros::WallTime last_msg = ros::WallTime::now(), last_msg_truth = last_msg;
   long last_truth = -1;
   std::vector<ros::Subscriber> subs;
-  subs.push_back(nh.subscribe<networked_estimation::PlantState>(
-      truth_topic, 10000, [&](const networked_estimation::PlantState::ConstPtr& s) {
-        std::lock_guard<std::mutex> lock(mutex);
-        truth[static_cast<long>(s->step)] = s->x;
-        last_truth = std::max(last_truth, static_cast<long>(s->step));
-        last_msg = last_msg_truth = ros::WallTime::now();
-      }));
+  subs.push_back(nh.subscribe<networked_estimation::PlantState>(truth_topic, 10000,
+                                                                [&](const networked_estimation::PlantState::ConstPtr& s)
+                                                                {
+                                                                  std::lock_guard<std::mutex> lock(mutex);
+                                                                  truth[static_cast<long>(s->step)] = s->x;
+                                                                  last_truth =
+                                                                      std::max(last_truth, static_cast<long>(s->step));
+                                                                  last_msg = last_msg_truth = ros::WallTime::now();
+                                                                }));
   for (std::size_t i = 0; i < topics.size(); ++i)
   {
     tracks[i].topic = nh.resolveName(topics[i]);
-    subs.push_back(nh.subscribe<networked_estimation::Estimate>(
-        topics[i], 10000, [&, i](const networked_estimation::Estimate::ConstPtr& e) {
-          std::lock_guard<std::mutex> lock(mutex);
-          Track& t = tracks[i];
-          t.algorithm = e->algorithm;
-          if (steps == 0 || static_cast<long>(e->step) <= steps)
-            t.by_step[static_cast<long>(e->step)] = e;
-          t.last_step = std::max(t.last_step, static_cast<long>(e->step));
-          last_msg = ros::WallTime::now();
-        }));
+    subs.push_back(
+        nh.subscribe<networked_estimation::Estimate>(topics[i], 10000,
+                                                     [&, i](const networked_estimation::Estimate::ConstPtr& e)
+                                                     {
+                                                       std::lock_guard<std::mutex> lock(mutex);
+                                                       Track& t = tracks[i];
+                                                       t.algorithm = e->algorithm;
+                                                       if (steps == 0 || static_cast<long>(e->step) <= steps)
+                                                         t.by_step[static_cast<long>(e->step)] = e;
+                                                       t.last_step = std::max(t.last_step, static_cast<long>(e->step));
+                                                       last_msg = ros::WallTime::now();
+                                                     }));
   }
 
   ros::AsyncSpinner spinner(1);
@@ -183,16 +189,15 @@ int main(int argc, char** argv)
   out << "\n=== networked_estimation demo summary (" << steps << " plant steps"
       << (timed_out ? ", stopped by timeout" : "") << ") ===\n";
   out << std::left << std::setw(10) << "estimator" << std::right << std::setw(8) << "steps" << std::setw(10)
-      << "arrivals" << std::setw(14) << "mean |e|^2" << std::setw(14) << "mean tr(P)" << std::setw(14)
-      << "|e|^2/tr(P)" << "\n";
+      << "arrivals" << std::setw(14) << "mean |e|^2" << std::setw(14) << "mean tr(P)" << std::setw(14) << "|e|^2/tr(P)"
+      << "\n";
   for (std::size_t i = 0; i < tracks.size(); ++i)
   {
     const Score& s = scores[i];
-    out << std::left << std::setw(10) << label(tracks[i].topic)
-        << std::right << std::setw(8) << s.steps << std::setw(10) << std::fixed << std::setprecision(3) << s.arrival
-        << std::setw(14) << std::setprecision(4) << s.mse << std::setw(14) << s.trace << std::setw(14)
-        << std::setprecision(3) << (s.trace > 0.0 && std::isfinite(s.mse / s.trace) ? s.mse / s.trace : std::nan(""))
-        << "\n";
+    out << std::left << std::setw(10) << label(tracks[i].topic) << std::right << std::setw(8) << s.steps
+        << std::setw(10) << std::fixed << std::setprecision(3) << s.arrival << std::setw(14) << std::setprecision(4)
+        << s.mse << std::setw(14) << s.trace << std::setw(14) << std::setprecision(3)
+        << (s.trace > 0.0 && std::isfinite(s.mse / s.trace) ? s.mse / s.trace : std::nan("")) << "\n";
   }
   out << "mean |e|^2: time-averaged squared error against PlantState; tr(P): the filter's own claim of it\n"
          "(a ratio near 1 means the filter is consistent; one run's ratio scatters widely when long loss bursts\n"
@@ -217,9 +222,9 @@ int main(int argc, char** argv)
     f << std::setprecision(17) << "steps: " << steps << "\ntimed_out: " << (timed_out ? "true" : "false")
       << "\nestimators:\n";
     for (std::size_t i = 0; i < tracks.size(); ++i)
-      f << "  - {name: '" << label(tracks[i].topic) << "', topic: '" << tracks[i].topic << "', algorithm: '" << tracks[i].algorithm << "', steps: "
-        << scores[i].steps << ", arrival_rate: " << scores[i].arrival << ", mean_squared_error: " << scores[i].mse
-        << ", mean_covariance_trace: " << scores[i].trace << "}\n";
+      f << "  - {name: '" << label(tracks[i].topic) << "', topic: '" << tracks[i].topic << "', algorithm: '"
+        << tracks[i].algorithm << "', steps: " << scores[i].steps << ", arrival_rate: " << scores[i].arrival
+        << ", mean_squared_error: " << scores[i].mse << ", mean_covariance_trace: " << scores[i].trace << "}\n";
     if (!f)
     {
       ROS_ERROR("estimate_summary: could not write ~output '%s'", output.c_str());

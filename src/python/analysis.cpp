@@ -247,10 +247,9 @@ py::object fitLink(py::handle bag, py::handle topic, py::handle csv, py::handle 
 
 void bindAnalysis(py::module& m)
 {
-  m.def("fit_link", &fitLink, py::arg("bag") = py::none(), py::arg("topic") = py::none(),
-        py::arg("csv") = py::none(), py::arg("events") = py::none(), py::arg("rate") = py::none(),
-        py::arg("clock") = "auto", py::arg("output") = py::none(), py::arg("series") = false, py::arg("starts") = 5,
-        py::arg("seed") = 1,
+  m.def("fit_link", &fitLink, py::arg("bag") = py::none(), py::arg("topic") = py::none(), py::arg("csv") = py::none(),
+        py::arg("events") = py::none(), py::arg("rate") = py::none(), py::arg("clock") = "auto",
+        py::arg("output") = py::none(), py::arg("series") = false, py::arg("starts") = 5, py::arg("seed") = 1,
         "The loss and delay models of a recorded link, as `fit_link --json` prints them (a dict; a list of "
         "them for a list of topics): from a ROS bag's topic (bag=, topic=), a trace CSV (csv=: stamp, receipt "
         "and optionally seq) or a LossyChannel's ~events (events=). rate: the expected rate in Hz (None: learnt); "

@@ -163,8 +163,7 @@ void step(PyEstimator& e, py::handle y, py::handle gamma_arg, py::handle u, int 
 }
 
 /// run(): steps the whole sequence in C++ without the GIL; returns (x, P, trace).
-py::tuple run(PyEstimator& e, py::handle Y, py::handle Gamma, py::handle U, py::handle nu, py::handle R,
-              py::handle dt)
+py::tuple run(PyEstimator& e, py::handle Y, py::handle Gamma, py::handle U, py::handle nu, py::handle R, py::handle dt)
 {
   const Model& model = *e.model;
   const int n = model.n(), m = model.m(), p = model.p();
@@ -327,8 +326,8 @@ py::dict simulate(const std::shared_ptr<Model>& model_ptr, py::handle links, lon
   options.noise_on_loss = loss_output == "noise";
   if (model.hasControl())
   {
-    options.control = ControlSequence::parse(control.is_none() ? "paper" : control.cast<std::string>(),
-                                             "simulate(): control");
+    options.control =
+        ControlSequence::parse(control.is_none() ? "paper" : control.cast<std::string>(), "simulate(): control");
     if (!actuator_link.is_none())
       options.actuator_link = linkOf(actuator_link, "simulate(): actuator_link");
   }
@@ -445,21 +444,23 @@ make_estimator(model, algorithm, **settings). It keeps its own copy of the model
            "Steps the whole sequence from the current estimate in C++ (the GIL released): Y (N, m), Gamma "
            "(N,) of 0/1 or bools, optionally U (N, p), nu (N,), R (N, m, m), dt (N,). Returns (x (N, n), "
            "P (N, n, n), trace (N,)), the estimate after every step.")
-      .def_property_readonly("x", [](const PyEstimator& e) { return Eigen::VectorXd(e.estimator->state()); },
-                             "x_{k|k} (a copy)")
-      .def_property_readonly("P", [](const PyEstimator& e) { return Eigen::MatrixXd(e.estimator->covariance()); },
-                             "P_{k|k} (a copy)")
-      .def("reset", [](PyEstimator& e) { e.estimator->reset(); }, "Back to x0, P0, step 0.")
-      .def("clone",
-           [](const PyEstimator& e)
-           {
-             auto c = std::make_shared<PyEstimator>();
-             c->model = e.model;
-             c->settings = e.settings;
-             c->estimator = e.estimator->clone();
-             return c;
-           },
-           "An independent copy in the same state.")
+      .def_property_readonly(
+          "x", [](const PyEstimator& e) { return Eigen::VectorXd(e.estimator->state()); }, "x_{k|k} (a copy)")
+      .def_property_readonly(
+          "P", [](const PyEstimator& e) { return Eigen::MatrixXd(e.estimator->covariance()); }, "P_{k|k} (a copy)")
+      .def(
+          "reset", [](PyEstimator& e) { e.estimator->reset(); }, "Back to x0, P0, step 0.")
+      .def(
+          "clone",
+          [](const PyEstimator& e)
+          {
+            auto c = std::make_shared<PyEstimator>();
+            c->model = e.model;
+            c->settings = e.settings;
+            c->estimator = e.estimator->clone();
+            return c;
+          },
+          "An independent copy in the same state.")
       .def_property_readonly("algorithm", [](const PyEstimator& e) { return toString(e.settings.algorithm); })
       .def_property_readonly("implementation", [](const PyEstimator& e) { return e.estimator->implementation(); })
       .def_property_readonly("steps", [](const PyEstimator& e) { return e.estimator->steps(); })
@@ -467,13 +468,16 @@ make_estimator(model, algorithm, **settings). It keeps its own copy of the model
       .def_property_readonly("command_arrival_probability",
                              [](const PyEstimator& e) { return e.estimator->commandArrivalProbability(); })
       .def_property_readonly("components", [](const PyEstimator& e) { return e.estimator->components(); })
-      .def_property_readonly("model", [](const PyEstimator& e) { return std::make_shared<Model>(*e.model); },
-                             "a copy of the estimator's model")
-      .def("__repr__", [](const PyEstimator& e) {
-        return "<networked_estimation.Estimator " + toString(e.settings.algorithm) + " (" +
-               e.estimator->implementation() + ") of model '" + e.model->name + "', step " +
-               std::to_string(e.estimator->steps()) + ">";
-      });
+      .def_property_readonly(
+          "model", [](const PyEstimator& e) { return std::make_shared<Model>(*e.model); },
+          "a copy of the estimator's model")
+      .def("__repr__",
+           [](const PyEstimator& e)
+           {
+             return "<networked_estimation.Estimator " + toString(e.settings.algorithm) + " (" +
+                    e.estimator->implementation() + ") of model '" + e.model->name + "', step " +
+                    std::to_string(e.estimator->steps()) + ">";
+           });
 
   m.def(
       "make_estimator",

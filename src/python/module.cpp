@@ -268,7 +268,9 @@ Model.from_yaml(path) reads a file.)doc")
            "Builds a model from the keys of a model file (A, Q, sensors, B, Bu, x0, P0, period, states, "
            "angles, schedule, uncertainty, motion, ...).")
       .def_static(
-          "from_yaml", [](py::handle path) {
+          "from_yaml",
+          [](py::handle path)
+          {
             std::string p;
             if (!asPath(path, p))
               throw py::type_error("Model.from_yaml(): expected a file path");
@@ -288,32 +290,36 @@ Model.from_yaml(path) reads a file.)doc")
       .def_property_readonly("Bu", [](const Model& mo) { return matrixOrNone(mo.Bu); })
       .def_property_readonly("x0", [](const Model& mo) { return Eigen::VectorXd(mo.x0); })
       .def_property_readonly("P0", [](const Model& mo) { return matrixOrNone(mo.P0); })
-      .def_property_readonly("sensors",
+      .def_property_readonly(
+          "sensors",
+          [](const Model& mo)
+          {
+            py::list out;
+            for (const Sensor& s : mo.sensors)
+              out.append(py::make_tuple(s.name, s.offset, s.size));
+            return out;
+          },
+          "(name, first row, rows) of every sensor, in the stacked y's order")
+      .def_property_readonly("states",
                              [](const Model& mo)
                              {
-                               py::list out;
-                               for (const Sensor& s : mo.sensors)
-                                 out.append(py::make_tuple(s.name, s.offset, s.size));
-                               return out;
-                             },
-                             "(name, first row, rows) of every sensor, in the stacked y's order")
-      .def_property_readonly("states", [](const Model& mo) {
-        std::vector<std::string> names;
-        for (int i = 0; i < mo.n(); ++i)
-          names.push_back(stateName(mo, i));
-        return names;
-      })
+                               std::vector<std::string> names;
+                               for (int i = 0; i < mo.n(); ++i)
+                                 names.push_back(stateName(mo, i));
+                               return names;
+                             })
       .def_readonly("angles", &Model::angles, "indices of the angular states")
       .def_property_readonly("motion", [](const Model& mo) { return toString(mo.motion); })
       .def_property_readonly("nonlinear", &Model::nonlinear)
-      .def("to_yaml",
-           [](const Model& mo)
-           {
-             std::ostringstream os;
-             writeModelYaml(os, mo, "written by networked_estimation.Model.to_yaml()");
-             return os.str();
-           },
-           "The model as a model file's text.")
+      .def(
+          "to_yaml",
+          [](const Model& mo)
+          {
+            std::ostringstream os;
+            writeModelYaml(os, mo, "written by networked_estimation.Model.to_yaml()");
+            return os.str();
+          },
+          "The model as a model file's text.")
       .def(py::pickle(
           [](const Model& mo)
           {
@@ -321,11 +327,14 @@ Model.from_yaml(path) reads a file.)doc")
             writeModelYaml(os, mo, "");
             return os.str();
           },
-          [](const std::string& text) { return std::make_shared<Model>(parseModel(YAML::Load(text), "a pickled Model")); }))
-      .def("__repr__", [](const Model& mo) {
-        return "<networked_estimation.Model '" + mo.name + "': n = " + std::to_string(mo.n()) + ", m = " +
-               std::to_string(mo.m()) + ", " + std::to_string(mo.sensors.size()) + " sensor(s)>";
-      });
+          [](const std::string& text)
+          { return std::make_shared<Model>(parseModel(YAML::Load(text), "a pickled Model")); }))
+      .def("__repr__",
+           [](const Model& mo)
+           {
+             return "<networked_estimation.Model '" + mo.name + "': n = " + std::to_string(mo.n()) +
+                    ", m = " + std::to_string(mo.m()) + ", " + std::to_string(mo.sensors.size()) + " sensor(s)>";
+           });
 
   m.def(
       "Sensor",
@@ -349,18 +358,22 @@ is. Bernoulli(loss) and GilbertElliott(p, r, loss_good, loss_bad) are the usual 
 Link.from_yaml(path) reads a file.)doc")
       .def(py::init([](py::kwargs keys) { return linkFromKwargs(keys, "Link()"); }))
       .def_static(
-          "from_yaml", [](py::handle path) {
+          "from_yaml",
+          [](py::handle path)
+          {
             std::string p;
             if (!asPath(path, p))
               throw py::type_error("Link.from_yaml(): expected a file path");
             return loadChannelSettings(p);
           },
           py::arg("path"))
-      .def_property_readonly("model", [](const ChannelSettings& s) {
-        return std::string(s.model == LossModelKind::BERNOULLI ? "bernoulli"
-                           : s.model == LossModelKind::TRACE   ? "trace"
-                                                               : "gilbert_elliott");
-      })
+      .def_property_readonly("model",
+                             [](const ChannelSettings& s)
+                             {
+                               return std::string(s.model == LossModelKind::BERNOULLI ? "bernoulli"
+                                                  : s.model == LossModelKind::TRACE   ? "trace"
+                                                                                      : "gilbert_elliott");
+                             })
       .def_readonly("loss", &ChannelSettings::loss)
       .def_readonly("p", &ChannelSettings::p)
       .def_readonly("r", &ChannelSettings::r)
@@ -369,21 +382,24 @@ Link.from_yaml(path) reads a file.)doc")
       .def_readonly("seed", &ChannelSettings::seed)
       .def_readonly("delay", &ChannelSettings::delay)
       .def_readonly("jitter", &ChannelSettings::jitter)
-      .def("to_yaml",
-           [](const ChannelSettings& s)
-           {
-             YAML::Emitter e;
-             e << toYaml(s);
-             return std::string(e.c_str()) + "\n";
-           },
-           "The link as a channel file's text.")
+      .def(
+          "to_yaml",
+          [](const ChannelSettings& s)
+          {
+            YAML::Emitter e;
+            e << toYaml(s);
+            return std::string(e.c_str()) + "\n";
+          },
+          "The link as a channel file's text.")
       .def("__repr__", [](const ChannelSettings& s) { return describeLink(s); })
-      .def(py::pickle([](const ChannelSettings& s) {
-                        YAML::Emitter e;
-                        e << toYaml(s);
-                        return std::string(e.c_str());
-                      },
-                      [](const std::string& text) { return parseChannelSettings(YAML::Load(text), "Link"); }));
+      .def(py::pickle(
+          [](const ChannelSettings& s)
+          {
+            YAML::Emitter e;
+            e << toYaml(s);
+            return std::string(e.c_str());
+          },
+          [](const std::string& text) { return parseChannelSettings(YAML::Load(text), "Link"); }));
 
   m.def(
       "Bernoulli",

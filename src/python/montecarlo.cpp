@@ -36,8 +36,10 @@ void addSettings(py::handle o, MonteCarloConfig& cfg)
     return;
   }
   if (!py::isinstance<py::dict>(o))
-    throw py::type_error("montecarlo(): settings: expected an algorithm name, a settings file, a dict of settings "
-                         "or a list of them, found " + std::string(Py_TYPE(o.ptr())->tp_name));
+    throw py::type_error(
+        "montecarlo(): settings: expected an algorithm name, a settings file, a dict of settings "
+        "or a list of them, found " +
+        std::string(Py_TYPE(o.ptr())->tp_name));
   py::dict d = py::reinterpret_borrow<py::dict>(o).attr("copy")();
   std::string label;
   if (d.contains("name"))
@@ -110,8 +112,9 @@ std::vector<std::string> channelArgs(py::handle o, MonteCarloConfig& cfg)
     {
       std::string arg;
       if (!asPath(item, arg))
-        throw py::type_error("montecarlo(): channels: a list holds the tool's --channel arguments (\"FILE\", "
-                             "\"NAME=FILE\"); give Link objects as {sensor: Link} or one Link for every sensor");
+        throw py::type_error(
+            "montecarlo(): channels: a list holds the tool's --channel arguments (\"FILE\", "
+            "\"NAME=FILE\"); give Link objects as {sensor: Link} or one Link for every sensor");
       out.push_back(arg);
     }
     return out;
@@ -273,9 +276,8 @@ py::dict caseDict(const CaseResult& c, const std::vector<double>& thresholds)
     e["time_average_se"] = s.n > 0 ? s.time_average_sd / std::sqrt(static_cast<double>(s.n)) : std::nan("");
     e["final_value"] = s.final_value;
     const double half = s.n > 0 ? 1.96 * s.growth_sd / std::sqrt(static_cast<double>(s.n)) : std::nan("");
-    e["growth"] = std::isfinite(s.growth)
-                      ? py::object(py::make_tuple(s.growth, s.growth - half, s.growth + half))
-                      : py::object(py::none());
+    e["growth"] = std::isfinite(s.growth) ? py::object(py::make_tuple(s.growth, s.growth - half, s.growth + half))
+                                          : py::object(py::none());
     e["mean_estimable"] = s.mean_estimable;
     e["mean_note"] = s.mean_note;
     e["bound"] = s.bound;
@@ -326,15 +328,22 @@ py::object sweepDict(const ExperimentResult& r)
       values.mutable_data()[i * A + j] = sw.point_values[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
   d["values"] = values;
   d["verdicts"] = sw.analysis.verdicts;
-  const std::pair<const char*, double SweepCell::*> stats[] = {
-      {"trP_mean", &SweepCell::trP_mean},         {"trP_sd", &SweepCell::trP_sd},
-      {"err_mean", &SweepCell::err_mean},         {"err_sd", &SweepCell::err_sd},
-      {"trP_avg_mean", &SweepCell::trP_avg_mean}, {"trP_avg_sd", &SweepCell::trP_avg_sd},
-      {"err_avg_mean", &SweepCell::err_avg_mean}, {"err_avg_sd", &SweepCell::err_avg_sd},
-      {"trP_p5", &SweepCell::trP_p5},             {"trP_p25", &SweepCell::trP_p25},
-      {"trP_median", &SweepCell::trP_median},     {"trP_p75", &SweepCell::trP_p75},
-      {"trP_p95", &SweepCell::trP_p95},           {"err_median", &SweepCell::err_median},
-      {"growth", &SweepCell::growth},             {"growth_sd", &SweepCell::growth_sd}};
+  const std::pair<const char*, double SweepCell::*> stats[] = {{"trP_mean", &SweepCell::trP_mean},
+                                                               {"trP_sd", &SweepCell::trP_sd},
+                                                               {"err_mean", &SweepCell::err_mean},
+                                                               {"err_sd", &SweepCell::err_sd},
+                                                               {"trP_avg_mean", &SweepCell::trP_avg_mean},
+                                                               {"trP_avg_sd", &SweepCell::trP_avg_sd},
+                                                               {"err_avg_mean", &SweepCell::err_avg_mean},
+                                                               {"err_avg_sd", &SweepCell::err_avg_sd},
+                                                               {"trP_p5", &SweepCell::trP_p5},
+                                                               {"trP_p25", &SweepCell::trP_p25},
+                                                               {"trP_median", &SweepCell::trP_median},
+                                                               {"trP_p75", &SweepCell::trP_p75},
+                                                               {"trP_p95", &SweepCell::trP_p95},
+                                                               {"err_median", &SweepCell::err_median},
+                                                               {"growth", &SweepCell::growth},
+                                                               {"growth_sd", &SweepCell::growth_sd}};
   const std::pair<const char*, long SweepCell::*> counts[] = {
       {"n", &SweepCell::n}, {"diverged", &SweepCell::diverged}, {"floored", &SweepCell::floored}};
   const std::size_t E = sw.estimators.size();
@@ -424,19 +433,20 @@ mean_estimable, mean_note, bound.)doc")
             throw py::key_error("case '" + name + "' is not a case of " + r.experiment + " (cases: " + names + ")");
           },
           py::arg("name"))
-      .def_property_readonly("samples",
-                             [](const ExperimentResult& r)
-                             {
-                               py::dict out;
-                               const Py_ssize_t cols = static_cast<Py_ssize_t>(r.sample_columns.size());
-                               for (const SampleSet& s : r.samples)
-                               {
-                                 const Py_ssize_t rows = cols ? static_cast<Py_ssize_t>(s.values.size()) / cols : 0;
-                                 out[py::str(s.case_name)] = py::array_t<double>({rows, cols}, s.values.data());
-                               }
-                               return out;
-                             },
-                             "per case, the per-run values (runs x sample_columns), e.g. zhou_fig2's P_{T|T}")
+      .def_property_readonly(
+          "samples",
+          [](const ExperimentResult& r)
+          {
+            py::dict out;
+            const Py_ssize_t cols = static_cast<Py_ssize_t>(r.sample_columns.size());
+            for (const SampleSet& s : r.samples)
+            {
+              const Py_ssize_t rows = cols ? static_cast<Py_ssize_t>(s.values.size()) / cols : 0;
+              out[py::str(s.case_name)] = py::array_t<double>({rows, cols}, s.values.data());
+            }
+            return out;
+          },
+          "per case, the per-run values (runs x sample_columns), e.g. zhou_fig2's P_{T|T}")
       .def_readonly("sample_columns", &ExperimentResult::sample_columns)
       .def_property_readonly("sweep", &sweepDict,
                              "the sweep experiment's grid (None for the others): axes (names), values (points x "
@@ -444,10 +454,13 @@ mean_estimable, mean_note, bound.)doc")
                              "err_sd, trP_avg_mean, trP_avg_sd, err_avg_mean, err_avg_sd, trP_p5, trP_p25, "
                              "trP_median, trP_p75, trP_p95, err_median, growth, growth_sd, n, diverged, floored, "
                              "trP_tail {M: P(tr P_T > M)}}}, each an array over the points (sweep.csv's rows)")
-      .def("csv", [](const ExperimentResult& r) { return experimentCsv(r); }, "NAME.csv's text")
-      .def("json", [](const ExperimentResult& r) { return experimentJson(r); }, "NAME.json's text")
-      .def("to_dict", [](const ExperimentResult& r) { return parseJson(experimentJson(r)); },
-           "NAME.json parsed (with a sweep's grid, verdicts and critical curve)")
+      .def(
+          "csv", [](const ExperimentResult& r) { return experimentCsv(r); }, "NAME.csv's text")
+      .def(
+          "json", [](const ExperimentResult& r) { return experimentJson(r); }, "NAME.json's text")
+      .def(
+          "to_dict", [](const ExperimentResult& r) { return parseJson(experimentJson(r)); },
+          "NAME.json parsed (with a sweep's grid, verdicts and critical curve)")
       .def(
           "write",
           [](const ExperimentResult& r, py::handle dir)
@@ -458,10 +471,12 @@ mean_estimable, mean_note, bound.)doc")
             writeExperiment(r, d);
           },
           py::arg("dir"), "Writes DIR/NAME.csv, .json (and _samples.csv) as the tool does.")
-      .def("__repr__", [](const ExperimentResult& r) {
-        return "<networked_estimation.MonteCarloResult " + r.experiment + ": " + std::to_string(r.runs) + " runs x " +
-               std::to_string(r.steps) + " steps, " + std::to_string(r.cases.size()) + " case(s)>";
-      });
+      .def("__repr__",
+           [](const ExperimentResult& r)
+           {
+             return "<networked_estimation.MonteCarloResult " + r.experiment + ": " + std::to_string(r.runs) +
+                    " runs x " + std::to_string(r.steps) + " steps, " + std::to_string(r.cases.size()) + " case(s)>";
+           });
 
   py::class_<ShardFile, std::shared_ptr<ShardFile>>(m, "Shard", R"doc(
 One shard of a Monte Carlo experiment (montecarlo(..., shard=(k, n))): picklable (it travels as the
@@ -490,10 +505,12 @@ them all.)doc")
                         s->path = memoryLabel(*s);
                         return s;
                       }))
-      .def("__repr__", [](const ShardFile& s) {
-        return "<networked_estimation.Shard " + s.config.experiment + " " + std::to_string(s.shard) + " of " +
-               std::to_string(s.shards) + ">";
-      });
+      .def("__repr__",
+           [](const ShardFile& s)
+           {
+             return "<networked_estimation.Shard " + s.config.experiment + " " + std::to_string(s.shard) + " of " +
+                    std::to_string(s.shards) + ">";
+           });
 
   m.def(
       "montecarlo",
@@ -518,11 +535,11 @@ them all.)doc")
           throw py::type_error("montecarlo(): shard: expected (k, n), two integers");
         }
         if (!(n >= 1 && n <= kMaxShards && k >= 1 && k <= n))
-          throw py::value_error("montecarlo(): shard: expected (k, n) with 1 <= k <= n <= " +
-                                std::to_string(kMaxShards) + ", found (" + std::to_string(k) + ", " +
-                                std::to_string(n) + ")");
-        std::shared_ptr<ShardFile> shard_file = runWithProgress<ShardFile>(
-            [&cfg, k, n](ProgressCounter* p) { return runShard(cfg, k, n, p); }, progress);
+          throw py::value_error(
+              "montecarlo(): shard: expected (k, n) with 1 <= k <= n <= " + std::to_string(kMaxShards) + ", found (" +
+              std::to_string(k) + ", " + std::to_string(n) + ")");
+        std::shared_ptr<ShardFile> shard_file =
+            runWithProgress<ShardFile>([&cfg, k, n](ProgressCounter* p) { return runShard(cfg, k, n, p); }, progress);
         shard_file->path = memoryLabel(*shard_file);
         return py::cast(shard_file);
       },
@@ -535,7 +552,8 @@ them all.)doc")
       "and sweep take model (a Model or a file), channels (a Link or file, {sensor: Link or file} or the tool's "
       "--channel arguments), actuator_channel (a file) and settings (an algorithm name, a settings file, a dict "
       "of settings with an optional 'name', or a list of them; objects go in as their text, which shards hash "
-      "and carry), sweep also axes ['NAME=LO:HI:N'] (a link's, an estimator's or the model's parameter). covariance_only=True "
+      "and carry), sweep also axes ['NAME=LO:HI:N'] (a link's, an estimator's or the model's parameter). "
+      "covariance_only=True "
       "(custom, sweep; the experiment covariance always) runs the estimators' covariance recursion on the links' "
       "arrivals alone, without the plant (the tool's --covariance-only). thresholds=[M, ...] adds the tail "
       "probabilities P(value > M) (the tool's --threshold). progress(done, total) is called as blocks finish. "

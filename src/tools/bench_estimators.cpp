@@ -157,7 +157,7 @@ struct EstimatorCase
   Algorithm algorithm;
   bool arrival;
   detail::SizeChoice form = detail::SizeChoice::AUTOMATIC;  ///< DYNAMIC: the general form at any size
-  bool angle = false;  ///< state 0 an angle (benchModel)
+  bool angle = false;                                       ///< state 0 an angle (benchModel)
   bool covariance_only = false;  ///< Estimator::setCovarianceOnly: P alone (one step in five lost)
 };
 
@@ -239,7 +239,8 @@ Model omniBenchModel(int n)
   {
     spec.motion = "omni_2d";
     spec.process_noise = {1e-4, 1e-4, 1e-4, 0.01, 0.01, 0.01, 0.1, 0.1};
-    spec.sensors = {{"odom", {"vx", "vy", "vyaw"}, {0.05}}, {"imu", {"yaw", "vyaw", "ax", "ay"}, {0.02, 0.01, 0.1, 0.1}}};
+    spec.sensors = {{"odom", {"vx", "vy", "vyaw"}, {0.05}},
+                    {"imu", {"yaw", "vyaw", "ax", "ay"}, {0.02, 0.01, 0.1, 0.1}}};
     spec.x0 = {0, 0, 0.5, 1.0, 0, 0.3, 0, 0};
   }
   else
@@ -247,7 +248,8 @@ Model omniBenchModel(int n)
     spec.motion = "omni_3d";
     spec.process_noise = {1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 0.01, 0.01, 0.01, 0.01, 0.01, 0.01, 0.1, 0.1, 0.1};
     spec.sensors = {{"odom", {"vx", "vy", "vz", "vyaw"}, {0.05}},
-                    {"imu", {"roll", "pitch", "yaw", "vroll", "vpitch", "vyaw", "ax", "ay", "az"},
+                    {"imu",
+                     {"roll", "pitch", "yaw", "vroll", "vpitch", "vyaw", "ax", "ay", "az"},
                      {0.02, 0.02, 0.02, 0.01, 0.01, 0.01, 0.1, 0.1, 0.1}}};
     spec.x0 = {0, 0, 0, 0.05, -0.05, 0.5, 1.0, 0, 0, 0, 0, 0.3, 0, 0, 0};
   }
@@ -316,7 +318,8 @@ void benchOnline(benchmark::State& state, bool gated)
     {
       const Eigen::VectorXd& y = ys[static_cast<std::size_t>(k) & (kRingSize - 1)];
       for (std::size_t i = 0; i < omni.sensors.size(); ++i)
-        online.offerMeasurement(k, i, y.data() + omni.sensors[i].offset, static_cast<std::size_t>(omni.sensors[i].size));
+        online.offerMeasurement(k, i, y.data() + omni.sensors[i].offset,
+                                static_cast<std::size_t>(omni.sensors[i].size));
       online.process();
       ++k;
     }
@@ -360,18 +363,18 @@ void registerBenchmarks()
   configure(benchmark::RegisterBenchmark("fixed_riccati", benchFixedRiccati<2>), {2});
   configure(benchmark::RegisterBenchmark("fixed_riccati", benchFixedRiccati<4>), {4});
   configure(benchmark::RegisterBenchmark("fixed_riccati", benchFixedRiccati<8>), {8});
-  configure(benchmark::RegisterBenchmark(
-                "kfio_covariance_only", benchEstimator,
-                EstimatorCase{Algorithm::KFIO, true, detail::SizeChoice::AUTOMATIC, false, true}),
-            {2, 4, 8});
+  configure(
+      benchmark::RegisterBenchmark("kfio_covariance_only", benchEstimator,
+                                   EstimatorCase{Algorithm::KFIO, true, detail::SizeChoice::AUTOMATIC, false, true}),
+      {2, 4, 8});
   const std::vector<std::pair<const char*, EstimatorCase>> cases = {
-    {"kf", {Algorithm::KF, true}},
-    {"kfio", {Algorithm::KFIO, true}},
-    {"kfio_drop", {Algorithm::KFIO, false}},
-    {"rseio_arrival", {Algorithm::RSEIO, true}},
-    {"rseio_drop", {Algorithm::RSEIO, false}},
-    {"aoe", {Algorithm::AOE, true}},
-    {"oe", {Algorithm::OE, true}},
+      {"kf", {Algorithm::KF, true}},
+      {"kfio", {Algorithm::KFIO, true}},
+      {"kfio_drop", {Algorithm::KFIO, false}},
+      {"rseio_arrival", {Algorithm::RSEIO, true}},
+      {"rseio_drop", {Algorithm::RSEIO, false}},
+      {"aoe", {Algorithm::AOE, true}},
+      {"oe", {Algorithm::OE, true}},
   };
   for (const auto& c : cases)
   {
@@ -379,19 +382,18 @@ void registerBenchmarks()
   }
   // the dynamic form where makeEstimator picks the fixed-size one
   const std::vector<std::pair<const char*, EstimatorCase>> dynamic_cases = {
-    {"kf_dynamic", {Algorithm::KF, true, detail::SizeChoice::DYNAMIC}},
-    {"kfio_dynamic", {Algorithm::KFIO, true, detail::SizeChoice::DYNAMIC}},
-    {"rseio_arrival_dynamic", {Algorithm::RSEIO, true, detail::SizeChoice::DYNAMIC}},
-    {"aoe_dynamic", {Algorithm::AOE, true, detail::SizeChoice::DYNAMIC}},
+      {"kf_dynamic", {Algorithm::KF, true, detail::SizeChoice::DYNAMIC}},
+      {"kfio_dynamic", {Algorithm::KFIO, true, detail::SizeChoice::DYNAMIC}},
+      {"rseio_arrival_dynamic", {Algorithm::RSEIO, true, detail::SizeChoice::DYNAMIC}},
+      {"aoe_dynamic", {Algorithm::AOE, true, detail::SizeChoice::DYNAMIC}},
   };
   for (const auto& c : dynamic_cases)
   {
     configure(benchmark::RegisterBenchmark(c.first, benchEstimator, c.second), {2, 4});
   }
   // with an angular state (wrapped innovation and state): the cost of the wrap next to kfio
-  configure(benchmark::RegisterBenchmark(
-                "kfio_angle", benchEstimator,
-                EstimatorCase{Algorithm::KFIO, true, detail::SizeChoice::AUTOMATIC, true}),
+  configure(benchmark::RegisterBenchmark("kfio_angle", benchEstimator,
+                                         EstimatorCase{Algorithm::KFIO, true, detail::SizeChoice::AUTOMATIC, true}),
             {2, 4, 8});
   // robot motions: ekfio next to kfio at the same n, m and data
   configure(benchmark::RegisterBenchmark("ekfio_omni", benchOmni, Algorithm::EKFIO), {8, 15});
@@ -458,7 +460,8 @@ int main(int argc, char** argv)
   benchmark::RunSpecifiedBenchmarks(&reporter);
   if (!reporter.timings().empty())
   {
-    networked_estimation::bench::printSummary(reporter.timings(), reporter.cpuTime(), networked_estimation::kOeComponents);
+    networked_estimation::bench::printSummary(reporter.timings(), reporter.cpuTime(),
+                                              networked_estimation::kOeComponents);
   }
   return 0;
 }

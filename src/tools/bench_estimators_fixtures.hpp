@@ -268,6 +268,5 @@ private:
   MatN Pp_;  ///< covarianceStep's workspace
 };
 
-
 }  // namespace bench
 }  // namespace networked_estimation

@@ -59,9 +59,9 @@ struct Row
 struct Table
 {
   std::vector<Row> rows;
-  std::string reference;        ///< benchmark name of the denominator
-  bool (*targeted)(int n);      ///< whether the targets apply at n
-  const char* targeted_text;    ///< e.g. "n >= 4"
+  std::string reference;      ///< benchmark name of the denominator
+  bool (*targeted)(int n);    ///< whether the targets apply at n
+  const char* targeted_text;  ///< e.g. "n >= 4"
 };
 
 std::string formatCell(const Stat& s, const Stat& base, bool use_min, double target, bool targeted)
@@ -155,16 +155,16 @@ void printSummary(const std::map<Key, Timing>& timings, bool cpu_time, std::size
   dynamic_table.targeted = [](int n) { return n >= 4; };
   dynamic_table.targeted_text = "n >= 4";
   dynamic_table.rows = {
-    {"baseline_kf", "baseline_kf", false, 0.0},
-    {"fixed_kf", "fixed_kf", false, 0.0},
-    {"kf", "kf", false, 0.0},
-    {"kfio", "kfio", false, 1.2},
-    {"kfio_drop", "kfio_drop", false, 0.0},
-    {"rseio_arrival", "rseio_arrival", false, 3.0},
-    {"rseio_drop", "rseio_drop", false, 0.0},
-    {"aoe", "aoe", false, 2.5},
-    {"oe (per step)", "oe", false, 0.0},
-    {"oe per component", "oe", true, 1.5},
+      {"baseline_kf", "baseline_kf", false, 0.0},
+      {"fixed_kf", "fixed_kf", false, 0.0},
+      {"kf", "kf", false, 0.0},
+      {"kfio", "kfio", false, 1.2},
+      {"kfio_drop", "kfio_drop", false, 0.0},
+      {"rseio_arrival", "rseio_arrival", false, 3.0},
+      {"rseio_drop", "rseio_drop", false, 0.0},
+      {"aoe", "aoe", false, 2.5},
+      {"oe (per step)", "oe", false, 0.0},
+      {"oe per component", "oe", true, 1.5},
   };
   // the fixed-size forms against the hand-written fixed-size filter (which exists for n = 2, 4, 8)
   Table fixed_table;
@@ -172,17 +172,17 @@ void printSummary(const std::map<Key, Timing>& timings, bool cpu_time, std::size
   fixed_table.targeted = [](int n) { return n == 2 || n == 4; };
   fixed_table.targeted_text = "n = 2, 4";
   fixed_table.rows = {
-    {"fixed_kf", "fixed_kf", false, 0.0},
-    {"kf", "kf", false, 0.0},
-    {"kf_dynamic", "kf_dynamic", false, 0.0},
-    {"kfio", "kfio", false, 1.3},
-    {"kfio_dynamic", "kfio_dynamic", false, 0.0},
-    {"rseio_arrival", "rseio_arrival", false, 3.0},
-    {"rseio_arrival_dyn", "rseio_arrival_dynamic", false, 0.0},
-    {"aoe", "aoe", false, 2.0},
-    {"aoe_dynamic", "aoe_dynamic", false, 0.0},
-    {"fixed_riccati", "fixed_riccati", false, 0.0},
-    {"kfio_cov_only", "kfio_covariance_only", false, 0.0},
+      {"fixed_kf", "fixed_kf", false, 0.0},
+      {"kf", "kf", false, 0.0},
+      {"kf_dynamic", "kf_dynamic", false, 0.0},
+      {"kfio", "kfio", false, 1.3},
+      {"kfio_dynamic", "kfio_dynamic", false, 0.0},
+      {"rseio_arrival", "rseio_arrival", false, 3.0},
+      {"rseio_arrival_dyn", "rseio_arrival_dynamic", false, 0.0},
+      {"aoe", "aoe", false, 2.0},
+      {"aoe_dynamic", "aoe_dynamic", false, 0.0},
+      {"fixed_riccati", "fixed_riccati", false, 0.0},
+      {"kfio_cov_only", "kfio_covariance_only", false, 0.0},
   };
   std::vector<int> sizes;
   std::size_t reps = 0;
@@ -196,9 +196,10 @@ void printSummary(const std::map<Key, Timing>& timings, bool cpu_time, std::size
   }
   std::sort(sizes.begin(), sizes.end());
   std::printf("\n==== Summary: one estimator step, m = n/2 (1 for n = 2), nw = n, p = 1, n_e = 1 ====\n");
-  std::printf("%zu repetition(s) per benchmark, %s time per step. Baseline: hand-written dynamic-size Eigen "
-              "Kalman filter.\n",
-              reps, cpu_time ? "CPU" : "real");
+  std::printf(
+      "%zu repetition(s) per benchmark, %s time per step. Baseline: hand-written dynamic-size Eigen "
+      "Kalman filter.\n",
+      reps, cpu_time ? "CPU" : "real");
   const auto oe = std::find_if(timings.begin(), timings.end(), [](const auto& kv) { return kv.first.first == "oe"; });
   if (oe != timings.end())
   {
@@ -217,8 +218,9 @@ void printSummary(const std::map<Key, Timing>& timings, bool cpu_time, std::size
   }
   if (!fixed_sizes.empty())
   {
-    std::printf("\nEstimators in their fixed-size form at n = 2, 4 (dynamic at n = 8) against the hand-written "
-                "fixed-size Kalman filter:\n");
+    std::printf(
+        "\nEstimators in their fixed-size form at n = 2, 4 (dynamic at n = 8) against the hand-written "
+        "fixed-size Kalman filter:\n");
     printTable(timings, fixed_table, fixed_sizes, false);
     printTable(timings, fixed_table, fixed_sizes, true);
   }
@@ -227,8 +229,8 @@ void printSummary(const std::map<Key, Timing>& timings, bool cpu_time, std::size
   omni_table.targeted = [](int n) { return n == 8 || n == 15; };
   omni_table.targeted_text = "n = 8, 15";
   omni_table.rows = {
-    {"kfio_omni", "kfio_omni", false, 0.0},
-    {"ekfio_omni", "ekfio_omni", false, 2.0},
+      {"kfio_omni", "kfio_omni", false, 0.0},
+      {"ekfio_omni", "ekfio_omni", false, 2.0},
   };
   std::vector<int> omni_sizes;
   for (int n : sizes)
@@ -240,8 +242,9 @@ void printSummary(const std::map<Key, Timing>& timings, bool cpu_time, std::size
   }
   if (!omni_sizes.empty())
   {
-    std::printf("\nRobot motions (n = 8: omni_2d, m = 7; n = 15: omni_3d, m = 13): ekfio against kfio on the "
-                "motion's linearisation, the same data:\n");
+    std::printf(
+        "\nRobot motions (n = 8: omni_2d, m = 7; n = 15: omni_3d, m = 13): ekfio against kfio on the "
+        "motion's linearisation, the same data:\n");
     printTable(timings, omni_table, omni_sizes, false);
     printTable(timings, omni_table, omni_sizes, true);
   }

@@ -58,8 +58,9 @@ Model randomUnstableModel(int n, int sensors, std::uint64_t seed, bool stable = 
   V += 2.0 * Eigen::MatrixXd::Identity(n, n);  // well conditioned
   Eigen::VectorXd eig(n);
   for (int i = 0; i < n; ++i)
-    eig[i] = stable ? (i == 0 ? 0.99 : rng.uniform(-0.9, 0.9))
-                    : i < 3 ? 1.05 + 0.15 * i + 0.05 * rng.uniform() : rng.uniform(-0.9, 0.9);
+    eig[i] = stable  ? (i == 0 ? 0.99 : rng.uniform(-0.9, 0.9))
+             : i < 3 ? 1.05 + 0.15 * i + 0.05 * rng.uniform()
+                     : rng.uniform(-0.9, 0.9);
   Model m;
   m.name = "random_n" + std::to_string(n);
   m.period = 0.1;
@@ -170,7 +171,8 @@ void liveOn(benchmark::State& state, const Model& m, bool markov, bool cache, in
   LiveStability live(m, settings, o);
   Rng rng(3);
   const Eigen::MatrixXd P = Eigen::MatrixXd::Identity(n, n);
-  const auto step = [&] {
+  const auto step = [&]
+  {
     std::vector<bool> arrived(S);
     bool any = false;
     for (int j = 0; j < S; ++j)
@@ -196,7 +198,10 @@ void liveOn(benchmark::State& state, const Model& m, bool markov, bool cache, in
     benchmark::DoNotOptimize(rep.values.size());
   }
   state.SetLabel(std::string(markov ? "markov" : "iid") +
-                 (fresh > 0 ? ", " + std::to_string(fresh) + " new steps" : cache ? ", cached" : "") + ": " + m.name);
+                 (fresh > 0 ? ", " + std::to_string(fresh) + " new steps"
+                  : cache   ? ", cached"
+                            : "") +
+                 ": " + m.name);
 }
 
 /// A built-in motion's live verdicts along a moving estimate, as the Estimator rebuilds them once a

@@ -114,7 +114,7 @@ std::string check(const std::vector<std::string>& files, const std::vector<std::
       const Eigen::RowVectorXd row = c.model.C.row(s.offset + i);
       Eigen::Index j = 0;
       const bool unit = row.cwiseAbs().maxCoeff(&j) == 1.0 && row(j) == 1.0 && row.cwiseAbs().sum() == 1.0;
-      const std::string state = !unit                  ? std::string("a combination")
+      const std::string state = !unit                    ? std::string("a combination")
                                 : c.model.states.empty() ? "x[" + std::to_string(j) + "]"
                                                          : c.model.states[static_cast<std::size_t>(j)];
       rows += (i ? ", " : "") + state;
@@ -133,28 +133,30 @@ std::string check(const std::vector<std::string>& files, const std::vector<std::
 
 int main(int argc, char** argv)
 {
-  cli::CommandLine cl("check_params",
-                      "Checks an Estimator parameter file (a YAML of its private parameters, the model inline\n"
-                      "or named) as the Estimator nodelet checks its parameters at load, without ROS: exit 0\n"
-                      "when it would start, 2 with the nodelet's message when it would refuse to load.",
+  cli::CommandLine cl(
+      "check_params",
+      "Checks an Estimator parameter file (a YAML of its private parameters, the model inline\n"
+      "or named) as the Estimator nodelet checks its parameters at load, without ROS: exit 0\n"
+      "when it would start, 2 with the nodelet's message when it would refuse to load.",
+      {
+          {"params", "FILE",
+           "an Estimator parameter file; several are loaded in order, each over the ones before (as "
+           "a launch file's <rosparam command=\"load\">s into one node), the messages naming the "
+           "first",
+           true, true},
+          {"set", "KEY=VALUE", "one parameter after the files (as a <param>), VALUE in YAML", false, true},
+      });
+  return cli::runTool(cl, argc, argv,
+                      [&]() -> int
                       {
-                          {"params", "FILE",
-                           "an Estimator parameter file; several are loaded in order, each over the ones before (as "
-                           "a launch file's <rosparam command=\"load\">s into one node), the messages naming the "
-                           "first",
-                           true, true},
-                          {"set", "KEY=VALUE", "one parameter after the files (as a <param>), VALUE in YAML", false,
-                           true},
+                        try
+                        {
+                          std::cout << check(cl.getAll("params"), cl.getAll("set")) << "\n";
+                        }
+                        catch (const ConfigError& e)
+                        {
+                          throw ConfigError(std::string("Estimator not started: ") + e.what());
+                        }
+                        return 0;
                       });
-  return cli::runTool(cl, argc, argv, [&]() -> int {
-    try
-    {
-      std::cout << check(cl.getAll("params"), cl.getAll("set")) << "\n";
-    }
-    catch (const ConfigError& e)
-    {
-      throw ConfigError(std::string("Estimator not started: ") + e.what());
-    }
-    return 0;
-  });
 }

@@ -97,8 +97,10 @@ int mergeMain(int argc, char** argv)
       "Exit codes: 0 ok; 2 bad arguments, or a missing, duplicate, foreign or malformed shard (the message\n"
       "names the file and the field); 3 never.",
       {
-          {"experiment", "NAME", "merge only the shards of NAME (default: every shard file; they must be of one "
-                                 "experiment)", false, false},
+          {"experiment", "NAME",
+           "merge only the shards of NAME (default: every shard file; they must be of one "
+           "experiment)",
+           false, false},
           {"out", "DIR", "output directory (created when missing; default: the first DIR)", false, false},
       });
   std::vector<std::string> dirs;
@@ -115,34 +117,37 @@ int mergeMain(int argc, char** argv)
     else
       dirs.push_back(a);
   }
-  return cli::runTool(cl, static_cast<int>(args.size()), args.data(), [&]() -> int {
-    if (dirs.empty())
-      throw cli::UsageError("merge: expected one or more directories of shard files");
-    std::vector<ShardFile> shards;
-    if (cl.has("experiment"))
-    {
-      try
-      {
-        checkExperimentName(cl.get("experiment"));
-      }
-      catch (const ConfigError& e)
-      {
-        throw cli::UsageError(e.what());
-      }
-    }
-    for (const std::string& file : findShardFiles(dirs, cl.get("experiment")))
-      shards.push_back(readShard(file));
-    const std::size_t count = shards.size();
-    const std::string out = cl.get("out", dirs.front());
-    const ExperimentResult result = mergeShards(std::move(shards));
-    writeExperiment(result, out);
-    std::string shown = out;
-    while (shown.size() > 1 && shown.back() == '/')
-      shown.pop_back();
-    std::fprintf(stderr, "montecarlo merge: %s: %zu shards, %ld runs x %ld steps -> %s/%s.csv\n",
-                 result.experiment.c_str(), count, result.runs, result.steps, shown.c_str(), result.experiment.c_str());
-    return 0;
-  });
+  return cli::runTool(cl, static_cast<int>(args.size()), args.data(),
+                      [&]() -> int
+                      {
+                        if (dirs.empty())
+                          throw cli::UsageError("merge: expected one or more directories of shard files");
+                        std::vector<ShardFile> shards;
+                        if (cl.has("experiment"))
+                        {
+                          try
+                          {
+                            checkExperimentName(cl.get("experiment"));
+                          }
+                          catch (const ConfigError& e)
+                          {
+                            throw cli::UsageError(e.what());
+                          }
+                        }
+                        for (const std::string& file : findShardFiles(dirs, cl.get("experiment")))
+                          shards.push_back(readShard(file));
+                        const std::size_t count = shards.size();
+                        const std::string out = cl.get("out", dirs.front());
+                        const ExperimentResult result = mergeShards(std::move(shards));
+                        writeExperiment(result, out);
+                        std::string shown = out;
+                        while (shown.size() > 1 && shown.back() == '/')
+                          shown.pop_back();
+                        std::fprintf(stderr, "montecarlo merge: %s: %zu shards, %ld runs x %ld steps -> %s/%s.csv\n",
+                                     result.experiment.c_str(), count, result.runs, result.steps, shown.c_str(),
+                                     result.experiment.c_str());
+                        return 0;
+                      });
 }
 
 }  // namespace
@@ -195,11 +200,12 @@ int main(int argc, char** argv)
            false, false},
           {"model", "FILE", "custom, covariance, sweep: model file (YAML)", false, false},
           {"channel", "[NAME=]FILE",
-           "custom, covariance, sweep: sensor link channel settings (YAML) for every sensor, or NAME=FILE for sensor NAME; a sensor "
+           "custom, covariance, sweep: sensor link channel settings (YAML) for every sensor, or NAME=FILE for sensor "
+           "NAME; a sensor "
            "with neither is lossless",
            false, true},
-          {"actuator-channel", "FILE", "custom, covariance, sweep: controller-to-actuator channel settings (default: lossless)",
-           false, false},
+          {"actuator-channel", "FILE",
+           "custom, covariance, sweep: controller-to-actuator channel settings (default: lossless)", false, false},
           {"settings", "S1,S2,...",
            "custom, covariance, sweep: estimator settings files or algorithm names (kfio, rseio, ...), comma-separated",
            false, false},
@@ -217,101 +223,106 @@ int main(int argc, char** argv)
            "merge)",
            false, false},
       });
-  return cli::runTool(cl, argc, argv, [&]() -> int {
-    MonteCarloConfig cfg;
-    cfg.experiment = cl.get("experiment");
-    try
-    {
-      checkExperimentName(cfg.experiment);
-    }
-    catch (const ConfigError& e)
-    {
-      throw cli::UsageError(e.what());
-    }
-    cfg.runs = cl.getLong("runs", 0, 1, 100000000);
-    cfg.steps = cl.getLong("steps", 0, 1, 100000000);
-    cfg.seed = cl.getUint64("seed", 1);
-    cfg.threads = static_cast<int>(cl.getLong("threads", 0, 1, 1024));
-    const bool sweep = cfg.experiment == "sweep";
-    const bool custom = takesCustomInputs(cfg.experiment);
-    for (const char* key : {"model", "settings"})
-      if (custom && !cl.has(key))
-        throw cli::UsageError("experiment " + cfg.experiment + " needs --" + key);
-    for (const char* key : {"model", "channel", "actuator-channel", "settings", "covariance-only"})
-      if (!custom && cl.has(key))
-        throw cli::UsageError(std::string("option '--") + key + "' is only for --experiment custom, covariance or sweep");
-    cfg.covariance_only = cl.has("covariance-only");
-    for (const std::string& t : cl.getAll("threshold"))
-    {
-      double m = 0.0;
-      char* end = nullptr;
-      m = std::strtod(t.c_str(), &end);
-      if (t.empty() || end != t.c_str() + t.size() || !std::isfinite(m))
-        throw cli::UsageError("option '--threshold': expected a finite number, found '" + t + "'");
-      cfg.thresholds.push_back(m);
-    }
-    try
-    {
-      canonicalConfig(cfg);  // the thresholds' count and repeats
-    }
-    catch (const ConfigError& e)
-    {
-      throw cli::UsageError(e.what());
-    }
-    if (sweep && !cl.has("axis"))
-      throw cli::UsageError("experiment sweep needs --axis NAME=LO:HI:N (once or twice)");
-    if (!sweep && cl.has("axis"))
-      throw cli::UsageError("option '--axis' is only for --experiment sweep");
-    if (sweep)
-    {
-      cfg.axis_args = cl.getAll("axis");
-      if (cfg.axis_args.size() > 2)
-        throw cli::UsageError("option '--axis': at most two axes, found " + std::to_string(cfg.axis_args.size()));
-      for (const std::string& a : cfg.axis_args)
+  return cli::runTool(
+      cl, argc, argv,
+      [&]() -> int
+      {
+        MonteCarloConfig cfg;
+        cfg.experiment = cl.get("experiment");
         try
         {
-          parseSweepAxis(a);  // the form and the range now; the sensor once the model is read
+          checkExperimentName(cfg.experiment);
         }
         catch (const ConfigError& e)
         {
           throw cli::UsageError(e.what());
         }
-    }
-    if (custom)
-    {
-      cfg.model_path = cl.get("model");
-      cfg.channel_args = cl.getAll("channel");
-      cfg.actuator_channel_path = cl.get("actuator-channel");
-      cfg.settings_paths = splitComma(cl.get("settings"));
-      if (cfg.settings_paths.empty())
-        throw cli::UsageError("option '--settings': expected comma-separated settings files");
-    }
-    int shard = 0, shards = 0;
-    if (cl.has("shard") && !parseShardSpec(cl.get("shard"), shard, shards))
-      throw cli::UsageError("option '--shard': expected K/N with integers 1 <= K <= N <= 1000000, found '" +
-                            cl.get("shard") + "'");
-    long default_runs = 0, default_steps = 0;
-    experimentDefaults(cfg.experiment, default_runs, default_steps);
-    ProgressPrinter printer(cfg.runs > 0 ? cfg.runs : default_runs);
-    ProgressCounter progress([&printer](long done, long total) { printer(done, total); });
-    if (shards > 0)
-    {
-      const ShardFile sf = runShard(cfg, shard, shards, &progress);
-      const std::string path = writeShard(sf, cl.get("out"));
-      long owned = 0;
-      for (const BlockMoments& b : sf.calls.empty() ? std::vector<BlockMoments>{} : sf.calls.front().blocks)
-        owned += b.count;
-      std::fprintf(stderr, "montecarlo: %s shard %d of %d: %ld of %ld runs x %ld steps on %d threads in %.2f s -> %s\n",
-                   cfg.experiment.c_str(), shard, shards, owned, sf.config.runs, sf.config.steps, sf.threads,
-                   sf.wall_seconds, path.c_str());
-      return 0;
-    }
-    const ExperimentResult result = runExperiment(cfg, &progress);  // custom --covariance-only: covariance
-    writeExperiment(result, cl.get("out"));
-    std::fprintf(stderr, "montecarlo: %s: %ld runs x %ld steps%s on %d threads in %.2f s -> %s/%s.csv\n",
-                 result.experiment.c_str(), result.runs, result.steps,
-                 result.sweep ? (" x " + std::to_string(result.sweep->points) + " grid points").c_str() : "",
-                 result.threads, result.wall_seconds, cl.get("out").c_str(), result.experiment.c_str());
-    return 0;
-  });
+        cfg.runs = cl.getLong("runs", 0, 1, 100000000);
+        cfg.steps = cl.getLong("steps", 0, 1, 100000000);
+        cfg.seed = cl.getUint64("seed", 1);
+        cfg.threads = static_cast<int>(cl.getLong("threads", 0, 1, 1024));
+        const bool sweep = cfg.experiment == "sweep";
+        const bool custom = takesCustomInputs(cfg.experiment);
+        for (const char* key : {"model", "settings"})
+          if (custom && !cl.has(key))
+            throw cli::UsageError("experiment " + cfg.experiment + " needs --" + key);
+        for (const char* key : {"model", "channel", "actuator-channel", "settings", "covariance-only"})
+          if (!custom && cl.has(key))
+            throw cli::UsageError(std::string("option '--") + key +
+                                  "' is only for --experiment custom, covariance or sweep");
+        cfg.covariance_only = cl.has("covariance-only");
+        for (const std::string& t : cl.getAll("threshold"))
+        {
+          double m = 0.0;
+          char* end = nullptr;
+          m = std::strtod(t.c_str(), &end);
+          if (t.empty() || end != t.c_str() + t.size() || !std::isfinite(m))
+            throw cli::UsageError("option '--threshold': expected a finite number, found '" + t + "'");
+          cfg.thresholds.push_back(m);
+        }
+        try
+        {
+          canonicalConfig(cfg);  // the thresholds' count and repeats
+        }
+        catch (const ConfigError& e)
+        {
+          throw cli::UsageError(e.what());
+        }
+        if (sweep && !cl.has("axis"))
+          throw cli::UsageError("experiment sweep needs --axis NAME=LO:HI:N (once or twice)");
+        if (!sweep && cl.has("axis"))
+          throw cli::UsageError("option '--axis' is only for --experiment sweep");
+        if (sweep)
+        {
+          cfg.axis_args = cl.getAll("axis");
+          if (cfg.axis_args.size() > 2)
+            throw cli::UsageError("option '--axis': at most two axes, found " + std::to_string(cfg.axis_args.size()));
+          for (const std::string& a : cfg.axis_args)
+            try
+            {
+              parseSweepAxis(a);  // the form and the range now; the sensor once the model is read
+            }
+            catch (const ConfigError& e)
+            {
+              throw cli::UsageError(e.what());
+            }
+        }
+        if (custom)
+        {
+          cfg.model_path = cl.get("model");
+          cfg.channel_args = cl.getAll("channel");
+          cfg.actuator_channel_path = cl.get("actuator-channel");
+          cfg.settings_paths = splitComma(cl.get("settings"));
+          if (cfg.settings_paths.empty())
+            throw cli::UsageError("option '--settings': expected comma-separated settings files");
+        }
+        int shard = 0, shards = 0;
+        if (cl.has("shard") && !parseShardSpec(cl.get("shard"), shard, shards))
+          throw cli::UsageError("option '--shard': expected K/N with integers 1 <= K <= N <= 1000000, found '" +
+                                cl.get("shard") + "'");
+        long default_runs = 0, default_steps = 0;
+        experimentDefaults(cfg.experiment, default_runs, default_steps);
+        ProgressPrinter printer(cfg.runs > 0 ? cfg.runs : default_runs);
+        ProgressCounter progress([&printer](long done, long total) { printer(done, total); });
+        if (shards > 0)
+        {
+          const ShardFile sf = runShard(cfg, shard, shards, &progress);
+          const std::string path = writeShard(sf, cl.get("out"));
+          long owned = 0;
+          for (const BlockMoments& b : sf.calls.empty() ? std::vector<BlockMoments>{} : sf.calls.front().blocks)
+            owned += b.count;
+          std::fprintf(stderr,
+                       "montecarlo: %s shard %d of %d: %ld of %ld runs x %ld steps on %d threads in %.2f s -> %s\n",
+                       cfg.experiment.c_str(), shard, shards, owned, sf.config.runs, sf.config.steps, sf.threads,
+                       sf.wall_seconds, path.c_str());
+          return 0;
+        }
+        const ExperimentResult result = runExperiment(cfg, &progress);  // custom --covariance-only: covariance
+        writeExperiment(result, cl.get("out"));
+        std::fprintf(stderr, "montecarlo: %s: %ld runs x %ld steps%s on %d threads in %.2f s -> %s/%s.csv\n",
+                     result.experiment.c_str(), result.runs, result.steps,
+                     result.sweep ? (" x " + std::to_string(result.sweep->points) + " grid points").c_str() : "",
+                     result.threads, result.wall_seconds, cl.get("out").c_str(), result.experiment.c_str());
+        return 0;
+      });
 }

@@ -25,30 +25,33 @@ int main(int argc, char** argv)
                           {"model", "FILE", "the model simulated: its angles' errors are wrapped", false, false},
                           {"csv", "", "print CSV instead of a table", false, false},
                       });
-  return cli::runTool(cl, argc, argv, [&]() -> int {
-    const long from = cl.getLong("from", 1, 1, std::numeric_limits<long>::max());
-    std::vector<std::pair<std::string, std::string>> estimates;
-    for (const std::string& spec : cl.getAll("estimate"))
-    {
-      const std::string::size_type eq = spec.find('=');
-      if (eq == std::string::npos || eq == 0 || eq + 1 == spec.size())
-        throw cli::UsageError("option '--estimate': expected NAME=FILE, found '" + spec + "'");
-      estimates.emplace_back(spec.substr(0, eq), spec.substr(eq + 1));
-    }
-    const Truth truth = readTruth(cl.get("truth"));
-    std::vector<int> angles;
-    if (cl.has("model"))
-    {
-      const Model model = loadModel(cl.get("model"));
-      if (model.n() != truth.n)
-        throw InputError(truth.path + ": has n = " + std::to_string(truth.n) + " states but the model " +
-                         cl.get("model") + " has n = " + std::to_string(model.n()));
-      angles = model.angles;
-    }
-    std::vector<Score> scores;
-    for (const auto& e : estimates)
-      scores.push_back(scoreEstimate(e.first, truth, readReplayOutput(e.second), from, angles));
-    std::cout << formatScores(scores, from, cl.has("csv"));
-    return 0;
-  });
+  return cli::runTool(cl, argc, argv,
+                      [&]() -> int
+                      {
+                        const long from = cl.getLong("from", 1, 1, std::numeric_limits<long>::max());
+                        std::vector<std::pair<std::string, std::string>> estimates;
+                        for (const std::string& spec : cl.getAll("estimate"))
+                        {
+                          const std::string::size_type eq = spec.find('=');
+                          if (eq == std::string::npos || eq == 0 || eq + 1 == spec.size())
+                            throw cli::UsageError("option '--estimate': expected NAME=FILE, found '" + spec + "'");
+                          estimates.emplace_back(spec.substr(0, eq), spec.substr(eq + 1));
+                        }
+                        const Truth truth = readTruth(cl.get("truth"));
+                        std::vector<int> angles;
+                        if (cl.has("model"))
+                        {
+                          const Model model = loadModel(cl.get("model"));
+                          if (model.n() != truth.n)
+                            throw InputError(truth.path + ": has n = " + std::to_string(truth.n) +
+                                             " states but the model " + cl.get("model") +
+                                             " has n = " + std::to_string(model.n()));
+                          angles = model.angles;
+                        }
+                        std::vector<Score> scores;
+                        for (const auto& e : estimates)
+                          scores.push_back(scoreEstimate(e.first, truth, readReplayOutput(e.second), from, angles));
+                        std::cout << formatScores(scores, from, cl.has("csv"));
+                        return 0;
+                      });
 }

@@ -73,17 +73,23 @@ TEST(SensorAdapters, EveryFieldOfEveryTypeReadsItsValue)
   fill(odom.twist.twist.linear, 2.0);
   fill(odom.twist.twist.angular, 3.0);
   // The expected values by path, written out independently of the field table.
-  auto poseValue = [&](const geometry_msgs::Pose& pose, const std::string& prefix, const std::string& name) {
+  auto poseValue = [&](const geometry_msgs::Pose& pose, const std::string& prefix, const std::string& name)
+  {
     const std::string rest = name.substr(prefix.size());
-    const std::map<std::string, double> values = {
-        {"position.x", pose.position.x},       {"position.y", pose.position.y},
-        {"position.z", pose.position.z},       {"orientation.x", pose.orientation.x},
-        {"orientation.y", pose.orientation.y}, {"orientation.z", pose.orientation.z},
-        {"orientation.w", pose.orientation.w}, {"orientation.roll", r},
-        {"orientation.pitch", p},              {"orientation.yaw", yaw}};
+    const std::map<std::string, double> values = {{"position.x", pose.position.x},
+                                                  {"position.y", pose.position.y},
+                                                  {"position.z", pose.position.z},
+                                                  {"orientation.x", pose.orientation.x},
+                                                  {"orientation.y", pose.orientation.y},
+                                                  {"orientation.z", pose.orientation.z},
+                                                  {"orientation.w", pose.orientation.w},
+                                                  {"orientation.roll", r},
+                                                  {"orientation.pitch", p},
+                                                  {"orientation.yaw", yaw}};
     return values.count(rest) ? values.at(rest) : std::nan("");
   };
-  auto twistValue = [](const geometry_msgs::Twist& t, const std::string& prefix, const std::string& name) {
+  auto twistValue = [](const geometry_msgs::Twist& t, const std::string& prefix, const std::string& name)
+  {
     const std::string rest = name.substr(prefix.size());
     const std::map<std::string, double> values = {{"linear.x", t.linear.x},   {"linear.y", t.linear.y},
                                                   {"linear.z", t.linear.z},   {"angular.x", t.angular.x},
@@ -91,7 +97,8 @@ TEST(SensorAdapters, EveryFieldOfEveryTypeReadsItsValue)
     return values.count(rest) ? values.at(rest) : std::nan("");
   };
   // roll/pitch/yaw come back through a quaternion: equal to 1e-12, not bit for bit.
-  auto near = [&](ne::InputType type, const auto& m, auto expected) {
+  auto near = [&](ne::InputType type, const auto& m, auto expected)
+  {
     const std::vector<ne::InputField>& fields = ne::inputFields(type);
     std::vector<double> y(fields.size());
     std::string why;
@@ -99,13 +106,16 @@ TEST(SensorAdapters, EveryFieldOfEveryTypeReadsItsValue)
     for (std::size_t i = 0; i < fields.size(); ++i)
       EXPECT_NEAR(y[i], expected(fields[i].name), 1e-12) << ne::toString(type) << " " << fields[i].name;
   };
-  near(ne::InputType::ODOMETRY, odom, [&](const std::string& n) {
-    return n.rfind("pose.pose.", 0) == 0 ? poseValue(odom.pose.pose, "pose.pose.", n)
-                                         : twistValue(odom.twist.twist, "twist.twist.", n);
-  });
+  near(ne::InputType::ODOMETRY, odom,
+       [&](const std::string& n)
+       {
+         return n.rfind("pose.pose.", 0) == 0 ? poseValue(odom.pose.pose, "pose.pose.", n)
+                                              : twistValue(odom.twist.twist, "twist.twist.", n);
+       });
   geometry_msgs::PoseWithCovarianceStamped pc;
   pc.pose.pose = odom.pose.pose;
-  near(ne::InputType::POSE_WITH_COVARIANCE, pc, [&](const std::string& n) { return poseValue(pc.pose.pose, "pose.pose.", n); });
+  near(ne::InputType::POSE_WITH_COVARIANCE, pc,
+       [&](const std::string& n) { return poseValue(pc.pose.pose, "pose.pose.", n); });
   geometry_msgs::PoseStamped ps;
   ps.pose = odom.pose.pose;
   near(ne::InputType::POSE, ps, [&](const std::string& n) { return poseValue(ps.pose, "pose.", n); });
@@ -118,24 +128,33 @@ TEST(SensorAdapters, EveryFieldOfEveryTypeReadsItsValue)
   expectAllFields(ne::InputType::TWIST, ts, [&](const std::string& n) { return twistValue(ts.twist, "twist.", n); });
   geometry_msgs::PointStamped pt;
   fill(pt.point, 4.0);
-  expectAllFields(ne::InputType::POINT, pt, [&](const std::string& n) {
-    return n == "point.x" ? pt.point.x : n == "point.y" ? pt.point.y : n == "point.z" ? pt.point.z : std::nan("");
-  });
+  expectAllFields(
+      ne::InputType::POINT, pt,
+      [&](const std::string& n) {
+        return n == "point.x" ? pt.point.x : n == "point.y" ? pt.point.y : n == "point.z" ? pt.point.z : std::nan("");
+      });
   sensor_msgs::Imu imu;
   imu.orientation = quat(r, p, yaw);
   fill(imu.angular_velocity, 5.0);
   fill(imu.linear_acceleration, 6.0);
-  near(ne::InputType::IMU, imu, [&](const std::string& n) {
-    const std::map<std::string, double> v = {
-        {"orientation.x", imu.orientation.x},         {"orientation.y", imu.orientation.y},
-        {"orientation.z", imu.orientation.z},         {"orientation.w", imu.orientation.w},
-        {"orientation.roll", r},                      {"orientation.pitch", p},
-        {"orientation.yaw", yaw},                     {"angular_velocity.x", imu.angular_velocity.x},
-        {"angular_velocity.y", imu.angular_velocity.y}, {"angular_velocity.z", imu.angular_velocity.z},
-        {"linear_acceleration.x", imu.linear_acceleration.x}, {"linear_acceleration.y", imu.linear_acceleration.y},
-        {"linear_acceleration.z", imu.linear_acceleration.z}};
-    return v.count(n) ? v.at(n) : std::nan("");
-  });
+  near(ne::InputType::IMU, imu,
+       [&](const std::string& n)
+       {
+         const std::map<std::string, double> v = {{"orientation.x", imu.orientation.x},
+                                                  {"orientation.y", imu.orientation.y},
+                                                  {"orientation.z", imu.orientation.z},
+                                                  {"orientation.w", imu.orientation.w},
+                                                  {"orientation.roll", r},
+                                                  {"orientation.pitch", p},
+                                                  {"orientation.yaw", yaw},
+                                                  {"angular_velocity.x", imu.angular_velocity.x},
+                                                  {"angular_velocity.y", imu.angular_velocity.y},
+                                                  {"angular_velocity.z", imu.angular_velocity.z},
+                                                  {"linear_acceleration.x", imu.linear_acceleration.x},
+                                                  {"linear_acceleration.y", imu.linear_acceleration.y},
+                                                  {"linear_acceleration.z", imu.linear_acceleration.z}};
+         return v.count(n) ? v.at(n) : std::nan("");
+       });
   sensor_msgs::Range range;
   range.range = 7.25f;
   expectAllFields(ne::InputType::RANGE, range, [&](const std::string&) { return 7.25; });
@@ -239,7 +258,8 @@ TEST(SensorAdapters, NavSatFixToEnu)
   ne::MessageView v;
   v.enu = &enu;
   double y[3];
-  EXPECT_TRUE(ne::readFields(v, {ne::inputFields(ne::InputType::NAVSATFIX)[0], ne::inputFields(ne::InputType::NAVSATFIX)[1]}, y, why));
+  EXPECT_TRUE(ne::readFields(
+      v, {ne::inputFields(ne::InputType::NAVSATFIX)[0], ne::inputFields(ne::InputType::NAVSATFIX)[1]}, y, why));
   EXPECT_FALSE(ne::readFields(v, ne::inputFields(ne::InputType::NAVSATFIX), y, why));
   EXPECT_NE(why.find("up is not finite"), std::string::npos) << why;
 }
@@ -314,11 +334,11 @@ TEST(SensorAdapters, OdometryFullOrientation)
   EXPECT_EQ(o.twist.twist.angular.x, 0.01);
   EXPECT_EQ(o.twist.twist.angular.y, 0.02);
   EXPECT_EQ(o.twist.twist.angular.z, 0.03);
-  EXPECT_EQ(o.pose.covariance[3 * 6 + 3], 4.0);   // roll
-  EXPECT_EQ(o.pose.covariance[3 * 6 + 4], 0.1);   // roll-pitch
-  EXPECT_EQ(o.pose.covariance[5 * 6 + 5], 6.0);   // yaw
-  EXPECT_EQ(o.twist.covariance[3 * 6 + 5], -0.2); // vroll-vyaw
-  EXPECT_EQ(o.twist.covariance[4 * 6 + 4], 11.0); // vpitch
+  EXPECT_EQ(o.pose.covariance[3 * 6 + 3], 4.0);    // roll
+  EXPECT_EQ(o.pose.covariance[3 * 6 + 4], 0.1);    // roll-pitch
+  EXPECT_EQ(o.pose.covariance[5 * 6 + 5], 6.0);    // yaw
+  EXPECT_EQ(o.twist.covariance[3 * 6 + 5], -0.2);  // vroll-vyaw
+  EXPECT_EQ(o.twist.covariance[4 * 6 + 4], 11.0);  // vpitch
   for (std::size_t i = 0; i < 36; i += 7)
   {
     EXPECT_LT(o.pose.covariance[i], ne::kUnmappedVariance) << i;  // every axis estimated
@@ -331,9 +351,8 @@ TEST(SensorAdapters, CommandTypes)
   geometry_msgs::Twist t;
   t.linear.x = 0.7;
   t.angular.z = -0.2;
-  const std::vector<ne::InputField> f = {
-      ne::inputFieldFromString(ne::InputType::TWIST_UNSTAMPED, "linear.x", "k"),
-      ne::inputFieldFromString(ne::InputType::TWIST_UNSTAMPED, "angular.z", "k")};
+  const std::vector<ne::InputField> f = {ne::inputFieldFromString(ne::InputType::TWIST_UNSTAMPED, "linear.x", "k"),
+                                         ne::inputFieldFromString(ne::InputType::TWIST_UNSTAMPED, "angular.z", "k")};
   double u[2];
   std::string why;
   ASSERT_TRUE(ne::readFields(ne::view(t), f, u, why)) << why;
@@ -361,7 +380,8 @@ ne::Frames tableFrames(const std::map<std::pair<std::string, std::string>, tf2::
   f.world = "map";
   f.base = "base_link";
   f.lookup = [table](const std::string& target, const std::string& source, const ros::Time&, tf2::Transform& out,
-                     std::string& why) {
+                     std::string& why)
+  {
     auto it = table.find({target, source});
     if (it == table.end())
     {
@@ -384,7 +404,8 @@ ne::Frames tableFrames(const std::map<std::pair<std::string, std::string>, tf2::
 // +y and drives 1 m forward reads (1, 0) facing 0); the covariance rotated into the origin's axes.
 TEST(InputPreprocessing, RelativePoses)
 {
-  auto yawOf = [](const geometry_msgs::Quaternion& q) {
+  auto yawOf = [](const geometry_msgs::Quaternion& q)
+  {
     double r, p, y;
     tf2::Matrix3x3(ne::toTf(q)).getRPY(r, p, y);
     return y;
@@ -394,7 +415,8 @@ TEST(InputPreprocessing, RelativePoses)
   in.relative = true;
   ne::InputMemory mem;
   std::string why;
-  auto odom = [](double x, double y, double yaw) {
+  auto odom = [](double x, double y, double yaw)
+  {
     nav_msgs::Odometry m;
     m.pose.pose.position.x = x;
     m.pose.pose.position.y = y;
@@ -476,7 +498,8 @@ TEST(InputPreprocessing, DifferentialPosesAreVelocities)
 {
   ne::InputMemory mem;
   std::string why;
-  auto pose = [](double x, double y, double yaw) {
+  auto pose = [](double x, double y, double yaw)
+  {
     geometry_msgs::Pose p;
     p.position.x = x;
     p.position.y = y;
@@ -523,8 +546,8 @@ TEST(FrameTransforms, IntoWorldAndBaseLink)
   tf2::Quaternion imu_rot;
   imu_rot.setRPY(M_PI, 0.0, 0.0);  // an IMU mounted upside down
   const tf2::Transform base_imu(imu_rot, tf2::Vector3(0.1, 0.0, 0.2));
-  const ne::Frames f = tableFrames({{{"map", "odom"}, map_odom}, {{"base_link", "imu_link"}, base_imu},
-                                    {{"base_link", "odom"}, map_odom}});
+  const ne::Frames f = tableFrames(
+      {{{"map", "odom"}, map_odom}, {{"base_link", "imu_link"}, base_imu}, {{"base_link", "odom"}, map_odom}});
   std::string why;
   geometry_msgs::PoseStamped p;
   p.header.frame_id = "odom";
@@ -710,7 +733,7 @@ TEST(SensorAdapters, MessageCovariances)
   const std::vector<ne::InputField> yaw = {ne::inputFieldFromString(ne::InputType::IMU, "orientation.yaw", "k"),
                                            ne::inputFieldFromString(ne::InputType::IMU, "linear_acceleration.x", "k")};
   EXPECT_FALSE(ne::disabledBlock(ne::InputType::IMU, ne::view(imu), yaw, why));
-  imu.orientation_covariance[0] = -1.0;  // an IMU without an orientation estimate
+  imu.orientation_covariance[0] = -1.0;           // an IMU without an orientation estimate
   imu.orientation = geometry_msgs::Quaternion();  // often all zeros then: never read
   EXPECT_TRUE(ne::disabledBlock(ne::InputType::IMU, ne::view(imu), yaw, why));
   EXPECT_NE(why.find("orientation.yaw: the message has no estimate of it"), std::string::npos) << why;
@@ -720,7 +743,8 @@ TEST(SensorAdapters, MessageCovariances)
   EXPECT_NE(why.find("linear_acceleration.x"), std::string::npos) << why;
   // Other types have no such convention: an Odometry covariance starting with -1 is just bad.
   EXPECT_FALSE(ne::disabledBlock(ne::InputType::ODOMETRY, ne::view(nav_msgs::Odometry()),
-                                 {ne::inputFieldFromString(ne::InputType::ODOMETRY, "pose.pose.position.x", "k")}, why));
+                                 {ne::inputFieldFromString(ne::InputType::ODOMETRY, "pose.pose.position.x", "k")},
+                                 why));
   imu.orientation.w = 1.0;
   imu.angular_velocity_covariance = {};  // all zeros: unknown too
   EXPECT_EQ(ne::readCovariance(ne::InputType::IMU, ne::view(imu), gz, R, why), ne::CovarianceRead::FALLBACK);
@@ -772,7 +796,8 @@ void expectRoundTrip(ne::InputType type, const std::vector<std::string>& names, 
   {
     y[i] = 2.0 * rng.uniform() - 1.0;  // a roll/pitch/yaw in (-1, 1) rad round-trips through its quaternion
     for (std::size_t j = 0; j <= i; ++j)
-      L(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = i == j ? 0.5 + rng.uniform() : 0.3 * rng.uniform();
+      L(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) =
+          i == j ? 0.5 + rng.uniform() : 0.3 * rng.uniform();
   }
   // Fields of one covariance block are correlated, of different blocks not (the reader's rule).
   const Eigen::MatrixXd S = L * L.transpose();
@@ -820,12 +845,12 @@ TEST(SensorWriters, EveryOutputTypeRoundTripsThroughItsReader)
                                          "pose.pose.orientation.yaw", "twist.twist.angular.z"},
                                         rng);
     expectRoundTrip<geometry_msgs::PoseWithCovarianceStamped>(
-        ne::InputType::POSE_WITH_COVARIANCE, {"pose.pose.position.x", "pose.pose.position.z", "pose.pose.orientation.roll"},
-        rng);
+        ne::InputType::POSE_WITH_COVARIANCE,
+        {"pose.pose.position.x", "pose.pose.position.z", "pose.pose.orientation.roll"}, rng);
     expectRoundTrip<geometry_msgs::PoseStamped>(ne::InputType::POSE, {"pose.position.x", "pose.orientation.yaw"}, rng);
     expectRoundTrip<geometry_msgs::PointStamped>(ne::InputType::POINT, {"point.z", "point.x"}, rng);
-    expectRoundTrip<geometry_msgs::TwistWithCovarianceStamped>(
-        ne::InputType::TWIST_WITH_COVARIANCE, {"twist.twist.linear.y", "twist.twist.angular.z"}, rng);
+    expectRoundTrip<geometry_msgs::TwistWithCovarianceStamped>(ne::InputType::TWIST_WITH_COVARIANCE,
+                                                               {"twist.twist.linear.y", "twist.twist.angular.z"}, rng);
     expectRoundTrip<geometry_msgs::TwistStamped>(ne::InputType::TWIST, {"twist.linear.x"}, rng);
     expectRoundTrip<sensor_msgs::Imu>(
         ne::InputType::IMU, {"orientation.yaw", "angular_velocity.z", "linear_acceleration.x", "linear_acceleration.y"},
@@ -963,10 +988,12 @@ TEST(GnssAligner, WaitsForAHeadingAndAnEstimateThenTakesFixesIntoWorld)
   mount.setOrigin(tf2::Vector3(0.5, 0.0, 0.0));
   bool have_pose = false;
   ne::BasePose pose;  // odom at start: the origin, yaw 0
-  g.connect(tableFrames({{{"base_link", "gps"}, mount}}), [&](ne::BasePose& p) {
-    p = pose;
-    return have_pose;
-  });
+  g.connect(tableFrames({{{"base_link", "gps"}, mount}}),
+            [&](ne::BasePose& p)
+            {
+              p = pose;
+              return have_pose;
+            });
   const ne::LocalEnu datum(48.137, 11.575, 0.0);
   sensor_msgs::NavSatFix fix;
   fix.header.frame_id = "gps";
@@ -1030,10 +1057,12 @@ TEST(GnssAligner, NoLeverArmTransformMeansZeroAndTheImuMountingIsRemoved)
   tf2::Quaternion q;
   q.setRPY(0.0, 0.0, 0.3);
   imu_mount.setRotation(q);
-  g.connect(tableFrames({{{"base_link", "imu_link"}, imu_mount}}), [](ne::BasePose& p) {
-    p = ne::BasePose();
-    return true;
-  });
+  g.connect(tableFrames({{{"base_link", "imu_link"}, imu_mount}}),
+            [](ne::BasePose& p)
+            {
+              p = ne::BasePose();
+              return true;
+            });
   g.heading(imuWithYaw(heading - 0.1 + 0.3, "imu_link"));
   const ne::LocalEnu datum(48.137, 11.575, 0.0);
   sensor_msgs::NavSatFix fix;
@@ -1059,11 +1088,13 @@ TEST(GnssAligner, UseOdometryYawAlignsWithTheFusedYaw)
   opt.use_odometry_yaw = true;
   opt.magnetic_declination = 0.25;
   ne::GnssAligner g(opt, "map", "base_link");
-  g.connect(tableFrames({}), [](ne::BasePose& p) {
-    p = ne::BasePose();
-    p.yaw = 1.0;
-    return true;
-  });
+  g.connect(tableFrames({}),
+            [](ne::BasePose& p)
+            {
+              p = ne::BasePose();
+              p.yaw = 1.0;
+              return true;
+            });
   const ne::LocalEnu datum(48.137, 11.575, 0.0);
   sensor_msgs::NavSatFix fix;
   boost::array<double, 9> cov = {1, 0, 0, 0, 1, 0, 0, 0, 1};
@@ -1082,10 +1113,12 @@ TEST(GnssAligner, RestartAlignsAgainAtTheNextFix)
   opt.heading_sensor = 0;
   ne::GnssAligner g(opt, "odom", "base_link");
   ne::BasePose pose;  // the origin of odom, yaw 0
-  g.connect(tableFrames({}), [&](ne::BasePose& p) {
-    p = pose;
-    return true;
-  });
+  g.connect(tableFrames({}),
+            [&](ne::BasePose& p)
+            {
+              p = pose;
+              return true;
+            });
   g.heading(imuWithYaw(0.5, "base_link"));
   const ne::LocalEnu datum(48.137, 11.575, 0.0);
   sensor_msgs::NavSatFix fix;
@@ -1118,12 +1151,11 @@ TEST(InputMessageTypes, ListMatchesTheTable)
   {
     const ne::InputTypeInfo& row = ne::inputTypeInfo(t);
     EXPECT_EQ(row.type, t);
-    const std::string name = ne::withInputMessage(t, [](auto tag) {
-      return std::string(ros::message_traits::DataType<ne::MessageOf<decltype(tag)>>::value());
-    });
+    const std::string name = ne::withInputMessage(
+        t, [](auto tag) { return std::string(ros::message_traits::DataType<ne::MessageOf<decltype(tag)>>::value()); });
     EXPECT_EQ(name, row.name);
-    const bool stamped =
-        ne::withInputMessage(t, [](auto tag) { return ros::message_traits::HasHeader<ne::MessageOf<decltype(tag)>>::value; });
+    const bool stamped = ne::withInputMessage(
+        t, [](auto tag) { return ros::message_traits::HasHeader<ne::MessageOf<decltype(tag)>>::value; });
     EXPECT_EQ(stamped, row.stamped) << row.name;
     EXPECT_EQ(row.sensor, t != ne::InputType::CONTROL_INPUT) << row.name;
   }

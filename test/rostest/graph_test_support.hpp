@@ -27,11 +27,13 @@ struct Collector
   ros::Subscriber sub;
   Collector(ros::NodeHandle& nh, const std::string& topic)
   {
-    sub = nh.subscribe<M>(topic, 100000, [this](const boost::shared_ptr<const M>& m) {
-      std::lock_guard<std::mutex> lock(mutex);
-      msgs.push_back(*m);
-      received_at.push_back(ros::Time::now());
-    });
+    sub = nh.subscribe<M>(topic, 100000,
+                          [this](const boost::shared_ptr<const M>& m)
+                          {
+                            std::lock_guard<std::mutex> lock(mutex);
+                            msgs.push_back(*m);
+                            received_at.push_back(ros::Time::now());
+                          });
   }
   std::size_t size()
   {
@@ -67,17 +69,19 @@ class PeriodicFeeder
 public:
   template <class F>
   PeriodicFeeder(double period, F f)
-    : thread_([this, period, f]() mutable {
-        ros::WallTime next = ros::WallTime::now();
-        for (long k = 1; !stop_; ++k)
-        {
-          f(k);
-          next += ros::WallDuration(period);
-          const ros::WallDuration wait = next - ros::WallTime::now();
-          if (wait > ros::WallDuration(0))
-            wait.sleep();
-        }
-      })
+    : thread_(
+          [this, period, f]() mutable
+          {
+            ros::WallTime next = ros::WallTime::now();
+            for (long k = 1; !stop_; ++k)
+            {
+              f(k);
+              next += ros::WallDuration(period);
+              const ros::WallDuration wait = next - ros::WallTime::now();
+              if (wait > ros::WallDuration(0))
+                wait.sleep();
+            }
+          })
   {
   }
   ~PeriodicFeeder()
@@ -119,18 +123,20 @@ struct DiagnosticsProbe
   ros::Subscriber sub;
   explicit DiagnosticsProbe(ros::NodeHandle& nh, const std::string& name)
   {
-    sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
-        "/diagnostics", 100, [this, name](const diagnostic_msgs::DiagnosticArray::ConstPtr& a) {
-          for (const auto& s : a->status)
-            if (s.name.find(name) != std::string::npos)
-            {
-              std::lock_guard<std::mutex> lock(mutex);
-              level = s.level;
-              message = s.message;
-              for (const auto& kv : s.values)
-                values[kv.key] = kv.value;
-            }
-        });
+    sub =
+        nh.subscribe<diagnostic_msgs::DiagnosticArray>("/diagnostics", 100,
+                                                       [this, name](const diagnostic_msgs::DiagnosticArray::ConstPtr& a)
+                                                       {
+                                                         for (const auto& s : a->status)
+                                                           if (s.name.find(name) != std::string::npos)
+                                                           {
+                                                             std::lock_guard<std::mutex> lock(mutex);
+                                                             level = s.level;
+                                                             message = s.message;
+                                                             for (const auto& kv : s.values)
+                                                               values[kv.key] = kv.value;
+                                                           }
+                                                       });
   }
   double get(const std::string& key)
   {

@@ -79,8 +79,9 @@ Params params()
 /// Checks the estimates of steps 1..N against kfio stepped offline on y(k) (every y in hand), u(k)
 /// (models with control) and R_k = r(k) (empty: the model's R), state by state to 1e-12.
 template <class Y, class U, class R = Eigen::MatrixXd (*)(long)>
-void expectKfioOffline(const ne::Model& model, const std::map<long, Estimate>& got, long N, Y y, U u,
-                       R r = [](long) { return Eigen::MatrixXd(); })
+void expectKfioOffline(
+    const ne::Model& model, const std::map<long, Estimate>& got, long N, Y y, U u,
+    R r = [](long) { return Eigen::MatrixXd(); })
 {
   ne::EstimatorSettings st;
   st.algorithm = ne::Algorithm::KFIO;
@@ -102,7 +103,10 @@ void expectKfioOffline(const ne::Model& model, const std::map<long, Estimate>& g
 }
 
 /// No control input.
-inline Eigen::VectorXd noInput(long) { return Eigen::VectorXd(); }
+inline Eigen::VectorXd noInput(long)
+{
+  return Eigen::VectorXd();
+}
 
 /// Estimates of one estimator by step; fails the test on a repeated step.
 std::map<long, Estimate> byStep(Collector<Estimate>& c)
@@ -199,9 +203,13 @@ TEST(EstimatorGraph, EveryStepGammaReplayEqualityAndConsistency)
   Collector<ChannelEvent> events(nh, "sensor_link/events");
   Collector<Estimate> lossy(nh, "kfio/estimate"), direct(nh, "kfio_direct/estimate");
   const long N = p.steps;
-  ASSERT_TRUE(waitFor([&] { return lossy.size() >= static_cast<std::size_t>(N) && direct.size() >= static_cast<std::size_t>(N) &&
-                               events.size() >= static_cast<std::size_t>(N) && truth.size() > static_cast<std::size_t>(N); },
-                      120.0))
+  ASSERT_TRUE(waitFor(
+      [&]
+      {
+        return lossy.size() >= static_cast<std::size_t>(N) && direct.size() >= static_cast<std::size_t>(N) &&
+               events.size() >= static_cast<std::size_t>(N) && truth.size() > static_cast<std::size_t>(N);
+      },
+      120.0))
       << "estimates " << lossy.size() << " / " << direct.size() << ", events " << events.size();
   ros::WallDuration(0.2).sleep();
 
@@ -310,8 +318,9 @@ TEST(EstimatorGraph, LatePoliciesUnderADelayingChannel)
   Collector<Estimate> drop(nh, "kfio_drop/estimate"), rewind(nh, "kfio_rewind/estimate");
   DiagnosticsProbe diag_drop(nh, "kfio_drop"), diag_rewind(nh, "kfio_rewind");
   const long N = p.steps;
-  ASSERT_TRUE(waitFor([&] { return drop.size() >= static_cast<std::size_t>(N) && rewind.size() >= static_cast<std::size_t>(N); },
-                      120.0));
+  ASSERT_TRUE(waitFor(
+      [&] { return drop.size() >= static_cast<std::size_t>(N) && rewind.size() >= static_cast<std::size_t>(N); },
+      120.0));
   std::vector<std::vector<double>> y(N);
   {
     std::lock_guard<std::mutex> lock(raw.mutex);
@@ -345,12 +354,14 @@ TEST(EstimatorGraph, LatePoliciesUnderADelayingChannel)
     ASSERT_LE(maxDiff(Rw.at(k).state, ref.back().state), 1e-12) << "rewind, step " << k;
     ASSERT_LE(maxDiff(Rw.at(k).covariance, ref.back().covariance), 1e-12) << "rewind, step " << k;
   }
-  ASSERT_TRUE(waitFor([&] { return diag_drop.get("late dropped") >= N - 1 && diag_rewind.get("late fused") >= N - 1; }, 5.0))
+  ASSERT_TRUE(
+      waitFor([&] { return diag_drop.get("late dropped") >= N - 1 && diag_rewind.get("late fused") >= N - 1; }, 5.0))
       << "late dropped " << diag_drop.get("late dropped") << ", late fused " << diag_rewind.get("late fused");
   EXPECT_EQ(diag_rewind.get("late dropped"), 0.0);
   // No silent loss: the estimator status of drop is WARN, naming the sensor that loses its messages
   // to lateness and its delay; rewind loses nothing.
-  DiagnosticsProbe status_drop(nh, "kfio_drop/estimator: estimator"), status_rewind(nh, "kfio_rewind/estimator: estimator");
+  DiagnosticsProbe status_drop(nh, "kfio_drop/estimator: estimator"),
+      status_rewind(nh, "kfio_rewind/estimator: estimator");
   ASSERT_TRUE(waitFor([&] { return !status_drop.lastMessage().empty() && !status_rewind.lastMessage().empty(); }, 5.0));
   EXPECT_TRUE(status_drop.levelIs(diagnostic_msgs::DiagnosticStatus::WARN)) << status_drop.lastMessage();
   EXPECT_NE(status_drop.lastMessage().find("sensor 'y': 100.0 % of its messages over the last 10 s late or refused "
@@ -373,12 +384,14 @@ TEST(EstimatorGraph, BadInputIsRejectedAndATimeJumpResets)
   DiagnosticsProbe diag(nh, "kfio");
   ASSERT_TRUE(waitFor([&] { return meas.getNumSubscribers() > 0 && est.sub.getNumPublishers() > 0; }, 20.0));
   const double T = 0.02, t0 = 100.0;
-  auto setClock = [&](double t) {
+  auto setClock = [&](double t)
+  {
     rosgraph_msgs::Clock c;
     c.clock.fromSec(t);
     clock.publish(c);
   };
-  auto good = [&](long k, double y) {
+  auto good = [&](long k, double y)
+  {
     Measurement m;
     m.header.stamp.fromSec(t0 + k * T);
     m.step = k;
@@ -398,18 +411,28 @@ TEST(EstimatorGraph, BadInputIsRejectedAndATimeJumpResets)
       bool send_bad = true;
       switch (k % 10)
       {
-        case 2: bad.y = {1.0, 2.0}; break;                          // wrong dimension
-        case 4: bad.y = {std::numeric_limits<double>::quiet_NaN()}; break;  // NaN
-        case 6: bad.step = k + 100000; break;                       // far future
-        case 8: bad.sensor = "other"; break;                        // wrong sensor name
-        default: send_bad = false;
+        case 2:
+          bad.y = {1.0, 2.0};
+          break;  // wrong dimension
+        case 4:
+          bad.y = {std::numeric_limits<double>::quiet_NaN()};
+          break;  // NaN
+        case 6:
+          bad.step = k + 100000;
+          break;  // far future
+        case 8:
+          bad.sensor = "other";
+          break;  // wrong sensor name
+        default:
+          send_bad = false;
       }
       if (send_bad)
         meas.publish(bad);
       meas.publish(good(k, std::sin(0.3 * k)));
       if (k % 10 == 5)
         meas.publish(good(k, 1e6));  // duplicate: ignored
-      ASSERT_TRUE(waitFor([&] { return est.size() >= static_cast<std::size_t>(k); }, 5.0)) << "run " << run << " step " << k;
+      ASSERT_TRUE(waitFor([&] { return est.size() >= static_cast<std::size_t>(k); }, 5.0))
+          << "run " << run << " step " << k;
     }
     std::lock_guard<std::mutex> lock(est.mutex);
     for (long k = 1; k <= N; ++k)
@@ -451,14 +474,16 @@ TEST(EstimatorGraph, StabilityDiagnosticFlipsWithTheArrivalRate)
   // k = 300, before the window has refilled under load. Their values are y = 0.
   ros::Publisher source = nh.advertise<Measurement>("plant/measurement", 1000);
   ASSERT_TRUE(waitFor([&] { return source.getNumSubscribers() > 0; }, 20.0));
-  PeriodicFeeder feeder(0.01, [&](long k) {
-    Measurement m;
-    m.header.stamp = ros::Time::now();
-    m.step = static_cast<std::uint64_t>(k);
-    m.sensor = "y";
-    m.y = {0.0};
-    source.publish(m);
-  });
+  PeriodicFeeder feeder(0.01,
+                        [&](long k)
+                        {
+                          Measurement m;
+                          m.header.stamp = ros::Time::now();
+                          m.step = static_cast<std::uint64_t>(k);
+                          m.sensor = "y";
+                          m.y = {0.0};
+                          source.publish(m);
+                        });
   DiagnosticsProbe link(nh, "link stability");
   ASSERT_TRUE(waitFor([&] { return link.levelIs(diagnostic_msgs::DiagnosticStatus::ERROR); }, 40.0))
       << "last: " << link.lastMessage();
@@ -511,12 +536,15 @@ void expectLinkStatusAsDiagnosed(ros::NodeHandle& nh, const std::string& ns, con
   DiagnosticsProbe link(nh, ns + ": link stability"), estimator(nh, ns + ": estimator");
   std::mutex mutex;
   std::map<std::string, ne::LinkStatus> latest;
-  ros::Subscriber sub = nh.subscribe<ne::LinkStatus>(ns + "/link_status", 100, [&](const ne::LinkStatus::ConstPtr& m) {
-    std::lock_guard<std::mutex> lock(mutex);
-    latest[m->sensor] = *m;
-  });
+  ros::Subscriber sub = nh.subscribe<ne::LinkStatus>(ns + "/link_status", 100,
+                                                     [&](const ne::LinkStatus::ConstPtr& m)
+                                                     {
+                                                       std::lock_guard<std::mutex> lock(mutex);
+                                                       latest[m->sensor] = *m;
+                                                     });
   std::string why;
-  auto agree = [&]() {
+  auto agree = [&]()
+  {
     const std::map<std::string, std::string> l = link.snapshot(), e = estimator.snapshot();
     const std::string level = link.levelIs(diagnostic_msgs::DiagnosticStatus::OK)      ? "OK"
                               : link.levelIs(diagnostic_msgs::DiagnosticStatus::WARN)  ? "WARN"
@@ -534,7 +562,8 @@ void expectLinkStatusAsDiagnosed(ros::NodeHandle& nh, const std::string& ns, con
       const ne::LinkStatus& m = latest.at(s);
       const DiagnosedRate a = parseRate(l.at(s + " arrival rate")), p = parseRate(l.at(s + " failure rate p")),
                           r = parseRate(l.at(s + " recovery rate r"));
-      auto check = [&](const char* what, double msg, double printed) {
+      auto check = [&](const char* what, double msg, double printed)
+      {
         if (!sameAsPrinted(msg, printed))
           out << s << " " << what << ": message " << msg << ", diagnostics " << printed << "; ";
       };
@@ -555,8 +584,8 @@ void expectLinkStatusAsDiagnosed(ros::NodeHandle& nh, const std::string& ns, con
       check("margin", m.margin, l.count(s + " margin") ? std::stod(l.at(s + " margin")) : std::nan(""));
       check("delay p50", m.delay_p50, std::stod(e.at(s + " delay p50 (s)")));
       check("delay p99", m.delay_p99, std::stod(e.at(s + " delay p99 (s)")));
-      check("late fraction", m.late_fraction, e.count(s + " late fraction") ? std::stod(e.at(s + " late fraction"))
-                                                                              : std::nan(""));
+      check("late fraction", m.late_fraction,
+            e.count(s + " late fraction") ? std::stod(e.at(s + " late fraction")) : std::nan(""));
       if (!l.count(s + " needs") || m.verdict != l.at(s + " needs"))
         out << s << " verdict: message '" << m.verdict << "', diagnostics '"
             << (l.count(s + " needs") ? l.at(s + " needs") : "<missing>") << "'; ";
@@ -594,19 +623,21 @@ TEST(EstimatorGraph, StabilityVerdictPerSensor)
   std::atomic<double> rate{0.3};
   ne::Rng rng(31);
   const ros::Time t0 = ros::Time::now();
-  PeriodicFeeder feeder(0.002, [&](long k) {
-    for (int s = 0; s < 2; ++s)
-    {
-      if (!rng.bernoulli(rate))
-        continue;
-      Measurement m;
-      m.header.stamp = t0 + ros::Duration(0.002 * k);
-      m.step = static_cast<std::uint64_t>(k);
-      m.sensor = s == 0 ? "a" : "b";
-      m.y = {0.0};
-      (s == 0 ? pa : pb).publish(m);
-    }
-  });
+  PeriodicFeeder feeder(0.002,
+                        [&](long k)
+                        {
+                          for (int s = 0; s < 2; ++s)
+                          {
+                            if (!rng.bernoulli(rate))
+                              continue;
+                            Measurement m;
+                            m.header.stamp = t0 + ros::Duration(0.002 * k);
+                            m.step = static_cast<std::uint64_t>(k);
+                            m.sensor = s == 0 ? "a" : "b";
+                            m.y = {0.0};
+                            (s == 0 ? pa : pb).publish(m);
+                          }
+                        });
   ASSERT_TRUE(waitFor([&] { return link.levelIs(diagnostic_msgs::DiagnosticStatus::ERROR); }, 60.0))
       << "last: " << link.lastMessage();
   EXPECT_NE(link.lastMessage().find("unbounded"), std::string::npos) << link.lastMessage();
@@ -640,27 +671,36 @@ TEST(EstimatorGraph, ScheduledSensorsAreNotDueNorLost)
     Seen& z = seen[ns];
     for (int s = 0; s < 2; ++s)
       subs.push_back(nh.subscribe<Measurement>(ns + "/measurement/" + (s == 0 ? "a" : "b"), 1000,
-                                               [&z, s](const Measurement::ConstPtr& m) {
+                                               [&z, s](const Measurement::ConstPtr& m)
+                                               {
                                                  std::lock_guard<std::mutex> lock(z.mutex);
                                                  auto& v = z.sent[static_cast<long>(m->step)];
                                                  v.resize(2);
                                                  v[s] = true;
                                                }));
-    subs.push_back(nh.subscribe<ne::ScheduleStep>(ns + "/schedule", 1000, [&z](const ne::ScheduleStep::ConstPtr& m) {
-      std::lock_guard<std::mutex> lock(z.mutex);
-      z.drawn[static_cast<long>(m->step)] = std::vector<bool>(m->transmitting.begin(), m->transmitting.end());
-    }));
-    subs.push_back(nh.subscribe<Estimate>(ns + "/estimate", 1000, [&z](const Estimate::ConstPtr& e) {
-      std::lock_guard<std::mutex> lock(z.mutex);
-      z.gamma[static_cast<long>(e->step)] = e->gamma;
-    }));
+    subs.push_back(nh.subscribe<ne::ScheduleStep>(ns + "/schedule", 1000,
+                                                  [&z](const ne::ScheduleStep::ConstPtr& m)
+                                                  {
+                                                    std::lock_guard<std::mutex> lock(z.mutex);
+                                                    z.drawn[static_cast<long>(m->step)] = std::vector<bool>(
+                                                        m->transmitting.begin(), m->transmitting.end());
+                                                  }));
+    subs.push_back(nh.subscribe<Estimate>(ns + "/estimate", 1000,
+                                          [&z](const Estimate::ConstPtr& e)
+                                          {
+                                            std::lock_guard<std::mutex> lock(z.mutex);
+                                            z.gamma[static_cast<long>(e->step)] = e->gamma;
+                                          }));
   }
-  ASSERT_TRUE(waitFor([&] {
-    for (const ros::Subscriber& sub : subs)
-      if (sub.getNumPublishers() == 0)
-        return false;
-    return true;
-  }, 30.0));
+  ASSERT_TRUE(waitFor(
+      [&]
+      {
+        for (const ros::Subscriber& sub : subs)
+          if (sub.getNumPublishers() == 0)
+            return false;
+        return true;
+      },
+      30.0));
   DiagnosticsProbe periodic(nh, "periodic/estimator: estimator"), random(nh, "random/estimator: estimator");
   DiagnosticsProbe periodic_link(nh, "periodic/estimator: link stability");
   ros::Publisher start = nh.advertise<std_msgs::Empty>("/start_plants", 1, true);
@@ -673,10 +713,14 @@ TEST(EstimatorGraph, ScheduledSensorsAreNotDueNorLost)
     const std::map<std::string, std::string> d = (ns == "periodic" ? periodic : random).snapshot();
     const long S = std::stol(d.at("steps"));
     Seen& z = seen[ns];
-    ASSERT_TRUE(waitFor([&] {
-      std::lock_guard<std::mutex> lock(z.mutex);
-      return z.drawn.size() >= static_cast<std::size_t>(S) && z.gamma.size() >= static_cast<std::size_t>(S);
-    }, 10.0)) << ns;
+    ASSERT_TRUE(waitFor(
+        [&]
+        {
+          std::lock_guard<std::mutex> lock(z.mutex);
+          return z.drawn.size() >= static_cast<std::size_t>(S) && z.gamma.size() >= static_cast<std::size_t>(S);
+        },
+        10.0))
+        << ns;
     std::lock_guard<std::mutex> lock(z.mutex);
     std::size_t due = 0, both = 0;
     for (long k = 1; k <= S; ++k)
@@ -723,18 +767,21 @@ TEST(EstimatorGraph, StandardTypesAtMixedRates)
   Collector<Estimate> est(nh, "robot/estimate");
   Collector<sensor_msgs::NavSatFix> datum(nh, "robot/estimator/datum");
   Collector<nav_msgs::Odometry> filtered(nh, "robot/odometry/filtered");
-  ASSERT_TRUE(waitFor([&] {
-    return odom.getNumSubscribers() > 0 && imu.getNumSubscribers() > 0 && fix.getNumSubscribers() > 0 &&
-           est.sub.getNumPublishers() > 0 && datum.sub.getNumPublishers() > 0 && filtered.sub.getNumPublishers() > 0;
-  }, 20.0));
+  ASSERT_TRUE(waitFor(
+      [&]
+      {
+        return odom.getNumSubscribers() > 0 && imu.getNumSubscribers() > 0 && fix.getNumSubscribers() > 0 &&
+               est.sub.getNumPublishers() > 0 && datum.sub.getNumPublishers() > 0 &&
+               filtered.sub.getNumPublishers() > 0;
+      },
+      20.0));
   DiagnosticsProbe diag(nh, "robot/estimator: estimator"), link(nh, "robot/estimator: link stability");
   const ne::LocalEnu enu(48.137, 11.575, 520.0);
   const int N = 150;
   std::vector<Eigen::VectorXd> y(N + 1, Eigen::VectorXd::Constant(5, std::nan("")));
   std::vector<Eigen::MatrixXd> R(N + 1);
-  auto truth = [](long k) {
-    return Eigen::Vector3d(3.0 * std::sin(0.05 * k), 2.0 * std::cos(0.03 * k), 0.01 * k - 0.5);
-  };
+  auto truth = [](long k)
+  { return Eigen::Vector3d(3.0 * std::sin(0.05 * k), 2.0 * std::cos(0.03 * k), 0.01 * k - 0.5); };
   // Values published by the feeder thread, written for step k before k is published.
   std::mutex mutex;
   const ros::Time t0 = ros::Time::now() + ros::Duration(0.1);
@@ -805,7 +852,8 @@ TEST(EstimatorGraph, StandardTypesAtMixedRates)
   ASSERT_TRUE(waitFor([&] { return diag.get("steps") >= N; }, 30.0)) << diag.get("steps");
   const std::map<long, Estimate> got = byStep(est);
   std::lock_guard<std::mutex> lock(mutex);
-  expectKfioOffline(model, got, N, [&](long k) { return y[k]; }, noInput, [&](long k) { return R[k]; });
+  expectKfioOffline(
+      model, got, N, [&](long k) { return y[k]; }, noInput, [&](long k) { return R[k]; });
   // odometry/filtered: the same estimates, state_mapping {x: 0, y: 1, yaw: 2}, REP-105 frames.
   {
     std::lock_guard<std::mutex> fl(filtered.mutex);
@@ -821,9 +869,9 @@ TEST(EstimatorGraph, StandardTypesAtMixedRates)
       EXPECT_EQ(o.pose.pose.position.x, e.state[0]) << k;
       EXPECT_EQ(o.pose.pose.position.y, e.state[1]) << k;
       EXPECT_NEAR(2.0 * std::atan2(o.pose.pose.orientation.z, o.pose.pose.orientation.w), e.state[2], 1e-12) << k;
-      EXPECT_EQ(o.pose.covariance[0], e.covariance[0]) << k;         // var x
-      EXPECT_EQ(o.pose.covariance[5], e.covariance[2]) << k;         // cov(x, yaw)
-      EXPECT_EQ(o.pose.covariance[14], 1e6) << k;                    // z: not estimated
+      EXPECT_EQ(o.pose.covariance[0], e.covariance[0]) << k;  // var x
+      EXPECT_EQ(o.pose.covariance[5], e.covariance[2]) << k;  // cov(x, yaw)
+      EXPECT_EQ(o.pose.covariance[14], 1e6) << k;             // z: not estimated
     }
   }
   // Every due sample arrived: the slow sensors' windows hold their own samples only.
@@ -854,15 +902,19 @@ TEST(EstimatorGraph, UdpInputsAndTheirFallback)
   ros::Publisher fix = nh.advertise<sensor_msgs::NavSatFix>("/fix", 1000);
   std::mutex log_mutex;
   std::map<std::string, int> told;  // fallback warnings by the nodelet that logged them
-  ros::Subscriber rosout = nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000, [&](const rosgraph_msgs::Log::ConstPtr& m) {
-    if (m->msg.find("transport udp, but the connection from") == std::string::npos)
-      return;
-    std::lock_guard<std::mutex> lock(log_mutex);
-    ++told[m->msg.find("sensor 'imu' (/imu)") != std::string::npos      ? "estimator imu"
-           : m->msg.find("LossyChannel input (/imu)") != std::string::npos ? "channel"
-                                                                           : m->msg];
-  });
-  auto toldCount = [&](const std::string& who) {
+  ros::Subscriber rosout = nh.subscribe<rosgraph_msgs::Log>(
+      "/rosout", 1000,
+      [&](const rosgraph_msgs::Log::ConstPtr& m)
+      {
+        if (m->msg.find("transport udp, but the connection from") == std::string::npos)
+          return;
+        std::lock_guard<std::mutex> lock(log_mutex);
+        ++told[m->msg.find("sensor 'imu' (/imu)") != std::string::npos         ? "estimator imu"
+               : m->msg.find("LossyChannel input (/imu)") != std::string::npos ? "channel"
+                                                                               : m->msg];
+      });
+  auto toldCount = [&](const std::string& who)
+  {
     std::lock_guard<std::mutex> lock(log_mutex);
     return told.count(who) ? told.at(who) : 0;
   };
@@ -870,38 +922,47 @@ TEST(EstimatorGraph, UdpInputsAndTheirFallback)
   DiagnosticsProbe diag(nh, "transport/estimator: estimator"), channel(nh, "transport/imu_link: input transport");
   const ne::LocalEnu enu(48.137, 11.575, 520.0);
   const ros::Time t0 = ros::Time::now();
-  PeriodicFeeder feeder(0.02, [&](long k) {
-    const ros::Time stamp = t0 + ros::Duration(0.02 * static_cast<double>(k));
-    nav_msgs::Odometry o;
-    o.header.stamp = stamp;
-    o.header.frame_id = "odom";
-    o.pose.pose.position.x = 0.01 * static_cast<double>(k);
-    o.pose.pose.orientation.w = 1.0;
-    odom.publish(o);
-    if (k % 25 == 0)
-    {
-      sensor_msgs::NavSatFix f;
-      f.header.stamp = stamp;
-      f.status.status = sensor_msgs::NavSatStatus::STATUS_FIX;
-      const Eigen::Vector3d lla = enu.reverse(Eigen::Vector3d(0.01 * static_cast<double>(k), 0.0, 0.0));
-      f.latitude = lla(0);
-      f.longitude = lla(1);
-      f.altitude = lla(2);
-      fix.publish(f);
-    }
-  });
+  PeriodicFeeder feeder(0.02,
+                        [&](long k)
+                        {
+                          const ros::Time stamp = t0 + ros::Duration(0.02 * static_cast<double>(k));
+                          nav_msgs::Odometry o;
+                          o.header.stamp = stamp;
+                          o.header.frame_id = "odom";
+                          o.pose.pose.position.x = 0.01 * static_cast<double>(k);
+                          o.pose.pose.orientation.w = 1.0;
+                          odom.publish(o);
+                          if (k % 25 == 0)
+                          {
+                            sensor_msgs::NavSatFix f;
+                            f.header.stamp = stamp;
+                            f.status.status = sensor_msgs::NavSatStatus::STATUS_FIX;
+                            const Eigen::Vector3d lla =
+                                enu.reverse(Eigen::Vector3d(0.01 * static_cast<double>(k), 0.0, 0.0));
+                            f.latitude = lla(0);
+                            f.longitude = lla(1);
+                            f.altitude = lla(2);
+                            fix.publish(f);
+                          }
+                        });
   // The Estimator: udp from roscpp is UDPROS, udp from rospy fell back, tcp is tcp (TCP_NODELAY off).
-  ASSERT_TRUE(waitFor([&] {
-    return diag.text("odom transport") == "udp: UDPROS from 1 publisher" &&
-           diag.text("imu transport").rfind("udp: TCPROS fallback from http://", 0) == 0;
-  }, 30.0)) << diag.text("odom transport") << " | " << diag.text("imu transport");
-  EXPECT_NE(diag.text("imu transport").find("(the publisher cannot serve UDPROS, e.g. rospy, or another subscription "
-                                            "of /imu in this process asked for TCPROS first)"),
+  ASSERT_TRUE(waitFor(
+      [&]
+      {
+        return diag.text("odom transport") == "udp: UDPROS from 1 publisher" &&
+               diag.text("imu transport").rfind("udp: TCPROS fallback from http://", 0) == 0;
+      },
+      30.0))
+      << diag.text("odom transport") << " | " << diag.text("imu transport");
+  EXPECT_NE(diag.text("imu transport")
+                .find("(the publisher cannot serve UDPROS, e.g. rospy, or another subscription "
+                      "of /imu in this process asked for TCPROS first)"),
             std::string::npos)
       << diag.text("imu transport");
   EXPECT_EQ(diag.text("gps transport"), "tcp (tcp_nodelay: false)");
-  ASSERT_TRUE(waitFor([&] { return diag.lastMessage().find("sensor 'imu' (/imu): udp fell back to TCPROS") !=
-                                   std::string::npos; }, 5.0))
+  ASSERT_TRUE(waitFor(
+      [&] { return diag.lastMessage().find("sensor 'imu' (/imu): udp fell back to TCPROS") != std::string::npos; },
+      5.0))
       << diag.lastMessage();
   EXPECT_TRUE(diag.levelIs(diagnostic_msgs::DiagnosticStatus::WARN)) << diag.lastMessage();
   // The LossyChannel's input (~transport: udp) from the same rospy publisher.
@@ -937,9 +998,9 @@ TEST(EstimatorGraph, TwistCommandsAreHeld)
   ros::Publisher meas = nh.advertise<Measurement>("base/measurement", 1000);
   ros::Publisher cmd = nh.advertise<geometry_msgs::Twist>("/cmd_vel", 1000);
   Collector<Estimate> est(nh, "base/estimate");
-  ASSERT_TRUE(waitFor([&] {
-    return meas.getNumSubscribers() > 0 && cmd.getNumSubscribers() > 0 && est.sub.getNumPublishers() > 0;
-  }, 20.0));
+  ASSERT_TRUE(waitFor(
+      [&] { return meas.getNumSubscribers() > 0 && cmd.getNumSubscribers() > 0 && est.sub.getNumPublishers() > 0; },
+      20.0));
   DiagnosticsProbe diag(nh, "base/estimator: estimator");
   const int N = 30;
   auto speed = [](long k) { return 0.5 + 0.4 * std::sin(0.3 * static_cast<double>(k)); };
@@ -948,19 +1009,21 @@ TEST(EstimatorGraph, TwistCommandsAreHeld)
   // 0.2 s step). The feeder runs 90 ms ahead of the steps' stamps: a command sent with its step's
   // measurement arrives for that step even when a busy machine delays it by up to 190 ms.
   const ros::Time t0 = ros::Time::now() + ros::Duration(0.09);
-  PeriodicFeeder feeder(0.2, [&](long k) {
-    if ((k - 1) % 5 == 0)
-    {
-      geometry_msgs::Twist t;
-      t.linear.x = speed(k);
-      cmd.publish(t);
-    }
-    Measurement m;
-    m.header.stamp = t0 + ros::Duration(0.2 * static_cast<double>(k - 1));
-    m.step = static_cast<std::uint64_t>(k);
-    m.y = {value(k)};
-    meas.publish(m);
-  });
+  PeriodicFeeder feeder(0.2,
+                        [&](long k)
+                        {
+                          if ((k - 1) % 5 == 0)
+                          {
+                            geometry_msgs::Twist t;
+                            t.linear.x = speed(k);
+                            cmd.publish(t);
+                          }
+                          Measurement m;
+                          m.header.stamp = t0 + ros::Duration(0.2 * static_cast<double>(k - 1));
+                          m.step = static_cast<std::uint64_t>(k);
+                          m.y = {value(k)};
+                          meas.publish(m);
+                        });
   ASSERT_TRUE(waitFor([&] { return est.size() >= static_cast<std::size_t>(N); }, 30.0));
   expectKfioOffline(
       model, byStep(est), N, [&](long k) { return Eigen::VectorXd::Constant(1, value(k)); },
@@ -969,7 +1032,8 @@ TEST(EstimatorGraph, TwistCommandsAreHeld)
 
   // dynamic_reconfigure (base/estimator/reconfigure): a trace bound below trace(P) turns the
   // estimator status to WARN; the late policy and latency budget are taken.
-  ros::ServiceClient dyn = nh.serviceClient<dynamic_reconfigure::Reconfigure>("base/estimator/reconfigure/set_parameters");
+  ros::ServiceClient dyn =
+      nh.serviceClient<dynamic_reconfigure::Reconfigure>("base/estimator/reconfigure/set_parameters");
   ASSERT_TRUE(dyn.waitForExistence(ros::Duration(10.0)));
   dynamic_reconfigure::Reconfigure rc;
   dynamic_reconfigure::DoubleParameter bound, budget;
@@ -1021,8 +1085,8 @@ TEST(EstimatorGraph, MeasurementsIntoTheWorldFrame)
   ASSERT_TRUE(waitFor([&] { return pub.getNumSubscribers() > 0 && est.sub.getNumPublishers() > 0; }, 20.0));
   ros::WallDuration(1.0).sleep();  // the estimator's tf listener receives the static transform
   DiagnosticsProbe diag(nh, "framed/estimator: estimator");
-  const ne::Model model = ne::loadModel(ros::package::getPath("networked_estimation") +
-                                        "/test/rostest/models/scalar_unstable.yaml");
+  const ne::Model model =
+      ne::loadModel(ros::package::getPath("networked_estimation") + "/test/rostest/models/scalar_unstable.yaml");
   const int N = 10;
   const ros::Time t0 = ros::Time::now();
   for (int k = 1; k <= N; ++k)
@@ -1058,20 +1122,22 @@ TEST(EstimatorGraph, MapToOdomNeverASecondParent)
   Collector<Estimate> est(nh, "loc/estimate");
   ASSERT_TRUE(waitFor([&] { return pub.getNumSubscribers() > 0 && est.sub.getNumPublishers() > 0; }, 20.0));
   const ros::Time t0 = ros::Time::now();
-  PeriodicFeeder feeder(0.05, [&](long k) {
-    geometry_msgs::TransformStamped t;
-    t.header.stamp = ros::Time::now();
-    t.header.frame_id = "odom";
-    t.child_frame_id = "base_link";
-    t.transform.translation.x = 1.5;
-    t.transform.rotation.w = 1.0;
-    odom.sendTransform(t);
-    Measurement m;
-    m.header.stamp = t0 + ros::Duration(0.05 * static_cast<double>(k - 1));
-    m.step = static_cast<std::uint64_t>(k);
-    m.y = {0.2};
-    pub.publish(m);
-  });
+  PeriodicFeeder feeder(0.05,
+                        [&](long k)
+                        {
+                          geometry_msgs::TransformStamped t;
+                          t.header.stamp = ros::Time::now();
+                          t.header.frame_id = "odom";
+                          t.child_frame_id = "base_link";
+                          t.transform.translation.x = 1.5;
+                          t.transform.rotation.w = 1.0;
+                          odom.sendTransform(t);
+                          Measurement m;
+                          m.header.stamp = t0 + ros::Duration(0.05 * static_cast<double>(k - 1));
+                          m.step = static_cast<std::uint64_t>(k);
+                          m.y = {0.2};
+                          pub.publish(m);
+                        });
   ASSERT_TRUE(waitFor([&] { return buffer.canTransform("map", "odom", ros::Time(0)); }, 20.0));
   ros::WallDuration(1.0).sleep();
   for (int i = 0; i < 5; ++i)
@@ -1109,26 +1175,31 @@ TEST(EstimatorGraph, PredictToCurrentTime)
   ros::Publisher pub = nh.advertise<Measurement>("odom_measurement", 100);
   Collector<Estimate> now_steps(nh, "now/estimate"), grid_steps(nh, "grid/estimate");
   Collector<nav_msgs::Odometry> now_odom(nh, "now/odometry/filtered"), grid_odom(nh, "grid/odometry/filtered");
-  ASSERT_TRUE(waitFor([&] {
-    // (both Estimators are in one manager: one subscriber connection)
-    return pub.getNumSubscribers() > 0 && now_odom.sub.getNumPublishers() > 0 &&
-           grid_odom.sub.getNumPublishers() > 0 && now_steps.sub.getNumPublishers() > 0 &&
-           grid_steps.sub.getNumPublishers() > 0;
-  }, 20.0));
+  ASSERT_TRUE(waitFor(
+      [&]
+      {
+        // (both Estimators are in one manager: one subscriber connection)
+        return pub.getNumSubscribers() > 0 && now_odom.sub.getNumPublishers() > 0 &&
+               grid_odom.sub.getNumPublishers() > 0 && now_steps.sub.getNumPublishers() > 0 &&
+               grid_steps.sub.getNumPublishers() > 0;
+      },
+      20.0));
   const double T = 0.1, q_xx = 1e-4;
   const ros::Time t0 = ros::Time::now();
   std::vector<Estimate> steps, grid;
   std::vector<nav_msgs::Odometry> predicted, on_grid;
   std::vector<ros::Time> received;
   {
-    PeriodicFeeder feeder(T, [&](long k) {
-      Measurement m;
-      m.header.stamp = t0 + ros::Duration(T * static_cast<double>(k - 1));
-      m.step = static_cast<std::uint64_t>(k);
-      m.sensor = "odom";
-      m.y = {1.0, 0.0};
-      pub.publish(m);
-    });
+    PeriodicFeeder feeder(T,
+                          [&](long k)
+                          {
+                            Measurement m;
+                            m.header.stamp = t0 + ros::Duration(T * static_cast<double>(k - 1));
+                            m.step = static_cast<std::uint64_t>(k);
+                            m.sensor = "odom";
+                            m.y = {1.0, 0.0};
+                            pub.publish(m);
+                          });
     ASSERT_TRUE(waitFor([&] { return now_steps.size() >= 30 && grid_steps.size() >= 30; }, 60.0));
     // (copied while the steps still come: after the feeder stops, the predictions go on from the
     // last step, as robot_localization's do)
@@ -1139,7 +1210,8 @@ TEST(EstimatorGraph, PredictToCurrentTime)
     received = now_odom.received_at;
     on_grid = grid_odom.msgs;
   }
-  auto gridOffset = [&](const ros::Time& t) {
+  auto gridOffset = [&](const ros::Time& t)
+  {
     const double r = (t - t0).toSec() / T;
     return std::fabs(r - std::round(r)) * T;
   };
@@ -1206,20 +1278,26 @@ TEST(EstimatorGraph, ForeignTypesAndBadParameters)
   ros::NodeHandle nh;
   std::mutex log_mutex;
   std::vector<std::string> fatal;
-  ros::Subscriber logs = nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000, [&](const rosgraph_msgs::Log::ConstPtr& l) {
-    if (l->level == rosgraph_msgs::Log::FATAL)
-    {
-      std::lock_guard<std::mutex> lock(log_mutex);
-      fatal.push_back(l->msg);
-    }
-  });
+  ros::Subscriber logs = nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000,
+                                                          [&](const rosgraph_msgs::Log::ConstPtr& l)
+                                                          {
+                                                            if (l->level == rosgraph_msgs::Log::FATAL)
+                                                            {
+                                                              std::lock_guard<std::mutex> lock(log_mutex);
+                                                              fatal.push_back(l->msg);
+                                                            }
+                                                          });
   ros::Publisher gnss = nh.advertise<geometry_msgs::PointStamped>("point/measurement/gnss", 100);
   ros::Publisher camera = nh.advertise<geometry_msgs::PointStamped>("point/measurement/camera", 100);
   ros::Publisher range = nh.advertise<sensor_msgs::Range>("range/measurement", 100);
   Collector<Estimate> point_est(nh, "point/estimate"), range_est(nh, "range/estimate");
-  ASSERT_TRUE(waitFor([&] { return gnss.getNumSubscribers() > 0 && camera.getNumSubscribers() > 0 &&
-                                   range.getNumSubscribers() > 0 && point_est.sub.getNumPublishers() > 0 &&
-                                   range_est.sub.getNumPublishers() > 0; }, 30.0));
+  ASSERT_TRUE(waitFor(
+      [&]
+      {
+        return gnss.getNumSubscribers() > 0 && camera.getNumSubscribers() > 0 && range.getNumSubscribers() > 0 &&
+               point_est.sub.getNumPublishers() > 0 && range_est.sub.getNumPublishers() > 0;
+      },
+      30.0));
 
   // Stamps on the model's grid (tracking_2d: 0.05 s) with up to +-5 ms of jitter; published at
   // their stamp so that each arrives before its deadline (stamp + 200 ms).
@@ -1250,7 +1328,10 @@ TEST(EstimatorGraph, ForeignTypesAndBadParameters)
     r[k - 1] = m.range;
     range.publish(m);
   }
-  ASSERT_TRUE(waitFor([&] { return point_est.size() >= static_cast<std::size_t>(N) && range_est.size() >= static_cast<std::size_t>(N); }, 10.0));
+  ASSERT_TRUE(waitFor(
+      [&]
+      { return point_est.size() >= static_cast<std::size_t>(N) && range_est.size() >= static_cast<std::size_t>(N); },
+      10.0));
   const std::map<long, Estimate> P = byStep(point_est), R = byStep(range_est);
   const ne::Model tracking = ne::loadModel(p.model);
   const ne::EstimatorSettings kfio = ne::loadEstimatorSettings(p.settings);
@@ -1275,7 +1356,8 @@ TEST(EstimatorGraph, ForeignTypesAndBadParameters)
   // problem. A FATAL logged before this test's /rosout connection to the manager was up is not
   // heard: such a load is made again (at most 6 times, 5 s each), so a busy machine that starts
   // this test late cannot hide a message, and a message that is never logged still fails.
-  auto logged = [&](const std::string& what) {
+  auto logged = [&](const std::string& what)
+  {
     std::lock_guard<std::mutex> lock(log_mutex);
     for (const std::string& m : fatal)
       if (m.find("Estimator not started") != std::string::npos && m.find(what) != std::string::npos)
@@ -1292,7 +1374,8 @@ TEST(EstimatorGraph, ForeignTypesAndBadParameters)
       {"/bad_datum/estimator", {"datum[0] (latitude): expected a finite number of degrees in [-90, 90], found nan"}}};
   for (const auto& r : refused)
   {
-    auto heard = [&] {
+    auto heard = [&]
+    {
       for (const std::string& what : r.second)
         if (!logged(what))
           return false;
@@ -1338,8 +1421,10 @@ TEST(EstimatorGraph, RecordedBagReplaysIdentically)
   const std::string dir = mkdtemp(dir_template);
   const std::string bag = dir + "/demo.bag";
   // The recorder runs before the plant starts (start_delay 6 s).
-  ASSERT_EQ(std::system(("rosbag record -q -O " + bag + " /measurement __name:=bag_recorder > " + dir +
-                         "/record.log 2>&1 &").c_str()), 0);
+  ASSERT_EQ(
+      std::system(("rosbag record -q -O " + bag + " /measurement __name:=bag_recorder > " + dir + "/record.log 2>&1 &")
+                      .c_str()),
+      0);
   // The plant stops after step 300 and so does its clock: lost steps of the last 200 ms (the
   // budget, 10 steps) may never be finalised, live or replayed. Compared: steps up to the last
   // delivered one minus 11.
@@ -1358,7 +1443,9 @@ TEST(EstimatorGraph, RecordedBagReplaysIdentically)
   ASSERT_GE(live.size(), static_cast<std::size_t>(K));
   // --keep-alive: a player that exits at the end of the bag may take its last messages with it.
   ASSERT_EQ(std::system(("rosbag play -q --keep-alive --clock --hz=1000 -d 2 " + bag +
-                         " /measurement:=/replay/measurement __name:=bag_player > " + dir + "/play.log 2>&1 &").c_str()), 0);
+                         " /measurement:=/replay/measurement __name:=bag_player > " + dir + "/play.log 2>&1 &")
+                            .c_str()),
+            0);
   const bool replayed_all = waitFor([&] { return replayed.size() >= static_cast<std::size_t>(K); }, 40.0);
   std::system("rosnode kill /bag_player > /dev/null 2>&1");
   ASSERT_TRUE(replayed_all) << "replayed " << replayed.size() << " of " << K;

@@ -88,7 +88,8 @@ TEST(LossyChannelGraph, GilbertElliottStatisticsOnImu)
     bursts += drop && !in_burst;
     in_burst = drop;
   }
-  ASSERT_TRUE(waitFor([&] { return out.size() == delivered.size(); }, 10.0)) << out.size() << " vs " << delivered.size();
+  ASSERT_TRUE(waitFor([&] { return out.size() == delivered.size(); }, 10.0))
+      << out.size() << " vs " << delivered.size();
   for (std::size_t j = 0; j < delivered.size(); ++j)
     ASSERT_EQ(static_cast<int>(out.msgs[j].orientation.x), delivered[j]) << j;
   // stationary values: p = 0.05, r = 0.4 -> loss rate pi = p/(p+r) = 1/9, mean burst 1/r = 2.5.
@@ -102,8 +103,8 @@ TEST(LossyChannelGraph, GilbertElliottStatisticsOnImu)
   EXPECT_NEAR(static_cast<double>(lost) / bursts, 1 / r, 5 * se_burst);
   // counts balance exactly, as reported on /diagnostics
   ASSERT_TRUE(waitFor([&] { return diag.get("received") == N + 1; }, 5.0)) << diag.get("received");
-  EXPECT_EQ(diag.get("received") + diag.get("duplicated"),
-            diag.get("delivered") + diag.get("dropped by model") + diag.get("dropped by queue") + diag.get("in flight"));
+  EXPECT_EQ(diag.get("received") + diag.get("duplicated"), diag.get("delivered") + diag.get("dropped by model") +
+                                                               diag.get("dropped by queue") + diag.get("in flight"));
   // the warm-up message is the one message the diagnostics count beyond the measured run
   EXPECT_NEAR(diag.get("dropped by model"), lost, 1.0);
   EXPECT_NEAR(diag.get("delivered"), static_cast<double>(delivered.size()), 1.0);
@@ -184,7 +185,8 @@ TEST(LossyChannelGraph, SameSeedSameEvents)
     pub.publish(m);
     rate.sleep();
   }
-  ASSERT_TRUE(waitFor([&] { return a.size() == std::size_t(N) && b.size() == std::size_t(N) && c.size() == std::size_t(N); }, 30.0));
+  ASSERT_TRUE(waitFor(
+      [&] { return a.size() == std::size_t(N) && b.size() == std::size_t(N) && c.size() == std::size_t(N); }, 30.0));
   int differ_c = 0;
   for (int i = 0; i < N; ++i)
   {
@@ -229,7 +231,8 @@ TEST(LossyChannelGraph, SetParametersAppliesFromNextMessage)
   ASSERT_TRUE(warmUp(pub, sensor_msgs::Imu(), static_cast<Collector<sensor_msgs::Imu>*>(nullptr), events));
   ros::ServiceClient client = nh.serviceClient<networked_estimation::SetParameters>("channel/set_parameters");
   ASSERT_TRUE(client.waitForExistence(ros::Duration(10.0)));
-  auto send = [&](int n) {
+  auto send = [&](int n)
+  {
     for (int i = 0; i < n; ++i)
     {
       pub.publish(sensor_msgs::Imu());
@@ -257,13 +260,15 @@ TEST(LossyChannelGraph, SetParametersAppliesFromNextMessage)
 
   // dynamic_reconfigure (in channel/reconfigure) shows the change made by set_parameters, applies
   // its own from the next message on, and undoes a change the settings refuse.
-  auto value = [](const dynamic_reconfigure::Config& c, const std::string& name) {
+  auto value = [](const dynamic_reconfigure::Config& c, const std::string& name)
+  {
     for (const auto& d : c.doubles)
       if (d.name == name)
         return d.value;
     return std::nan("");
   };
-  auto text = [](const dynamic_reconfigure::Config& c, const std::string& name) {
+  auto text = [](const dynamic_reconfigure::Config& c, const std::string& name)
+  {
     for (const auto& d : c.strs)
       if (d.name == name)
         return d.value;
@@ -305,7 +310,8 @@ TEST(LossyChannelGraph, DelayHoldsUnderSimTime)
 {
   ros::NodeHandle nh;
   ros::Publisher clock = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
-  auto setClock = [&](double t) {
+  auto setClock = [&](double t)
+  {
     rosgraph_msgs::Clock c;
     c.clock = ros::Time(t);
     clock.publish(c);
@@ -397,7 +403,8 @@ TEST(LossyChannelGraph, TypedInProcessDelayOrderAndWrongType)
   ros::Publisher wrong = nh.advertise<geometry_msgs::PointStamped>("/wrong_in", 10);
   geometry_msgs::PointStamped p;
   ASSERT_TRUE(waitFor(
-      [&] {
+      [&]
+      {
         wrong.publish(p);
         return diag.text("wrong type").find("geometry_msgs/PointStamped") != std::string::npos;
       },

@@ -60,7 +60,9 @@ struct TfSeen
   {
     ros::SubscribeOptions o;  // with the message event: the publisher's name
     o.initByFullCallbackType<const ros::MessageEvent<tf2_msgs::TFMessage const>&>(
-        "/tf", 10000, [this](const ros::MessageEvent<tf2_msgs::TFMessage const>& e) {
+        "/tf", 10000,
+        [this](const ros::MessageEvent<tf2_msgs::TFMessage const>& e)
+        {
           std::lock_guard<std::mutex> lock(mutex);
           for (const auto& t : e.getConstMessage()->transforms)
             all.push_back({ros::WallTime::now().toSec(), t.header.stamp.toSec(), e.getPublisherName(),
@@ -157,11 +159,12 @@ TEST(RealRobotGraph, JackalBag)
     run.link_status = link.message;
   }
   run.tf = tf.from(ros::names::resolve("/manager"), "odom", "base_link");
-  std::printf("[ jackal -r %g ] %.1f s; odom %g messages, %g late dropped, delay p99 %g s; imu %g, %g, %g s; "
-              "budget %g s; %zu estimates; %zu transforms; link stability: %s\n",
-              rate, run.wall, run.value("odom messages"), run.value("odom late dropped"),
-              run.value("odom delay p99 (s)"), run.value("imu messages"), run.value("imu late dropped"),
-              run.value("imu delay p99 (s)"), run.value("latency budget (s)"), run.estimates.size(), run.tf.size(), run.link_status.c_str());
+  std::printf(
+      "[ jackal -r %g ] %.1f s; odom %g messages, %g late dropped, delay p99 %g s; imu %g, %g, %g s; "
+      "budget %g s; %zu estimates; %zu transforms; link stability: %s\n",
+      rate, run.wall, run.value("odom messages"), run.value("odom late dropped"), run.value("odom delay p99 (s)"),
+      run.value("imu messages"), run.value("imu late dropped"), run.value("imu delay p99 (s)"),
+      run.value("latency budget (s)"), run.estimates.size(), run.tf.size(), run.link_status.c_str());
 
   // Estimates at 50 Hz throughout.
   ASSERT_FALSE(run.estimates.empty());
@@ -243,22 +246,24 @@ TEST(RealRobotGraph, OwnTfIsKeptAndGivesWay)
   const ros::Time t0 = ros::Time::now();
   std::atomic<bool> other{false};
   tf2_ros::TransformBroadcaster wheels;
-  PeriodicFeeder feeder(0.05, [&](long k) {
-    Measurement m;
-    m.header.stamp = t0 + ros::Duration(0.05 * static_cast<double>(k - 1));
-    m.step = static_cast<std::uint64_t>(k);
-    m.y = {0.1};
-    pub.publish(m);
-    if (other)
-    {
-      geometry_msgs::TransformStamped t;
-      t.header.stamp = ros::Time::now();
-      t.header.frame_id = "odom";
-      t.child_frame_id = "base_link";
-      t.transform.rotation.w = 1.0;
-      wheels.sendTransform(t);
-    }
-  });
+  PeriodicFeeder feeder(0.05,
+                        [&](long k)
+                        {
+                          Measurement m;
+                          m.header.stamp = t0 + ros::Duration(0.05 * static_cast<double>(k - 1));
+                          m.step = static_cast<std::uint64_t>(k);
+                          m.y = {0.1};
+                          pub.publish(m);
+                          if (other)
+                          {
+                            geometry_msgs::TransformStamped t;
+                            t.header.stamp = ros::Time::now();
+                            t.header.frame_id = "odom";
+                            t.child_frame_id = "base_link";
+                            t.transform.rotation.w = 1.0;
+                            wheels.sendTransform(t);
+                          }
+                        });
   ros::WallDuration(4.0).sleep();
   const double alone = ros::WallTime::now().toSec();
   const std::vector<TfSeen::Entry> own = tf.from(manager, "odom", "base_link");
@@ -316,12 +321,15 @@ TEST(RealRobotGraph, APoisonedFirstMessage)
     est.push_back(std::make_unique<Collector<Estimate>>(nh, n + "/estimate"));
     diag.push_back(std::make_unique<DiagnosticsProbe>(nh, n + "/estimator: estimator"));
   }
-  ASSERT_TRUE(waitFor([&] {
-    for (std::size_t i = 0; i < names.size(); ++i)
-      if (pubs[i].getNumSubscribers() == 0 || est[i]->sub.getNumPublishers() == 0)
-        return false;
-    return true;
-  }, 20.0));
+  ASSERT_TRUE(waitFor(
+      [&]
+      {
+        for (std::size_t i = 0; i < names.size(); ++i)
+          if (pubs[i].getNumSubscribers() == 0 || est[i]->sub.getNumPublishers() == 0)
+            return false;
+        return true;
+      },
+      20.0));
   for (std::size_t i = 0; i < names.size(); ++i)
   {
     geometry_msgs::PointStamped poison;
@@ -331,13 +339,15 @@ TEST(RealRobotGraph, APoisonedFirstMessage)
     pubs[i].publish(poison);
   }
   {
-    PeriodicFeeder feeder(0.05, [&](long) {
-      geometry_msgs::PointStamped m;
-      m.header.stamp = ros::Time::now();
-      m.point.x = 0.1;
-      for (ros::Publisher& p : pubs)
-        p.publish(m);
-    });
+    PeriodicFeeder feeder(0.05,
+                          [&](long)
+                          {
+                            geometry_msgs::PointStamped m;
+                            m.header.stamp = ros::Time::now();
+                            m.point.x = 0.1;
+                            for (ros::Publisher& p : pubs)
+                              p.publish(m);
+                          });
     ros::WallDuration(1.0).sleep();
     const double now = ros::Time::now().toSec();
     for (std::size_t i = 0; i < names.size(); ++i)
@@ -352,7 +362,8 @@ TEST(RealRobotGraph, APoisonedFirstMessage)
     EXPECT_EQ(diag[i]->get("late dropped"), 0.0) << names[i];
     EXPECT_NE(diag[i]->text("y last stamp refused").find(reasons[i]), std::string::npos)
         << names[i] << ": " << diag[i]->text("y last stamp refused");
-    EXPECT_TRUE(diag[i]->levelIs(diagnostic_msgs::DiagnosticStatus::WARN)) << names[i] << ": " << diag[i]->lastMessage();
+    EXPECT_TRUE(diag[i]->levelIs(diagnostic_msgs::DiagnosticStatus::WARN))
+        << names[i] << ": " << diag[i]->lastMessage();
     const std::string said = diag[i]->lastMessage();
     EXPECT_NE(said.find("sensor 'y': 1 message refused for its stamp, the last "), std::string::npos)
         << names[i] << ": " << said;
@@ -383,12 +394,15 @@ TEST(RealRobotGraph, APoisonedFirstMessageUnderSimTime)
     est.push_back(std::make_unique<Collector<Estimate>>(nh, n + "/estimate"));
     diag.push_back(std::make_unique<DiagnosticsProbe>(nh, n + "/estimator: estimator"));
   }
-  ASSERT_TRUE(waitFor([&] {
-    for (std::size_t i = 0; i < names.size(); ++i)
-      if (pubs[i].getNumSubscribers() == 0 || est[i]->sub.getNumPublishers() == 0)
-        return false;
-    return clock.getNumSubscribers() >= names.size();
-  }, 20.0));
+  ASSERT_TRUE(waitFor(
+      [&]
+      {
+        for (std::size_t i = 0; i < names.size(); ++i)
+          if (pubs[i].getNumSubscribers() == 0 || est[i]->sub.getNumPublishers() == 0)
+            return false;
+        return clock.getNumSubscribers() >= names.size();
+      },
+      20.0));
   for (std::size_t i = 0; i < names.size(); ++i)
   {
     geometry_msgs::PointStamped poison;
@@ -400,21 +414,25 @@ TEST(RealRobotGraph, APoisonedFirstMessageUnderSimTime)
   const ros::WallTime wall0 = ros::WallTime::now();
   auto sim_now = [&] { return start + (ros::WallTime::now() - wall0).toSec(); };
   {
-    PeriodicFeeder ticks(0.01, [&](long) {
-      rosgraph_msgs::Clock c;
-      c.clock.fromSec(sim_now());
-      clock.publish(c);
-    });
+    PeriodicFeeder ticks(0.01,
+                         [&](long)
+                         {
+                           rosgraph_msgs::Clock c;
+                           c.clock.fromSec(sim_now());
+                           clock.publish(c);
+                         });
     ASSERT_TRUE(waitFor([&] { return ros::Time::now().toSec() >= start; }, 5.0));
     ros::WallDuration(0.1).sleep();
     {
-      PeriodicFeeder feeder(0.05, [&](long) {
-        geometry_msgs::PointStamped m;
-        m.header.stamp = ros::Time::now();
-        m.point.x = 0.1;
-        for (ros::Publisher& p : pubs)
-          p.publish(m);
-      });
+      PeriodicFeeder feeder(0.05,
+                            [&](long)
+                            {
+                              geometry_msgs::PointStamped m;
+                              m.header.stamp = ros::Time::now();
+                              m.point.x = 0.1;
+                              for (ros::Publisher& p : pubs)
+                                p.publish(m);
+                            });
       ros::WallDuration(1.0).sleep();
       const double now = ros::Time::now().toSec();
       for (std::size_t i = 0; i < names.size(); ++i)
@@ -444,20 +462,24 @@ TEST(RealRobotGraph, ReconfigureIsValidated)
   ros::NodeHandle nh;
   std::mutex log_mutex;
   std::vector<std::string> errors;
-  ros::Subscriber logs = nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000, [&](const rosgraph_msgs::Log::ConstPtr& l) {
-    if (l->level == rosgraph_msgs::Log::ERROR)
-    {
-      std::lock_guard<std::mutex> lock(log_mutex);
-      errors.push_back(l->msg);
-    }
-  });
-  ros::ServiceClient dyn = nh.serviceClient<dynamic_reconfigure::Reconfigure>("rc/estimator/reconfigure/set_parameters");
+  ros::Subscriber logs = nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000,
+                                                          [&](const rosgraph_msgs::Log::ConstPtr& l)
+                                                          {
+                                                            if (l->level == rosgraph_msgs::Log::ERROR)
+                                                            {
+                                                              std::lock_guard<std::mutex> lock(log_mutex);
+                                                              errors.push_back(l->msg);
+                                                            }
+                                                          });
+  ros::ServiceClient dyn =
+      nh.serviceClient<dynamic_reconfigure::Reconfigure>("rc/estimator/reconfigure/set_parameters");
   ASSERT_TRUE(dyn.waitForExistence(ros::Duration(20.0)));
   DiagnosticsProbe diag(nh, "rc/estimator: estimator");
   ros::WallDuration(0.5).sleep();
   auto call = [&](const std::vector<dynamic_reconfigure::DoubleParameter>& d,
                   const std::vector<dynamic_reconfigure::StrParameter>& s,
-                  const std::vector<dynamic_reconfigure::BoolParameter>& b) {
+                  const std::vector<dynamic_reconfigure::BoolParameter>& b)
+  {
     dynamic_reconfigure::Reconfigure rc;
     rc.request.config.doubles = d;
     rc.request.config.strs = s;
@@ -465,19 +487,22 @@ TEST(RealRobotGraph, ReconfigureIsValidated)
     EXPECT_TRUE(dyn.call(rc));
     return rc.response.config;
   };
-  auto dbl = [](const std::string& n, double v) {
+  auto dbl = [](const std::string& n, double v)
+  {
     dynamic_reconfigure::DoubleParameter p;
     p.name = n;
     p.value = v;
     return p;
   };
-  auto get = [](const dynamic_reconfigure::Config& c, const std::string& n) {
+  auto get = [](const dynamic_reconfigure::Config& c, const std::string& n)
+  {
     for (const auto& p : c.doubles)
       if (p.name == n)
         return p.value;
     return std::nan("");
   };
-  auto policy = [](const dynamic_reconfigure::Config& c) {
+  auto policy = [](const dynamic_reconfigure::Config& c)
+  {
     for (const auto& p : c.strs)
       if (p.name == "late_policy")
         return p.value;
@@ -495,8 +520,10 @@ TEST(RealRobotGraph, ReconfigureIsValidated)
     std::string key;
   };
   std::vector<Bad> bad;
-  bad.push_back({call({dbl("latency_budget", std::nan(""))}, {}, {fixed}), "latency_budget: expected a number of seconds >= 0, found nan"});
-  bad.push_back({call({dbl("latency_budget", -0.1)}, {}, {fixed}), "latency_budget: expected a number of seconds >= 0, found -0.1"});
+  bad.push_back({call({dbl("latency_budget", std::nan(""))}, {}, {fixed}),
+                 "latency_budget: expected a number of seconds >= 0, found nan"});
+  bad.push_back({call({dbl("latency_budget", -0.1)}, {}, {fixed}),
+                 "latency_budget: expected a number of seconds >= 0, found -0.1"});
   bad.push_back({call({}, {later}, {}), "late_policy: expected drop or rewind, found 'later'"});
   bad.push_back({call({dbl("trace_bound", std::nan(""))}, {}, {}), "trace_bound: expected a number >= 0"});
   bad.push_back({call({dbl("latency_budget_min", 0.5), dbl("latency_budget_max", 0.2)}, {}, {}),
@@ -510,12 +537,16 @@ TEST(RealRobotGraph, ReconfigureIsValidated)
     EXPECT_EQ(get(b.shown, "trace_bound"), 1e300) << b.key;
     ASSERT_EQ(b.shown.bools.size(), 1u);
     EXPECT_TRUE(b.shown.bools[0].value) << b.key;
-    EXPECT_TRUE(waitFor([&] {
-      std::lock_guard<std::mutex> lock(log_mutex);
-      return std::any_of(errors.begin(), errors.end(), [&](const std::string& e) {
-        return e.find("change refused: reconfigure: " + b.key) != std::string::npos;
-      });
-    }, 5.0)) << "no error naming " << b.key;
+    EXPECT_TRUE(waitFor(
+        [&]
+        {
+          std::lock_guard<std::mutex> lock(log_mutex);
+          return std::any_of(errors.begin(), errors.end(),
+                             [&](const std::string& e)
+                             { return e.find("change refused: reconfigure: " + b.key) != std::string::npos; });
+        },
+        5.0))
+        << "no error naming " << b.key;
   }
   EXPECT_TRUE(waitFor([&] { return diag.text("latency budget") == "auto"; }, 5.0)) << diag.text("latency budget");
   // A valid change: a fixed budget of 0.2 s and rewind.
@@ -525,8 +556,8 @@ TEST(RealRobotGraph, ReconfigureIsValidated)
   const dynamic_reconfigure::Config ok = call({dbl("latency_budget", 0.2)}, {rewind}, {fixed});
   EXPECT_EQ(get(ok, "latency_budget"), 0.2);
   EXPECT_EQ(policy(ok), "rewind");
-  ASSERT_TRUE(waitFor([&] { return diag.text("latency budget") == "fixed" && diag.get("latency budget (s)") == 0.2; },
-                      5.0))
+  ASSERT_TRUE(
+      waitFor([&] { return diag.text("latency budget") == "fixed" && diag.get("latency budget (s)") == 0.2; }, 5.0))
       << diag.text("latency budget") << " " << diag.get("latency budget (s)");
 }
 
@@ -540,33 +571,36 @@ TEST(RealRobotGraph, ImuWithoutEstimate)
   ros::Publisher odom = nh.advertise<nav_msgs::Odometry>("/odom_in", 100);
   Collector<Estimate> est(nh, "imu/estimate");
   DiagnosticsProbe diag(nh, "imu/estimator: estimator");
-  ASSERT_TRUE(waitFor([&] { return imu.getNumSubscribers() > 0 && odom.getNumSubscribers() > 0 &&
-                                   est.sub.getNumPublishers() > 0; }, 20.0));
+  ASSERT_TRUE(waitFor(
+      [&] { return imu.getNumSubscribers() > 0 && odom.getNumSubscribers() > 0 && est.sub.getNumPublishers() > 0; },
+      20.0));
   // 20 Hz; the IMU's every 4th of the first 60 messages has no orientation estimate.
   const long N = 60;
   std::atomic<long> disabled{0};
   const ros::Time t0 = ros::Time::now();
-  PeriodicFeeder feeder(0.05, [&](long k) {
-    // Stamped at its sample time on the 20 Hz grid, as a driver stamps its samples: a feeder
-    // thread that a busy machine delays publishes late (inside the 200 ms budget), not on the
-    // next step with a step left empty.
-    const ros::Time stamp = t0 + ros::Duration(0.05 * static_cast<double>(k - 1));
-    sensor_msgs::Imu i;
-    i.header.stamp = stamp;
-    if (k % 4 == 0 && k <= N)
-    {
-      i.orientation_covariance[0] = -1.0;  // no orientation estimate: orientation all zeros
-      ++disabled;
-    }
-    else
-      i.orientation.w = 1.0;
-    nav_msgs::Odometry o;
-    o.header.stamp = stamp;
-    o.pose.pose.orientation.w = 1.0;
-    o.pose.pose.position.x = 0.3;
-    imu.publish(i);
-    odom.publish(o);
-  });
+  PeriodicFeeder feeder(0.05,
+                        [&](long k)
+                        {
+                          // Stamped at its sample time on the 20 Hz grid, as a driver stamps its samples: a feeder
+                          // thread that a busy machine delays publishes late (inside the 200 ms budget), not on the
+                          // next step with a step left empty.
+                          const ros::Time stamp = t0 + ros::Duration(0.05 * static_cast<double>(k - 1));
+                          sensor_msgs::Imu i;
+                          i.header.stamp = stamp;
+                          if (k % 4 == 0 && k <= N)
+                          {
+                            i.orientation_covariance[0] = -1.0;  // no orientation estimate: orientation all zeros
+                            ++disabled;
+                          }
+                          else
+                            i.orientation.w = 1.0;
+                          nav_msgs::Odometry o;
+                          o.header.stamp = stamp;
+                          o.pose.pose.orientation.w = 1.0;
+                          o.pose.pose.position.x = 0.3;
+                          imu.publish(i);
+                          odom.publish(o);
+                        });
   ASSERT_TRUE(waitFor([&] { return est.size() >= static_cast<std::size_t>(N) + 10; }, 20.0)) << est.size();
   ASSERT_TRUE(waitFor([&] { return diag.get("a without estimate (covariance -1)") == N / 4; }, 5.0))
       << diag.get("a without estimate (covariance -1)");
@@ -596,17 +630,21 @@ TEST(RealRobotGraph, SetPose)
   ros::ServiceClient service = nh.serviceClient<ne::SetPose>("/setpose/set_pose");
   Collector<Estimate> est(nh, "setpose/estimate");
   DiagnosticsProbe diag(nh, "setpose/estimator: estimator");
-  ASSERT_TRUE(waitFor([&] { return imu.getNumSubscribers() > 0 && topic.getNumSubscribers() > 0 &&
-                                   est.sub.getNumPublishers() > 0; }, 20.0));
+  ASSERT_TRUE(waitFor(
+      [&] { return imu.getNumSubscribers() > 0 && topic.getNumSubscribers() > 0 && est.sub.getNumPublishers() > 0; },
+      20.0));
   ASSERT_TRUE(service.waitForExistence(ros::Duration(10.0)));
-  PeriodicFeeder feeder(0.05, [&](long) {
-    sensor_msgs::Imu i;
-    i.header.stamp = ros::Time::now();
-    i.orientation.w = 1.0;
-    imu.publish(i);
-  });
+  PeriodicFeeder feeder(0.05,
+                        [&](long)
+                        {
+                          sensor_msgs::Imu i;
+                          i.header.stamp = ros::Time::now();
+                          i.orientation.w = 1.0;
+                          imu.publish(i);
+                        });
   ASSERT_TRUE(waitFor([&] { return est.size() >= 5; }, 20.0));
-  auto pose = [](double x, double y, double yaw, double var) {
+  auto pose = [](double x, double y, double yaw, double var)
+  {
     geometry_msgs::PoseWithCovarianceStamped p;
     p.header.frame_id = "odom";
     p.pose.pose.position.x = x;
@@ -617,7 +655,8 @@ TEST(RealRobotGraph, SetPose)
     return p;
   };
   // The latest estimate whose x is within 1e-6 of `x` (the unobserved x keeps the set value).
-  auto reached = [&](double x, double y, double var) {
+  auto reached = [&](double x, double y, double var)
+  {
     std::lock_guard<std::mutex> lock(est.mutex);
     if (est.msgs.empty())
       return false;
@@ -630,9 +669,9 @@ TEST(RealRobotGraph, SetPose)
   {
     std::lock_guard<std::mutex> lock(est.mutex);
     const Estimate& e = est.msgs.back();
-    EXPECT_EQ(e.covariance[1], 0.0);                      // x and y uncorrelated, as the pose's covariance
-    EXPECT_LT(std::abs(e.state[2]), 1.0);                 // the IMU pulls the heading back from 1.0 towards 0
-    EXPECT_LT(e.covariance[0], 0.04 + 200 * 1e-4);        // grown by Q per step since (within 10 s)
+    EXPECT_EQ(e.covariance[1], 0.0);                // x and y uncorrelated, as the pose's covariance
+    EXPECT_LT(std::abs(e.state[2]), 1.0);           // the IMU pulls the heading back from 1.0 towards 0
+    EXPECT_LT(e.covariance[0], 0.04 + 200 * 1e-4);  // grown by Q per step since (within 10 s)
   }
   ne::SetPose call;
   call.request.pose = pose(-2.0, 7.5, 0.0, 0.09);
@@ -652,8 +691,8 @@ TEST(RealRobotGraph, SetPose)
   EXPECT_NE(nan_pose.response.message.find("x is not finite"), std::string::npos) << nan_pose.response.message;
   ros::WallDuration(0.5).sleep();
   EXPECT_TRUE(reached(-2.0, 7.5, 0.09)) << "a refused set_pose changed the estimate";
-  EXPECT_TRUE(waitFor([&] { return diag.get("poses set (set_pose)") == 2.0 && diag.get("set_pose refused") == 2.0; },
-                      5.0))
+  EXPECT_TRUE(
+      waitFor([&] { return diag.get("poses set (set_pose)") == 2.0 && diag.get("set_pose refused") == 2.0; }, 5.0))
       << diag.get("poses set (set_pose)") << " " << diag.get("set_pose refused");
 }
 
@@ -668,18 +707,20 @@ TEST(RealRobotGraph, RelativeAndDifferential)
   ros::Publisher b = nh.advertise<nav_msgs::Odometry>("/rl_odom_b", 100);
   Collector<Estimate> est(nh, "rl/estimate");
   DiagnosticsProbe diag(nh, "rl/estimator: estimator");
-  ASSERT_TRUE(waitFor([&] { return a.getNumSubscribers() > 0 && b.getNumSubscribers() > 0 &&
-                                   est.sub.getNumPublishers() > 0; }, 20.0));
+  ASSERT_TRUE(waitFor(
+      [&] { return a.getNumSubscribers() > 0 && b.getNumSubscribers() > 0 && est.sub.getNumPublishers() > 0; }, 20.0));
   const ros::Time t0 = ros::Time::now();
-  PeriodicFeeder feeder(0.05, [&](long) {
-    nav_msgs::Odometry o;
-    o.header.stamp = ros::Time::now();
-    o.header.frame_id = "odom";
-    o.pose.pose.position.x = 10.0 + 0.5 * (o.header.stamp - t0).toSec();
-    o.pose.pose.orientation.w = 1.0;
-    a.publish(o);
-    b.publish(o);
-  });
+  PeriodicFeeder feeder(0.05,
+                        [&](long)
+                        {
+                          nav_msgs::Odometry o;
+                          o.header.stamp = ros::Time::now();
+                          o.header.frame_id = "odom";
+                          o.pose.pose.position.x = 10.0 + 0.5 * (o.header.stamp - t0).toSec();
+                          o.pose.pose.orientation.w = 1.0;
+                          a.publish(o);
+                          b.publish(o);
+                        });
   ASSERT_TRUE(waitFor([&] { return est.size() >= 60; }, 20.0)) << est.size();
   {
     std::lock_guard<std::mutex> lock(est.mutex);
@@ -749,8 +790,8 @@ TEST(RealRobotGraph, PeerBagTest)
   EXPECT_GE(last.header.stamp.toSec(), bag_end - 0.1) << "the estimate stopped before the bag's end";
   if (position)
   {
-    const double d = std::sqrt((p.x - expected[0]) * (p.x - expected[0]) +
-                               (p.y - expected[1]) * (p.y - expected[1]) + (p.z - expected[2]) * (p.z - expected[2]));
+    const double d = std::sqrt((p.x - expected[0]) * (p.x - expected[0]) + (p.y - expected[1]) * (p.y - expected[1]) +
+                               (p.z - expected[2]) * (p.z - expected[2]));
     std::printf("[ peer bag test ] %.4f m from (%.4f, %.4f, %.4f), tolerance %.4f per axis\n", d, expected[0],
                 expected[1], expected[2], tolerance);
     EXPECT_LE(std::abs(p.x - expected[0]), tolerance);

@@ -182,8 +182,10 @@ TEST(RobotGraph, SimulatedRobotThroughLossyLinksAndABag)
   const std::string dir = mkdtemp(dir_template);
   const std::string bag = dir + "/robot.bag";
   // The recorder starts before the plant (start_delay 6 s).
-  ASSERT_EQ(std::system(("rosbag record -q -O " + bag + " /fix /imu /odom __name:=bag_recorder > " + dir +
-                         "/record.log 2>&1 &").c_str()), 0);
+  ASSERT_EQ(std::system(
+                ("rosbag record -q -O " + bag + " /fix /imu /odom __name:=bag_recorder > " + dir + "/record.log 2>&1 &")
+                    .c_str()),
+            0);
   ASSERT_TRUE(waitFor([&] { return truth.size() >= static_cast<std::size_t>(steps + 1); }, 90.0))
       << "plant states: " << truth.size();
   // The clock runs 1 s (sim) past the last step: every step is finalised at its deadline (0.2 s).
@@ -199,7 +201,8 @@ TEST(RobotGraph, SimulatedRobotThroughLossyLinksAndABag)
     std::lock_guard<std::mutex> lock(truth.mutex);
     plant_end = truth.msgs.back().header.stamp;
   }
-  auto tail = [&](std::size_t s, long first_due, long last, long K) {
+  auto tail = [&](std::size_t s, long first_due, long last, long K)
+  {
     long n = 0;
     for (long k = last + 1; k <= K; ++k)
       n += (k - first_due) % every[s] == 0 ? 1 : 0;
@@ -233,7 +236,8 @@ TEST(RobotGraph, SimulatedRobotThroughLossyLinksAndABag)
   ASSERT_FALSE(L.empty());
   const long K = L.rbegin()->first;
   ASSERT_EQ(static_cast<long>(L.size()), K) << "lossy: a step without an estimate";
-  const ros::Time t1 = L.begin()->second.header.stamp - ros::Duration(kPeriod * static_cast<double>(L.begin()->first - 1));
+  const ros::Time t1 =
+      L.begin()->second.header.stamp - ros::Duration(kPeriod * static_cast<double>(L.begin()->first - 1));
   const long last = stepOf(plant_end, t1);  // the plant's last step in lossy's numbering
   std::map<long, StepInput> in;
   addSensor(in, rx_fix, model, 0, inputOf(ne::InputType::NAVSATFIX, {"east", "north"}, true), t1);
@@ -312,7 +316,8 @@ TEST(RobotGraph, SimulatedRobotThroughLossyLinksAndABag)
     const ne::ReplayOutputRow& r = offline.rows[static_cast<std::size_t>(k - 1)];
     for (int i = 0; i < model.n(); ++i)
     {
-      worst = std::max(worst, std::abs(e.state[static_cast<std::size_t>(i)] - r.x(i)) / std::max(1.0, std::abs(r.x(i))));
+      worst =
+          std::max(worst, std::abs(e.state[static_cast<std::size_t>(i)] - r.x(i)) / std::max(1.0, std::abs(r.x(i))));
       for (int j = 0; j < model.n(); ++j)
         worst = std::max(worst, std::abs(e.covariance[static_cast<std::size_t>(i * model.n() + j)] - r.P(i, j)) /
                                     std::max(1.0, std::abs(r.P(i, j))));
@@ -328,7 +333,9 @@ TEST(RobotGraph, SimulatedRobotThroughLossyLinksAndABag)
   ASSERT_TRUE(waitFor([&] { return std::ifstream(bag).good(); }, 20.0)) << "no closed bag at " << bag;
   ASSERT_EQ(std::system(("rosbag play -q --keep-alive --clock --hz=1000 -d 2 " + bag +
                          " /fix:=/replay/fix /imu:=/replay/imu /odom:=/replay/odom __name:=bag_player > " + dir +
-                         "/play.log 2>&1 &").c_str()), 0);
+                         "/play.log 2>&1 &")
+                            .c_str()),
+            0);
   const std::size_t want = static_cast<std::size_t>(last - 51);
   const bool all = waitFor([&] { return replayed.size() >= want; }, 60.0);
   std::system("rosnode kill /bag_player > /dev/null 2>&1");

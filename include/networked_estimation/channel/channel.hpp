@@ -70,11 +70,11 @@ std::string toString(ChannelOutcome outcome);
 /// One per offered message: the ground truth for evaluation.
 struct ChannelRecord
 {
-  std::uint64_t seq = 0;   ///< the caller's sequence number of the input message
-  double arrival = 0.0;    ///< time the message was offered (s)
+  std::uint64_t seq = 0;  ///< the caller's sequence number of the input message
+  double arrival = 0.0;   ///< time the message was offered (s)
   ChannelOutcome outcome = ChannelOutcome::DELIVERED;
-  bool duplicated = false; ///< a second copy was scheduled
-  int state = 0;           ///< loss-model state after this message (0 good, 1 bad)
+  bool duplicated = false;  ///< a second copy was scheduled
+  int state = 0;            ///< loss-model state after this message (0 good, 1 bad)
   /// Holding time of the (first) copy, due - arrival, in s (0 when dropped).  Includes the hold
   /// imposed by in-order delivery when reorder = false; equals the drawn d exactly when not held.
   double delay = 0.0;
@@ -86,12 +86,12 @@ struct ChannelRecord
 
 struct ChannelCounters
 {
-  std::uint64_t received = 0;       ///< offers
-  std::uint64_t delivered = 0;      ///< deliveries popped (copies included)
+  std::uint64_t received = 0;   ///< offers
+  std::uint64_t delivered = 0;  ///< deliveries popped (copies included)
   std::uint64_t dropped_model = 0;
   std::uint64_t dropped_queue = 0;
-  std::uint64_t duplicated = 0;     ///< copies scheduled
-  std::size_t in_flight = 0;        ///< deliveries scheduled, not yet popped (copies included)
+  std::uint64_t duplicated = 0;  ///< copies scheduled
+  std::size_t in_flight = 0;     ///< deliveries scheduled, not yet popped (copies included)
 };
 
 struct Delivery

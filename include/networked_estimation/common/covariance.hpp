@@ -53,7 +53,7 @@ struct CovarianceCheck
   Problem problem = Problem::NONE;
   Definiteness definiteness = Definiteness::POSITIVE;
   Eigen::Index row = -1, col = -1;
-  double value = 0.0, mirror = 0.0;  ///< M(row, col) and M(col, row)
+  double value = 0.0, mirror = 0.0;                            ///< M(row, col) and M(col, row)
   double smallest = std::numeric_limits<double>::quiet_NaN();  ///< eigenvalues of M
   double largest = std::numeric_limits<double>::quiet_NaN();
   bool scaled = false;  ///< the scaled matrix's eigenvalues were computed too

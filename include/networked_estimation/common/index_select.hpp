@@ -11,8 +11,8 @@ namespace networked_estimation
 
 /// M(rows[0..], :), as a plain matrix of M's scalar type.
 template <typename Derived>
-Eigen::Matrix<typename Derived::Scalar, Eigen::Dynamic, Eigen::Dynamic>
-selectRows(const Eigen::MatrixBase<Derived>& M, const std::vector<int>& rows)
+Eigen::Matrix<typename Derived::Scalar, Eigen::Dynamic, Eigen::Dynamic> selectRows(const Eigen::MatrixBase<Derived>& M,
+                                                                                   const std::vector<int>& rows)
 {
   Eigen::Matrix<typename Derived::Scalar, Eigen::Dynamic, Eigen::Dynamic> out(rows.size(), M.cols());
   for (std::size_t i = 0; i < rows.size(); ++i)
@@ -22,8 +22,8 @@ selectRows(const Eigen::MatrixBase<Derived>& M, const std::vector<int>& rows)
 
 /// M(:, cols[0..]).
 template <typename Derived>
-Eigen::Matrix<typename Derived::Scalar, Eigen::Dynamic, Eigen::Dynamic>
-selectCols(const Eigen::MatrixBase<Derived>& M, const std::vector<int>& cols)
+Eigen::Matrix<typename Derived::Scalar, Eigen::Dynamic, Eigen::Dynamic> selectCols(const Eigen::MatrixBase<Derived>& M,
+                                                                                   const std::vector<int>& cols)
 {
   Eigen::Matrix<typename Derived::Scalar, Eigen::Dynamic, Eigen::Dynamic> out(M.rows(), cols.size());
   for (std::size_t j = 0; j < cols.size(); ++j)
@@ -33,8 +33,9 @@ selectCols(const Eigen::MatrixBase<Derived>& M, const std::vector<int>& cols)
 
 /// M(rows[0..], cols[0..]).
 template <typename Derived>
-Eigen::Matrix<typename Derived::Scalar, Eigen::Dynamic, Eigen::Dynamic>
-selectBlock(const Eigen::MatrixBase<Derived>& M, const std::vector<int>& rows, const std::vector<int>& cols)
+Eigen::Matrix<typename Derived::Scalar, Eigen::Dynamic, Eigen::Dynamic> selectBlock(const Eigen::MatrixBase<Derived>& M,
+                                                                                    const std::vector<int>& rows,
+                                                                                    const std::vector<int>& cols)
 {
   Eigen::Matrix<typename Derived::Scalar, Eigen::Dynamic, Eigen::Dynamic> out(rows.size(), cols.size());
   for (std::size_t i = 0; i < rows.size(); ++i)
@@ -45,8 +46,8 @@ selectBlock(const Eigen::MatrixBase<Derived>& M, const std::vector<int>& rows, c
 
 /// v(idx[0..]) of a vector.
 template <typename Derived>
-Eigen::Matrix<typename Derived::Scalar, Eigen::Dynamic, 1>
-selectEntries(const Eigen::MatrixBase<Derived>& v, const std::vector<int>& idx)
+Eigen::Matrix<typename Derived::Scalar, Eigen::Dynamic, 1> selectEntries(const Eigen::MatrixBase<Derived>& v,
+                                                                         const std::vector<int>& idx)
 {
   Eigen::Matrix<typename Derived::Scalar, Eigen::Dynamic, 1> out(idx.size());
   for (std::size_t i = 0; i < idx.size(); ++i)

@@ -66,7 +66,6 @@ YAML::Node toYaml(const ChannelSettings& settings);
 /// `base` with the keys of the map `changes` replaced, validated as a whole (runtime changes).
 /// When `changes` names another model, the old model's keys are dropped first. Throws ConfigError
 /// naming the key; `base` is never modified.
-ChannelSettings mergeChannelSettings(const ChannelSettings& base, const YAML::Node& changes,
-                                     const std::string& source);
+ChannelSettings mergeChannelSettings(const ChannelSettings& base, const YAML::Node& changes, const std::string& source);
 
 }  // namespace networked_estimation

@@ -14,13 +14,13 @@ namespace networked_estimation
 
 enum class Algorithm
 {
-  KF,     ///< plain Kalman filter; treats every finite received sample as a measurement
-  KFIO,   ///< Kalman filter with intermittent observations (Sinopoli)
-  RSEIO,  ///< Zhou's robust estimator with intermittent observations
-  AOE,    ///< approximate optimal estimator, NACK control link (Lin et al.)
-  OE,     ///< exact optimal estimator (Gaussian mixture, capped)
-  ACK_KF, ///< Kalman filter told whether each command arrived
-  EKFIO   ///< extended kfio: a built-in nonlinear motion (or kfio's prediction on a linear model)
+  KF,      ///< plain Kalman filter; treats every finite received sample as a measurement
+  KFIO,    ///< Kalman filter with intermittent observations (Sinopoli)
+  RSEIO,   ///< Zhou's robust estimator with intermittent observations
+  AOE,     ///< approximate optimal estimator, NACK control link (Lin et al.)
+  OE,      ///< exact optimal estimator (Gaussian mixture, capped)
+  ACK_KF,  ///< Kalman filter told whether each command arrived
+  EKFIO    ///< extended kfio: a built-in nonlinear motion (or kfio's prediction on a linear model)
 };
 
 /// "kf", "kfio", "rseio", "aoe", "oe", "ack_kf", "ekfio".
@@ -31,10 +31,10 @@ Algorithm algorithmFromString(const std::string& name, const std::string& source
 struct EstimatorSettings
 {
   Algorithm algorithm = Algorithm::KFIO;
-  double mu = 1.0;              ///< rseio: in (0, 1]
+  double mu = 1.0;  ///< rseio: in (0, 1]
   bool has_control_link = false;
-  double recovery = 0.5;        ///< q1 = P(delivered at k | lost at k-1)
-  double failure = 0.5;         ///< q2 = P(lost at k | delivered at k-1)
+  double recovery = 0.5;              ///< q1 = P(delivered at k | lost at k-1)
+  double failure = 0.5;               ///< q2 = P(lost at k | delivered at k-1)
   std::size_t max_components = 4096;  ///< oe only
 };
 

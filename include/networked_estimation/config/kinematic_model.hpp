@@ -36,22 +36,22 @@ struct KinematicSensor
   /// "position", "velocity" or "acceleration" (constant_acceleration only) of every axis; with a
   /// heading also "yaw", "yaw_rate" or "yaw_acceleration" (constant_acceleration only), one row
   std::string quantity;
-  double sigma = 0.0;    ///< standard deviation per axis: m, m/s or m/s^2 (rad, rad/s, rad/s^2)
+  double sigma = 0.0;  ///< standard deviation per axis: m, m/s or m/s^2 (rad, rad/s, rad/s^2)
 };
 
 struct KinematicSpec
 {
   std::string name = "kinematic";
-  std::string motion;    ///< "constant_velocity" or "constant_acceleration"
-  int dims = 0;          ///< 1, 2 or 3
-  double rate = 0.0;     ///< Hz; the period is 1 / rate
-  double density = 0.0;  ///< q: of the acceleration (constant_velocity, m^2/s^3) or of the jerk
-                         ///< (constant_acceleration, m^2/s^5)
+  std::string motion;                    ///< "constant_velocity" or "constant_acceleration"
+  int dims = 0;                          ///< 1, 2 or 3
+  double rate = 0.0;                     ///< Hz; the period is 1 / rate
+  double density = 0.0;                  ///< q: of the acceleration (constant_velocity, m^2/s^3) or of the jerk
+                                         ///< (constant_acceleration, m^2/s^5)
   std::vector<KinematicSensor> sensors;  ///< at least one
   Eigen::VectorXd x0;                    ///< empty: zeros
   double p0_position = 1.0;              ///< P0 = diag of these variances (m^2, m^2/s^2, m^2/s^4)
   double p0_velocity = 1.0;
-  double p0_acceleration = 1.0;          ///< constant_acceleration only
+  double p0_acceleration = 1.0;  ///< constant_acceleration only
   /// How a message names a key ("dims", "sensors[1].sigma", ...): make_model names the option the
   /// user typed. Empty: the key itself.
   std::function<std::string(const std::string& key)> key_name;
@@ -59,8 +59,8 @@ struct KinematicSpec
   /// acceleration (constant_velocity, rad^2/s^3) or jerk (constant_acceleration, rad^2/s^5) of this
   /// spectral density; 0: no heading.
   double heading_density = 0.0;
-  double p0_yaw = 1.0;                   ///< P0 of the heading and its derivatives: rad^2, (rad/s)^2,
-  double p0_yaw_rate = 1.0;              ///< (rad/s^2)^2 (the last for constant_acceleration only)
+  double p0_yaw = 1.0;       ///< P0 of the heading and its derivatives: rad^2, (rad/s)^2,
+  double p0_yaw_rate = 1.0;  ///< (rad/s^2)^2 (the last for constant_acceleration only)
   double p0_yaw_acceleration = 1.0;
 };
 

@@ -42,19 +42,19 @@ struct Uncertainty
 struct Model
 {
   std::string name;
-  double period = 0.0;  ///< seconds between samples k and k+1
-  Eigen::MatrixXd A;    ///< n x n
-  Eigen::MatrixXd B;    ///< n x nw (identity when absent)
-  Eigen::MatrixXd Q;    ///< nw x nw, positive definite
-  Eigen::MatrixXd C;    ///< m x n, stacked over sensors
-  Eigen::MatrixXd R;    ///< m x m, block diagonal over sensors, positive definite
-  Eigen::VectorXd x0;   ///< initial estimate and mean of the simulated initial state
-  Eigen::MatrixXd P0;   ///< initial covariance, positive semidefinite
-  std::vector<Sensor> sensors;            ///< at least one; a single C/R file has one sensor "y"
-  std::vector<Uncertainty> uncertainty;   ///< n_e entries (may be empty)
-  Eigen::MatrixXd Bu;                     ///< n x p control input matrix (p = 0 without control)
-  Schedule schedule;                      ///< which sensors transmit at each step (none: all, always)
-  std::vector<std::string> states;        ///< names of the state entries (n of them), or empty
+  double period = 0.0;                   ///< seconds between samples k and k+1
+  Eigen::MatrixXd A;                     ///< n x n
+  Eigen::MatrixXd B;                     ///< n x nw (identity when absent)
+  Eigen::MatrixXd Q;                     ///< nw x nw, positive definite
+  Eigen::MatrixXd C;                     ///< m x n, stacked over sensors
+  Eigen::MatrixXd R;                     ///< m x m, block diagonal over sensors, positive definite
+  Eigen::VectorXd x0;                    ///< initial estimate and mean of the simulated initial state
+  Eigen::MatrixXd P0;                    ///< initial covariance, positive semidefinite
+  std::vector<Sensor> sensors;           ///< at least one; a single C/R file has one sensor "y"
+  std::vector<Uncertainty> uncertainty;  ///< n_e entries (may be empty)
+  Eigen::MatrixXd Bu;                    ///< n x p control input matrix (p = 0 without control)
+  Schedule schedule;                     ///< which sensors transmit at each step (none: all, always)
+  std::vector<std::string> states;       ///< names of the state entries (n of them), or empty
   /// The angular state components (indices, ascending): an angle lives in (-pi, pi], the
   /// estimators wrap it after every step and wrap the innovation of every row that measures it
   /// (angularRows; docs/algorithms.md 2.7, docs/formats.md 1.2b).

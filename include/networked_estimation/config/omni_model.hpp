@@ -22,13 +22,13 @@ struct OmniSensor
 struct OmniSpec
 {
   std::string name = "robot";
-  std::string motion;                  ///< "omni_2d" or "omni_3d"
-  double rate = 0.0;                   ///< Hz; the period is 1 / rate
-  std::vector<double> process_noise;   ///< Q's diagonal per second: n values, or one for all
-  std::vector<OmniSensor> sensors;     ///< at least one
-  std::vector<double> x0;              ///< empty: zeros; else n values
-  std::vector<double> p0;              ///< P0's diagonal: empty (1 each), one value, or n values
-  bool two_d_mode = false;             ///< omni_3d only
+  std::string motion;                 ///< "omni_2d" or "omni_3d"
+  double rate = 0.0;                  ///< Hz; the period is 1 / rate
+  std::vector<double> process_noise;  ///< Q's diagonal per second: n values, or one for all
+  std::vector<OmniSensor> sensors;    ///< at least one
+  std::vector<double> x0;             ///< empty: zeros; else n values
+  std::vector<double> p0;             ///< P0's diagonal: empty (1 each), one value, or n values
+  bool two_d_mode = false;            ///< omni_3d only
   /// How a message names a key ("rate", "sensors[1].states", ...): make_model names the option the
   /// user typed, as for a kinematic model. Empty: the key itself.
   std::function<std::string(const std::string& key)> key_name;

@@ -199,8 +199,8 @@ constexpr long kMaxPredictAheadSteps = 1000;
 /// (xp = A^k x, Pp = A Pp A' + B Q B' k times). Returns the time predicted over: dt, or k periods
 /// (0: (x, P) as they are). Throws InputError naming dt for a dt that is negative or not finite, a
 /// period that is not positive, or a linear k above kMaxPredictAheadSteps.
-double predictAhead(const Model& model, double period, const Eigen::VectorXd& x, const Eigen::MatrixXd& P,
-                    double dt, Eigen::VectorXd& xp, Eigen::MatrixXd& Pp);
+double predictAhead(const Model& model, double period, const Eigen::VectorXd& x, const Eigen::MatrixXd& P, double dt,
+                    Eigen::VectorXd& xp, Eigen::MatrixXd& Pp);
 
 /// Checks sample.R for a step of `model` (nothing when it is empty): m x m, and the block of every
 /// sensor the step fuses (gamma set and the sensor's y finite) finite, symmetric and positive

@@ -25,12 +25,12 @@ namespace networked_estimation
 struct SeriesResult
 {
   std::string name;
-  std::vector<double> mean, sd;  ///< one per x of the case
-  long n = 0;                    ///< runs
+  std::vector<double> mean, sd;         ///< one per x of the case
+  long n = 0;                           ///< runs
   double window0 = 0.0, window1 = 0.0;  ///< x range of time_average (inclusive)
-  double time_average = 0.0;     ///< mean over x in the window of `mean`
-  double final_value = 0.0;      ///< mean at the last x
-  bool bound = false;            ///< a bound (JSON "bound": true: plotted dashed)
+  double time_average = 0.0;            ///< mean over x in the window of `mean`
+  double final_value = 0.0;             ///< mean at the last x
+  bool bound = false;                   ///< a bound (JSON "bound": true: plotted dashed)
   // Heavy tails (docs/formats.md, "Heavy tails"); NaN where the experiment does not compute them.
   /// Per x: the quantiles over the runs (within QuantileSketch::kRelativeError).
   std::vector<double> p5, p25, median, p75, p95;

@@ -66,9 +66,9 @@ private:
 
   private:
     void reserve(int lo, int hi);
-    int lo_ = 0;                          ///< bin of counts_[0]
-    std::vector<std::uint32_t> counts_;   ///< allocated bins (some empty)
-    int min_ = 1, max_ = 0;               ///< the occupied bins (none while max_ < min_)
+    int lo_ = 0;                         ///< bin of counts_[0]
+    std::vector<std::uint32_t> counts_;  ///< allocated bins (some empty)
+    int min_ = 1, max_ = 0;              ///< the occupied bins (none while max_ < min_)
     bool folded_ = false;
   };
 

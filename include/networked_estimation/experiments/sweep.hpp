@@ -40,7 +40,7 @@ struct SweepAxis
     SETTINGS,
     MODEL
   };
-  std::string arg;     ///< the --axis argument as given
+  std::string arg;  ///< the --axis argument as given
   Kind kind = Kind::LINK;
   /// The sensor (LINK), the estimator (SETTINGS) or "model" (MODEL).
   std::string sensor;
@@ -150,7 +150,7 @@ struct SweepResult
   std::vector<std::vector<double>> point_values;  ///< per point, the value of each axis
   std::vector<SweepCell> cells;                   ///< point-major: cells[point * estimators + j]
   SweepAnalysis analysis;
-  std::vector<double> thresholds;                 ///< --threshold
+  std::vector<double> thresholds;  ///< --threshold
 };
 
 /// `point,i1,i2,<axis 1>,<axis 2>,estimator,n,diverged,floored,trP_mean,...,verdict` rows.

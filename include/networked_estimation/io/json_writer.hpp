@@ -34,10 +34,12 @@ public:
   JsonWriter& value(double v);
   JsonWriter& value(bool b);
   JsonWriter& null();
-  template <class T, typename std::enable_if<std::is_integral<T>::value && !std::is_same<T, bool>::value, int>::type = 0>
+  template <class T,
+            typename std::enable_if<std::is_integral<T>::value && !std::is_same<T, bool>::value, int>::type = 0>
   JsonWriter& value(T v)
   {
-    return std::is_signed<T>::value ? integer(static_cast<std::int64_t>(v)) : unsignedInteger(static_cast<std::uint64_t>(v));
+    return std::is_signed<T>::value ? integer(static_cast<std::int64_t>(v))
+                                    : unsignedInteger(static_cast<std::uint64_t>(v));
   }
   JsonWriter& value(const std::vector<double>& v);
   JsonWriter& value(const std::vector<std::string>& v);

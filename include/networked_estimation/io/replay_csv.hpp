@@ -73,9 +73,9 @@ void writeReplayInputHeader(std::ostream& os, int m, int p, bool with_nu,
 /// One row. NaN entries of y are written as empty cells, entries marked in `off` (m flags: the
 /// rows of a sensor that was not scheduled) as '-'; u is written when non-empty; nu when with_nu.
 /// Numbers use %.17g. `tail` (e.g. writeReplayRowR's cells) ends the row.
-void writeReplayInputRow(std::ostream& os, long k, bool gamma, const Eigen::VectorXd& y,
-                         const Eigen::VectorXd& u, bool with_nu = false, int nu = -1,
-                         const std::vector<bool>* off = nullptr, const std::string& tail = "");
+void writeReplayInputRow(std::ostream& os, long k, bool gamma, const Eigen::VectorXd& y, const Eigen::VectorXd& u,
+                         bool with_nu = false, int nu = -1, const std::vector<bool>* off = nullptr,
+                         const std::string& tail = "");
 
 // ---------------------------------------------------------------------------------------------
 // Replay output
@@ -83,8 +83,7 @@ void writeReplayInputRow(std::ostream& os, long k, bool gamma, const Eigen::Vect
 /// Header `k,gamma,x1..xn,P11,P12,...,Pnn,trace`.
 void writeReplayOutputHeader(std::ostream& os, int n);
 /// One row, numbers with %.17g (round-trip exact doubles).
-void writeReplayOutputRow(std::ostream& os, long k, bool gamma, const Eigen::VectorXd& x,
-                          const Eigen::MatrixXd& P);
+void writeReplayOutputRow(std::ostream& os, long k, bool gamma, const Eigen::VectorXd& x, const Eigen::MatrixXd& P);
 
 struct ReplayOutputRow
 {

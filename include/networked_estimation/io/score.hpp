@@ -9,7 +9,6 @@
 namespace networked_estimation
 {
 
-
 struct Score
 {
   std::string name;
@@ -24,8 +23,8 @@ struct Score
 /// truth's state dimension and the same k sequence. The errors of the states `angles` (ascending,
 /// the model's angles) are wrapped into (-pi, pi]. Throws InputError otherwise (or when no step
 /// is left to score, or an angle is not a state of the truth).
-Score scoreEstimate(const std::string& name, const Truth& truth, const ReplayOutput& estimate,
-                    long from = 1, const std::vector<int>& angles = {});
+Score scoreEstimate(const std::string& name, const Truth& truth, const ReplayOutput& estimate, long from = 1,
+                    const std::vector<int>& angles = {});
 
 /// A readable table (one row per score) or, with csv, the header
 /// `name,steps,arrival_rate,mse,mean_trace,ratio` and one row per score.

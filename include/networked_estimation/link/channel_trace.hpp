@@ -17,11 +17,11 @@ namespace networked_estimation
 
 struct ChannelTrace
 {
-  std::string source;                  ///< the file (and topic) it was read from
-  double period = 0.0;                 ///< s between expected messages
-  std::vector<std::uint8_t> arrived;   ///< per slot
-  std::vector<double> delay;           ///< per slot, s (0 when lost)
-  std::vector<std::uint8_t> copies;    ///< per slot: copies received (2 or more: a duplicate)
+  std::string source;                 ///< the file (and topic) it was read from
+  double period = 0.0;                ///< s between expected messages
+  std::vector<std::uint8_t> arrived;  ///< per slot
+  std::vector<double> delay;          ///< per slot, s (0 when lost)
+  std::vector<std::uint8_t> copies;   ///< per slot: copies received (2 or more: a duplicate)
   /// The loss model fitted to the slots (bernoulli or gilbert_elliott), and how it was chosen.
   ChannelSettings fitted;
   std::string fitted_note;

@@ -44,13 +44,13 @@ struct GilbertElliottFit
   double log_likelihood = 0.0;
   int starts = 0, iterations = 0;  ///< starts tried; iterations of the best
   bool converged = false;
-  std::string note;                ///< e.g. why an interval is missing
+  std::string note;  ///< e.g. why an interval is missing
 };
 
 struct LossFit
 {
-  ArrivalCounts counts;     ///< of the slots' arrival sequence
-  LinkEstimate estimate;    ///< arrival, failure p, recovery r (estimateLink: the live monitors' numbers)
+  ArrivalCounts counts;   ///< of the slots' arrival sequence
+  LinkEstimate estimate;  ///< arrival, failure p, recovery r (estimateLink: the live monitors' numbers)
   GilbertElliottFit ge;
   ModelScore bernoulli, gilbert, gilbert_elliott;
   std::string chosen;       ///< the name of the least BIC
@@ -91,12 +91,12 @@ struct LinkStatistics
 
 struct FitOptions
 {
-  int ge_starts = 5;           ///< Baum-Welch starts: one from the Gilbert fit, the others drawn from `seed`;
-                               ///< each runs 10 iterations, the best of them then to convergence
+  int ge_starts = 5;  ///< Baum-Welch starts: one from the Gilbert fit, the others drawn from `seed`;
+                      ///< each runs 10 iterations, the best of them then to convergence
   std::uint64_t seed = 1;
   int max_iterations = 1000;
-  double tolerance = 1e-2;     ///< stop when an iteration adds less than this to the log-likelihood
-  bool fit_ge = true;          ///< false: Bernoulli and Gilbert only
+  double tolerance = 1e-2;  ///< stop when an iteration adds less than this to the log-likelihood
+  bool fit_ge = true;       ///< false: Bernoulli and Gilbert only
 };
 
 struct LinkFit

@@ -40,10 +40,10 @@ namespace networked_estimation
 /// The messages of one link as recorded, in the order received.
 struct LinkRecord
 {
-  std::string source;                ///< e.g. "run.bag, topic /gps" or "trace.csv"
-  std::vector<double> stamp;         ///< header.stamp (s)
-  std::vector<double> receipt;       ///< when the recorder received it (s)
-  std::vector<std::uint32_t> seq;    ///< header.seq (empty: not known)
+  std::string source;              ///< e.g. "run.bag, topic /gps" or "trace.csv"
+  std::vector<double> stamp;       ///< header.stamp (s)
+  std::vector<double> receipt;     ///< when the recorder received it (s)
+  std::vector<std::uint32_t> seq;  ///< header.seq (empty: not known)
 };
 
 /// Reads a trace CSV: a header line naming the columns stamp and receipt (and optionally seq), in
@@ -69,26 +69,26 @@ ClockMode clockModeOf(const std::string& text, const std::string& what);
 
 struct TraceOptions
 {
-  double rate = 0.0;             ///< expected messages per second; 0: learnt from the stamps
+  double rate = 0.0;  ///< expected messages per second; 0: learnt from the stamps
   ClockMode clock = ClockMode::AUTO;
-  bool use_seq = true;           ///< use header.seq when it agrees with the stamps
-  std::size_t min_messages = 50; ///< fewer received messages are refused
+  bool use_seq = true;            ///< use header.seq when it agrees with the stamps
+  std::size_t min_messages = 50;  ///< fewer received messages are refused
 };
 
 /// The expected messages of a link (its slots) and what happened to each.
 struct SlotTrace
 {
   std::string source;
-  double period = 0.0;          ///< s between expected messages
-  double first_stamp = 0.0;     ///< the stamp of slot 0
-  std::string slots_from;       ///< "header.seq", "the stamps (rate learnt)", "the stamps (--rate)", "the channel's events"
-  std::string note;             ///< why header.seq was not used, or ""
-  std::size_t messages = 0;     ///< records read (copies included)
-  std::size_t duplicates = 0;   ///< copies of a slot already received
-  std::size_t reordered = 0;    ///< first copies received after a later slot's
+  double period = 0.0;       ///< s between expected messages
+  double first_stamp = 0.0;  ///< the stamp of slot 0
+  std::string slots_from;  ///< "header.seq", "the stamps (rate learnt)", "the stamps (--rate)", "the channel's events"
+  std::string note;        ///< why header.seq was not used, or ""
+  std::size_t messages = 0;           ///< records read (copies included)
+  std::size_t duplicates = 0;         ///< copies of a slot already received
+  std::size_t reordered = 0;          ///< first copies received after a later slot's
   std::vector<std::uint8_t> arrived;  ///< per slot: 1 received, 0 lost
-  std::vector<double> delay;          ///< per slot: the first copy's delay (s, relative to the clock offset); 0 when lost
-  std::vector<std::uint8_t> copies;   ///< per slot: copies received (0 lost, capped at 255)
+  std::vector<double> delay;  ///< per slot: the first copy's delay (s, relative to the clock offset); 0 when lost
+  std::vector<std::uint8_t> copies;  ///< per slot: copies received (0 lost, capped at 255)
   /// The slots of the first copies in the order they were received (RFC 3550's jitter follows it).
   std::vector<std::size_t> receipt_order;
   double clock_offset = 0.0;    ///< subtracted from receipt - stamp

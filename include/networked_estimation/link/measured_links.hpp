@@ -38,7 +38,8 @@ struct MeasuredVerdict
   bool bounded_at_fit = false, bounded_at_worst_end = false;
 };
 
-MeasuredVerdict measuredVerdict(const Model& model, const SensorLinks& links, const std::vector<MeasuredLink>& measured);
+MeasuredVerdict measuredVerdict(const Model& model, const SensorLinks& links,
+                                const std::vector<MeasuredLink>& measured);
 
 /// analyze's text of the measured links and their verdict.
 std::string measuredText(const std::vector<MeasuredLink>& measured, const MeasuredVerdict& verdict);

@@ -52,9 +52,9 @@ struct EstimatorNodeConfig
 {
   std::string model_file;
   Model model;
-  EstimatorSettings settings;      ///< algorithm, mu, control_link, max_components
-  OnlineOptions online;            ///< late_policy, history_length, max_future_steps, max_past_steps
-  double period = 0.0;             ///< default: the model's
+  EstimatorSettings settings;  ///< algorithm, mu, control_link, max_components
+  OnlineOptions online;        ///< late_policy, history_length, max_future_steps, max_past_steps
+  double period = 0.0;         ///< default: the model's
   /// latency_budget (auto by default: adaptive within latency_budget_min = half a period and
   /// latency_budget_max = min(1 s, max_future_steps periods / 2)), late_policy, trace_bound.
   RuntimeSettings runtime;
@@ -73,7 +73,7 @@ struct EstimatorNodeConfig
   /// gnss_alignment and the navsat_transform keys (parseGnssAlignment).
   GnssAlignment gnss;
   std::string frame_id = "map";
-  std::string child_frame_id;      ///< default: "<algorithm>_estimate"
+  std::string child_frame_id;         ///< default: "<algorithm>_estimate"
   std::vector<int> position_indices;  ///< default: the motion's x, y(, z); else [0, 1] (or [0] for n = 1)
   /// Sensors whose C rows and R were derived from their fields (a built-in motion's model that does
   /// not list them; motion_sensors.hpp), in the model's order.
@@ -92,8 +92,8 @@ struct EstimatorNodeConfig
   std::string odom_frame = "odom";
   StateMap state_map;
   std::size_t queue_size = 1000;
-  bool live_stability = true;      ///< false: no link stability window, verdict or status
-  bool markov_link = false;        ///< link_model: markov (recovery rate) instead of iid (arrival rate)
+  bool live_stability = true;  ///< false: no link stability window, verdict or status
+  bool markov_link = false;    ///< link_model: markov (recovery rate) instead of iid (arrival rate)
   std::size_t stability_window = 1000;
   std::size_t stability_min_samples = 100;
 };

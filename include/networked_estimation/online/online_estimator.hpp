@@ -78,12 +78,12 @@ void validateOnlineOptions(const OnlineOptions& o, const std::string& source);
 /// What happened to one offered message.
 enum class Offer
 {
-  ACCEPTED,       ///< in hand for a step not processed yet
-  LATE_FUSED,     ///< late, fused by rewinding (REWIND)
-  LATE_DROPPED,   ///< late: dropped (DROP, or older than the history with REWIND)
-  DUPLICATE,      ///< this sensor's (or command's) data for that step was already in hand: ignored
-  REJECTED,       ///< bad input (see reason): wrong size, not finite, unknown sensor, step out of range
-  DISABLED        ///< the message says it has no estimate of the sensor's fields: not fused, not due
+  ACCEPTED,      ///< in hand for a step not processed yet
+  LATE_FUSED,    ///< late, fused by rewinding (REWIND)
+  LATE_DROPPED,  ///< late: dropped (DROP, or older than the history with REWIND)
+  DUPLICATE,     ///< this sensor's (or command's) data for that step was already in hand: ignored
+  REJECTED,      ///< bad input (see reason): wrong size, not finite, unknown sensor, step out of range
+  DISABLED       ///< the message says it has no estimate of the sensor's fields: not fused, not due
 };
 
 struct OfferResult
@@ -94,17 +94,17 @@ struct OfferResult
 
 struct OnlineCounters
 {
-  std::uint64_t processed = 0;        ///< filter steps taken (published estimates)
-  std::uint64_t arrivals = 0;         ///< steps processed with gamma_k = 1
-  std::uint64_t accepted = 0;         ///< measurements in hand before their deadline
+  std::uint64_t processed = 0;  ///< filter steps taken (published estimates)
+  std::uint64_t arrivals = 0;   ///< steps processed with gamma_k = 1
+  std::uint64_t accepted = 0;   ///< measurements in hand before their deadline
   std::uint64_t late_fused = 0;
   std::uint64_t late_dropped = 0;
   std::uint64_t duplicates = 0;
   std::uint64_t rejected = 0;
-  std::uint64_t rewinds = 0;          ///< re-filterings done (one per late-fused message)
-  std::uint64_t missing_commands = 0; ///< steps processed without the command u_k (zero input used)
-  std::uint64_t estimates_set = 0;    ///< setEstimate calls that took effect (set_pose)
-  std::uint64_t divergence_resets = 0;///< the covariance overflowed: the filter was reset to x0, P0
+  std::uint64_t rewinds = 0;            ///< re-filterings done (one per late-fused message)
+  std::uint64_t missing_commands = 0;   ///< steps processed without the command u_k (zero input used)
+  std::uint64_t estimates_set = 0;      ///< setEstimate calls that took effect (set_pose)
+  std::uint64_t divergence_resets = 0;  ///< the covariance overflowed: the filter was reset to x0, P0
   /// Random schedule: steps processed without their schedule draw in hand (then a sensor counts
   /// as due only when its y_k arrived).
   std::uint64_t schedule_missing = 0;
@@ -217,10 +217,10 @@ private:
     bool have_u = false;
     std::vector<char> scheduled;  ///< random schedule: the draw for this step, per sensor
     bool have_schedule = false;
-    std::vector<char> own_R;      ///< per sensor: its R_k block was offered (in R)
-    std::vector<char> gated;      ///< per sensor: refused by its rejection_threshold when processed
-    std::vector<char> excused;    ///< per sensor: its message disabled its fields (not due here)
-    Eigen::MatrixXd R;            ///< m x m, allocated on the first own block
+    std::vector<char> own_R;    ///< per sensor: its R_k block was offered (in R)
+    std::vector<char> gated;    ///< per sensor: refused by its rejection_threshold when processed
+    std::vector<char> excused;  ///< per sensor: its message disabled its fields (not due here)
+    Eigen::MatrixXd R;          ///< m x m, allocated on the first own block
   };
 
   Slot& slot(long k);
@@ -259,7 +259,7 @@ private:
   /// its state (a value) into the live filter.
   std::unique_ptr<Estimator> checkpoint_;
   long checkpoint_k_ = 0;
-  EstimatorState saved_;  ///< the state copied at a rewind or a new checkpoint (storage reused)
+  EstimatorState saved_;       ///< the state copied at a rewind or a new checkpoint (storage reused)
   bool estimate_set_ = false;  ///< live_ was built from a setEstimate (reset() rebuilds it from model_)
   Model set_model_;            ///< estimate_set_: the model live_ was built from (x0, P0 = the estimate)
   std::vector<Slot> ring_;
@@ -269,7 +269,7 @@ private:
   int last_sensors_ = 0;
   std::vector<bool> last_arrived_;
   std::vector<bool> last_due_;
-  std::vector<SensorLattice> lattice_;  ///< per sensor: when it samples (options_.rate_ratio, or 1)
+  std::vector<SensorLattice> lattice_;        ///< per sensor: when it samples (options_.rate_ratio, or 1)
   std::vector<std::vector<int>> angle_rows_;  ///< per sensor: its rows that measure an angle (angularRows)
   Sample sample_;
   OnlineCounters counters_;

@@ -69,10 +69,10 @@ constexpr int kMaxArrayFields = 64;
 struct InputTypeInfo
 {
   InputType type;
-  std::string name;                 ///< "nav_msgs/Odometry"
-  std::vector<InputField> fields;   ///< the fields a sensor may select, in the message's order
-  bool stamped = true;              ///< has a header (else stamped by its arrival)
-  bool sensor = true;               ///< may feed a sensor (ControlInput: commands only)
+  std::string name;                ///< "nav_msgs/Odometry"
+  std::vector<InputField> fields;  ///< the fields a sensor may select, in the message's order
+  bool stamped = true;             ///< has a header (else stamped by its arrival)
+  bool sensor = true;              ///< may feed a sensor (ControlInput: commands only)
 };
 /// The row of a type.
 const InputTypeInfo& inputTypeInfo(InputType t);

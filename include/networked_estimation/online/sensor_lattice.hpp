@@ -81,14 +81,14 @@ public:
 private:
   void relock(double position, long step);
 
-  double ratio_;       ///< configured spacing r
-  long whole_ = 0;     ///< r as a whole number (0: not whole)
+  double ratio_;    ///< configured spacing r
+  long whole_ = 0;  ///< r as a whole number (0: not whole)
   bool locked_ = false;
-  double phase_ = 0.0; ///< position of the reference lattice point
-  double rho_;         ///< learnt spacing
-  long ref_step_ = 0;  ///< the step of the reference point
+  double phase_ = 0.0;  ///< position of the reference lattice point
+  double rho_;          ///< learnt spacing
+  long ref_step_ = 0;   ///< the step of the reference point
   int off_in_row_ = 0;
-  std::deque<bool> recent_;        ///< the last 20 samples: fitted or not
+  std::deque<bool> recent_;       ///< the last 20 samples: fitted or not
   std::deque<double> positions_;  ///< and their positions
   std::uint64_t off_total_ = 0, relearnt_ = 0;
 };

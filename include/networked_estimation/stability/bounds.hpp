@@ -22,13 +22,13 @@ double aoeRecoveryThreshold(double rho);
 /// Capacity quantities of docs/stability.md 3.8 for per-sensor rates (rates in [0, 1)).
 struct Capacity
 {
-  std::vector<double> individual;   ///< c_i = -1/2 ln(1 - lambda_i)
-  double total = 0.0;               ///< c
-  double lower = 0.0;               ///< c_lower = ln rho(A)
-  double upper = 0.0;               ///< c_upper = h(A)
-  double loss_product = 1.0;        ///< prod (1 - lambda_i)
-  double weighted = 0.0;            ///< sum p_i c_i (Theorem 7)
-  double log_abs_det = 0.0;         ///< ln |det A| (-inf when singular)
+  std::vector<double> individual;  ///< c_i = -1/2 ln(1 - lambda_i)
+  double total = 0.0;              ///< c
+  double lower = 0.0;              ///< c_lower = ln rho(A)
+  double upper = 0.0;              ///< c_upper = h(A)
+  double loss_product = 1.0;       ///< prod (1 - lambda_i)
+  double weighted = 0.0;           ///< sum p_i c_i (Theorem 7)
+  double log_abs_det = 0.0;        ///< ln |det A| (-inf when singular)
 };
 Capacity transmissionCapacity(const Eigen::MatrixXd& A, const std::vector<double>& rates,
                               const std::vector<int>& sensor_rows);
@@ -37,10 +37,10 @@ Capacity transmissionCapacity(const Eigen::MatrixXd& A, const std::vector<double
 /// a row is chosen when it shrinks the unobservable subspace).
 struct EntropySplit
 {
-  bool observable = false;               ///< (H, A) observable (the theorem's assumption)
-  std::vector<double> max_block_entropy; ///< per sensor: max_j h(A_ij) (0 when no row chosen)
-  double sum = 0.0;                      ///< sum_i max_j h(A_ij): c above it suffices for some allocation
-  std::vector<double> sufficient_rate;   ///< per sensor: 1 - exp(-2 max_j h(A_ij))
+  bool observable = false;                ///< (H, A) observable (the theorem's assumption)
+  std::vector<double> max_block_entropy;  ///< per sensor: max_j h(A_ij) (0 when no row chosen)
+  double sum = 0.0;                       ///< sum_i max_j h(A_ij): c above it suffices for some allocation
+  std::vector<double> sufficient_rate;    ///< per sensor: 1 - exp(-2 max_j h(A_ij))
   double common_rate = std::numeric_limits<double>::quiet_NaN();  ///< max_i sufficient_rate (common-rate form)
 };
 EntropySplit entropySplit(const Eigen::MatrixXd& A, const std::vector<Eigen::MatrixXd>& H, double rel_tol = 1e-9);
@@ -53,8 +53,8 @@ Eigen::MatrixXd lowerBoundStep(const Eigen::MatrixXd& A, const Eigen::MatrixXd& 
 /// std::domain_error when prod(1 - lambda_i) rho(A)^2 >= 1.
 Eigen::MatrixXd lowerBoundLimit(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, double loss_product);
 /// F̄ (Remark 3): fixed point of X = A (X^{-1} + S)^{-1} A' + Q with S = sum lambda_i H_i' H_i.
-Eigen::MatrixXd informationLowerBoundLimit(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q,
-                                           const Eigen::MatrixXd& S, int max_iterations = 100000);
+Eigen::MatrixXd informationLowerBoundLimit(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, const Eigen::MatrixXd& S,
+                                           int max_iterations = 100000);
 
 struct MareOptions
 {
@@ -81,8 +81,7 @@ struct MareResult
 /// An upper bound on the spectral radius of the positive map T(Y) = sum_i M_i Y M_i' (docs/stability.md
 /// 3.2): lambda_max(Y^-1/2 T(Y) Y^-1/2) at power iterates Y of T, the least found; stops when the
 /// lower bound lambda_min is within rel_gap of it (relative) or after max_iterations.
-double positiveMapRadiusBound(const std::vector<Eigen::MatrixXd>& Ms, int max_iterations = 400,
-                              double rel_gap = 1e-6);
+double positiveMapRadiusBound(const std::vector<Eigen::MatrixXd>& Ms, int max_iterations = 400, double rel_gap = 1e-6);
 
 class Mare
 {

@@ -44,12 +44,12 @@ Verdict strongObservability(const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, 
 /// One FMO block (docs/stability.md 1.3, 3.5) of the eigenvalues with modulus >= min_modulus.
 struct FmoBlock
 {
-  std::complex<double> alpha;                    ///< a representative eigenvalue
-  double modulus = 0.0;                          ///< |alpha|
-  int order = 1;                                 ///< common multiplicative order N_k
-  std::vector<std::complex<double>> eigenvalues; ///< members, with algebraic multiplicity
-  bool diagonalizable = true;                    ///< geometric = algebraic multiplicity for every member
-  bool single_eigenvalue = true;                 ///< all members are the same eigenvalue
+  std::complex<double> alpha;                     ///< a representative eigenvalue
+  double modulus = 0.0;                           ///< |alpha|
+  int order = 1;                                  ///< common multiplicative order N_k
+  std::vector<std::complex<double>> eigenvalues;  ///< members, with algebraic multiplicity
+  bool diagonalizable = true;                     ///< geometric = algebraic multiplicity for every member
+  bool single_eigenvalue = true;                  ///< all members are the same eigenvalue
   Eigen::MatrixXcd basis;       ///< n x n_k: eigenvectors (diagonalizable) or generalised eigenspace basis
   Eigen::VectorXcd diagonal;    ///< diagonalizable: eigenvalue of each basis column
   Eigen::MatrixXcd eigenspace;  ///< single eigenvalue: basis of ker(A - alpha I)
@@ -57,6 +57,7 @@ struct FmoBlock
 /// Groups the eigenvalues with |lambda| >= min_modulus (relative tolerance) into FMO blocks: equal
 /// modulus and argument differences / 2 pi rational with denominator <= tol.max_denominator.
 /// Ordered by decreasing modulus.
-std::vector<FmoBlock> fmoBlocks(const Eigen::MatrixXd& A, double min_modulus = 1.0, const StabilityTolerances& tol = {});
+std::vector<FmoBlock> fmoBlocks(const Eigen::MatrixXd& A, double min_modulus = 1.0,
+                                const StabilityTolerances& tol = {});
 
 }  // namespace networked_estimation

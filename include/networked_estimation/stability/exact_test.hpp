@@ -46,8 +46,8 @@ std::vector<BlockStructure> analyseBlocks(const Eigen::MatrixXd& A, const std::v
 /// The same with A's blocks already found (blocks = fmoBlocks(A, 1.0, tol)): several sets of sensors
 /// of one model share them.
 std::vector<BlockStructure> analyseBlocks(const Eigen::MatrixXd& A, const std::vector<FmoBlock>& blocks,
-                                          const std::vector<Eigen::MatrixXd>& H,
-                                          const StabilityTolerances& tol = {}, std::size_t lattice_cap = 512);
+                                          const std::vector<Eigen::MatrixXd>& H, const StabilityTolerances& tol = {},
+                                          std::size_t lattice_cap = 512);
 
 /// Phi_k of one block and whether it is exactly 1, decided on the links' structure (some set of link
 /// states keeps every informing packet lost forever), not by rounding. phi NaN for an UNAVAILABLE

@@ -38,9 +38,9 @@ struct ExcitationA3
 struct ExcitationReport
 {
   int h = 1;
-  double lambda_block = 0.0;  ///< smallest block excitation lambda_m (conditional or realised)
-  double lambda = 1.0;        ///< S^0 rate of {1 - lambda_m}: lambda < 1 means excited
-  double norm_A = 0.0;        ///< spectral norm ||A||
+  double lambda_block = 0.0;     ///< smallest block excitation lambda_m (conditional or realised)
+  double lambda = 1.0;           ///< S^0 rate of {1 - lambda_m}: lambda < 1 means excited
+  double norm_A = 0.0;           ///< spectral norm ||A||
   std::vector<ExcitationA3> a3;  ///< p = 1, 2, ..., p_max
   /// STABLE: A1, A2 and A3 hold for some p (the largest such p is in numbers["p"]);
   /// UNDECIDED: excited but A3 fails for every p tried (A3 is very conservative: no conclusion),
@@ -130,17 +130,17 @@ private:
   Eigen::MatrixXd A_, Q_, c_;
   double R_;
   int h_;
-  std::vector<Eigen::MatrixXd> Ai_;          ///< A^-j, j = 0..h
-  std::vector<Eigen::MatrixXd> terms_;       ///< Gram terms, j = 0..h-1
-  Eigen::MatrixXd backQ_;                    ///< sum_{j=1}^h A^-j Q A^-j'
+  std::vector<Eigen::MatrixXd> Ai_;     ///< A^-j, j = 0..h
+  std::vector<Eigen::MatrixXd> terms_;  ///< Gram terms, j = 0..h-1
+  Eigen::MatrixXd backQ_;               ///< sum_{j=1}^h A^-j Q A^-j'
   double b_A_ = 0.0, growth_ = 0.0;
   bool started_ = false;
-  long block_ = 0;                           ///< index m of the block being filled
-  int pos_ = 0;                              ///< steps of it seen
-  Eigen::MatrixXd S_;                        ///< P'_{mh} + backQ
-  Eigen::MatrixXd G_;                        ///< realised Gram matrix of block m
-  double T_block_ = 0.0;                     ///< T_{m+1} so far
-  double T_prev_ = 0.0;                      ///< T_m
+  long block_ = 0;        ///< index m of the block being filled
+  int pos_ = 0;           ///< steps of it seen
+  Eigen::MatrixXd S_;     ///< P'_{mh} + backQ
+  Eigen::MatrixXd G_;     ///< realised Gram matrix of block m
+  double T_block_ = 0.0;  ///< T_{m+1} so far
+  double T_prev_ = 0.0;   ///< T_m
   Theorem1Check check_;
   long violations_ = 0;
 };

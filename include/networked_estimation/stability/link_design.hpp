@@ -30,16 +30,16 @@ enum class DesignCost
 struct LinkDesign
 {
   bool applicable = false;
-  std::string note;             ///< how it was found, or "not applicable: ..."
+  std::string note;  ///< how it was found, or "not applicable: ..."
   DesignCost cost = DesignCost::TOTAL_RATE;
-  double growth_cap = 0.9;      ///< |alpha_k|^2 Phi_k <= growth_cap at the design
-  std::vector<double> rates;    ///< per sensor: the least-cost arrival rates
+  double growth_cap = 0.9;    ///< |alpha_k|^2 Phi_k <= growth_cap at the design
+  std::vector<double> rates;  ///< per sensor: the least-cost arrival rates
   double cost_value = 0.0;
   /// Per sensor: the least arrival rate it needs when every other sensor is lossless (with the
   /// same growth cap): 0 when the others suffice.
   std::vector<double> alone;
-  Verdict check;                ///< the verdict at `rates` (stabilityVerdict)
-  long vertices = 0;            ///< vertices of the feasible polyhedron examined
+  Verdict check;      ///< the verdict at `rates` (stabilityVerdict)
+  long vertices = 0;  ///< vertices of the feasible polyhedron examined
 };
 
 /// Designs i.i.d. links for every sensor of the model. Not applicable (with the reason) for a

@@ -58,7 +58,7 @@ public:
 
 private:
   std::vector<std::uint8_t> ring_;  ///< bit 0: arrived; bit 1: follows the previous entry's step
-  std::size_t head_ = 0;  ///< index of the oldest sample
+  std::size_t head_ = 0;            ///< index of the oldest sample
   ArrivalCounts counts_;
   std::uint64_t total_ = 0;
 };

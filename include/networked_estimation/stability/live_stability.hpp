@@ -56,7 +56,7 @@ struct LiveStabilityReport
 {
   LinkCondition status;
   std::vector<std::pair<std::string, std::string>> values;  ///< the diagnostic's key-value pairs
-  std::vector<SensorLinkFigures> sensors;                    ///< per sensor of the model, in its order
+  std::vector<SensorLinkFigures> sensors;                   ///< per sensor of the model, in its order
 };
 
 class LiveStability
@@ -100,16 +100,16 @@ private:
   EstimatorSettings settings_;
   LiveStabilityOptions options_;
   JointLinkMonitor joint_;
-  Eigen::MatrixXd Qn_;                  ///< B Q B'
+  Eigen::MatrixXd Qn_;                        ///< B Q B'
   std::optional<LinkThresholds> thresholds_;  ///< a single i.i.d. sensor: its critical rates
   std::optional<Theorem1Monitor> theorem1_;
   std::string theorem1_note_;
-  std::uint64_t generation_ = 0;   ///< steps added and clears so far: the windows' version
-  std::uint64_t epoch_ = 0;        ///< clears so far (sample counts restart)
+  std::uint64_t generation_ = 0;        ///< steps added and clears so far: the windows' version
+  std::uint64_t epoch_ = 0;             ///< clears so far (sample counts restart)
   std::vector<std::uint64_t> samples_;  ///< per sensor: samples entered in its window since the last clear
   /// Per scalar sensor: Gan and Liu's blocks (null for other sensors).
   std::vector<std::shared_ptr<const GanLiuBlocks>> gan_liu_;
-  std::shared_ptr<Cache> cache_;   ///< the last evaluation, shared with copies
+  std::shared_ptr<Cache> cache_;  ///< the last evaluation, shared with copies
 };
 
 }  // namespace networked_estimation

@@ -65,29 +65,30 @@ struct RateAnalysis
   std::string dead_states;  ///< the states of those modes by name ("x, y"), empty when none
   // i.i.d. arrivals at a common rate lambda on every sensor of the set
   double lower_bound = 0.0;  ///< necessary: 1 - rho^{-2/N} (Yang Theorem 1 / Sinopoli)
-  double closed_form_upper = std::numeric_limits<double>::quiet_NaN();  ///< N = 1: 1 - 1/M^2; N > 1: Yang Thm 5 common rate
-  CriticalBand mare;          ///< MARE threshold by bisection (NaN fields when A is stable)
-  std::string mare_note;      ///< why the MARE threshold was not computed (empty when it was)
+  double closed_form_upper =
+      std::numeric_limits<double>::quiet_NaN();  ///< N = 1: 1 - 1/M^2; N > 1: Yang Thm 5 common rate
+  CriticalBand mare;                             ///< MARE threshold by bisection (NaN fields when A is stable)
+  std::string mare_note;                         ///< why the MARE threshold was not computed (empty when it was)
   double exact_rate = std::numeric_limits<double>::quiet_NaN();  ///< Theorem 14, NaN when unavailable
-  std::string exact_method;   ///< how exact_rate was obtained, or why it is unavailable
+  std::string exact_method;  ///< how exact_rate was obtained, or why it is unavailable
   // on/off Gilbert-Elliott links at a common recovery rate r with the links' failure rate p. When
   // the threshold depends on p and the set has no common Gilbert-Elliott p, none is assumed:
   // recovery_exact is NaN and recovery_note says why.
-  double recovery_lower_bound = 0.0;  ///< necessary: rho^2 (1 - r)^N < 1
+  double recovery_lower_bound = 0.0;                                 ///< necessary: rho^2 (1 - r)^N < 1
   double recovery_exact = std::numeric_limits<double>::quiet_NaN();  ///< NaN when not a half-line
-  std::string recovery_note;          ///< the p used, "independent of p", or why not applicable
+  std::string recovery_note;  ///< the p used, "independent of p", or why not applicable
   /// The stable set of the common r when it is not a half-line (lattice blocks of order > 1):
   /// intervals found by a scan with bisection at each change (recovery_exact is then NaN).
   std::vector<RateInterval> recovery_stable;
-  Verdict aoe_theorem5;       ///< Lin et al.'s Theorem 5 test (one packet = this set of sensors)
+  Verdict aoe_theorem5;  ///< Lin et al.'s Theorem 5 test (one packet = this set of sensors)
   std::vector<BlockStructure> blocks;
   // the given channel
-  Verdict verdict;        ///< E[P] bounded? (unstable whenever a mode grows regardless of the links)
-  Verdict links_verdict;  ///< the same on the modes the set observes: what the links can change
+  Verdict verdict;              ///< E[P] bounded? (unstable whenever a mode grows regardless of the links)
+  Verdict links_verdict;        ///< the same on the modes the set observes: what the links can change
   std::string margin_quantity;  ///< "arrival rate" or "recovery rate"
-  double channel_value = std::numeric_limits<double>::quiet_NaN();  ///< the link's arrival or recovery rate
-  double necessary_threshold = std::numeric_limits<double>::quiet_NaN();  ///< below: unbounded
-  double sufficient_threshold = std::numeric_limits<double>::quiet_NaN(); ///< above: bounded
+  double channel_value = std::numeric_limits<double>::quiet_NaN();         ///< the link's arrival or recovery rate
+  double necessary_threshold = std::numeric_limits<double>::quiet_NaN();   ///< below: unbounded
+  double sufficient_threshold = std::numeric_limits<double>::quiet_NaN();  ///< above: bounded
   double margin = std::numeric_limits<double>::quiet_NaN();  ///< channel_value - critical (exact, else sufficient)
   /// The stable set of channel_value when it is not a half-line (then the thresholds are NaN and
   /// the margin is the distance to the nearest edge, positive inside).
@@ -101,8 +102,8 @@ struct RateAnalysis
 /// (i.i.d. or lossless link) or recovery rate (on/off Gilbert-Elliott link with its own p).
 struct SensorMargin
 {
-  std::string quantity;   ///< "arrival rate" or "recovery rate"; empty when not applicable
-  std::string note;       ///< how the rate was found, or why there is none ("not applicable: ...")
+  std::string quantity;  ///< "arrival rate" or "recovery rate"; empty when not applicable
+  std::string note;      ///< how the rate was found, or why there is none ("not applicable: ...")
   double value = std::numeric_limits<double>::quiet_NaN();  ///< this sensor's rate now
   /// The stable set along the rate is an upper half-line [converges_at, 1] (i.i.d. links; on/off
   /// links unless a lattice block of order > 1 is seen by this sensor). Otherwise it was found by a
@@ -131,12 +132,12 @@ struct SensorMargin
 struct SensorLinkReport
 {
   std::string sensor;
-  bool lossless = false;    ///< no channel: an i.i.d. link with arrival 1
+  bool lossless = false;  ///< no channel: an i.i.d. link with arrival 1
   LinkModel link;
   double arrival_rate = 1.0;
   double recovery_rate = std::numeric_limits<double>::quiet_NaN();
   double capacity = std::numeric_limits<double>::infinity();  ///< c_i = -1/2 ln(1 - arrival rate)
-  SensorMargin margin;      ///< in the set of all sensors, the others' links fixed (only with per_sensor)
+  SensorMargin margin;  ///< in the set of all sensors, the others' links fixed (only with per_sensor)
   /// The Markov (recovery-rate) threshold for this sensor: its margin when it has an on/off
   /// Gilbert-Elliott link; "not applicable: ..." otherwise (no failure rate p is assumed).
   std::string markov_note;
@@ -148,20 +149,20 @@ struct StabilityReport
   Eigen::VectorXcd eigenvalues;
   double spectral_radius = 0.0, mahler_measure = 1.0, entropy = 0.0, log_abs_det = 0.0;
   bool diagonalizable = true;
-  Verdict strong_observability;   ///< of (A, C) (all sensors stacked)
+  Verdict strong_observability;              ///< of (A, C) (all sensors stacked)
   bool noise_excites_unstable_modes = true;  ///< PBH: (A, B Q^1/2) controllable on every |lambda| >= 1
   bool detectable = true;                    ///< PBH: (C, A) observable on every |lambda| >= 1
   /// The modes with |lambda| >= 1 that no sensor observes even when every message arrives (not
   /// detectable): they grow whatever the links do, and the link verdicts, thresholds, capacities and
   /// MARE concern the observed modes (docs/stability.md 2.2). Empty when there are none.
   std::string dead_reckoned;
-  std::string dead_states;  ///< the states of those modes by name ("x, y"), empty when none
-  bool has_channel = false;       ///< some sensor has a channel
-  bool uniform_links = true;      ///< every sensor has the same link (then `link` is that link)
-  LinkModel link;                 ///< the channel of every sensor (uniform_links), else of sensor 0
+  std::string dead_states;    ///< the states of those modes by name ("x, y"), empty when none
+  bool has_channel = false;   ///< some sensor has a channel
+  bool uniform_links = true;  ///< every sensor has the same link (then `link` is that link)
+  LinkModel link;             ///< the channel of every sensor (uniform_links), else of sensor 0
   double arrival_rate = std::numeric_limits<double>::quiet_NaN();
   double recovery_rate = std::numeric_limits<double>::quiet_NaN();
-  Capacity capacity;              ///< for each sensor's stationary arrival rate (lossless: 1, c_i = inf)
+  Capacity capacity;  ///< for each sensor's stationary arrival rate (lossless: 1, c_i = inf)
   /// What the capacity implies for this rate vector (Yang et al., Theorems 2 and 6).
   std::string capacity_note;
   /// Yang et al.'s MARE upper bound at this rate vector (every sensor at its own i.i.d. rate):
@@ -171,12 +172,12 @@ struct StabilityReport
   double mare_at_rates_trace = std::numeric_limits<double>::quiet_NaN();
   double mare_at_rates_certificate = std::numeric_limits<double>::quiet_NaN();
   std::vector<SensorLinkReport> links;  ///< per sensor (empty without any channel)
-  EntropySplit entropy_split;     ///< of the observed modes (not computed, default, when they are stable)
-  RateAnalysis model;             ///< all sensors
-  std::vector<RateAnalysis> sensors;  ///< each sensor alone (empty when options.per_sensor is false)
-  Verdict rseio;                  ///< Zhou's Theorem 5 (NOT_APPLICABLE unless the estimator is rseio)
-  std::string estimator;          ///< the estimator analysed (kfio without settings)
-  std::string estimator_note;     ///< how the verdicts relate to that estimator
+  EntropySplit entropy_split;           ///< of the observed modes (not computed, default, when they are stable)
+  RateAnalysis model;                   ///< all sensors
+  std::vector<RateAnalysis> sensors;    ///< each sensor alone (empty when options.per_sensor is false)
+  Verdict rseio;                        ///< Zhou's Theorem 5 (NOT_APPLICABLE unless the estimator is rseio)
+  std::string estimator;                ///< the estimator analysed (kfio without settings)
+  std::string estimator_note;           ///< how the verdicts relate to that estimator
 };
 
 struct AnalysisOptions
@@ -213,8 +214,8 @@ StabilityReport analyzeStability(const Model& model, const ChannelSettings* sens
 /// model.verdict, model.links_verdict and links[i].margin, at a fraction of its cost.
 struct VerdictReport
 {
-  Verdict verdict;        ///< E[P] bounded? (docs/stability.md 2.1)
-  Verdict links_verdict;  ///< on the modes the sensors observe: what the links can change
+  Verdict verdict;                         ///< E[P] bounded? (docs/stability.md 2.1)
+  Verdict links_verdict;                   ///< on the modes the sensors observe: what the links can change
   std::string dead_reckoned, dead_states;  ///< as StabilityReport's (empty when none)
   bool has_channel = false;                ///< some sensor has a channel (else margins are empty)
   std::vector<SensorLinkReport> links;     ///< per sensor: its link and the rate it needs (margin)

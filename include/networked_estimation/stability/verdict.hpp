@@ -33,11 +33,11 @@ std::string growRegardless(const std::string& states);
 /// Numerical tolerances (all relative unless stated).
 struct StabilityTolerances
 {
-  double rank = 1e-9;         ///< singular values below rank * largest (or * scale) count as zero
-  double eigen_cluster = 1e-5; ///< eigenvalues closer than this (relative) are one repeated eigenvalue
-  double modulus = 1e-6;      ///< equal moduli (FMO grouping, strong observability)
-  int max_denominator = 24;    ///< FMO grouping: argument differences / 2 pi = p / q with q <= this
-  double decision = 1e-9;     ///< |alpha|^2 Phi within this of 1 is undecided (Theorem 14 equality)
+  double rank = 1e-9;           ///< singular values below rank * largest (or * scale) count as zero
+  double eigen_cluster = 1e-5;  ///< eigenvalues closer than this (relative) are one repeated eigenvalue
+  double modulus = 1e-6;        ///< equal moduli (FMO grouping, strong observability)
+  int max_denominator = 24;     ///< FMO grouping: argument differences / 2 pi = p / q with q <= this
+  double decision = 1e-9;       ///< |alpha|^2 Phi within this of 1 is undecided (Theorem 14 equality)
 };
 
 }  // namespace networked_estimation

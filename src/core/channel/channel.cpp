@@ -20,15 +20,15 @@ constexpr double kTwoPi = 6.283185307179586476925286766559;
 void requireProbability(double v, const char* key)
 {
   if (!(v >= 0.0 && v <= 1.0))
-    throw ConfigError(std::string("channel settings: ") + key +
-                      ": expected a probability in [0, 1], found " + std::to_string(v));
+    throw ConfigError(std::string("channel settings: ") + key + ": expected a probability in [0, 1], found " +
+                      std::to_string(v));
 }
 
 void requireSeconds(double v, const char* key)
 {
   if (!(v >= 0.0) || !std::isfinite(v))
-    throw ConfigError(std::string("channel settings: ") + key +
-                      ": expected a finite number of seconds >= 0, found " + std::to_string(v));
+    throw ConfigError(std::string("channel settings: ") + key + ": expected a finite number of seconds >= 0, found " +
+                      std::to_string(v));
 }
 
 }  // namespace
@@ -166,8 +166,7 @@ void LossyChannel::recordDrop()
 ChannelRecord LossyChannel::offer(std::uint64_t seq, double now)
 {
   if (!std::isfinite(now))
-    throw InputError("LossyChannel::offer: time: expected a finite number of seconds, found " +
-                     std::to_string(now));
+    throw InputError("LossyChannel::offer: time: expected a finite number of seconds, found " + std::to_string(now));
   ChannelRecord ev;
   ev.seq = seq;
   ev.arrival = now;
@@ -275,8 +274,7 @@ double LossyChannel::meanBurstLength() const
 double LossyChannel::delayQuantile(double q) const
 {
   if (!(q >= 0.0 && q <= 1.0))
-    throw std::invalid_argument("LossyChannel::delayQuantile: q must be in [0, 1], found " +
-                                std::to_string(q));
+    throw std::invalid_argument("LossyChannel::delayQuantile: q must be in [0, 1], found " + std::to_string(q));
   const std::size_t n = delay_count_;
   if (n == 0)
     return kNaN;

@@ -28,9 +28,7 @@ double meanBurstLength(double loss_rate, double run_start_rate)
 // ---------------------------------------------------------------------------------------------
 // BernoulliLoss
 
-BernoulliLoss::BernoulliLoss(double loss, std::uint64_t seed) : loss_(loss), rng_(seed)
-{
-}
+BernoulliLoss::BernoulliLoss(double loss, std::uint64_t seed) : loss_(loss), rng_(seed) {}
 
 bool BernoulliLoss::nextLost()
 {
@@ -55,8 +53,7 @@ void BernoulliLoss::reseed(std::uint64_t seed)
 // ---------------------------------------------------------------------------------------------
 // GilbertElliottLoss
 
-GilbertElliottLoss::GilbertElliottLoss(double p, double r, double loss_bad, double loss_good,
-                                       std::uint64_t seed)
+GilbertElliottLoss::GilbertElliottLoss(double p, double r, double loss_bad, double loss_good, std::uint64_t seed)
   : p_(p), r_(r), loss_bad_(loss_bad), loss_good_(loss_good), rng_(seed)
 {
 }
@@ -97,7 +94,7 @@ double GilbertElliottLoss::stationaryMeanBurstLength() const
   const double pi[2] = {1.0 - stationaryBadProbability(), stationaryBadProbability()};
   const double lost[2] = {loss_good_, loss_bad_};
   const double T[2][2] = {{1.0 - p_, p_}, {r_, 1.0 - r_}};  // T[s][s'] = P(s -> s')
-  double run_start = 0.0;  // P(received at k, lost at k+1) in the stationary law
+  double run_start = 0.0;                                   // P(received at k, lost at k+1) in the stationary law
   for (int s = 0; s < 2; ++s)
     for (int t = 0; t < 2; ++t)
       run_start += pi[s] * (1.0 - lost[s]) * T[s][t] * lost[t];
@@ -131,8 +128,8 @@ bool TraceLoss::nextLost()
 double TraceLoss::stationaryLossRate() const
 {
   const std::size_t n = trace_->slots();
-  return static_cast<double>(n - static_cast<std::size_t>(std::count(trace_->arrived.begin(), trace_->arrived.end(),
-                                                                      std::uint8_t(1)))) /
+  return static_cast<double>(n - static_cast<std::size_t>(
+                                     std::count(trace_->arrived.begin(), trace_->arrived.end(), std::uint8_t(1)))) /
          static_cast<double>(n);
 }
 
@@ -162,8 +159,7 @@ std::unique_ptr<LossModel> makeLossModel(const ChannelSettings& settings, std::u
   switch (settings.model)
   {
     case LossModelKind::GILBERT_ELLIOTT:
-      return std::make_unique<GilbertElliottLoss>(settings.p, settings.r, settings.loss_bad,
-                                                  settings.loss_good, seed);
+      return std::make_unique<GilbertElliottLoss>(settings.p, settings.r, settings.loss_bad, settings.loss_good, seed);
     case LossModelKind::TRACE:
       if (!settings.replay)
         throw ConfigError("channel settings: model trace without its loaded trace (" + settings.trace + ")");

@@ -184,8 +184,8 @@ std::string CovarianceCheck::describe(const std::string& label) const
     out += ", largest " + formatNumber(largest, 6);
   out += ")";
   if (scaled && smallest >= 0.0)
-    out += "; scaled to unit diagonal it is near-singular too (smallest eigenvalue " + formatNumber(scaled_smallest, 6) +
-           ", largest " + formatNumber(scaled_largest, 6) + ")";
+    out += "; scaled to unit diagonal it is near-singular too (smallest eigenvalue " +
+           formatNumber(scaled_smallest, 6) + ", largest " + formatNumber(scaled_largest, 6) + ")";
   return out;
 }
 

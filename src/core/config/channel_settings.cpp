@@ -29,15 +29,16 @@ ChannelSettings parseChannelSettingsImpl(const YAML::Node& node, const std::stri
   const Reader in(source);
   in.requireTopMap(node);
   in.checkKeys(node, "",
-               {"model", "loss", "p", "r", "loss_bad", "loss_good", "seed", "delay", "jitter",
-                "distribution", "reorder", "duplicate", "queue_limit", "trace", "trace_topic", "trace_rate"});
+               {"model", "loss", "p", "r", "loss_bad", "loss_good", "seed", "delay", "jitter", "distribution",
+                "reorder", "duplicate", "queue_limit", "trace", "trace_topic", "trace_rate"});
 
   ChannelSettings settings;
   static const std::vector<std::string> model_names = {"bernoulli", "gilbert_elliott", "trace"};
   const YAML::Node model = in.require(node, "", "model");
   const std::size_t model_index = in.choice(model, "model", "loss model", model_names);
-  settings.model = model_index == 0 ? LossModelKind::BERNOULLI
-                                    : model_index == 1 ? LossModelKind::GILBERT_ELLIOTT : LossModelKind::TRACE;
+  settings.model = model_index == 0   ? LossModelKind::BERNOULLI
+                   : model_index == 1 ? LossModelKind::GILBERT_ELLIOTT
+                                      : LossModelKind::TRACE;
 
   // Keys of the other models are rejected.
   for (auto it = node.begin(); it != node.end(); ++it)
@@ -61,8 +62,7 @@ ChannelSettings parseChannelSettingsImpl(const YAML::Node& node, const std::stri
 
   if (settings.model == LossModelKind::BERNOULLI)
   {
-    settings.loss =
-        in.probability(in.require(node, "", "loss", "model bernoulli needs loss"), "loss");
+    settings.loss = in.probability(in.require(node, "", "loss", "model bernoulli needs loss"), "loss");
   }
   else if (settings.model == LossModelKind::TRACE)
   {
@@ -101,10 +101,8 @@ ChannelSettings parseChannelSettingsImpl(const YAML::Node& node, const std::stri
   }
   else
   {
-    settings.p =
-        in.probability(in.require(node, "", "p", "model gilbert_elliott needs p and r"), "p");
-    settings.r =
-        in.probability(in.require(node, "", "r", "model gilbert_elliott needs p and r"), "r");
+    settings.p = in.probability(in.require(node, "", "p", "model gilbert_elliott needs p and r"), "p");
+    settings.r = in.probability(in.require(node, "", "r", "model gilbert_elliott needs p and r"), "r");
     if (node["loss_bad"])
     {
       settings.loss_bad = in.probability(node["loss_bad"], "loss_bad");
@@ -130,10 +128,9 @@ ChannelSettings parseChannelSettingsImpl(const YAML::Node& node, const std::stri
   if (node["distribution"])
   {
     static const std::vector<std::string> names = {"uniform", "normal", "pareto"};
-    static const DelayDistribution values[] = {
-        DelayDistribution::UNIFORM, DelayDistribution::NORMAL, DelayDistribution::PARETO};
-    settings.distribution =
-        values[in.choice(node["distribution"], "distribution", "distribution", names)];
+    static const DelayDistribution values[] = {DelayDistribution::UNIFORM, DelayDistribution::NORMAL,
+                                               DelayDistribution::PARETO};
+    settings.distribution = values[in.choice(node["distribution"], "distribution", "distribution", names)];
   }
   if (node["reorder"])
   {
@@ -159,11 +156,7 @@ ChannelSettings parseChannelSettingsImpl(const YAML::Node& node, const std::stri
 
 ChannelSettings parseChannelSettings(const YAML::Node& node, const std::string& source)
 {
-  return guarded(source,
-                 [&]
-                 {
-                   return parseChannelSettingsImpl(node, source);
-                 });
+  return guarded(source, [&] { return parseChannelSettingsImpl(node, source); });
 }
 
 ChannelSettings loadChannelSettings(const std::string& path)
@@ -222,36 +215,38 @@ YAML::Node toYaml(const ChannelSettings& settings)
   return node;
 }
 
-ChannelSettings mergeChannelSettings(const ChannelSettings& base, const YAML::Node& changes,
-                                     const std::string& source)
+ChannelSettings mergeChannelSettings(const ChannelSettings& base, const YAML::Node& changes, const std::string& source)
 {
-  return guarded(source, [&] {
-    if (!changes.IsMap())
-      throw ConfigError(source + ": expected a map of settings to change, e.g. {loss: 0.5}");
-    const YAML::Node base_yaml = toYaml(base);
-    YAML::Node merged = toYaml(base);
-    if (changes["model"])
-    {
-      for (const char* key : {"loss", "p", "r", "loss_bad", "loss_good", "trace", "trace_topic", "trace_rate"})
-        merged.remove(key);
-      if (base.model == LossModelKind::TRACE)  // from a trace: the delay keys start again from their defaults
-        for (const char* key : {"delay", "jitter", "distribution"})
-          merged.remove(key);
-      if (changes["model"].IsScalar() && changes["model"].Scalar() == "trace")
+  return guarded(
+      source,
+      [&]
       {
-        for (const char* key : {"delay", "jitter", "distribution"})
-          merged.remove(key);
-        // the same model: its trace stays unless the change names another
-        if (base.model == LossModelKind::TRACE)
-          for (const char* key : {"trace", "trace_topic", "trace_rate"})
-            if (base_yaml[key])
-              merged[key] = base_yaml[key];
-      }
-    }
-    for (auto it = changes.begin(); it != changes.end(); ++it)
-      merged[it->first.Scalar()] = it->second;
-    return parseChannelSettingsImpl(merged, source, &base);
-  });
+        if (!changes.IsMap())
+          throw ConfigError(source + ": expected a map of settings to change, e.g. {loss: 0.5}");
+        const YAML::Node base_yaml = toYaml(base);
+        YAML::Node merged = toYaml(base);
+        if (changes["model"])
+        {
+          for (const char* key : {"loss", "p", "r", "loss_bad", "loss_good", "trace", "trace_topic", "trace_rate"})
+            merged.remove(key);
+          if (base.model == LossModelKind::TRACE)  // from a trace: the delay keys start again from their defaults
+            for (const char* key : {"delay", "jitter", "distribution"})
+              merged.remove(key);
+          if (changes["model"].IsScalar() && changes["model"].Scalar() == "trace")
+          {
+            for (const char* key : {"delay", "jitter", "distribution"})
+              merged.remove(key);
+            // the same model: its trace stays unless the change names another
+            if (base.model == LossModelKind::TRACE)
+              for (const char* key : {"trace", "trace_topic", "trace_rate"})
+                if (base_yaml[key])
+                  merged[key] = base_yaml[key];
+          }
+        }
+        for (auto it = changes.begin(); it != changes.end(); ++it)
+          merged[it->first.Scalar()] = it->second;
+        return parseChannelSettingsImpl(merged, source, &base);
+      });
 }
 
 }  // namespace networked_estimation

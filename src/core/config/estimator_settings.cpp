@@ -29,9 +29,8 @@ const std::vector<std::string>& algorithmNames()
 
 const std::vector<Algorithm>& algorithmValues()
 {
-  static const std::vector<Algorithm> values = {Algorithm::KF,  Algorithm::KFIO, Algorithm::RSEIO,
-                                                Algorithm::AOE, Algorithm::OE,   Algorithm::ACK_KF,
-                                                Algorithm::EKFIO};
+  static const std::vector<Algorithm> values = {Algorithm::KF, Algorithm::KFIO,   Algorithm::RSEIO, Algorithm::AOE,
+                                                Algorithm::OE, Algorithm::ACK_KF, Algorithm::EKFIO};
   return values;
 }
 
@@ -43,8 +42,7 @@ EstimatorSettings parseEstimatorSettingsImpl(const YAML::Node& node, const std::
 
   EstimatorSettings settings;
   const YAML::Node algorithm = in.require(node, "", "algorithm");
-  settings.algorithm =
-      algorithmValues()[in.choice(algorithm, "algorithm", "algorithm", algorithmNames())];
+  settings.algorithm = algorithmValues()[in.choice(algorithm, "algorithm", "algorithm", algorithmNames())];
 
   if (const YAML::Node mu = node["mu"])
   {
@@ -63,10 +61,8 @@ EstimatorSettings parseEstimatorSettingsImpl(const YAML::Node& node, const std::
   {
     in.requireMap(link, "control_link");
     in.checkKeys(link, "control_link", {"recovery", "failure"});
-    settings.recovery =
-        in.probability(in.require(link, "control_link", "recovery"), "control_link.recovery");
-    settings.failure =
-        in.probability(in.require(link, "control_link", "failure"), "control_link.failure");
+    settings.recovery = in.probability(in.require(link, "control_link", "recovery"), "control_link.recovery");
+    settings.failure = in.probability(in.require(link, "control_link", "failure"), "control_link.failure");
     settings.has_control_link = true;
   }
 
@@ -81,7 +77,6 @@ EstimatorSettings parseEstimatorSettingsImpl(const YAML::Node& node, const std::
   }
   return settings;
 }
-
 
 }  // namespace
 
@@ -105,19 +100,14 @@ Algorithm algorithmFromString(const std::string& name, const std::string& source
   if (it == names.end())
   {
     throw ConfigError(
-        message(source, 0, "algorithm",
-                "unknown algorithm '" + name + "' (expected one of: " + joinList(names) + ")"));
+        message(source, 0, "algorithm", "unknown algorithm '" + name + "' (expected one of: " + joinList(names) + ")"));
   }
   return algorithmValues()[static_cast<std::size_t>(it - names.begin())];
 }
 
 EstimatorSettings parseEstimatorSettings(const YAML::Node& node, const std::string& source)
 {
-  return guarded(source,
-                 [&]
-                 {
-                   return parseEstimatorSettingsImpl(node, source);
-                 });
+  return guarded(source, [&] { return parseEstimatorSettingsImpl(node, source); });
 }
 
 EstimatorSettings loadEstimatorSettings(const std::string& path)

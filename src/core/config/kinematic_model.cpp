@@ -55,12 +55,14 @@ void axisBlocks(int order, double T, double q, Eigen::MatrixXd& A, Eigen::Matrix
   }
 }
 
-std::string quoted(const std::string& text) { return "'" + text + "'"; }
+std::string quoted(const std::string& text)
+{
+  return "'" + text + "'";
+}
 
 std::string motionProblem(const std::string& motion)
 {
-  return std::string("expected ") + kConstantVelocity + " or " + kConstantAcceleration +
-         ", found " + quoted(motion);
+  return std::string("expected ") + kConstantVelocity + " or " + kConstantAcceleration + ", found " + quoted(motion);
 }
 
 /// 2, 3, or 0 for an unknown motion.
@@ -95,7 +97,10 @@ int headingQuantityIndex(const std::string& quantity, int order)
   return -1;
 }
 
-std::string headingDensityUnits(int order) { return order == 2 ? "rad^2/s^3" : "rad^2/s^5"; }
+std::string headingDensityUnits(int order)
+{
+  return order == 2 ? "rad^2/s^3" : "rad^2/s^5";
+}
 
 }  // namespace
 
@@ -138,9 +143,7 @@ Model makeKinematicModel(const KinematicSpec& spec)
   const std::string source = "kinematic model " + quoted(spec.name);
   const auto name = [&spec](const std::string& key) { return spec.key_name ? spec.key_name(key) : key; };
   const auto fail = [&source, &name](const std::string& key, const std::string& problem)
-  {
-    throw ConfigError(message(source, 0, name(key), problem));
-  };
+  { throw ConfigError(message(source, 0, name(key), problem)); };
 
   const int order = orderOf(spec.motion);
   if (order == 0)
@@ -158,14 +161,14 @@ Model makeKinematicModel(const KinematicSpec& spec)
   const std::string q_units = order == 2 ? "m^2/s^3" : "m^2/s^5";
   if (!std::isfinite(spec.density) || !(spec.density > 0.0))
   {
-    fail(densityKey(spec.motion), "expected a finite spectral density > 0 (" + q_units +
-                                      "), found " + plainNumber(spec.density));
+    fail(densityKey(spec.motion),
+         "expected a finite spectral density > 0 (" + q_units + "), found " + plainNumber(spec.density));
   }
   const bool heading = spec.heading_density != 0.0;
   if (heading && (!std::isfinite(spec.heading_density) || !(spec.heading_density > 0.0)))
   {
-    fail("heading", "expected a finite spectral density > 0 (" + headingDensityUnits(order) +
-                        "), found " + plainNumber(spec.heading_density));
+    fail("heading", "expected a finite spectral density > 0 (" + headingDensityUnits(order) + "), found " +
+                        plainNumber(spec.heading_density));
   }
   if (heading && spec.dims < 2)
   {
@@ -214,19 +217,18 @@ Model makeKinematicModel(const KinematicSpec& spec)
   // Checked per block: the axes' Q (with the density) and the heading's (with its own density).
   const auto checkBlock = [&](const Eigen::MatrixXd& Qb, const std::string& key, double density)
   {
-    const bool normal =
-        Qb.allFinite() && (Qb.array().abs() >= std::numeric_limits<double>::min()).all();
-    const std::string q_problem = normal ? networked_estimation::checkCovariance(Qb, Definiteness::POSITIVE).describe("Q") : std::string();
+    const bool normal = Qb.allFinite() && (Qb.array().abs() >= std::numeric_limits<double>::min()).all();
+    const std::string q_problem =
+        normal ? networked_estimation::checkCovariance(Qb, Definiteness::POSITIVE).describe("Q") : std::string();
     if (!normal || !q_problem.empty())
     {
-      const std::string what =
-          normal ? "that is not positive definite: " + q_problem
-                 : "whose entries leave the range of double precision (per axis from q T^" +
-                       std::to_string(2 * order - 1) + " = " + plainNumber(Qb(0, 0)) + " to q T = " +
-                       plainNumber(Qb(order - 1, order - 1)) +
-                       "; normal doubles are 2.2e-308 to 1.8e308 in magnitude)";
-      fail("rate", plainNumber(spec.rate) + " Hz with " + key + " " + plainNumber(density) + " gives a " +
-                       spec.motion + " Q " + what + "; use a less extreme rate or density");
+      const std::string what = normal ? "that is not positive definite: " + q_problem
+                                      : "whose entries leave the range of double precision (per axis from q T^" +
+                                            std::to_string(2 * order - 1) + " = " + plainNumber(Qb(0, 0)) +
+                                            " to q T = " + plainNumber(Qb(order - 1, order - 1)) +
+                                            "; normal doubles are 2.2e-308 to 1.8e308 in magnitude)";
+      fail("rate", plainNumber(spec.rate) + " Hz with " + key + " " + plainNumber(density) + " gives a " + spec.motion +
+                       " Q " + what + "; use a less extreme rate or density");
     }
   };
   checkBlock(Q1, densityKey(spec.motion), spec.density);
@@ -260,16 +262,15 @@ Model makeKinematicModel(const KinematicSpec& spec)
     {
       if (spec.sensors[k].name == in.name)
       {
-        fail(key + ".name", "duplicate sensor name " + quoted(in.name) + " (also " +
-                                name(indexKey("sensors", k) + ".name") + ")");
+        fail(key + ".name",
+             "duplicate sensor name " + quoted(in.name) + " (also " + name(indexKey("sensors", k) + ".name") + ")");
       }
     }
     const int which = quantityIndex(in.quantity, order);
     const int yaw_which = heading ? headingQuantityIndex(in.quantity, order) : -1;
     if (which < 0 && yaw_which < 0)
     {
-      std::string expected =
-          order == 2 ? "position or velocity" : "position, velocity or acceleration";
+      std::string expected = order == 2 ? "position or velocity" : "position, velocity or acceleration";
       if (heading)
       {
         expected = order == 2 ? "position, velocity, yaw or yaw_rate"
@@ -284,8 +285,8 @@ Model makeKinematicModel(const KinematicSpec& spec)
       {
         note = " (" + in.quantity + " needs a heading: --heading)";
       }
-      fail(key + ".quantity", "expected " + expected + " for a " + spec.motion + " model" + note +
-                                  ", found " + quoted(in.quantity));
+      fail(key + ".quantity",
+           "expected " + expected + " for a " + spec.motion + " model" + note + ", found " + quoted(in.quantity));
     }
     if (!std::isfinite(in.sigma) || !(in.sigma > 0.0))
     {
@@ -311,9 +312,8 @@ Model makeKinematicModel(const KinematicSpec& spec)
   }
   else if (spec.x0.size() != n)
   {
-    fail("x0", "expected " + std::to_string(n) + " entries (n = " + std::to_string(n) +
-                   ", the state " + joinList(model.states) + "), found " +
-                   std::to_string(spec.x0.size()));
+    fail("x0", "expected " + std::to_string(n) + " entries (n = " + std::to_string(n) + ", the state " +
+                   joinList(model.states) + "), found " + std::to_string(spec.x0.size()));
   }
   else
   {
@@ -328,13 +328,13 @@ Model makeKinematicModel(const KinematicSpec& spec)
   {
     if (!std::isfinite(variances[i]) || variances[i] < 0.0)
     {
-      fail(p0_keys[i], std::string("expected a finite variance >= 0 (") + kUnits[i] +
-                           " squared), found " + plainNumber(variances[i]));
+      fail(p0_keys[i], std::string("expected a finite variance >= 0 (") + kUnits[i] + " squared), found " +
+                           plainNumber(variances[i]));
     }
     if (heading && (!std::isfinite(yaw_variances[i]) || yaw_variances[i] < 0.0))
     {
-      fail(p0_yaw_keys[i], std::string("expected a finite variance >= 0 (") + kHeadingUnits[i] +
-                               " squared), found " + plainNumber(yaw_variances[i]));
+      fail(p0_yaw_keys[i], std::string("expected a finite variance >= 0 (") + kHeadingUnits[i] + " squared), found " +
+                               plainNumber(yaw_variances[i]));
     }
     for (int a = 0; a < D; ++a)
     {
@@ -372,17 +372,16 @@ std::string kinematicModelComment(const KinematicSpec& spec)
     units += order == 3 ? "; rad, rad/s, rad/s^2" : "; rad, rad/s";
     order_text += ", the heading last in each group";
   }
-  std::string out = spec.motion + " model in " + std::to_string(spec.dims) + "-D at " +
-                    plainNumber(spec.rate) + " Hz (period T = " + plainNumber(T) + " s).\n";
-  out += "State [" + joinList(kinematicStateNames(order, spec.dims, heading)) + "] (" + units + "): " +
-         order_text + ".\n";
-  out += "Process noise: white " + noise + " of spectral density q = " +
-         plainNumber(spec.density) + " " + q_units + " on every axis.\n";
+  std::string out = spec.motion + " model in " + std::to_string(spec.dims) + "-D at " + plainNumber(spec.rate) +
+                    " Hz (period T = " + plainNumber(T) + " s).\n";
+  out +=
+      "State [" + joinList(kinematicStateNames(order, spec.dims, heading)) + "] (" + units + "): " + order_text + ".\n";
+  out += "Process noise: white " + noise + " of spectral density q = " + plainNumber(spec.density) + " " + q_units +
+         " on every axis.\n";
   if (heading)
   {
     out += "Heading: yaw, an angle in (-pi, pi] (angles: [yaw]), moving like an axis with white angular " + noise +
-           " of spectral density q = " + plainNumber(spec.heading_density) + " " + headingDensityUnits(order) +
-           ".\n";
+           " of spectral density q = " + plainNumber(spec.heading_density) + " " + headingDensityUnits(order) + ".\n";
   }
   out += "A = e^{F T}, per axis " + A_text + ".\n";
   out += "Q = integral over [0, T] of e^{F s} G q G' e^{F' s} ds, per axis\n";
@@ -397,8 +396,8 @@ std::string kinematicModelComment(const KinematicSpec& spec)
              kHeadingUnits[yaw_which] + " (R = sigma^2).\n";
       continue;
     }
-    out += "Sensor " + s.name + ": the " + s.quantity + " of every axis, sigma = " +
-           plainNumber(s.sigma) + " " + kUnits[which < 0 ? 0 : which] + " (R = sigma^2 I).\n";
+    out += "Sensor " + s.name + ": the " + s.quantity + " of every axis, sigma = " + plainNumber(s.sigma) + " " +
+           kUnits[which < 0 ? 0 : which] + " (R = sigma^2 I).\n";
   }
   return out;
 }

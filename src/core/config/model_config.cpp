@@ -51,7 +51,8 @@ std::vector<std::string> parseStateNames(const Reader& in, const YAML::Node& nod
     }
     if (name.find_first_not_of("0123456789") == std::string::npos)
     {
-      in.fail(node[i], key, "a state name must not be a number, found '" + name + "' (angles reads a number as an index)");
+      in.fail(node[i], key,
+              "a state name must not be a number, found '" + name + "' (angles reads a number as an index)");
     }
     for (std::size_t k = 0; k < names.size(); ++k)
     {
@@ -66,8 +67,7 @@ std::vector<std::string> parseStateNames(const Reader& in, const YAML::Node& nod
 }
 
 /// `angles`: state indices (0-based) or names of `states`, each at most once; returned ascending.
-std::vector<int> parseAngles(const Reader& in, const YAML::Node& node, const std::vector<std::string>& states,
-                             int n)
+std::vector<int> parseAngles(const Reader& in, const YAML::Node& node, const std::vector<std::string>& states, int n)
 {
   if (!node.IsSequence())
   {
@@ -90,8 +90,9 @@ std::vector<int> parseAngles(const Reader& in, const YAML::Node& node, const std
       const std::uint64_t v = in.integer(e, key, 0);
       if (v >= static_cast<std::uint64_t>(n))
       {
-        in.fail(e, key, "state index " + text + " out of range (" + countText("n", n) + ": 0 to " +
-                            std::to_string(n - 1) + ")");
+        in.fail(
+            e, key,
+            "state index " + text + " out of range (" + countText("n", n) + ": 0 to " + std::to_string(n - 1) + ")");
       }
       index = static_cast<int>(v);
     }
@@ -107,8 +108,9 @@ std::vector<int> parseAngles(const Reader& in, const YAML::Node& node, const std
       if (index < 0)
       {
         in.fail(e, key,
-                states.empty() ? "'" + text + "' is not a state index, and the model names no states (give an "
-                                 "index from 0, or the key states)"
+                states.empty() ? "'" + text +
+                                     "' is not a state index, and the model names no states (give an "
+                                     "index from 0, or the key states)"
                                : "'" + text + "' is not a state (states: " + joinList(states) + ")");
       }
     }
@@ -129,10 +131,9 @@ Model parseModelImpl(const YAML::Node& node, const std::string& source)
 {
   const Reader in(source);
   in.requireTopMap(node);
-  in.checkKeys(
-      node, "",
-      {"name", "period", "A", "B", "Q", "C", "R", "sensors", "x0", "P0", "uncertainty", "control", "schedule",
-       "states", "angles", "motion", "two_d_mode"});
+  in.checkKeys(node, "",
+               {"name", "period", "A", "B", "Q", "C", "R", "sensors", "x0", "P0", "uncertainty", "control", "schedule",
+                "states", "angles", "motion", "two_d_mode"});
 
   Model model;
   if (node["name"])
@@ -144,8 +145,7 @@ Model parseModelImpl(const YAML::Node& node, const std::string& source)
     model.period = in.number(node["period"], "period");
     if (!(model.period > 0.0))
     {
-      in.fail(node["period"], "period",
-              "expected a positive number of seconds, found " + node["period"].Scalar());
+      in.fail(node["period"], "period", "expected a positive number of seconds, found " + node["period"].Scalar());
     }
   }
 
@@ -196,15 +196,13 @@ Model parseModelImpl(const YAML::Node& node, const std::string& source)
   {
     if (has_c || has_r)
     {
-      in.fail(sensors_node, "sensors",
-              "cannot be combined with C/R (give either C and R, or sensors)");
+      in.fail(sensors_node, "sensors", "cannot be combined with C/R (give either C and R, or sensors)");
     }
     if (!sensors_node.IsSequence() || sensors_node.size() == 0)
     {
-      in.fail(
-          sensors_node, "sensors",
-          "expected a non-empty list of sensors ({name, C, R}), found " +
-              (sensors_node.IsSequence() ? std::string("an empty list") : describe(sensors_node)));
+      in.fail(sensors_node, "sensors",
+              "expected a non-empty list of sensors ({name, C, R}), found " +
+                  (sensors_node.IsSequence() ? std::string("an empty list") : describe(sensors_node)));
     }
     std::vector<Eigen::MatrixXd> cs;
     std::vector<Eigen::MatrixXd> rs;
@@ -227,17 +225,15 @@ Model parseModelImpl(const YAML::Node& node, const std::string& source)
         if (model.sensors[k].name == sensor.name)
         {
           in.fail(name_node, prefix + ".name",
-                  "duplicate sensor name '" + sensor.name + "' (also " + indexKey("sensors", k) +
-                      ".name)");
+                  "duplicate sensor name '" + sensor.name + "' (also " + indexKey("sensors", k) + ".name)");
         }
       }
       const YAML::Node c_node = in.require(s, prefix, "C");
       const Eigen::MatrixXd c = in.matrix(c_node, prefix + ".C", -1, n, n_cols);
       const int size = static_cast<int>(c.rows());
       const YAML::Node r_node = in.require(s, prefix, "R");
-      const Eigen::MatrixXd r =
-          in.matrix(r_node, prefix + ".R", size, size,
-                    "size = " + std::to_string(size) + ", the rows of " + prefix + ".C");
+      const Eigen::MatrixXd r = in.matrix(r_node, prefix + ".R", size, size,
+                                          "size = " + std::to_string(size) + ", the rows of " + prefix + ".C");
       checkCovariance(in, r_node, prefix + ".R", "R", r, true);
       sensor.offset = m;
       sensor.size = size;
@@ -305,8 +301,7 @@ Model parseModelImpl(const YAML::Node& node, const std::string& source)
   {
     if (!u_node.IsSequence())
     {
-      in.fail(u_node, "uncertainty",
-              "expected a list of {dA, dB, dC, range}, found " + describe(u_node));
+      in.fail(u_node, "uncertainty", "expected a list of {dA, dB, dC, range}, found " + describe(u_node));
     }
     for (std::size_t j = 0; j < u_node.size(); ++j)
     {
@@ -315,14 +310,12 @@ Model parseModelImpl(const YAML::Node& node, const std::string& source)
       in.requireMap(e, prefix);
       in.checkKeys(e, prefix, {"dA", "dB", "dC", "range"});
       Uncertainty u;
-      u.dA = e["dA"] ? in.matrix(e["dA"], prefix + ".dA", n, n, countText("n", n))
-                     : Eigen::MatrixXd::Zero(n, n);
-      u.dB = e["dB"] ? in.matrix(e["dB"], prefix + ".dB", n, nw,
-                                 countText("n", n) + ", " + countText("nw", nw))
+      u.dA = e["dA"] ? in.matrix(e["dA"], prefix + ".dA", n, n, countText("n", n)) : Eigen::MatrixXd::Zero(n, n);
+      u.dB = e["dB"] ? in.matrix(e["dB"], prefix + ".dB", n, nw, countText("n", n) + ", " + countText("nw", nw))
                      : Eigen::MatrixXd::Zero(n, nw);
-      u.dC = e["dC"] ? in.matrix(e["dC"], prefix + ".dC", m, n,
-                                 countText("m", m) + " stacked rows, " + countText("n", n))
-                     : Eigen::MatrixXd::Zero(m, n);
+      u.dC = e["dC"]
+                 ? in.matrix(e["dC"], prefix + ".dC", m, n, countText("m", m) + " stacked rows, " + countText("n", n))
+                 : Eigen::MatrixXd::Zero(m, n);
       if (e["range"])
       {
         u.range = in.nonNegative(e["range"], prefix + ".range", "number");
@@ -376,11 +369,7 @@ Model parseModelImpl(const YAML::Node& node, const std::string& source)
 
 Model parseModel(const YAML::Node& node, const std::string& source)
 {
-  return guarded(source,
-                 [&]
-                 {
-                   return parseModelImpl(node, source);
-                 });
+  return guarded(source, [&] { return parseModelImpl(node, source); });
 }
 
 Model loadModel(const std::string& path)

@@ -54,8 +54,8 @@ void checkAngle(const Model& model, int j, const Fail& fail)
   {
     if (model.A(i, j) != (i == j ? 1.0 : 0.0))
     {
-      fail("A", "column " + std::to_string(j) + " must be the unit vector e_" + std::to_string(j) + " because " +
-                    what + " is an angle (an angle keeps its value and feeds no other state linearly; found A(" +
+      fail("A", "column " + std::to_string(j) + " must be the unit vector e_" + std::to_string(j) + " because " + what +
+                    " is an angle (an angle keeps its value and feeds no other state linearly; found A(" +
                     std::to_string(i) + "," + std::to_string(j) + ") = " + formatNumber(model.A(i, j)) + ")");
     }
   }
@@ -71,9 +71,11 @@ void checkAngle(const Model& model, int j, const Fail& fail)
           row = "row " + std::to_string(i - s.offset) + " of sensor '" + s.name + "'";
         }
       }
-      fail("C", row + " involves " + what + ", an angle, without measuring it alone (an angle is measured by a row "
-                      "that is the unit vector e_" + std::to_string(j) + ", found C(" + std::to_string(i) + "," +
-                      std::to_string(j) + ") = " + formatNumber(model.C(i, j)) + " in a row that is not)");
+      fail("C", row + " involves " + what +
+                    ", an angle, without measuring it alone (an angle is measured by a row "
+                    "that is the unit vector e_" +
+                    std::to_string(j) + ", found C(" + std::to_string(i) + "," + std::to_string(j) +
+                    ") = " + formatNumber(model.C(i, j)) + " in a row that is not)");
     }
   }
   for (std::size_t u = 0; u < model.uncertainty.size(); ++u)
@@ -116,26 +118,23 @@ std::vector<int> angularRows(const Model& model)
 std::string stateName(const Model& model, int i)
 {
   return i >= 0 && static_cast<std::size_t>(i) < model.states.size() ? model.states[static_cast<std::size_t>(i)]
-                                                                       : "state " + std::to_string(i);
+                                                                     : "state " + std::to_string(i);
 }
 
 void validateModel(const Model& model, const std::string& source)
 {
   const auto fail = [&source](const std::string& key, const std::string& problem)
-  {
-    throw ConfigError(message(source, 0, key, problem));
-  };
-  const auto checkSize = [&fail](const std::string& key, const Eigen::MatrixXd& M,
-                                 Eigen::Index rows, Eigen::Index cols, const std::string& hint)
+  { throw ConfigError(message(source, 0, key, problem)); };
+  const auto checkSize = [&fail](const std::string& key, const Eigen::MatrixXd& M, Eigen::Index rows, Eigen::Index cols,
+                                 const std::string& hint)
   {
     if (M.rows() != rows || M.cols() != cols)
     {
-      fail(key, "expected " + dims(rows, cols) + (hint.empty() ? "" : " (" + hint + ")") +
-                    ", found " + dims(M.rows(), M.cols()));
+      fail(key, "expected " + dims(rows, cols) + (hint.empty() ? "" : " (" + hint + ")") + ", found " +
+                    dims(M.rows(), M.cols()));
     }
   };
-  const auto checkFinite =
-      [&fail](const std::string& key, const std::string& label, const Eigen::MatrixXd& M)
+  const auto checkFinite = [&fail](const std::string& key, const std::string& label, const Eigen::MatrixXd& M)
   {
     const std::string problem = finitenessProblem(M, label);
     if (!problem.empty())
@@ -143,8 +142,8 @@ void validateModel(const Model& model, const std::string& source)
       fail(key, problem);
     }
   };
-  const auto checkCov = [&fail, &checkFinite](const std::string& key, const std::string& label,
-                                              const Eigen::MatrixXd& M, bool strict)
+  const auto checkCov =
+      [&fail, &checkFinite](const std::string& key, const std::string& label, const Eigen::MatrixXd& M, bool strict)
   {
     checkFinite(key, label, M);
     const CovarianceCheck check =
@@ -157,8 +156,7 @@ void validateModel(const Model& model, const std::string& source)
 
   if (!std::isfinite(model.period) || model.period < 0.0)
   {
-    fail("period", "expected a positive number of seconds (or 0 for unset), found " +
-                       formatNumber(model.period));
+    fail("period", "expected a positive number of seconds (or 0 for unset), found " + formatNumber(model.period));
   }
 
   // A, or a built-in motion
@@ -192,8 +190,8 @@ void validateModel(const Model& model, const std::string& source)
   // B, Q
   if (model.B.rows() != n || model.B.cols() == 0)
   {
-    fail("B", "expected " + std::to_string(n) + " rows and at least one column (" + n_text +
-                  "), found " + dims(model.B.rows(), model.B.cols()));
+    fail("B", "expected " + std::to_string(n) + " rows and at least one column (" + n_text + "), found " +
+                  dims(model.B.rows(), model.B.cols()));
   }
   checkFinite("B", "B", model.B);
   const Eigen::Index nw = model.B.cols();
@@ -211,8 +209,8 @@ void validateModel(const Model& model, const std::string& source)
   // C, R, sensors
   if (model.C.rows() == 0 || model.C.cols() != n)
   {
-    fail("C", "expected at least one row and " + std::to_string(n) + " columns (" + n_text +
-                  "), found " + dims(model.C.rows(), model.C.cols()));
+    fail("C", "expected at least one row and " + std::to_string(n) + " columns (" + n_text + "), found " +
+                  dims(model.C.rows(), model.C.cols()));
   }
   checkFinite("C", "C", model.C);
   const Eigen::Index m = model.C.rows();
@@ -248,8 +246,7 @@ void validateModel(const Model& model, const std::string& source)
   }
   if (next != m)
   {
-    fail("sensors",
-         "the sensors cover " + std::to_string(next) + " rows but C has " + std::to_string(m));
+    fail("sensors", "the sensors cover " + std::to_string(next) + " rows but C has " + std::to_string(m));
   }
   for (const Sensor& a : model.sensors)
   {
@@ -257,8 +254,7 @@ void validateModel(const Model& model, const std::string& source)
     {
       if (&a != &b && !model.R.block(a.offset, b.offset, a.size, b.size).isZero(0.0))
       {
-        fail("R", "not block diagonal over sensors (R couples sensors '" + a.name + "' and '" +
-                      b.name + "')");
+        fail("R", "not block diagonal over sensors (R couples sensors '" + a.name + "' and '" + b.name + "')");
       }
     }
   }
@@ -266,8 +262,7 @@ void validateModel(const Model& model, const std::string& source)
   // x0, P0
   if (model.x0.size() != n)
   {
-    fail("x0", "expected " + std::to_string(n) + " entries (" + n_text + "), found " +
-                   std::to_string(model.x0.size()));
+    fail("x0", "expected " + std::to_string(n) + " entries (" + n_text + "), found " + std::to_string(model.x0.size()));
   }
   checkFinite("x0", "x0", model.x0);
   checkSize("P0", model.P0, n, n, n_text);
@@ -282,8 +277,7 @@ void validateModel(const Model& model, const std::string& source)
     checkFinite(key + ".dA", "dA", u.dA);
     checkSize(key + ".dB", u.dB, n, nw, n_text + ", " + countText("nw", static_cast<int>(nw)));
     checkFinite(key + ".dB", "dB", u.dB);
-    checkSize(key + ".dC", u.dC, m, n,
-              countText("m", static_cast<int>(m)) + " stacked rows, " + n_text);
+    checkSize(key + ".dC", u.dC, m, n, countText("m", static_cast<int>(m)) + " stacked rows, " + n_text);
     checkFinite(key + ".dC", "dC", u.dC);
     if (!std::isfinite(u.range) || u.range < 0.0)
     {
@@ -296,8 +290,8 @@ void validateModel(const Model& model, const std::string& source)
   {
     if (static_cast<Eigen::Index>(model.states.size()) != n)
     {
-      fail("states", "expected " + std::to_string(n) + " names (" + n_text + "), found " +
-                         std::to_string(model.states.size()));
+      fail("states",
+           "expected " + std::to_string(n) + " names (" + n_text + "), found " + std::to_string(model.states.size()));
     }
     std::set<std::string> state_names;
     for (std::size_t i = 0; i < model.states.size(); ++i)
@@ -323,9 +317,8 @@ void validateModel(const Model& model, const std::string& source)
   // control
   if (model.Bu.rows() != n)
   {
-    fail("control.Bu", "expected " + std::to_string(n) + " rows (" + n_text + "; use an " +
-                           std::to_string(n) + "x0 matrix without control), found " +
-                           dims(model.Bu.rows(), model.Bu.cols()));
+    fail("control.Bu", "expected " + std::to_string(n) + " rows (" + n_text + "; use an " + std::to_string(n) +
+                           "x0 matrix without control), found " + dims(model.Bu.rows(), model.Bu.cols()));
   }
   checkFinite("control.Bu", "Bu", model.Bu);
 

@@ -50,8 +50,7 @@ std::string row(const Eigen::MatrixXd& M, Eigen::Index i)
 }
 
 /// A matrix in block style, one row a line, each line starting with `indent`.
-void writeMatrix(std::ostream& out, const std::string& indent, const std::string& key,
-                 const Eigen::MatrixXd& M)
+void writeMatrix(std::ostream& out, const std::string& indent, const std::string& key, const Eigen::MatrixXd& M)
 {
   out << indent << key << ":\n";
   for (Eigen::Index i = 0; i < M.rows(); ++i)

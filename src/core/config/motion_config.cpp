@@ -132,9 +132,8 @@ std::string motionPeriodProblem(const Model& model)
   Eigen::Index big = 0;  // Q is positive definite: its largest entry is on its diagonal
   model.Q.diagonal().maxCoeff(&big);
   if (!std::isfinite(model.Q(big, big) * dt))
-    return "expected a number of seconds over which the process noise of a step, Q period, is finite" + found +
-           " (Q(" + std::to_string(big) + "," + std::to_string(big) + ") = " + formatNumber(model.Q(big, big)) +
-           " per second)";
+    return "expected a number of seconds over which the process noise of a step, Q period, is finite" + found + " (Q(" +
+           std::to_string(big) + "," + std::to_string(big) + ") = " + formatNumber(model.Q(big, big)) + " per second)";
   return "";
 }
 

@@ -34,9 +34,7 @@ Model makeOmniModel(const OmniSpec& spec)
   const std::string source = "omni model '" + spec.name + "'";
   const auto name = [&spec](const std::string& key) { return spec.key_name ? spec.key_name(key) : key; };
   const auto fail = [&source, &name](const std::string& key, const std::string& problem)
-  {
-    throw ConfigError(message(source, 0, name(key), problem));
-  };
+  { throw ConfigError(message(source, 0, name(key), problem)); };
   Motion motion = Motion::LINEAR;
   try
   {
@@ -119,8 +117,8 @@ Model makeOmniModel(const OmniSpec& spec)
     {
       if (spec.sensors[j].name == s.name)
       {
-        fail(key + ".name", "duplicate sensor name '" + s.name + "' (also " + name(indexKey("sensors", j) + ".name") +
-                                ")");
+        fail(key + ".name",
+             "duplicate sensor name '" + s.name + "' (also " + name(indexKey("sensors", j) + ".name") + ")");
       }
     }
     if (s.states.empty())

@@ -9,7 +9,8 @@ namespace networked_estimation
 
 Model withSensorRates(const Model& model, const std::vector<double>& ratio, std::string* note)
 {
-  auto refuse = [&](const std::string& why) {
+  auto refuse = [&](const std::string& why)
+  {
     if (note)
       *note = why + ": the stability verdicts assume every sensor can arrive at every step";
     return model;

@@ -95,7 +95,8 @@ std::vector<bool> parseSet(const Reader& in, const YAML::Node& node, const std::
     const std::string name = in.string(node[i], indexKey(key, i));
     const auto it = std::find(names.begin(), names.end(), name);
     if (it == names.end())
-      in.fail(node[i], indexKey(key, i), "'" + name + "' is not a sensor of the model (sensors: " + joinList(names) + ")");
+      in.fail(node[i], indexKey(key, i),
+              "'" + name + "' is not a sensor of the model (sensors: " + joinList(names) + ")");
     const std::size_t s = static_cast<std::size_t>(it - names.begin());
     if (mask[s])
       in.fail(node[i], indexKey(key, i), "sensor '" + name + "' listed twice");
@@ -187,8 +188,8 @@ Schedule parseSchedule(const Reader& in, const YAML::Node& node, const std::vect
                     : "a random schedule needs probabilities (i.i.d.) or transition (Markov chain over the subsets)");
     if (probs)
     {
-      const Eigen::VectorXd p = in.vector(node["probabilities"], "schedule.probabilities", K,
-                                          std::to_string(K) + " subsets");
+      const Eigen::VectorXd p =
+          in.vector(node["probabilities"], "schedule.probabilities", K, std::to_string(K) + " subsets");
       for (int i = 0; i < K; ++i)
         if (p[i] < 0.0 || p[i] > 1.0)
           in.fail(node["probabilities"], indexKey("schedule.probabilities", static_cast<std::size_t>(i)),
@@ -208,8 +209,8 @@ Schedule parseSchedule(const Reader& in, const YAML::Node& node, const std::vect
         for (int j = 0; j < K; ++j)
           if (sch.transition(i, j) < 0.0 || sch.transition(i, j) > 1.0)
             in.fail(node["transition"], "schedule.transition",
-                    "entry (" + std::to_string(i) + "," + std::to_string(j) + "): expected a probability in [0, 1], found " +
-                        formatNumber(sch.transition(i, j)));
+                    "entry (" + std::to_string(i) + "," + std::to_string(j) +
+                        "): expected a probability in [0, 1], found " + formatNumber(sch.transition(i, j)));
         if (std::abs(sch.transition.row(i).sum() - 1.0) > 1e-9)
           in.fail(node["transition"], "schedule.transition",
                   "row " + std::to_string(i) + " must sum to 1 (rows are the current subset), found " +
@@ -239,7 +240,8 @@ std::string scheduleProblem(const Schedule& sch, std::size_t S)
   {
     const Eigen::Index K = static_cast<Eigen::Index>(sets.size());
     if (sch.transition.rows() != K || sch.transition.cols() != K)
-      return "schedule.transition: expected " + dims(K, K) + ", found " + dims(sch.transition.rows(), sch.transition.cols());
+      return "schedule.transition: expected " + dims(K, K) + ", found " +
+             dims(sch.transition.rows(), sch.transition.cols());
     if (!sch.transition.allFinite() || (sch.transition.array() < 0.0).any() ||
         ((sch.transition.rowwise().sum().array() - 1.0).abs() > 1e-9).any())
       return "schedule.transition: expected a row-stochastic matrix";

@@ -38,8 +38,8 @@ bool booleanText(const std::string& t, bool& out)
 bool integerText(const std::string& t, long long& out)
 {
   const std::size_t first = !t.empty() && (t[0] == '+' || t[0] == '-') ? 1 : 0;
-  if (first == t.size() || !std::all_of(t.begin() + static_cast<long>(first), t.end(),
-                                        [](char c) { return c >= '0' && c <= '9'; }))
+  if (first == t.size() ||
+      !std::all_of(t.begin() + static_cast<long>(first), t.end(), [](char c) { return c >= '0' && c <= '9'; }))
   {
     return false;
   }
@@ -98,8 +98,7 @@ std::string describe(const YAML::Node& node)
 
 /// "<source>:<line>: <key>: <problem>", or without ":<line>" when line <= 0, without "<key>: "
 /// when key is empty.
-std::string message(const std::string& source, int line, const std::string& key,
-                    const std::string& problem)
+std::string message(const std::string& source, int line, const std::string& key, const std::string& problem)
 {
   std::string out = source;
   if (line > 0)
@@ -173,9 +172,7 @@ static std::string expectedDims(int rows, int cols, Eigen::Index found_rows, Eig
   return dims(rows >= 0 ? rows : found_rows, cols >= 0 ? cols : found_cols);
 }
 
-
-void Reader::fail(const YAML::Node& at, const std::string& key,
-                       const std::string& problem) const
+void Reader::fail(const YAML::Node& at, const std::string& key, const std::string& problem) const
 {
   throw ConfigError(message(source_, lineOf(at), key, problem));
 }
@@ -200,8 +197,7 @@ void Reader::requireMap(const YAML::Node& node, const std::string& key) const
   }
 }
 
-void Reader::checkKeys(const YAML::Node& map, const std::string& prefix,
-               const std::vector<std::string>& known) const
+void Reader::checkKeys(const YAML::Node& map, const std::string& prefix, const std::vector<std::string>& known) const
 {
   std::set<std::string> seen;
   for (auto it = map.begin(); it != map.end(); ++it)
@@ -225,13 +221,12 @@ void Reader::checkKeys(const YAML::Node& map, const std::string& prefix,
 }
 
 YAML::Node Reader::require(const YAML::Node& map, const std::string& prefix, const std::string& key,
-                   const std::string& why) const
+                           const std::string& why) const
 {
   const YAML::Node child = map[key];
   if (!child.IsDefined())
   {
-    fail(map, childKey(prefix, key),
-         "missing required key" + (why.empty() ? "" : " (" + why + ")"));
+    fail(map, childKey(prefix, key), "missing required key" + (why.empty() ? "" : " (" + why + ")"));
   }
   return child;
 }
@@ -291,25 +286,20 @@ double Reader::nonNegative(const YAML::Node& node, const std::string& key, const
 
 std::uint64_t Reader::integer(const YAML::Node& node, const std::string& key, std::uint64_t min) const
 {
-  const std::string expected =
-      min == 0 ? "a non-negative integer" : "an integer >= " + std::to_string(min);
+  const std::string expected = min == 0 ? "a non-negative integer" : "an integer >= " + std::to_string(min);
   if (!node.IsScalar())
   {
     fail(node, key, "expected " + expected + ", found " + describe(node));
   }
   std::string text = node.Scalar();
-  const bool digits_only = !text.empty() &&
-                           std::all_of(text.begin() + (text[0] == '+' ? 1 : 0), text.end(),
-                                       [](char c)
-                                       {
-                                         return c >= '0' && c <= '9';
-                                       }) &&
-                           text != "+";
+  const bool digits_only =
+      !text.empty() &&
+      std::all_of(text.begin() + (text[0] == '+' ? 1 : 0), text.end(), [](char c) { return c >= '0' && c <= '9'; }) &&
+      text != "+";
   if (!digits_only)
   {
     double value = 0.0;
-    if (YAML::convert<double>::decode(node, value) && std::isfinite(value) &&
-        value == std::floor(value))
+    if (YAML::convert<double>::decode(node, value) && std::isfinite(value) && value == std::floor(value))
     {
       fail(node, key, "expected " + expected + ", found " + text);  // e.g. -3
     }
@@ -320,8 +310,8 @@ std::uint64_t Reader::integer(const YAML::Node& node, const std::string& key, st
   if (errno == ERANGE)
   {
     fail(node, key,
-         "integer out of range (at most " +
-             std::to_string(std::numeric_limits<std::uint64_t>::max()) + "), found " + text);
+         "integer out of range (at most " + std::to_string(std::numeric_limits<std::uint64_t>::max()) + "), found " +
+             text);
   }
   if (value < min)
   {
@@ -350,20 +340,19 @@ std::string Reader::string(const YAML::Node& node, const std::string& key) const
 }
 
 std::size_t Reader::choice(const YAML::Node& node, const std::string& key, const std::string& what,
-                   const std::vector<std::string>& names) const
+                           const std::vector<std::string>& names) const
 {
   const std::string value = string(node, key);
   const auto it = std::find(names.begin(), names.end(), value);
   if (it == names.end())
   {
-    fail(node, key,
-         "unknown " + what + " '" + value + "' (expected one of: " + joinList(names) + ")");
+    fail(node, key, "unknown " + what + " '" + value + "' (expected one of: " + joinList(names) + ")");
   }
   return static_cast<std::size_t>(it - names.begin());
 }
 
 Eigen::MatrixXd Reader::matrix(const YAML::Node& node, const std::string& key, int rows, int cols,
-                       const std::string& hint) const
+                               const std::string& hint) const
 {
   if (!node.IsSequence())
   {
@@ -371,9 +360,7 @@ Eigen::MatrixXd Reader::matrix(const YAML::Node& node, const std::string& key, i
   }
   if (node.size() == 0)
   {
-    fail(node, key,
-         "empty matrix (expected a non-empty list of rows" + (hint.empty() ? "" : ", " + hint) +
-             ")");
+    fail(node, key, "empty matrix (expected a non-empty list of rows" + (hint.empty() ? "" : ", " + hint) + ")");
   }
   const std::size_t found_rows = node.size();
   std::size_t found_cols = 0;
@@ -382,8 +369,7 @@ Eigen::MatrixXd Reader::matrix(const YAML::Node& node, const std::string& key, i
     const YAML::Node row = node[i];
     if (!row.IsSequence())
     {
-      fail(row, key,
-           "row " + std::to_string(i) + ": expected a list of numbers, found " + describe(row));
+      fail(row, key, "row " + std::to_string(i) + ": expected a list of numbers, found " + describe(row));
     }
     if (row.size() == 0)
     {
@@ -396,8 +382,8 @@ Eigen::MatrixXd Reader::matrix(const YAML::Node& node, const std::string& key, i
     else if (row.size() != found_cols)
     {
       fail(row, key,
-           "ragged rows (row 0 has " + std::to_string(found_cols) + " entries, row " +
-               std::to_string(i) + " has " + std::to_string(row.size()) + ")");
+           "ragged rows (row 0 has " + std::to_string(found_cols) + " entries, row " + std::to_string(i) + " has " +
+               std::to_string(row.size()) + ")");
     }
   }
   Eigen::MatrixXd M(found_rows, found_cols);
@@ -414,14 +400,13 @@ Eigen::MatrixXd Reader::matrix(const YAML::Node& node, const std::string& key, i
   if ((rows >= 0 && r != rows) || (cols >= 0 && c != cols))
   {
     fail(node, key,
-         "expected " + expectedDims(rows, cols, r, c) + (hint.empty() ? "" : " (" + hint + ")") +
-             ", found " + dims(r, c));
+         "expected " + expectedDims(rows, cols, r, c) + (hint.empty() ? "" : " (" + hint + ")") + ", found " +
+             dims(r, c));
   }
   return M;
 }
 
-Eigen::VectorXd Reader::vector(const YAML::Node& node, const std::string& key, int size,
-                       const std::string& hint) const
+Eigen::VectorXd Reader::vector(const YAML::Node& node, const std::string& key, int size, const std::string& hint) const
 {
   if (!node.IsSequence())
   {
@@ -430,8 +415,8 @@ Eigen::VectorXd Reader::vector(const YAML::Node& node, const std::string& key, i
   if (static_cast<int>(node.size()) != size)
   {
     fail(node, key,
-         "expected " + std::to_string(size) + " entries" +
-             (hint.empty() ? "" : " (" + hint + ")") + ", found " + std::to_string(node.size()));
+         "expected " + std::to_string(size) + " entries" + (hint.empty() ? "" : " (" + hint + ")") + ", found " +
+             std::to_string(node.size()));
   }
   Eigen::VectorXd v(size);
   for (int i = 0; i < size; ++i)
@@ -460,8 +445,8 @@ double Reader::entry(const YAML::Node& node, const std::string& key, const std::
 }
 
 /// Checks symmetry and definiteness of a parsed matrix, failing at `node`.
-void checkCovariance(const Reader& in, const YAML::Node& node, const std::string& key,
-                     const std::string& label, const Eigen::MatrixXd& M, bool strict)
+void checkCovariance(const Reader& in, const YAML::Node& node, const std::string& key, const std::string& label,
+                     const Eigen::MatrixXd& M, bool strict)
 {
   const CovarianceCheck check =
       networked_estimation::checkCovariance(M, strict ? Definiteness::POSITIVE : Definiteness::SEMIDEFINITE);
@@ -503,7 +488,6 @@ YAML::Node loadYamlFile(const std::string& path)
     throw ConfigError(message(path, 0, "", std::string("YAML error: ") + e.what()));
   }
 }
-
 
 }  // namespace detail
 }  // namespace networked_estimation

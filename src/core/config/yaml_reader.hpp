@@ -43,8 +43,7 @@ std::string indexKey(const std::string& prefix, std::size_t i);
 std::string describe(const YAML::Node& node);
 /// "<source>:<line>: <key>: <problem>", or without ":<line>" when line <= 0, without "<key>: "
 /// when key is empty.
-std::string message(const std::string& source, int line, const std::string& key,
-                    const std::string& problem);
+std::string message(const std::string& source, int line, const std::string& key, const std::string& problem);
 /// 1-based line of a node, 0 when unknown.
 int lineOf(const YAML::Node& node);
 
@@ -59,13 +58,12 @@ std::string nonFiniteEntry(const Eigen::MatrixXd& M, const std::string& label);
 /// Typed access to YAML nodes, throwing ConfigError with source, line and key path.
 class Reader
 {
- public:
+public:
   explicit Reader(const std::string& source) : source_(source) {}
 
   const std::string& source() const { return source_; }
 
-  [[noreturn]] void fail(const YAML::Node& at, const std::string& key,
-                         const std::string& problem) const;
+  [[noreturn]] void fail(const YAML::Node& at, const std::string& key, const std::string& problem) const;
 
   /// The document root must be a map.
   void requireTopMap(const YAML::Node& node) const;
@@ -74,8 +72,7 @@ class Reader
   void requireMap(const YAML::Node& node, const std::string& key) const;
 
   /// Rejects non-scalar, duplicate and unknown keys of `map` (whose own key path is `prefix`).
-  void checkKeys(const YAML::Node& map, const std::string& prefix,
-                 const std::vector<std::string>& known) const;
+  void checkKeys(const YAML::Node& map, const std::string& prefix, const std::vector<std::string>& known) const;
 
   /// Child `key` of `map`; throws "missing required key" (with `why` appended) when absent.
   YAML::Node require(const YAML::Node& map, const std::string& prefix, const std::string& key,
@@ -109,10 +106,9 @@ class Reader
                          const std::string& hint) const;
 
   /// A flat list of exactly `size` finite numbers.
-  Eigen::VectorXd vector(const YAML::Node& node, const std::string& key, int size,
-                         const std::string& hint) const;
+  Eigen::VectorXd vector(const YAML::Node& node, const std::string& key, int size, const std::string& hint) const;
 
- private:
+private:
   /// One finite matrix / vector entry; `where` is e.g. "entry (0,1)".
   double entry(const YAML::Node& node, const std::string& key, const std::string& where) const;
 
@@ -120,8 +116,8 @@ class Reader
 };
 
 /// Checks symmetry and definiteness of a parsed matrix, failing at `node`.
-void checkCovariance(const Reader& in, const YAML::Node& node, const std::string& key,
-                     const std::string& label, const Eigen::MatrixXd& M, bool strict);
+void checkCovariance(const Reader& in, const YAML::Node& node, const std::string& key, const std::string& label,
+                     const Eigen::MatrixXd& M, bool strict);
 
 /// "n = 3".
 std::string countText(const char* what, int value);
@@ -142,7 +138,6 @@ auto guarded(const std::string& source, F&& parse) -> decltype(parse())
     throw ConfigError(message(source, 0, "", std::string("YAML error: ") + e.what()));
   }
 }
-
 
 }  // namespace detail
 }  // namespace networked_estimation

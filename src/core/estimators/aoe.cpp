@@ -19,13 +19,13 @@ class Aoe final : public EstimatorBase<S, Aoe<S>>
 {
   using Base = EstimatorBase<S, Aoe<S>>;
   friend Base;
-  using Base::last_updated_;
-  using Base::rows_;
   using Base::A_;
   using Base::bu_;
-  using Base::x_;
+  using Base::last_updated_;
   using Base::P_;
   using Base::Ppred_;
+  using Base::rows_;
+  using Base::x_;
 
 public:
   Aoe(const Model& model, ControlLink link) : Base(model, Algorithm::AOE), link_(link), nu1_(link.stationary()) {}
@@ -60,18 +60,20 @@ private:
     if (last_updated_)
     {
       // 3-5. gain, mode update (19c) in log-odds form, conditional update (20c,d)
-      this->withArrived([&](auto& upd, const auto& C, const auto& R, const auto& y) {
-        upd.factor(Ppred_, C, R);
-        const auto& innov = upd.updateMean(y, z0_);  // L^{-1} e0; z0 += W' L^{-1} e0
-        if (has_input)
-        {
-          const auto& wd = upd.whitenedImage(bu_);  // L^{-1} C Bu u
-          const double L = innov.dot(wd) - 0.5 * wd.squaredNorm() + std::log(nubar1) - std::log(nubar0);
-          nuhat1 = 1.0 / (1.0 + std::exp(-L));
-          dlt_.noalias() -= upd.W().transpose() * wd;  // (I - K C) Bu u
-        }
-        upd.downdate(Ppred_);  // Zhat
-      });
+      this->withArrived(
+          [&](auto& upd, const auto& C, const auto& R, const auto& y)
+          {
+            upd.factor(Ppred_, C, R);
+            const auto& innov = upd.updateMean(y, z0_);  // L^{-1} e0; z0 += W' L^{-1} e0
+            if (has_input)
+            {
+              const auto& wd = upd.whitenedImage(bu_);  // L^{-1} C Bu u
+              const double L = innov.dot(wd) - 0.5 * wd.squaredNorm() + std::log(nubar1) - std::log(nubar0);
+              nuhat1 = 1.0 / (1.0 + std::exp(-L));
+              dlt_.noalias() -= upd.W().transpose() * wd;  // (I - K C) Bu u
+            }
+            upd.downdate(Ppred_);  // Zhat
+          });
     }
     // 6. collapse (21), (22): x = zhat0 + nuhat1 dlt, P = Zhat + nuhat0 nuhat1 dlt dlt'
     x_ = z0_;
@@ -130,14 +132,14 @@ class OptimalFilter final : public EstimatorBase<S, OptimalFilter<S>>, public Op
 {
   using Base = EstimatorBase<S, OptimalFilter<S>>;
   friend Base;
-  using Base::last_updated_;
-  using Base::model_;
-  using Base::rows_;
   using Base::A_;
   using Base::bu_;
-  using Base::x_;
+  using Base::last_updated_;
+  using Base::model_;
   using Base::P_;
   using Base::Ppred_;
+  using Base::rows_;
+  using Base::x_;
   using MatNX = Mat<S::N, kDynamic>;  ///< one column per component
 
 public:
@@ -238,17 +240,19 @@ private:
     last_updated_ = rows_ > 0;
     if (last_updated_)
     {
-      this->withArrived([&](auto& upd, const auto& C, const auto& R, const auto& y) {
-        upd.factor(M_, C, R);
-        auto mc = means_.leftCols(count_);
-        E_.noalias() = -C * mc;  // no temporary: E_ keeps its storage across steps
-        E_.colwise() += y;
-        upd.wrapInnovations(E_);
-        upd.whiten(E_);
-        logw_.head(count_) -= 0.5 * E_.colwise().squaredNorm().transpose();
-        mc.noalias() += upd.W().transpose() * E_;
-        upd.downdate(M_);
-      });
+      this->withArrived(
+          [&](auto& upd, const auto& C, const auto& R, const auto& y)
+          {
+            upd.factor(M_, C, R);
+            auto mc = means_.leftCols(count_);
+            E_.noalias() = -C * mc;  // no temporary: E_ keeps its storage across steps
+            E_.colwise() += y;
+            upd.wrapInnovations(E_);
+            upd.whiten(E_);
+            logw_.head(count_) -= 0.5 * E_.colwise().squaredNorm().transpose();
+            mc.noalias() += upd.W().transpose() * E_;
+            upd.downdate(M_);
+          });
     }
     // normalise (log-sum-exp)
     const double mx = logw_.head(count_).maxCoeff();
@@ -379,19 +383,19 @@ private:
   ControlLink link_;
   std::size_t max_components_;
   Eigen::Index count_ = 1;
-  Eigen::Index next_count_ = 1;         ///< children of the pending prediction
-  MatNX means_, next_means_;            ///< n x capacity
-  Eigen::VectorXd logw_, next_logw_;    ///< log weights
-  Eigen::VectorXd q_, next_q_;          ///< P(newest bit = 1 | component)
+  Eigen::Index next_count_ = 1;       ///< children of the pending prediction
+  MatNX means_, next_means_;          ///< n x capacity
+  Eigen::VectorXd logw_, next_logw_;  ///< log weights
+  Eigen::VectorXd q_, next_q_;        ///< P(newest bit = 1 | component)
   typename S::MatN M_;
-  Mat<S::M, kDynamic> E_;                ///< whitened innovations, one column per component
+  Mat<S::M, kDynamic> E_;  ///< whitened innovations, one column per component
   MatNX D_, Am_;
-  mutable Eigen::MatrixXd Md_;          ///< fixed sizes: the dynamic copy componentCovariance() returns
+  mutable Eigen::MatrixXd Md_;  ///< fixed sizes: the dynamic copy componentCovariance() returns
   Eigen::VectorXd w_;
   std::vector<Eigen::Index> order_;
-  MatNX pm_;                            ///< the prior's components (fillPrior)
-  Eigen::VectorXd pw_;                  ///< their weights
-  typename S::VecN xp_;                 ///< the prior's moments
+  MatNX pm_;             ///< the prior's components (fillPrior)
+  Eigen::VectorXd pw_;   ///< their weights
+  typename S::VecN xp_;  ///< the prior's moments
   typename S::MatN Pp_;
   double nu1_;
   bool capped_ = false;

@@ -18,16 +18,16 @@ class ExtendedFilter final : public EstimatorBase<S, ExtendedFilter<S>>
 {
   using Base = EstimatorBase<S, ExtendedFilter<S>>;
   friend Base;
+  using Base::A_;
+  using Base::AP_;
+  using Base::bu_;
   using Base::last_updated_;
   using Base::model_;
-  using Base::rows_;
-  using Base::A_;
-  using Base::bu_;
-  using Base::x_;
-  using Base::xpred_;
   using Base::P_;
   using Base::Ppred_;
-  using Base::AP_;
+  using Base::rows_;
+  using Base::x_;
+  using Base::xpred_;
 
 public:
   explicit ExtendedFilter(const Model& model) : Base(model, Algorithm::EKFIO), prediction_(model)

@@ -23,9 +23,10 @@ void throwSteppedAfterDivergence(Algorithm algorithm)
 
 void throwNotPositiveDefinite(double trace)
 {
-  throw DivergenceError("covariance diverged: C P C' + R is no longer positive definite (P overflowed or its "
-                        "condition number exceeds double precision, trace " + std::to_string(trace) +
-                        "); the expected estimation error is unbounded on this link");
+  throw DivergenceError(
+      "covariance diverged: C P C' + R is no longer positive definite (P overflowed or its "
+      "condition number exceeds double precision, trace " +
+      std::to_string(trace) + "); the expected estimation error is unbounded on this link");
 }
 
 namespace

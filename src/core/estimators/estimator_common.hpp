@@ -157,8 +157,8 @@ public:
   }
 
 private:
-  MatrixType L_;  ///< L in the lower triangle (small factors)
-  Mat<MatrixType::RowsAtCompileTime, 1> inv_;  ///< 1 / L(i, i)
+  MatrixType L_;                                                        ///< L in the lower triangle (small factors)
+  Mat<MatrixType::RowsAtCompileTime, 1> inv_;                           ///< 1 / L(i, i)
   std::conditional_t<kSmallOnly, bool, Eigen::LLT<MatrixType>> llt_{};  ///< larger factors
   bool small_ = true;
 };
@@ -398,10 +398,12 @@ public:
   {
     pending_ = false;
     prepare(sample);
-    guardedStep([&] {
-      self().predictStep(sample);
-      self().updateStep();
-    });
+    guardedStep(
+        [&]
+        {
+          self().predictStep(sample);
+          self().updateStep();
+        });
   }
   const Prior& predict(const Sample& sample) final
   {
@@ -440,11 +442,13 @@ public:
     if constexpr (Derived::kPredictionReadsArrivals)
       again = rows_ != pred_rows_ || sel_.all() != pred_all_ ||
               (rows_ > 0 && !pred_all_ && sel_.arrivedRows() != pred_idx_);
-    guardedStep([&] {
-      if (again)
-        self().predictStep(sample);
-      self().updateStep();
-    });
+    guardedStep(
+        [&]
+        {
+          if (again)
+            self().predictStep(sample);
+          self().updateStep();
+        });
   }
 
   using Estimator::snapshot;
@@ -664,12 +668,14 @@ protected:
   void updateAndCommit()
   {
     if (last_updated_)
-      withArrived([&](Update& upd, const auto& C, const auto& R, const auto& y) {
-        upd.factor(Ppred_, C, R);
-        if (!covariance_only_)
-          upd.updateMean(y, xpred_);
-        upd.downdate(Ppred_);
-      });
+      withArrived(
+          [&](Update& upd, const auto& C, const auto& R, const auto& y)
+          {
+            upd.factor(Ppred_, C, R);
+            if (!covariance_only_)
+              upd.updateMean(y, xpred_);
+            upd.downdate(Ppred_);
+          });
     if (!covariance_only_)
       commit(x_, xpred_);
     commit(P_, Ppred_);

@@ -109,8 +109,7 @@ enum class SizeChoice
 /// Builds Impl<S> for the first S of the list that fits the model (Impl<DynamicSizes> when none
 /// does, or for SizeChoice::DYNAMIC) from the arguments (model first).
 template <template <class> class Impl, class Base, class... Args>
-std::unique_ptr<Base> makeSized(SizeList<>, SizeChoice /*choice*/, bool /*with_nw*/, const Model& model,
-                                Args&&... args)
+std::unique_ptr<Base> makeSized(SizeList<>, SizeChoice /*choice*/, bool /*with_nw*/, const Model& model, Args&&... args)
 {
   return std::make_unique<Impl<DynamicSizes>>(model, std::forward<Args>(args)...);
 }

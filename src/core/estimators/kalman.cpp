@@ -18,15 +18,15 @@ class KalmanFilter final : public EstimatorBase<S, KalmanFilter<S>>
 {
   using Base = EstimatorBase<S, KalmanFilter<S>>;
   friend Base;
+  using Base::A_;
   using Base::algorithm_;
+  using Base::bu_;
   using Base::last_updated_;
   using Base::model_;
+  using Base::P_;
   using Base::rows_;
-  using Base::A_;
-  using Base::bu_;
   using Base::x_;
   using Base::xpred_;
-  using Base::P_;
 
 public:
   /// algorithm: KF, KFIO or ACK_KF.
@@ -52,8 +52,7 @@ private:
   bool ignoresGamma() const { return algorithm_ == Algorithm::KF; }
   void checkSample(const Sample& sample) const
   {
-    if (algorithm_ == Algorithm::ACK_KF && model_.p() > 0 && sample.u.size() != 0 && sample.nu != 0 &&
-        sample.nu != 1)
+    if (algorithm_ == Algorithm::ACK_KF && model_.p() > 0 && sample.u.size() != 0 && sample.nu != 0 && sample.nu != 1)
       throw InputError("ack_kf: nu_k (whether the command reached the actuator) must be 0 or 1, found " +
                        std::to_string(sample.nu));
   }

@@ -10,8 +10,8 @@
 namespace networked_estimation
 {
 
-double predictAhead(const Model& model, double period, const Eigen::VectorXd& x, const Eigen::MatrixXd& P,
-                    double dt, Eigen::VectorXd& xp, Eigen::MatrixXd& Pp)
+double predictAhead(const Model& model, double period, const Eigen::VectorXd& x, const Eigen::MatrixXd& P, double dt,
+                    Eigen::VectorXd& xp, Eigen::MatrixXd& Pp)
 {
   if (!(dt >= 0.0) || !std::isfinite(dt))
     throw InputError("dt: expected a finite time >= 0 s to predict over, found " + std::to_string(dt));

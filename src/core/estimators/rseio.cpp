@@ -52,8 +52,7 @@ RseioSensitivity rseioSensitivity(const Model& model, const std::vector<int>& ro
 Eigen::MatrixXd RseioAnalysisForm::arrivalCovariance(const Eigen::MatrixXd& P, const Eigen::MatrixXd& B) const
 {
   const Eigen::MatrixXd pred = Atil * P * Atil.transpose() + B * Qtil * B.transpose();
-  const Eigen::MatrixXd info =
-      pred.inverse() + Ctil.transpose() * Rtil.llt().solve(Ctil);
+  const Eigen::MatrixXd info = pred.inverse() + Ctil.transpose() * Rtil.llt().solve(Ctil);
   Eigen::MatrixXd out = info.inverse();
   return 0.5 * (out + out.transpose());
 }
@@ -70,8 +69,9 @@ RseioAnalysisForm rseioAnalysisForm(const Model& model, double mu)
   f.Acheck = A - lam * B * f.Qcheck * s.T.transpose() * s.S;
   Eigen::FullPivLU<Eigen::MatrixXd> lu(f.Acheck);
   if (!lu.isInvertible())
-    throw ConfigError(model.name + ": rseio analysis form: Acheck = A - lambda B Qcheck T'S is singular "
-                                   "(Theorem 2 needs it invertible)");
+    throw ConfigError(model.name +
+                      ": rseio analysis form: Acheck = A - lambda B Qcheck T'S is singular "
+                      "(Theorem 2 needs it invertible)");
   const Eigen::MatrixXd AcheckInv = lu.inverse();
   const Eigen::MatrixXd M = Eigen::MatrixXd::Identity(r, r) + lam * s.T * model.Q * s.T.transpose();
   f.Stil = std::sqrt(lam) * M.llt().matrixL().solve(s.S);
@@ -104,12 +104,12 @@ struct RseioGrams
   static constexpr int N = S::N, NW = S::NW;
   /// Fixed sizes: rank rows padded to N; dynamic: exactly the rank.
   static constexpr int RHO = S::kFixed ? S::N : kDynamic;
-  Mat<N, N> Sss;         ///< S'S
-  Mat<N, NW> Sst;        ///< S'T
-  Mat<NW, NW> Stt;       ///< T'T
-  Mat<RHO, N> Fs;        ///< Fs'Fs = Sss, rank(Sss) rows: Phat is a low-rank downdate of P
-  Mat<N, kDynamic> SBu;  ///< S'Sc Bu: the known-input correction (docs/algorithms.md 4.6)
-  Mat<NW, kDynamic> TBu; ///< T'Sc Bu
+  Mat<N, N> Sss;          ///< S'S
+  Mat<N, NW> Sst;         ///< S'T
+  Mat<NW, NW> Stt;        ///< T'T
+  Mat<RHO, N> Fs;         ///< Fs'Fs = Sss, rank(Sss) rows: Phat is a low-rank downdate of P
+  Mat<N, kDynamic> SBu;   ///< S'Sc Bu: the known-input correction (docs/algorithms.md 4.6)
+  Mat<NW, kDynamic> TBu;  ///< T'Sc Bu
   bool hasS = false, hasT = false, hasC = false;
   int rho = 0;  ///< rank form: the rows of Fx, Fw before the padding
   // Rank form: [Fx Fw]'[Fx Fw] = [S T]'[S T] with rho = rank rows (see rankPrediction); only held
@@ -231,18 +231,18 @@ class RseioFilter final : public EstimatorBase<S, RseioFilter<S>>, public Rseio
 {
   using Base = EstimatorBase<S, RseioFilter<S>>;
   friend Base;
-  using Base::last_updated_;
-  using Base::model_;
-  using Base::rows_;
-  using Base::sel_;
   using Base::A_;
+  using Base::AP_;
   using Base::BQBt_;
   using Base::bu_;
-  using Base::x_;
-  using Base::xpred_;
+  using Base::last_updated_;
+  using Base::model_;
   using Base::P_;
   using Base::Ppred_;
-  using Base::AP_;
+  using Base::rows_;
+  using Base::sel_;
+  using Base::x_;
+  using Base::xpred_;
   static constexpr int N = S::N, NW = S::NW;
   using Grams = RseioGrams<S>;
 
@@ -398,15 +398,15 @@ private:
     const auto& A = A_;
     const double lam = lambda_;
     AP_.noalias() = A * P_;
-    FP_.noalias() = g.Fx * P_;               // Fx P
+    FP_.noalias() = g.Fx * P_;  // Fx P
     Hm_ = g.FwQBt;
-    Hm_.noalias() += FP_ * A.transpose();    // H
+    Hm_.noalias() += FP_ * A.transpose();  // H
     Nm_ = g.FwQFwt;
     Nm_.noalias() += FP_ * g.Fx.transpose();
     Nm_ *= lam;
-    Nm_.diagonal().array() += 1.0;           // N
-    lltn_.compute(Nm_, g.rho);  // N >= I; its padding rows (fixed sizes) are unit rows
-    lltn_.solveLower(Hm_);        // V = L^{-1} H
+    Nm_.diagonal().array() += 1.0;  // N
+    lltn_.compute(Nm_, g.rho);      // N >= I; its padding rows (fixed sizes) are unit rows
+    lltn_.solveLower(Hm_);          // V = L^{-1} H
     Ppred_ = BQBt_;
     Ppred_.noalias() += AP_ * A.transpose();
     Ppred_.noalias() -= lam * (Hm_.transpose() * Hm_);
@@ -421,8 +421,8 @@ private:
       {
         applyInput(g1_, g.SBu, u);
         applyInput(g2_, g.TBu, u);
-        tmp_.noalias() = P_ * g1_;           // D^{-1} g, state part
-        tw_.noalias() = Q_ * g2_;            // D^{-1} g, noise part
+        tmp_.noalias() = P_ * g1_;  // D^{-1} g, state part
+        tw_.noalias() = Q_ * g2_;   // D^{-1} g, noise part
         xpred_.noalias() -= lam * (AP_ * g1_);
         xpred_.noalias() -= lam * (B_ * tw_);
         t_.noalias() -= lam * (g.Fx * tmp_);

@@ -15,8 +15,9 @@ void checkStepCovariance(const Model& model, const Sample& sample)
     return;
   const int m = model.m();
   if (R.rows() != m || R.cols() != m)
-    throw InputError("R: expected " + std::to_string(m) + " x " + std::to_string(m) + " (m = the model's outputs), found " +
-                     std::to_string(R.rows()) + " x " + std::to_string(R.cols()));
+    throw InputError("R: expected " + std::to_string(m) + " x " + std::to_string(m) +
+                     " (m = the model's outputs), found " + std::to_string(R.rows()) + " x " +
+                     std::to_string(R.cols()));
   if (!sample.gamma || sample.y.size() != m)
     return;  // nothing fused (or a y the estimator refuses with its own message)
   for (const Sensor& s : model.sensors)

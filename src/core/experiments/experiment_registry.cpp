@@ -24,13 +24,18 @@ struct ExperimentEntry
 const std::vector<ExperimentEntry>& entries()
 {
   static const std::vector<ExperimentEntry> e = {
-      {"zhou_fig1", 5000, 500, &mc::zhouFig1}, {"zhou_fig2", 5000, 500, &mc::zhouFig2},
-      {"custom", 1000, 200, &mc::customExperiment}, {"sweep", 1000, 200, &mc::sweepExperiment},
+      {"zhou_fig1", 5000, 500, &mc::zhouFig1},
+      {"zhou_fig2", 5000, 500, &mc::zhouFig2},
+      {"custom", 1000, 200, &mc::customExperiment},
+      {"sweep", 1000, 200, &mc::sweepExperiment},
       {"covariance", 1000, 1000, &mc::covarianceExperiment},
       {"lin_fig2", 1000, 30, &mc::linFig2},
-      {"lin_fig3", 500, 30, &mc::linFig3},   {"lin_fig4", 1000, 30, &mc::linFig4},
-      {"lin_fig5", 1000, 50, &mc::linFig5},  {"yang_fig2", 10000, 40, &mc::yangFig2},
-      {"sinopoli_fig2", 1000, 100, &mc::sinopoliFig2}, {"mo_sinopoli_tail", 10000, 200, &mc::moSinopoliTail},
+      {"lin_fig3", 500, 30, &mc::linFig3},
+      {"lin_fig4", 1000, 30, &mc::linFig4},
+      {"lin_fig5", 1000, 50, &mc::linFig5},
+      {"yang_fig2", 10000, 40, &mc::yangFig2},
+      {"sinopoli_fig2", 1000, 100, &mc::sinopoliFig2},
+      {"mo_sinopoli_tail", 10000, 200, &mc::moSinopoliTail},
   };
   return e;
 }
@@ -50,7 +55,8 @@ const ExperimentEntry& entry(const std::string& name)
 
 const std::vector<std::string>& experimentNames()
 {
-  static const std::vector<std::string> names = [] {
+  static const std::vector<std::string> names = []
+  {
     std::vector<std::string> v;
     for (const ExperimentEntry& e : entries())
       v.push_back(e.name);
@@ -92,7 +98,8 @@ MonteCarloConfig canonicalConfig(const MonteCarloConfig& in)
         throw ConfigError("--threshold: " + mc::fmt(c.thresholds[i]) + " is given twice");
   }
   if (c.covariance_only && !takesCustomInputs(c.experiment))
-    throw ConfigError("experiment " + c.experiment + ": --covariance-only is for the experiments custom, covariance "
+    throw ConfigError("experiment " + c.experiment +
+                      ": --covariance-only is for the experiments custom, covariance "
                       "and sweep");
   if (c.experiment == "custom" && c.covariance_only)
     c.experiment = "covariance";

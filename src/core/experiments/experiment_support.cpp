@@ -9,14 +9,15 @@ namespace networked_estimation
 namespace mc
 {
 
-SeriesResult makeSeries(const std::string& name, const Moments& m, std::size_t first, std::size_t count,
-                        double window0, double window1)
+SeriesResult makeSeries(const std::string& name, const Moments& m, std::size_t first, std::size_t count, double window0,
+                        double window1)
 {
   SeriesResult s;
   s.name = name;
   s.mean.assign(m.mean.begin() + static_cast<std::ptrdiff_t>(first),
                 m.mean.begin() + static_cast<std::ptrdiff_t>(first + count));
-  s.sd.assign(m.sd.begin() + static_cast<std::ptrdiff_t>(first), m.sd.begin() + static_cast<std::ptrdiff_t>(first + count));
+  s.sd.assign(m.sd.begin() + static_cast<std::ptrdiff_t>(first),
+              m.sd.begin() + static_cast<std::ptrdiff_t>(first + count));
   s.n = m.n;
   s.window0 = window0;
   s.window1 = window1;

@@ -34,8 +34,8 @@ struct RunConfig
 /// A series from the moments `m` at offset `first` (values first .. first + x_count - 1), with the
 /// heavy-tail statistics the call computed: quantiles, tail probabilities, and from a span of the
 /// same values the growth exponent (and the time average's sd when the span has the same window).
-SeriesResult makeSeries(const std::string& name, const Moments& m, std::size_t first, std::size_t count,
-                        double window0, double window1);
+SeriesResult makeSeries(const std::string& name, const Moments& m, std::size_t first, std::size_t count, double window0,
+                        double window1);
 /// Sizes the quantiles and tail probabilities of `s` for `count` points (those `m` has).
 void resizeTails(SeriesResult& s, std::size_t count, const Moments& m);
 /// Point i of `s`: the quantiles and tail probabilities of value v of `m`.

@@ -70,7 +70,8 @@ ExperimentResult covarianceExperiment(const RunConfig& rc)
   const LossyRunOptions& options = su.options;
   // Run r draws exactly the arrivals of `simulate --seed S+r` (and of the custom experiment's run r):
   // the same link and schedule streams, seeded from S+r as LossyRun seeds them, without the plant.
-  WorkerFactory factory = [&model, &settings, &names, &options, T, nf, seed]() -> RunFunction {
+  WorkerFactory factory = [&model, &settings, &names, &options, T, nf, seed]() -> RunFunction
+  {
     struct Worker
     {
       std::vector<std::unique_ptr<Estimator>> est;
@@ -79,7 +80,8 @@ ExperimentResult covarianceExperiment(const RunConfig& rc)
     auto w = std::make_shared<Worker>();
     w->est = covarianceOnlyEstimators(model, settings, names);
     w->arrivals = std::make_unique<ArrivalDraws>(model, options);
-    return [w, T, nf, seed](long r, double* out) {
+    return [w, T, nf, seed](long r, double* out)
+    {
       w->arrivals->restart(seed + static_cast<std::uint64_t>(r));
       for (auto& e : w->est)
         e->reset();
@@ -150,8 +152,10 @@ ExperimentResult covarianceExperiment(const RunConfig& rc)
   };
   res.notes = {"time_average = mean of E[tr P_k] over the last half, k = floor(T/2)+1 .. T"};
   if (!overflowed.empty())
-    res.notes.push_back("P overflowed the doubles (tr P = inf from that step on, so the mean is infinite; the "
-                        "quantiles and tail probabilities stay exact) in " + overflowed);
+    res.notes.push_back(
+        "P overflowed the doubles (tr P = inf from that step on, so the mean is infinite; the "
+        "quantiles and tail probabilities stay exact) in " +
+        overflowed);
   return res;
 }
 

@@ -57,7 +57,8 @@ Moments linRuns(const RunConfig& rc, const LinParams& lp)
 {
   const long T = lp.steps;
   const std::uint64_t seed = rc.seed;
-  WorkerFactory factory = [lp, T, seed]() -> RunFunction {
+  WorkerFactory factory = [lp, T, seed]() -> RunFunction
+  {
     struct State
     {
       Model model;
@@ -82,7 +83,8 @@ Moments linRuns(const RunConfig& rc, const LinParams& lp)
       st->oe = makeEstimator(st->model, s);
     }
     st->U4 = 0.25 * boundU(st->model);
-    return [st, lp, T, seed](long r, double* out) {
+    return [st, lp, T, seed](long r, double* out)
+    {
       const Model& m = st->model;
       const std::uint64_t rs = deriveSeed(seed, static_cast<std::uint64_t>(r));
       ControlSequence control;
@@ -153,8 +155,8 @@ Moments linRuns(const RunConfig& rc, const LinParams& lp)
   CallStatistics stats = callStatistics(rc);
   for (std::size_t j = 0; j < 4; ++j)
     addSpan(stats, j * static_cast<std::size_t>(T), stepAxis(T), 1.0, static_cast<double>(T));
-  return runMonteCarlo(rc.runs, 4 * static_cast<std::size_t>(T), rc.threads, factory, rc.progress,
-                       nullptr, &stats, rc.session);
+  return runMonteCarlo(rc.runs, 4 * static_cast<std::size_t>(T), rc.threads, factory, rc.progress, nullptr, &stats,
+                       rc.session);
 }
 
 std::vector<std::string> commonAssumptions()
@@ -237,7 +239,8 @@ ExperimentResult linFig4(const RunConfig& rc)
   res.y_label = "trace";
   res.log_y = true;
   res.assumptions = commonAssumptions();
-  res.assumptions.push_back("Gamma fixed for all runs, drawn from the chain with seed deriveSeed(seed, 2^62) (see notes)");
+  res.assumptions.push_back(
+      "Gamma fixed for all runs, drawn from the chain with seed deriveSeed(seed, 2^62) (see notes)");
   res.assumptions.push_back("OE capped at max_components = 4096 (largest weights kept; exact while 2^k <= 4096)");
   res.notes = {"Theorem 3 (28): tr P_ACK <= tr E[P] <= tr S_k and tr P_ACK <= tr E[P^e] <= tr S_k",
                "gamma_k (k = 1..T) = " + gammaString(gamma)};
@@ -367,8 +370,9 @@ ExperimentResult linFig3(const RunConfig& rc)
   res.y_label = "trace";
   res.log_y = true;
   res.assumptions = commonAssumptions();
-  res.assumptions.push_back("p1 = 0.8; the swept parameter over 0.1 .. 0.9, the others 0.5; q1, q2 are both the "
-                            "simulated actuator link and the estimator's control_link");
+  res.assumptions.push_back(
+      "p1 = 0.8; the swept parameter over 0.1 .. 0.9, the others 0.5; q1, q2 are both the "
+      "simulated actuator link and the estimator's control_link");
   res.notes = {"OE capped at max_components = " + std::to_string(cap) + " (largest weights kept)",
                "time_average of a sweep series = mean over the grid points"};
   return res;

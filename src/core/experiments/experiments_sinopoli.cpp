@@ -97,8 +97,10 @@ ExperimentResult sinopoliFig2(const RunConfig& rc)
 
   // Run r at rate i of plant p: P-_1 = Q (x_0 known: P_0 = 0), arrivals i.i.d. with P(arrived) =
   // lambda_i from Rng(deriveSeed(deriveSeed(seed, r), 1 + p * nl + i)); the value is tr P-_T.
-  WorkerFactory factory = [&plants, &lambda, T, nl, np, seed]() -> RunFunction {
-    return [&plants, &lambda, T, nl, np, seed](long r, double* out) {
+  WorkerFactory factory = [&plants, &lambda, T, nl, np, seed]() -> RunFunction
+  {
+    return [&plants, &lambda, T, nl, np, seed](long r, double* out)
+    {
       const std::uint64_t rs = deriveSeed(seed, static_cast<std::uint64_t>(r));
       for (std::size_t p = 0; p < np; ++p)
         for (std::size_t i = 0; i < nl; ++i)
@@ -148,18 +150,18 @@ ExperimentResult sinopoliFig2(const RunConfig& rc)
     upper.sd.assign(nl, 0.0);
     CaseResult c;
     c.name = pl.name;
-    c.title = (pl.name == "scalar" ? "scalar a = -1.25: lambda_c = 1 - 1/a^2 = " + fmt(sinopoliCriticalRate(-1.25))
-                                   : "n = 3: lambda_min = " + fmt(lambda_min) + ", lambda_max = " +
-                                         fmt(band.converges_at));
+    c.title =
+        (pl.name == "scalar" ? "scalar a = -1.25: lambda_c = 1 - 1/a^2 = " + fmt(sinopoliCriticalRate(-1.25))
+                             : "n = 3: lambda_min = " + fmt(lambda_min) + ", lambda_max = " + fmt(band.converges_at));
     c.x = lambda;
     c.series.push_back(makeSeries("lower bound tr S (lambda)", lower, 0, nl, lambda.front(), lambda.back()));
     c.series.push_back(makeSeries("Monte Carlo tr E[P-_T]", m, p * nl, nl, lambda.front(), lambda.back()));
     c.series.push_back(makeSeries("upper bound tr V (lambda), MARE", upper, 0, nl, lambda.front(), lambda.back()));
     c.series[0].bound = c.series[2].bound = true;
     res.cases.push_back(c);
-    res.notes.push_back(pl.name + ": lambda_min = 1 - 1/rho(A)^2 = " + fmt(lambda_min) +
-                        " (rho(A) = " + fmt(rho) + "), lambda_max (MARE, certified) = " + fmt(band.converges_at) +
-                        " (diverges at " + fmt(band.diverges_at) + ")");
+    res.notes.push_back(pl.name + ": lambda_min = 1 - 1/rho(A)^2 = " + fmt(lambda_min) + " (rho(A) = " + fmt(rho) +
+                        "), lambda_max (MARE, certified) = " + fmt(band.converges_at) + " (diverges at " +
+                        fmt(band.diverges_at) + ")");
   }
   res.assumptions = {
       "Sinopoli et al. 2004, Section VII: the scalar plant a = -1.25, c = 1, q = 1, r = 2.5 (lambda_c = 1 - 1/a^2 = "
@@ -191,8 +193,10 @@ ExperimentResult moSinopoliTail(const RunConfig& rc)
     rc.progress->setTotal(rc.runs);
 
   // Per run and rate: whether P-_T > M, for every M (the fractions over the runs are P(P-_T > M)).
-  WorkerFactory factory = [&pl, &lambda, &M, T, nl, nm, seed]() -> RunFunction {
-    return [&pl, &lambda, &M, T, nl, nm, seed](long r, double* out) {
+  WorkerFactory factory = [&pl, &lambda, &M, T, nl, nm, seed]() -> RunFunction
+  {
+    return [&pl, &lambda, &M, T, nl, nm, seed](long r, double* out)
+    {
       const std::uint64_t rs = deriveSeed(seed, static_cast<std::uint64_t>(r));
       for (std::size_t i = 0; i < nl; ++i)
       {
@@ -211,7 +215,8 @@ ExperimentResult moSinopoliTail(const RunConfig& rc)
   // since the last arrival (P(L >= j) = (1 - lambda)^j) and P+ at that arrival in [q r / (q + r), r).
   // So P(P- > M) lies between (1 - lambda)^j1 and (1 - lambda)^j2, j1 the least j with
   // f^(j+1)(q r / (q + r)) > M and j2 the least with f^(j+1)(r) > M (exact up to the start: T steps).
-  auto leastLosses = [&](double p_plus, double bound) {
+  auto leastLosses = [&](double p_plus, double bound)
+  {
     double p = a2 * p_plus + q;
     int j = 0;
     while (!(p > bound) && j < 100000)

@@ -53,8 +53,8 @@ std::string sweepNumber(double v, const char* null_text)
 
 const std::vector<std::string>& sweepParameters()
 {
-  static const std::vector<std::string> p = {"arrival_rate", "recovery_rate", "loss", "p", "r", "loss_good",
-                                             "loss_bad"};
+  static const std::vector<std::string> p = {"arrival_rate", "recovery_rate", "loss", "p", "r",
+                                             "loss_good",    "loss_bad"};
   return p;
 }
 
@@ -78,7 +78,8 @@ std::vector<double> sweepValues(double lo, double hi, long n)
   std::vector<double> v;
   for (long i = 0; i < n; ++i)
     v.push_back(n == 1 || i == 0 ? lo
-                                 : i == n - 1 ? hi : lo + (hi - lo) * static_cast<double>(i) / static_cast<double>(n - 1));
+                : i == n - 1     ? hi
+                                 : lo + (hi - lo) * static_cast<double>(i) / static_cast<double>(n - 1));
   return v;
 }
 
@@ -148,8 +149,9 @@ SweepAxis parseSweepAxis(const std::string& arg)
       axisError(arg, "the schedule is not swept (a sensor's link: SENSOR." + joined(lp) + "; an estimator: ESTIMATOR." +
                          joined(sp) + "; the model: model." + model_entries + ")");
     if (a.param == "delay")
-      axisError(arg, "delay is not simulated by the Monte Carlo (only the LossyChannel nodelet delays messages; the "
-                     "estimators see every arrival at its own step)");
+      axisError(arg,
+                "delay is not simulated by the Monte Carlo (only the LossyChannel nodelet delays messages; the "
+                "estimators see every arrival at its own step)");
     if (std::find(sp.begin(), sp.end(), a.param) != sp.end())
       a.kind = SweepAxis::Kind::SETTINGS;
     else if (std::find(lp.begin(), lp.end(), a.param) == lp.end())
@@ -241,18 +243,20 @@ void resolveSweepAxes(std::vector<SweepAxis>& axes, const Model& model,
                              std::to_string(M.cols()) + " (entries from [0][0])");
     }
     for (std::size_t j = 0; j < i; ++j)
-      if (axes[j].name() == a.name() || (a.kind == SweepAxis::Kind::LINK && axes[j].kind == SweepAxis::Kind::LINK &&
-                                         axes[j].sensor_index == a.sensor_index &&
-                                         (a.param == "arrival_rate" || axes[j].param == "arrival_rate")))
-        axisError(a.arg, (a.kind == SweepAxis::Kind::LINK && (a.param == "arrival_rate" || axes[j].param == "arrival_rate")
-                              ? "sensor '" + a.sensor + "'"  // arrival_rate replaces the whole link
-                              : a.name()) +
-                             " is already swept by --axis '" + axes[j].arg + "'");
+      if (axes[j].name() == a.name() ||
+          (a.kind == SweepAxis::Kind::LINK && axes[j].kind == SweepAxis::Kind::LINK &&
+           axes[j].sensor_index == a.sensor_index && (a.param == "arrival_rate" || axes[j].param == "arrival_rate")))
+        axisError(a.arg,
+                  (a.kind == SweepAxis::Kind::LINK && (a.param == "arrival_rate" || axes[j].param == "arrival_rate")
+                       ? "sensor '" + a.sensor + "'"  // arrival_rate replaces the whole link
+                       : a.name()) +
+                      " is already swept by --axis '" + axes[j].arg + "'");
   }
   if (axes.size() == 2 && axes[0].count * axes[1].count > kMaxGridPoints)
     throw ConfigError("--axis '" + axes[0].arg + "' x --axis '" + axes[1].arg + "': " + std::to_string(axes[0].count) +
                       " x " + std::to_string(axes[1].count) + " = " + std::to_string(axes[0].count * axes[1].count) +
-                      " grid points, at most " + std::to_string(kMaxGridPoints) + " (split the grid into several sweeps)");
+                      " grid points, at most " + std::to_string(kMaxGridPoints) +
+                      " (split the grid into several sweeps)");
 }
 
 std::vector<std::optional<ChannelSettings>> sweepPointLinks(const std::vector<std::optional<ChannelSettings>>& links,
@@ -324,8 +328,7 @@ Model sweepPointModel(const Model& model, const std::vector<SweepAxis>& axes, co
 }
 
 std::vector<EstimatorSettings> sweepPointSettings(const std::vector<EstimatorSettings>& settings,
-                                                  const std::vector<SweepAxis>& axes,
-                                                  const std::vector<double>& values)
+                                                  const std::vector<SweepAxis>& axes, const std::vector<double>& values)
 {
   std::vector<EstimatorSettings> out = settings;
   for (std::size_t i = 0; i < axes.size(); ++i)
@@ -357,13 +360,13 @@ SweepAnalysis analyseSweep(const Model& model, const std::vector<std::optional<C
     for (double b : v2)
     {
       const std::vector<double> point = axes.size() > 1 ? std::vector<double>{a, b} : std::vector<double>{a};
-      out.verdicts.push_back(toString(stabilityVerdict(sweepPointModel(model, axes, point), all,
-                                                       linkModels(sweepPointLinks(links, axes, point)))
-                                          .kind));
+      out.verdicts.push_back(toString(
+          stabilityVerdict(sweepPointModel(model, axes, point), all, linkModels(sweepPointLinks(links, axes, point)))
+              .kind));
     }
   const SweepAxis& last = axes.back();
-  const bool rate = last.kind == SweepAxis::Kind::LINK && (last.param == "arrival_rate" || last.param == "recovery_rate" ||
-                                                           last.param == "r");
+  const bool rate = last.kind == SweepAxis::Kind::LINK &&
+                    (last.param == "arrival_rate" || last.param == "recovery_rate" || last.param == "r");
   const std::string quantity = last.param == "arrival_rate" ? "arrival rate" : "recovery rate";
   for (std::size_t i = 0; i < (axes.size() > 1 ? v1.size() : 1); ++i)
   {
@@ -417,8 +420,8 @@ std::string sweepCsv(const SweepResult& sw)
       os << p << ',' << p / n2 << ',' << (sw.axes.size() > 1 ? p % n2 : 0) << ',' << mc::fmt(v[0]) << ','
          << (v.size() > 1 ? mc::fmt(v[1]) : "") << ',' << sw.estimators[j] << ',' << c.n << ',' << c.diverged << ','
          << c.floored;
-      for (double x : {c.trP_mean, c.trP_sd, c.err_mean, c.err_sd, c.trP_avg_mean, c.trP_avg_sd, c.err_avg_mean,
-                       c.err_avg_sd})
+      for (double x :
+           {c.trP_mean, c.trP_sd, c.err_mean, c.err_sd, c.trP_avg_mean, c.trP_avg_sd, c.err_avg_mean, c.err_avg_sd})
         os << ',' << sweepNumber(x, "");
       os << ',' << sw.analysis.verdicts[static_cast<std::size_t>(p)];
       const double rn = std::sqrt(static_cast<double>(c.n));
@@ -571,7 +574,8 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
   // links vary, the links only decide what reaches the estimators, so one simulated plant (and
   // schedule, and actuator link) serves every point. Covariance only: each point's arrivals, no plant.
   WorkerFactory factory = [&, T, half, nf, np, values, noise_on_loss, covariance_only, model_varies, settings_vary,
-                           seed]() -> RunFunction {
+                           seed]() -> RunFunction
+  {
     struct Worker
     {
       std::vector<std::vector<std::unique_ptr<Estimator>>> est;  // per point (or one set for every point)
@@ -626,11 +630,13 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
     w->trP_sum.assign(nf, 0.0);
     w->err_sum.assign(nf, 0.0);
     w->growth.assign(nf, 0.0);
-    return [w, &gw, &points, T, half, nf, np, values, covariance_only, model_varies, seed](long r, double* out) {
+    return [w, &gw, &points, T, half, nf, np, values, covariance_only, model_varies, seed](long r, double* out)
+    {
       std::fill(out, out + values, 0.0);
       const std::uint64_t rs = seed + static_cast<std::uint64_t>(r);
       double* const floored = out + kStats * nf * np;  // per point
-      auto simulate = [&](std::size_t plant) {
+      auto simulate = [&](std::size_t plant)
+      {
         LossyRun& run = w->plants[plant];
         run.restart(rs);
         for (long k = 0; k < T; ++k)
@@ -803,11 +809,13 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
       "each point's model and links; a critical curve only along an arrival or recovery rate",
   };
   if (covariance_only)
-    res.assumptions.push_back("covariance only: no plant; every estimator runs its covariance recursion on the "
-                              "arrivals of run r at the point (those of `simulate --seed S+r`), so the err columns "
-                              "are empty and no run is floored; diverged = runs where P left the doubles");
-  res.notes = {"DIR/sweep.csv has one row per (grid point, estimator); DIR/sweep.json's \"sweep\" has the axes, "
-               "the per-point verdicts and the critical curve (docs/formats.md, section 8)"};
+    res.assumptions.push_back(
+        "covariance only: no plant; every estimator runs its covariance recursion on the "
+        "arrivals of run r at the point (those of `simulate --seed S+r`), so the err columns "
+        "are empty and no run is floored; diverged = runs where P left the doubles");
+  res.notes = {
+      "DIR/sweep.csv has one row per (grid point, estimator); DIR/sweep.json's \"sweep\" has the axes, "
+      "the per-point verdicts and the critical curve (docs/formats.md, section 8)"};
   res.sweep = sweep;
   return res;
 }

@@ -28,7 +28,8 @@ ExperimentResult yangFig2(const RunConfig& rc)
 
   // Monte Carlo: P-_1 = A Pi A' + Q, P-_{k+1} = A P_{k|k} A' + Q (KFIO with per-sensor arrivals).
   // P does not depend on the data, so y is zero in the arrived sensors and only the arrivals are drawn.
-  WorkerFactory factory = [&model, &lambda, T, seed]() -> RunFunction {
+  WorkerFactory factory = [&model, &lambda, T, seed]() -> RunFunction
+  {
     struct State
     {
       std::unique_ptr<Estimator> est;
@@ -42,7 +43,8 @@ ExperimentResult yangFig2(const RunConfig& rc)
     st->sample.y.resize(model.m());
     st->A = model.A;
     st->Q = model.B * model.Q * model.B.transpose();
-    return [st, &model, &lambda, T, seed](long r, double* out) {
+    return [st, &model, &lambda, T, seed](long r, double* out)
+    {
       Rng rng(deriveSeed(deriveSeed(seed, static_cast<std::uint64_t>(r)), 1));
       st->est->reset();
       for (long k = 1; k <= T; ++k)
@@ -57,7 +59,8 @@ ExperimentResult yangFig2(const RunConfig& rc)
           const Sensor& sn = model.sensors[i];
           const bool arrived = rng.bernoulli(lambda[i]);
           any = any || arrived;
-          st->sample.y.segment(sn.offset, sn.size).setConstant(arrived ? 0.0 : std::numeric_limits<double>::quiet_NaN());
+          st->sample.y.segment(sn.offset, sn.size)
+              .setConstant(arrived ? 0.0 : std::numeric_limits<double>::quiet_NaN());
         }
         st->sample.gamma = any;
         st->est->step(st->sample);
@@ -66,9 +69,8 @@ ExperimentResult yangFig2(const RunConfig& rc)
   };
   CallStatistics stats = callStatistics(rc);
   addSpan(stats, 0, stepAxis(T), 1.0, static_cast<double>(T));
-  const Moments mcm =
-      runMonteCarlo(rc.runs, static_cast<std::size_t>(T), rc.threads, factory, rc.progress,
-                    nullptr, &stats, rc.session);
+  const Moments mcm = runMonteCarlo(rc.runs, static_cast<std::size_t>(T), rc.threads, factory, rc.progress, nullptr,
+                                    &stats, rc.session);
 
   // Deterministic bounds (stability module): G_{k+1} = m(G_k) (Prop. 1) and V_{k+1} = g(V_k) (MARE (18)).
   // R_i = I, so the whitened sensor matrices are the rows of C.

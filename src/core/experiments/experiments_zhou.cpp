@@ -75,8 +75,8 @@ void stepFilters(const std::vector<std::unique_ptr<Estimator>>& est, const std::
     }
     catch (const DivergenceError& err)
     {
-      throw DivergenceError(toString(e.algorithm()) + " diverged in run " + std::to_string(r) + " at k = " +
-                            std::to_string(k) + ": " + err.what());
+      throw DivergenceError(toString(e.algorithm()) + " diverged in run " + std::to_string(r) +
+                            " at k = " + std::to_string(k) + ": " + err.what());
     }
     out[j * static_cast<std::size_t>(T) + static_cast<std::size_t>(k - 1)] = squaredError(s.x, e.state(), angles);
   }
@@ -93,7 +93,8 @@ Moments squaredErrorRuns(const RunConfig& rc, const Model& model, const ChannelS
   const long T = rc.steps;
   const std::uint64_t seed = rc.seed;
   const std::size_t nf = filters.size();
-  WorkerFactory factory = [&model, &channel, &filters, T, seed]() -> RunFunction {
+  WorkerFactory factory = [&model, &channel, &filters, T, seed]() -> RunFunction
+  {
     struct State
     {
       std::vector<std::unique_ptr<Estimator>> est;
@@ -107,7 +108,8 @@ Moments squaredErrorRuns(const RunConfig& rc, const Model& model, const ChannelS
     st->sample.y.resize(model.m());
     if (model.hasControl())
       st->sample.u.resize(model.p());
-    return [st, &model, &filters, T, seed](long r, double* out) {
+    return [st, &model, &filters, T, seed](long r, double* out)
+    {
       const std::uint64_t rs = deriveSeed(seed, static_cast<std::uint64_t>(r));
       PlantSimulator sim(model, deriveSeed(rs, 0));
       st->loss->reseed(deriveSeed(rs, 1));
@@ -129,8 +131,8 @@ Moments squaredErrorRuns(const RunConfig& rc, const Model& model, const ChannelS
   CallStatistics stats = callStatistics(rc);
   for (std::size_t j = 0; j < nf; ++j)
     addSpan(stats, j * static_cast<std::size_t>(T), stepAxis(T), window0, window1);
-  return runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress,
-                       nullptr, &stats, rc.session);
+  return runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress, nullptr, &stats,
+                       rc.session);
 }
 
 std::string stem(const std::string& path)
@@ -156,15 +158,17 @@ ExperimentResult zhouFig1(const RunConfig& rc)
     rc.progress->setTotal(2 * rc.runs);
 
   const std::vector<double> x = stepAxis(T);
-  auto addCase = [&](const std::string& name, const std::string& title, const Moments& m,
-                     const std::vector<std::size_t>& idx) {
+  auto addCase =
+      [&](const std::string& name, const std::string& title, const Moments& m, const std::vector<std::size_t>& idx)
+  {
     CaseResult c;
     c.name = name;
     c.title = title;
     c.x = x;
     const char* names[] = {"KF", "KFIO", "RSE", "RSEIO"};
     for (std::size_t i = 0; i < 4; ++i)
-      c.series.push_back(makeSeries(names[i], m, idx[i] * static_cast<std::size_t>(T), static_cast<std::size_t>(T), w0, w1));
+      c.series.push_back(
+          makeSeries(names[i], m, idx[i] * static_cast<std::size_t>(T), static_cast<std::size_t>(T), w0, w1));
     res.cases.push_back(c);
   };
 
@@ -172,9 +176,9 @@ ExperimentResult zhouFig1(const RunConfig& rc)
   {
     const Model model = zhouExampleModel(1.0);
     const std::vector<ErrorFilter> filters = {
-        {settingsOf(Algorithm::KF), false},           {settingsOf(Algorithm::KFIO), false},
-        {settingsOf(Algorithm::RSEIO, 0.8), true},    {settingsOf(Algorithm::RSEIO, 0.8), false},
-        {settingsOf(Algorithm::RSEIO, 0.95), true},   {settingsOf(Algorithm::RSEIO, 0.95), false},
+        {settingsOf(Algorithm::KF), false},         {settingsOf(Algorithm::KFIO), false},
+        {settingsOf(Algorithm::RSEIO, 0.8), true},  {settingsOf(Algorithm::RSEIO, 0.8), false},
+        {settingsOf(Algorithm::RSEIO, 0.95), true}, {settingsOf(Algorithm::RSEIO, 0.95), false},
     };
     const Moments m = squaredErrorRuns(rc, model, channel, filters, w0, w1);
     addCase("delta1_mu0.8", "delta = 1, mu = 0.8", m, {0, 1, 2, 3});
@@ -227,7 +231,8 @@ ExperimentResult zhouFig2(const RunConfig& rc)
     Model model = zhouExampleModel(10.0);
     model.P0 = p0s[c] * Eigen::MatrixXd::Identity(2, 2);
     const std::uint64_t seed = rc.seed;
-    WorkerFactory factory = [&model, mu, T, seed]() -> RunFunction {
+    WorkerFactory factory = [&model, mu, T, seed]() -> RunFunction
+    {
       struct State
       {
         std::unique_ptr<Estimator> est;
@@ -237,7 +242,8 @@ ExperimentResult zhouFig2(const RunConfig& rc)
       auto st = std::make_shared<State>();
       st->est = makeEstimator(model, settingsOf(Algorithm::RSEIO, mu));
       st->sample.y = Eigen::VectorXd::Zero(model.m());
-      return [st, T, seed](long r, double* out) {
+      return [st, T, seed](long r, double* out)
+      {
         const std::uint64_t rs = deriveSeed(seed, static_cast<std::uint64_t>(r));
         st->loss.reseed(deriveSeed(rs, 1));
         st->est->reset();
@@ -283,8 +289,9 @@ ExperimentResult zhouFig2(const RunConfig& rc)
       "delta = 10, mu = 0.8, gamma_k i.i.d. Bernoulli(0.8) with the channel seed of zhou_fig1 "
       "(deriveSeed(deriveSeed(seed, r), 1)); P does not depend on the data, so only the arrivals are simulated",
   };
-  res.notes = {"the CSV summarises the distribution of P_T|T (T = steps) across runs by mean and sd; "
-               "zhou_fig2_samples.csv holds every run's P_T|T for the empirical PDFs"};
+  res.notes = {
+      "the CSV summarises the distribution of P_T|T (T = steps) across runs by mean and sd; "
+      "zhou_fig2_samples.csv holds every run's P_T|T for the empirical PDFs"};
   return res;
 }
 
@@ -315,10 +322,13 @@ CustomSetup loadCustomSetup(const MonteCarloConfig& cfg, const std::string& expe
   const auto model_text = text.find(cfg.model_path);
   su.model = model_text != text.end() ? parseModel(inlineYaml(cfg.model_path, model_text->second), cfg.model_path)
                                       : loadModel(cfg.model_path);
-  su.links = resolveSensorLinks(su.model, cfg.channel_args, [&text](const std::string& file) {
-    const auto it = text.find(file);
-    return it != text.end() ? parseChannelSettings(inlineYaml(file, it->second), file) : loadChannelSettings(file);
-  });
+  su.links = resolveSensorLinks(su.model, cfg.channel_args,
+                                [&text](const std::string& file)
+                                {
+                                  const auto it = text.find(file);
+                                  return it != text.end() ? parseChannelSettings(inlineYaml(file, it->second), file)
+                                                          : loadChannelSettings(file);
+                                });
   su.options.sensor_links = su.links.link;
   if (su.model.hasControl())
     su.options.control = ControlSequence::parse("paper", "control");  // simulate's default sequence
@@ -364,11 +374,13 @@ ExperimentResult customExperiment(const RunConfig& rc)
   const std::uint64_t seed = rc.seed;
   // Run r is exactly `simulate --seed seed + r` with the same links, replayed by every estimator
   // (replay's Sample: the received y and gamma, the commanded u; ack_kf is told nu_k).
-  WorkerFactory factory = [&model, &filters, &options, T, seed]() -> RunFunction {
+  WorkerFactory factory = [&model, &filters, &options, T, seed]() -> RunFunction
+  {
     auto est = std::make_shared<std::vector<std::unique_ptr<Estimator>>>();
     for (const ErrorFilter& f : filters)
       est->push_back(makeEstimator(model, f.settings));
-    return [est, &model, &filters, &options, T, seed](long r, double* out) {
+    return [est, &model, &filters, &options, T, seed](long r, double* out)
+    {
       LossyRun run(model, seed + static_cast<std::uint64_t>(r), options);
       for (auto& e : *est)
         e->reset();
@@ -384,9 +396,8 @@ ExperimentResult customExperiment(const RunConfig& rc)
   CallStatistics stats = callStatistics(rc);
   for (std::size_t j = 0; j < nf; ++j)
     addSpan(stats, j * static_cast<std::size_t>(T), stepAxis(T), 1.0, static_cast<double>(T));
-  const Moments m =
-      runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress,
-                    nullptr, &stats, rc.session);
+  const Moments m = runMonteCarlo(rc.runs, nf * static_cast<std::size_t>(T), rc.threads, factory, rc.progress, nullptr,
+                                  &stats, rc.session);
   ExperimentResult res;
   CaseResult c;
   c.name = model.name.empty() ? stem(cfg.model_path) : model.name;

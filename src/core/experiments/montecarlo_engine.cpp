@@ -14,7 +14,6 @@
 namespace networked_estimation
 {
 
-
 void ProgressCounter::add(long runs)
 {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -113,7 +112,7 @@ std::size_t accumulators(std::size_t values, const CallStatistics* st)
 /// A span's per-run summaries as weights over its values.
 struct SpanPlan
 {
-  std::size_t growth_first = 0;       ///< value index of the first point of the growth fit
+  std::size_t growth_first = 0;        ///< value index of the first point of the growth fit
   std::vector<double> growth_weights;  ///< the least-squares slope of log v: sum of w_j log v_j
   std::vector<std::size_t> window;     ///< value indices of the time average's window
 };
@@ -239,7 +238,8 @@ Moments combineBlocks(const CallBlocks& call, std::vector<double>* raw)
   for (long b = 0; b < blocks; ++b)
   {
     const BlockMoments& a = call.blocks[static_cast<std::size_t>(b)];
-    const std::string where = "block " + std::to_string(a.index) + " of a call of " + std::to_string(call.runs) + " runs";
+    const std::string where =
+        "block " + std::to_string(a.index) + " of a call of " + std::to_string(call.runs) + " runs";
     if (a.index != b)
       throw InputError("blocks out of order: expected block " + std::to_string(b) + ", found " + where);
     if (a.count != blockRuns(call.runs, b))
@@ -282,8 +282,9 @@ Moments BlockSession::replayNext(long runs, std::size_t values, std::vector<doub
                                  std::vector<QuantileSketch>* sketches)
 {
   if (next_ >= calls_.size())
-    throw InputError("the experiment makes more than the " + std::to_string(calls_.size()) +
-                     " Monte Carlo calls recorded in the shards (were they computed by another version of montecarlo?)");
+    throw InputError(
+        "the experiment makes more than the " + std::to_string(calls_.size()) +
+        " Monte Carlo calls recorded in the shards (were they computed by another version of montecarlo?)");
   const CallBlocks& c = calls_[next_];
   if (c.quantiles != quantiles)
     throw InputError("Monte Carlo call " + std::to_string(next_) + ": the experiment " +
@@ -293,11 +294,10 @@ Moments BlockSession::replayNext(long runs, std::size_t values, std::vector<doub
   if (sketches)
     *sketches = c.sketches;
   if (c.runs != runs || c.values != values || c.raw != (raw != nullptr))
-    throw InputError("Monte Carlo call " + std::to_string(next_) + ": the experiment asks for " +
-                     std::to_string(runs) + " runs x " + std::to_string(values) + " values" +
-                     (raw ? " with per-run values" : "") + ", the shards hold " + std::to_string(c.runs) + " x " +
-                     std::to_string(c.values) + (c.raw ? " with per-run values" : "") +
-                     " (were they computed by another version of montecarlo?)");
+    throw InputError("Monte Carlo call " + std::to_string(next_) + ": the experiment asks for " + std::to_string(runs) +
+                     " runs x " + std::to_string(values) + " values" + (raw ? " with per-run values" : "") +
+                     ", the shards hold " + std::to_string(c.runs) + " x " + std::to_string(c.values) +
+                     (c.raw ? " with per-run values" : "") + " (were they computed by another version of montecarlo?)");
   ++next_;
   return combineBlocks(c, raw);
 }
@@ -320,7 +320,8 @@ Moments runMonteCarlo(long runs, std::size_t values, int threads, const WorkerFa
     Moments m = session->replayNext(runs, total, run_raw, quantiles, &sketches);
     if (quantiles && sketches.size() != values)
       throw InputError("Monte Carlo call " + std::to_string(session->replayed() - 1) + ": expected " +
-                       std::to_string(values) + " quantile sketches, the shards hold " + std::to_string(sketches.size()));
+                       std::to_string(values) + " quantile sketches, the shards hold " +
+                       std::to_string(sketches.size()));
     return finishCall(std::move(m), values, stats, std::move(sketches), run_raw, raw);
   }
   // the blocks this process computes: all of them, or a shard's share
@@ -344,7 +345,8 @@ Moments runMonteCarlo(long runs, std::size_t values, int threads, const WorkerFa
   std::mutex error_mutex;
   std::vector<std::vector<QuantileSketch>> thread_sketches;  // per worker thread (added up afterwards)
 
-  auto work = [&]() {
+  auto work = [&]()
+  {
     try
     {
       RunFunction run = make_worker();
@@ -375,7 +377,8 @@ Moments runMonteCarlo(long runs, std::size_t values, int threads, const WorkerFa
               extendRun(dst, values, *stats, plans);
             addRun(a, dst);
             if (quantiles)
-              std::copy(dst, dst + values, block_values.begin() + static_cast<std::ptrdiff_t>((r - b * kBlockRuns) * values));
+              std::copy(dst, dst + values,
+                        block_values.begin() + static_cast<std::ptrdiff_t>((r - b * kBlockRuns) * values));
           }
           const std::size_t block_runs = static_cast<std::size_t>(r1 - b * kBlockRuns);
           for (std::size_t v = 0; v < sk.size(); ++v)

@@ -122,8 +122,8 @@ std::string experimentCsv(const ExperimentResult& result)
     for (const SeriesResult& s : c.series)
       for (std::size_t i = 0; i < c.x.size(); ++i)
       {
-        os << csvField(c.name) << ',' << csvField(s.name) << ',' << mc::fmt(c.x[i]) << ',' << mc::fmt(s.mean[i])
-           << ',' << mc::fmt(s.sd[i]) << ',' << s.n << ','
+        os << csvField(c.name) << ',' << csvField(s.name) << ',' << mc::fmt(c.x[i]) << ',' << mc::fmt(s.mean[i]) << ','
+           << mc::fmt(s.sd[i]) << ',' << s.n << ','
            << (s.n > 0 ? mc::fmt(s.sd[i] / std::sqrt(static_cast<double>(s.n))) : std::string());
         for (const std::vector<double>* q : {&s.p5, &s.p25, &s.median, &s.p75, &s.p95})
           os << ',' << cell(*q, i);

@@ -142,7 +142,8 @@ std::vector<ShardInput> hashInputs(const MonteCarloConfig& config)
   if (!takesCustomInputs(config.experiment))
     return v;
   // an input given as text (a Python object) hashes its text, an algorithm name the text it stands for
-  auto add = [&v, &config](const std::string& option, const std::string& path) {
+  auto add = [&v, &config](const std::string& option, const std::string& path)
+  {
     if (path.empty())
       return;
     const auto it = config.inline_inputs.find(path);
@@ -258,8 +259,8 @@ ExperimentResult mergeShards(std::vector<ShardFile> shards)
         major = i;
     for (std::size_t i = 0; i < shards.size(); ++i)
       if (ids[i][f].second != ids[major][f].second)
-        throw InputError(shards[i].path + ": foreign shard: " + ids[i][f].first + " is " + ids[i][f].second +
-                         ", but " + ids[major][f].second + " in " + shards[major].path +
+        throw InputError(shards[i].path + ": foreign shard: " + ids[i][f].first + " is " + ids[i][f].second + ", but " +
+                         ids[major][f].second + " in " + shards[major].path +
                          (f == 0 ? " (merge one experiment at a time: --experiment NAME)" : ""));
   }
   const ShardFile& ref = shards.front();
@@ -273,8 +274,8 @@ ExperimentResult mergeShards(std::vector<ShardFile> shards)
           s.calls[i].raw != ref.calls[i].raw || s.calls[i].quantiles != ref.calls[i].quantiles ||
           s.calls[i].sketches.size() != ref.calls[i].sketches.size())
         throw InputError(s.path + ": foreign shard: call " + std::to_string(i) + " has " +
-                         std::to_string(s.calls[i].runs) + " runs x " + std::to_string(s.calls[i].values) + " values, " +
-                         ref.path + " has " + std::to_string(ref.calls[i].runs) + " x " +
+                         std::to_string(s.calls[i].runs) + " runs x " + std::to_string(s.calls[i].values) +
+                         " values, " + ref.path + " has " + std::to_string(ref.calls[i].runs) + " x " +
                          std::to_string(ref.calls[i].values));
   }
   // 2. every K of N exactly once
@@ -324,8 +325,8 @@ ExperimentResult mergeShards(std::vector<ShardFile> shards)
       throw InputError(now[i].option + " " + now[i].path + " has changed since the shards were computed (fnv1a64 " +
                        ref.inputs[i].hash + " in " + ref.path + ", " + now[i].hash + " now)");
   if (now.size() != ref.inputs.size())
-    throw InputError(ref.path + ": 'inputs' lists " + std::to_string(ref.inputs.size()) + " files, its arguments name " +
-                     std::to_string(now.size()));
+    throw InputError(ref.path + ": 'inputs' lists " + std::to_string(ref.inputs.size()) +
+                     " files, its arguments name " + std::to_string(now.size()));
 
   // 4. all blocks of every call, in block order
   std::vector<CallBlocks> merged(ref.calls.size());

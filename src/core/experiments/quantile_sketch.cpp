@@ -136,7 +136,8 @@ void QuantileSketch::Store::encode(std::vector<std::int64_t>& out) const
 
 void QuantileSketch::Store::decode(const std::vector<std::int64_t>& v, std::size_t& i, const std::string& where)
 {
-  auto next = [&]() -> std::int64_t {
+  auto next = [&]() -> std::int64_t
+  {
     if (i >= v.size())
       throw InputError(where + ": the quantile sketch ends early");
     return v[i++];
@@ -266,8 +267,7 @@ QuantileSketch QuantileSketch::decode(const std::vector<std::int64_t>& v, const 
 
 bool QuantileSketch::operator==(const QuantileSketch& o) const
 {
-  return zero_ == o.zero_ && nan_ == o.nan_ && pinf_ == o.pinf_ && ninf_ == o.ninf_ && pos_ == o.pos_ &&
-         neg_ == o.neg_;
+  return zero_ == o.zero_ && nan_ == o.nan_ && pinf_ == o.pinf_ && ninf_ == o.ninf_ && pos_ == o.pos_ && neg_ == o.neg_;
 }
 
 }  // namespace networked_estimation

@@ -96,7 +96,8 @@ BlockMoments readBlock(const JsonField& f, std::size_t values, bool raw)
   b.m2 = f["m2"].numbers();
   if (b.mean.size() != values || b.m2.size() != values)
     f.fail("block " + std::to_string(b.index) + ": expected " + std::to_string(values) +
-           " numbers in 'mean' and 'm2', found " + std::to_string(b.mean.size()) + " and " + std::to_string(b.m2.size()));
+           " numbers in 'mean' and 'm2', found " + std::to_string(b.mean.size()) + " and " +
+           std::to_string(b.m2.size()));
   if (raw)
   {
     b.raw = f["raw"].numbers();

@@ -19,12 +19,14 @@ struct LocalEnu::Impl
 LocalEnu::LocalEnu(double latitude, double longitude, double altitude, const std::string& key)
   : lat_(latitude), lon_(longitude), alt_(altitude)
 {
-  if (!std::isfinite(latitude) || !std::isfinite(longitude) || !std::isfinite(altitude) ||
-      std::fabs(latitude) > 90.0 || std::fabs(longitude) > 180.0)
+  if (!std::isfinite(latitude) || !std::isfinite(longitude) || !std::isfinite(altitude) || std::fabs(latitude) > 90.0 ||
+      std::fabs(longitude) > 180.0)
   {
     char buf[160];
-    std::snprintf(buf, sizeof buf, "expected [latitude in [-90, 90], longitude in [-180, 180], altitude] (finite), "
-                                   "found [%g, %g, %g]", latitude, longitude, altitude);
+    std::snprintf(buf, sizeof buf,
+                  "expected [latitude in [-90, 90], longitude in [-180, 180], altitude] (finite), "
+                  "found [%g, %g, %g]",
+                  latitude, longitude, altitude);
     throw ConfigError(key + ": " + buf);
   }
   impl_ = std::make_unique<Impl>();

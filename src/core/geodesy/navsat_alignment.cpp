@@ -14,14 +14,20 @@ namespace networked_estimation
 namespace
 {
 
-bool finite(const Eigen::Vector3d& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
+bool finite(const Eigen::Vector3d& v)
+{
+  return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z());
+}
 
 bool finite(const BasePose& p)
 {
   return finite(p.position) && std::isfinite(p.roll) && std::isfinite(p.pitch) && std::isfinite(p.yaw);
 }
 
-Eigen::Matrix3d rotationZ(double yaw) { return Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix(); }
+Eigen::Matrix3d rotationZ(double yaw)
+{
+  return Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+}
 
 std::string text(const Eigen::Vector3d& v)
 {
@@ -51,8 +57,10 @@ bool utmOf(double latitude, double longitude, double altitude, UtmPoint& out, st
       std::fabs(longitude) > 180.0 || !std::isfinite(altitude))
   {
     char buf[160];
-    std::snprintf(buf, sizeof buf, "expected a finite latitude in [-90, 90], longitude in [-180, 180] and altitude, "
-                                   "found (%g, %g, %g)", latitude, longitude, altitude);
+    std::snprintf(buf, sizeof buf,
+                  "expected a finite latitude in [-90, 90], longitude in [-180, 180] and altitude, "
+                  "found (%g, %g, %g)",
+                  latitude, longitude, altitude);
     why = buf;
     return false;
   }

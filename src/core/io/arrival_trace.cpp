@@ -41,8 +41,10 @@ std::vector<bool> readEvents(const std::string& path, const std::string& sensor)
     if (header[i] == "field.outcome")
       col = i;
   if (col == header.size())
-    throw InputError(path + ":1: no column field.outcome (expected `rostopic echo -p` of a LossyChannel's ~events, "
-                     "networked_estimation/ChannelEvent, for sensor " + sensor + ")");
+    throw InputError(path +
+                     ":1: no column field.outcome (expected `rostopic echo -p` of a LossyChannel's ~events, "
+                     "networked_estimation/ChannelEvent, for sensor " +
+                     sensor + ")");
   std::vector<bool> arrivals;
   long n = 1;
   while (std::getline(in, line))
@@ -58,8 +60,10 @@ std::vector<bool> readEvents(const std::string& path, const std::string& sensor)
                        " cells as in the header, found " + std::to_string(cells.size()));
     const std::string& o = cells[col];
     if (o != "0" && o != "1" && o != "2")
-      throw InputError(path + ":" + std::to_string(n) + ": field.outcome: expected 0 (delivered), 1 or 2 (dropped), "
-                       "found '" + o + "'");
+      throw InputError(path + ":" + std::to_string(n) +
+                       ": field.outcome: expected 0 (delivered), 1 or 2 (dropped), "
+                       "found '" +
+                       o + "'");
     arrivals.push_back(o == "0");
   }
   return arrivals;

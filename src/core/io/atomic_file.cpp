@@ -12,7 +12,6 @@
 namespace networked_estimation
 {
 
-
 AtomicFile::AtomicFile(const std::string& path)
   : path_(path), temp_(path + ".tmp." + std::to_string(static_cast<long>(::getpid())))
 {

@@ -33,8 +33,8 @@ std::string squote(const std::string& text)
 }
 
 /// `<source>:<line>: <column>: <problem> (expected <expected>, found '<found>')`.
-[[noreturn]] void fail(const std::string& source, long line, const std::string& column,
-                       const std::string& problem, const std::string& expected, const std::string& found)
+[[noreturn]] void fail(const std::string& source, long line, const std::string& column, const std::string& problem,
+                       const std::string& expected, const std::string& found)
 {
   std::ostringstream os;
   os << source << ":" << line << ": " << column << ": " << problem << " (expected " << expected << ", found "
@@ -43,8 +43,8 @@ std::string squote(const std::string& text)
 }
 
 /// Same, with a found part that is not a cell (e.g. "3 columns").
-[[noreturn]] void failRaw(const std::string& source, long line, const std::string& column,
-                          const std::string& problem, const std::string& expected, const std::string& found)
+[[noreturn]] void failRaw(const std::string& source, long line, const std::string& column, const std::string& problem,
+                          const std::string& expected, const std::string& found)
 {
   std::ostringstream os;
   os << source << ":" << line << ": " << column << ": " << problem << " (expected " << expected << ", found " << found

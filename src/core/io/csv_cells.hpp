@@ -22,8 +22,8 @@ std::string squote(const std::string& text);
 [[noreturn]] void fail(const std::string& source, long line, const std::string& column, const std::string& problem,
                        const std::string& expected, const std::string& found);
 /// Same, with a found part that is not a cell (e.g. "3 columns").
-[[noreturn]] void failRaw(const std::string& source, long line, const std::string& column,
-                          const std::string& problem, const std::string& expected, const std::string& found);
+[[noreturn]] void failRaw(const std::string& source, long line, const std::string& column, const std::string& problem,
+                          const std::string& expected, const std::string& found);
 std::string joinNames(const std::vector<std::string>& names);
 
 std::string trim(const std::string& text);
@@ -95,7 +95,8 @@ double parseNumber(const std::string& source, long line, const std::string& colu
 /// Reads the header row; throws when the file has none.
 std::vector<std::string> readHeader(LineReader& reader, const std::string& source, const std::string& expected);
 /// Compares a header with the expected names, column by column.
-void checkHeader(const std::string& source, const std::vector<std::string>& cells, const std::vector<std::string>& names);
+void checkHeader(const std::string& source, const std::vector<std::string>& cells,
+                 const std::vector<std::string>& names);
 /// prefix1 .. prefixN.
 std::vector<std::string> indexed(const std::string& prefix, int count);
 /// prefix11, prefix12, .. prefixNN.

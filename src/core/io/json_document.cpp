@@ -110,8 +110,8 @@ private:
   {
     bool object;
     std::string name;
-    std::string key;        ///< objects: the current member's key
-    std::size_t index;      ///< arrays: the current element's index
+    std::string key;    ///< objects: the current member's key
+    std::size_t index;  ///< arrays: the current element's index
     std::set<std::string> keys;
   };
 

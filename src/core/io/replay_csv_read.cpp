@@ -73,8 +73,7 @@ ReplayInput parseReplayInput(std::istream& in, const std::string& source, const 
   ReplayInput input;
   input.path = source;
   LineReader reader(in, source);
-  std::vector<std::string> header =
-      readHeader(reader, source, joinNames(names) + "[,nu]");
+  std::vector<std::string> header = readHeader(reader, source, joinNames(names) + "[,nu]");
 
   // Header: k,gamma,y1..ym, then u1..up (required with control), then an optional nu.
   if (header.empty() || header[0] != "k")
@@ -101,7 +100,8 @@ ReplayInput parseReplayInput(std::istream& in, const std::string& source, const 
     ++at;
   }
   const std::vector<std::string> r_names = replayRColumns(model);
-  if (at < header.size() && header[at].size() > 1 && header[at][0] == 'r' && std::isdigit(static_cast<unsigned char>(header[at][1])))
+  if (at < header.size() && header[at].size() > 1 && header[at][0] == 'r' &&
+      std::isdigit(static_cast<unsigned char>(header[at][1])))
   {
     for (std::size_t i = 0; i < r_names.size(); ++i)
     {
@@ -118,7 +118,9 @@ ReplayInput parseReplayInput(std::istream& in, const std::string& source, const 
     const bool looks_like_u = p == 0 && at == u_end && header[at].size() > 1 && header[at][0] == 'u';
     fail(source, 1, header[at],
          looks_like_u ? "unexpected column: model '" + model.name + "' has no control" : "unexpected column",
-         at == u_end ? "'nu', r columns or end of header" : input.has_R ? "end of header" : "r columns or end of header",
+         at == u_end   ? "'nu', r columns or end of header"
+         : input.has_R ? "end of header"
+                       : "r columns or end of header",
          header[at]);
   }
   input.has_u = p > 0;

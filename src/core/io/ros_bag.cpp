@@ -27,7 +27,8 @@ namespace ros_bag_detail
 
 constexpr char kMagic[] = "#ROSBAG V2.0\n";
 constexpr std::size_t kMagicLength = 13;
-constexpr std::uint8_t kOpMessage = 0x02, kOpBagHeader = 0x03, kOpChunk = 0x05, kOpChunkInfo = 0x06, kOpConnection = 0x07;
+constexpr std::uint8_t kOpMessage = 0x02, kOpBagHeader = 0x03, kOpChunk = 0x05, kOpChunkInfo = 0x06,
+                       kOpConnection = 0x07;
 
 std::uint32_t u32(const char* p)
 {
@@ -201,8 +202,8 @@ BagConnection connectionOf(const Fields& record_fields, const char* data, std::u
   return c;
 }
 
-void decompress(const std::string& compression, const std::vector<char>& in, std::uint32_t size,
-                std::vector<char>& out, std::uint64_t offset, const Failure& fail)
+void decompress(const std::string& compression, const std::vector<char>& in, std::uint32_t size, std::vector<char>& out,
+                std::uint64_t offset, const Failure& fail)
 {
   out.resize(size);
   if (compression == "bz2")
@@ -238,8 +239,8 @@ void decompress(const std::string& compression, const std::vector<char>& in, std
   }
   LZ4F_freeDecompressionContext(ctx);
   if (done_out != size)
-    fail(offset, "lz4 chunk decompresses to " + std::to_string(done_out) + " bytes, its header says " +
-                     std::to_string(size));
+    fail(offset,
+         "lz4 chunk decompresses to " + std::to_string(done_out) + " bytes, its header says " + std::to_string(size));
 }
 
 }  // namespace ros_bag_detail
@@ -288,8 +289,9 @@ RosBag::RosBag(const std::string& path) : path_(path)
     fail(kMagicLength, "expected the bag header record (op 3), found op " + std::to_string(header.op));
   const std::uint64_t index_pos = fieldU64(header.fields, "index_pos", kMagicLength, fail);
   if (index_pos == 0 || index_pos > file.size())
-    fail("the bag has no index (a recording that did not end cleanly, e.g. a .bag.active file): run "
-         "`rosbag reindex` on it first");
+    fail(
+        "the bag has no index (a recording that did not end cleanly, e.g. a .bag.active file): run "
+        "`rosbag reindex` on it first");
   indexed_ = true;
   data_end_ = index_pos;
   std::set<std::string> compressions;

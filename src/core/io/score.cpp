@@ -12,7 +12,6 @@
 namespace networked_estimation
 {
 
-
 Score scoreEstimate(const std::string& name, const Truth& truth, const ReplayOutput& estimate, long from,
                     const std::vector<int>& angles)
 {

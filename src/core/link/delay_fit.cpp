@@ -43,9 +43,9 @@ void quantileIntervals(const std::vector<double>& x, DelayFit& d)
     double *lower, *upper;
     bool* open;
   };
-  for (const Target& t : {Target{0.5, &d.p50_lower, &d.p50_upper, &d.p50_open},
-                          Target{0.9, &d.p90_lower, &d.p90_upper, &d.p90_open},
-                          Target{0.99, &d.p99_lower, &d.p99_upper, &d.p99_open}})
+  for (const Target& t :
+       {Target{0.5, &d.p50_lower, &d.p50_upper, &d.p50_open}, Target{0.9, &d.p90_lower, &d.p90_upper, &d.p90_open},
+        Target{0.99, &d.p99_lower, &d.p99_upper, &d.p99_open}})
   {
     const double half = z * std::sqrt(n * t.q * (1.0 - t.q) * n / d.effective_samples);
     const double lo = std::floor(n * t.q - half), hi = std::ceil(n * t.q + half) + 1.0;  // 1-based ranks
@@ -63,7 +63,8 @@ void quantileIntervals(const std::vector<double>& x, DelayFit& d)
 double paretoFit(const std::vector<double>& x, double xmin, double& c, double& s)
 {
   const double n = static_cast<double>(x.size());
-  auto g = [&](double u) {
+  auto g = [&](double u)
+  {
     double sum = 0.0;
     for (double v : x)
       sum += 1.0 / (v - xmin + u);

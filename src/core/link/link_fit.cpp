@@ -85,11 +85,13 @@ Chain baumWelchStep(const std::vector<std::uint8_t>& lost, const Chain& c, std::
   alpha.resize(2 * n);
   inv_scale.resize(n);
   const double e0[2] = {1.0 - c.lg, c.lg}, e1[2] = {1.0 - c.lb, c.lb};
-  ll = forwardPass(lost, c, [&](std::size_t k, double a0, double a1, double inv) {
-    alpha[2 * k] = a0;
-    alpha[2 * k + 1] = a1;
-    inv_scale[k] = inv;
-  });
+  ll = forwardPass(lost, c,
+                   [&](std::size_t k, double a0, double a1, double inv)
+                   {
+                     alpha[2 * k] = a0;
+                     alpha[2 * k + 1] = a1;
+                     inv_scale[k] = inv;
+                   });
   if (!std::isfinite(ll))
     return c;
   // Backward, accumulating the expected counts.
@@ -332,8 +334,9 @@ GilbertElliottFit fitGilbertElliott(const std::vector<std::uint8_t>& arrived, co
   {
     for (ParameterEstimate* e : out)
       e->lower = e->upper = kNaN;
-    fit.note = "the information matrix is singular at the fit: some parameter is not identifiable (the chain "
-               "degenerates to a simpler link), no intervals";
+    fit.note =
+        "the information matrix is singular at the fit: some parameter is not identifiable (the chain "
+        "degenerates to a simpler link), no intervals";
   }
   return fit;
 }
@@ -391,7 +394,8 @@ LinkModel fittedLink(const LossFit& f, IntervalEnd end)
   if (f.chosen == "gilbert_elliott")
   {
     const GilbertElliottFit& g = f.ge;
-    auto at = [end](const ParameterEstimate& e, bool high_is_bad) {
+    auto at = [end](const ParameterEstimate& e, bool high_is_bad)
+    {
       if (end == IntervalEnd::POINT || std::isnan(e.lower))
         return e.value;
       const bool bad = end == IntervalEnd::PESSIMISTIC;

@@ -232,13 +232,13 @@ std::string linkFitText(const LinkFit& f)
     for (std::size_t i = 0; i < bins.size(); ++i)
     {
       // The last bin holds the longest burst, and the model's whole tail from its first length.
-      const std::string label = std::to_string(bins[i].first) +
-                                (i + 1 == bins.size() ? std::string("+")
-                                 : bins[i].second != bins[i].first ? "-" + std::to_string(bins[i].second)
-                                                                     : std::string());
+      const std::string label =
+          std::to_string(bins[i].first) + (i + 1 == bins.size()              ? std::string("+")
+                                           : bins[i].second != bins[i].first ? "-" + std::to_string(bins[i].second)
+                                                                             : std::string());
       const std::size_t bar = (observed[i] * 40 + top - 1) / top;
-      os << "  " << std::left << std::setw(8) << label << std::right << std::setw(8) << observed[i] << " "
-         << std::left << std::setw(41) << std::string(bar, '#') << std::right << "fit " << num(expected[i], 4) << "\n";
+      os << "  " << std::left << std::setw(8) << label << std::right << std::setw(8) << observed[i] << " " << std::left
+         << std::setw(41) << std::string(bar, '#') << std::right << "fit " << num(expected[i], 4) << "\n";
     }
   }
   return os.str();
@@ -256,12 +256,25 @@ std::string linkFitsJson(const std::vector<LinkFit>& fits, bool series)
     const DelayFit& d = f.delay;
     w.br(2).beginObject();
     w.br(4).member("source", f.trace.source).member("slots_from", f.trace.slots_from).member("note", f.trace.note);
-    w.br(4).member("period", f.trace.period).member("rate", 1.0 / f.trace.period).member("first_stamp", f.trace.first_stamp);
-    w.br(4).member("messages", f.trace.messages).member("expected", s.expected).member("received", s.received)
-        .member("lost", s.lost).member("duplicates", s.duplicates).member("reordered", s.reordered);
-    w.br(4).member("loss_rate", s.loss_rate).member("mean_burst", s.mean_burst).member("mean_gap", s.mean_gap)
-        .member("longest_burst", s.longest_burst).member("longest_outage", s.longest_outage)
-        .member("reorder_fraction", s.reorder_fraction).member("duplicate_fraction", s.duplicate_fraction);
+    w.br(4)
+        .member("period", f.trace.period)
+        .member("rate", 1.0 / f.trace.period)
+        .member("first_stamp", f.trace.first_stamp);
+    w.br(4)
+        .member("messages", f.trace.messages)
+        .member("expected", s.expected)
+        .member("received", s.received)
+        .member("lost", s.lost)
+        .member("duplicates", s.duplicates)
+        .member("reordered", s.reordered);
+    w.br(4)
+        .member("loss_rate", s.loss_rate)
+        .member("mean_burst", s.mean_burst)
+        .member("mean_gap", s.mean_gap)
+        .member("longest_burst", s.longest_burst)
+        .member("longest_outage", s.longest_outage)
+        .member("reorder_fraction", s.reorder_fraction)
+        .member("duplicate_fraction", s.duplicate_fraction);
     w.br(4).key("bernoulli").beginObject().key("loss");
     estimate(w, lossOf(l.estimate.arrival));
     w.key("arrival");
@@ -279,22 +292,56 @@ std::string linkFitsJson(const std::vector<LinkFit>& fits, bool series)
       w.key(e.first);
       estimate(w, *e.second);
     }
-    w.member("log_likelihood", l.ge.log_likelihood).member("bic", l.gilbert_elliott.bic).member("starts", l.ge.starts)
-        .member("iterations", l.ge.iterations).member("converged", l.ge.converged).member("note", l.ge.note)
+    w.member("log_likelihood", l.ge.log_likelihood)
+        .member("bic", l.gilbert_elliott.bic)
+        .member("starts", l.ge.starts)
+        .member("iterations", l.ge.iterations)
+        .member("converged", l.ge.converged)
+        .member("note", l.ge.note)
         .endObject();
     w.br(4).member("model", l.chosen).member("choice", l.choice_note);
-    w.br(4).key("delay").beginObject().member("samples", d.samples).member("relative", f.trace.relative_delay)
-        .member("clock_offset", f.trace.clock_offset).member("clock_note", f.trace.clock_note);
-    w.br(6).member("mean", d.mean).member("sd", d.sd).member("min", d.min).member("p50", d.p50).member("p90", d.p90)
-        .member("p99", d.p99).member("max", d.max).member("rfc3550_jitter", d.rfc3550_jitter).member("lag1", d.lag1);
-    w.br(6).member("effective_samples", d.effective_samples).member("p50_lower", d.p50_lower)
-        .member("p50_upper", d.p50_upper).member("p50_open", d.p50_open).member("p90_lower", d.p90_lower)
-        .member("p90_upper", d.p90_upper).member("p90_open", d.p90_open).member("p99_lower", d.p99_lower)
-        .member("p99_upper", d.p99_upper).member("p99_open", d.p99_open);
-    w.br(6).key("law").beginObject().member("distribution", distributionName(d.distribution)).member("delay", d.delay)
-        .member("jitter", d.jitter).key("log_likelihood").beginObject()
-        .member("uniform", d.law_log_likelihood[0]).member("normal", d.law_log_likelihood[1])
-        .member("pareto", d.law_log_likelihood[2]).endObject().endObject().endObject();
+    w.br(4)
+        .key("delay")
+        .beginObject()
+        .member("samples", d.samples)
+        .member("relative", f.trace.relative_delay)
+        .member("clock_offset", f.trace.clock_offset)
+        .member("clock_note", f.trace.clock_note);
+    w.br(6)
+        .member("mean", d.mean)
+        .member("sd", d.sd)
+        .member("min", d.min)
+        .member("p50", d.p50)
+        .member("p90", d.p90)
+        .member("p99", d.p99)
+        .member("max", d.max)
+        .member("rfc3550_jitter", d.rfc3550_jitter)
+        .member("lag1", d.lag1);
+    w.br(6)
+        .member("effective_samples", d.effective_samples)
+        .member("p50_lower", d.p50_lower)
+        .member("p50_upper", d.p50_upper)
+        .member("p50_open", d.p50_open)
+        .member("p90_lower", d.p90_lower)
+        .member("p90_upper", d.p90_upper)
+        .member("p90_open", d.p90_open)
+        .member("p99_lower", d.p99_lower)
+        .member("p99_upper", d.p99_upper)
+        .member("p99_open", d.p99_open);
+    w.br(6)
+        .key("law")
+        .beginObject()
+        .member("distribution", distributionName(d.distribution))
+        .member("delay", d.delay)
+        .member("jitter", d.jitter)
+        .key("log_likelihood")
+        .beginObject()
+        .member("uniform", d.law_log_likelihood[0])
+        .member("normal", d.law_log_likelihood[1])
+        .member("pareto", d.law_log_likelihood[2])
+        .endObject()
+        .endObject()
+        .endObject();
     w.br(4).key("bursts");
     counts(w, s.bursts);
     w.br(4).key("gaps");
@@ -303,14 +350,18 @@ std::string linkFitsJson(const std::vector<LinkFit>& fits, bool series)
     const std::vector<double> law = burstLengthLaw(chosenLink(f), std::max<std::size_t>(1, s.longest_burst));
     w.value(std::vector<double>(law.begin() + 1, law.end()));
     const ChannelSettings& c = f.channel;
-    w.br(4).key("channel").beginObject().member("model", c.model == LossModelKind::BERNOULLI ? "bernoulli"
-                                                                                           : "gilbert_elliott");
+    w.br(4).key("channel").beginObject().member("model",
+                                                c.model == LossModelKind::BERNOULLI ? "bernoulli" : "gilbert_elliott");
     if (c.model == LossModelKind::BERNOULLI)
       w.member("loss", c.loss);
     else
       w.member("p", c.p).member("r", c.r).member("loss_bad", c.loss_bad).member("loss_good", c.loss_good);
-    w.member("delay", c.delay).member("jitter", c.jitter).member("distribution", distributionName(c.distribution))
-        .member("reorder", c.reorder).member("duplicate", c.duplicate).endObject();
+    w.member("delay", c.delay)
+        .member("jitter", c.jitter)
+        .member("distribution", distributionName(c.distribution))
+        .member("reorder", c.reorder)
+        .member("duplicate", c.duplicate)
+        .endObject();
     if (series)
     {
       std::string arrived(f.trace.arrived.size(), '0');

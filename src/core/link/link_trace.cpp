@@ -332,8 +332,8 @@ SlotTrace analyseLink(const LinkRecord& rec, const TraceOptions& o)
     {
       std::ostringstream os;
       os << src << ": the stamps are not periodic: " << std::setprecision(3) << 100.0 * irregular
-         << " % of their steps are not a whole number of periods of " << seconds(t.period) << " s ("
-         << hz(t.period) << ")";
+         << " % of their steps are not a whole number of periods of " << seconds(t.period) << " s (" << hz(t.period)
+         << ")";
       if (o.rate > 0.0)
         os << " (--rate)";
       os << "; without header.seq the expected messages cannot be found";
@@ -356,7 +356,8 @@ SlotTrace analyseLink(const LinkRecord& rec, const TraceOptions& o)
   const long long span = last_slot - first_slot + 1;
   if (span > 100 * static_cast<long long>(n) + 1000)
     throw InputError(src + ": the stamps span " + std::to_string(span) + " expected messages at " + hz(t.period) +
-                     " for " + std::to_string(n) + " received (over 99 % lost): a wrong rate, or a publisher that "
+                     " for " + std::to_string(n) +
+                     " received (over 99 % lost): a wrong rate, or a publisher that "
                      "paused");
   t.first_stamp = rec.stamp[by_stamp[0]];
   const std::size_t slots = static_cast<std::size_t>(span);
@@ -404,8 +405,8 @@ SlotTrace analyseLink(const LinkRecord& rec, const TraceOptions& o)
                                                             "the clocks differ"
                                                           : "the clocks differ (as told)") +
                    ": receipt - stamp includes their unknown offset, and only the delay relative to the smallest "
-                   "one is identifiable; the delays are relative to it (offset taken as " + seconds(smallest) +
-                   " s)";
+                   "one is identifiable; the delays are relative to it (offset taken as " +
+                   seconds(smallest) + " s)";
     for (std::size_t s : t.receipt_order)
       t.delay[s] -= smallest;
   }
@@ -493,9 +494,10 @@ SlotTrace readEventSlots(const std::string& path, std::size_t min_messages)
   t.period = t.arrived.size() > 1 ? (last_time - first_time) / static_cast<double>(t.arrived.size() - 1) : 0.0;
   t.first_stamp = first_time;
   // In the channel's own delivery order (due = offer + delay).
-  std::stable_sort(t.receipt_order.begin(), t.receipt_order.end(), [&](std::size_t a, std::size_t b) {
-    return static_cast<double>(a) * t.period + t.delay[a] < static_cast<double>(b) * t.period + t.delay[b];
-  });
+  std::stable_sort(
+      t.receipt_order.begin(), t.receipt_order.end(),
+      [&](std::size_t a, std::size_t b)
+      { return static_cast<double>(a) * t.period + t.delay[a] < static_cast<double>(b) * t.period + t.delay[b]; });
   long long highest = -1;
   for (std::size_t s : t.receipt_order)
   {

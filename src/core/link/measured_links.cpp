@@ -33,8 +33,8 @@ std::string range(double value, double lower, double upper)
 std::string describeFit(const LossFit& f)
 {
   if (f.chosen == "bernoulli")
-    return "bernoulli, loss " + range(1.0 - f.estimate.arrival.value, 1.0 - f.estimate.arrival.upper,
-                                      1.0 - f.estimate.arrival.lower);
+    return "bernoulli, loss " +
+           range(1.0 - f.estimate.arrival.value, 1.0 - f.estimate.arrival.upper, 1.0 - f.estimate.arrival.lower);
   if (f.chosen == "gilbert")
     return "gilbert, p " + range(f.estimate.failure.value, f.estimate.failure.lower, f.estimate.failure.upper) +
            ", r " + range(f.estimate.recovery.value, f.estimate.recovery.lower, f.estimate.recovery.upper);
@@ -106,7 +106,8 @@ std::vector<MeasuredLink> fitBagLinks(const Model& model, const std::string& bag
     if (!t.empty() && std::find(topics.begin(), topics.end(), t) == topics.end())
       topics.push_back(t);
   if (topics.empty())
-    throw ConfigError("--bag " + bag + ": no sensor is given a topic (--topic T for every sensor, --bag-topic "
+    throw ConfigError("--bag " + bag +
+                      ": no sensor is given a topic (--topic T for every sensor, --bag-topic "
                       "SENSOR=TOPIC for one)");
   const std::vector<LinkRecord> records = readBagLinks(bag, topics);
   std::vector<LinkFit> fits;
@@ -117,19 +118,21 @@ std::vector<MeasuredLink> fitBagLinks(const Model& model, const std::string& bag
   {
     if (topic_of[s].empty())
       continue;
-    const std::size_t t = static_cast<std::size_t>(std::find(topics.begin(), topics.end(), topic_of[s]) - topics.begin());
+    const std::size_t t =
+        static_cast<std::size_t>(std::find(topics.begin(), topics.end(), topic_of[s]) - topics.begin());
     MeasuredLink m;
     m.sensor = model.sensors[s].name;
     m.topic = topic_of[s];
     m.fit = fits[t];
     links.link[s] = m.fit.channel;
-    links.origin[s] = m.sensor + ": fitted from " + bag + ", topic " + m.topic + " (" + how[s] + "): " +
-                      m.fit.loss.chosen + " by BIC";
+    links.origin[s] = m.sensor + ": fitted from " + bag + ", topic " + m.topic + " (" + how[s] +
+                      "): " + m.fit.loss.chosen + " by BIC";
     out.push_back(m);
   }
   if (!every_topic.empty())
   {
-    const std::size_t t = static_cast<std::size_t>(std::find(topics.begin(), topics.end(), every_topic) - topics.begin());
+    const std::size_t t =
+        static_cast<std::size_t>(std::find(topics.begin(), topics.end(), every_topic) - topics.begin());
     links.common = fits[t].channel;
   }
   return out;
@@ -138,7 +141,8 @@ std::vector<MeasuredLink> fitBagLinks(const Model& model, const std::string& bag
 MeasuredVerdict measuredVerdict(const Model& model, const SensorLinks& links, const std::vector<MeasuredLink>& measured)
 {
   MeasuredVerdict v;
-  auto at = [&](IntervalEnd end) {
+  auto at = [&](IntervalEnd end)
+  {
     std::vector<std::optional<ChannelSettings>> l = links.link;
     for (const MeasuredLink& m : measured)
       for (std::size_t s = 0; s < model.sensors.size(); ++s)

@@ -38,8 +38,8 @@ const std::vector<std::string>& motionStateNames(Motion motion)
 {
   static const std::vector<std::string> none;
   static const std::vector<std::string> two = {"x", "y", "yaw", "vx", "vy", "vyaw", "ax", "ay"};
-  static const std::vector<std::string> three = {"x",  "y",  "z",  "roll",  "pitch",  "yaw", "vx", "vy",
-                                                 "vz", "vroll", "vpitch", "vyaw", "ax",    "ay", "az"};
+  static const std::vector<std::string> three = {"x",  "y",     "z",      "roll", "pitch", "yaw", "vx", "vy",
+                                                 "vz", "vroll", "vpitch", "vyaw", "ax",    "ay",  "az"};
   return motion == Motion::OMNI_2D ? two : motion == Motion::OMNI_3D ? three : none;
 }
 

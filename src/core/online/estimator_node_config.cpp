@@ -80,7 +80,8 @@ void parseSensorInputs(const YAML::Node& block, const std::string& source, Estim
       checkAngleFields(model, index, in, key);
     in.message_covariance = p.choice("covariance", "model", {"model", "message"}) == "message";
     if (in.message_covariance && in.differential)
-      throw ConfigError(key + ".covariance: message: not with differential (a velocity's covariance is not in the "
+      throw ConfigError(key +
+                        ".covariance: message: not with differential (a velocity's covariance is not in the "
                         "pose's message): use covariance: model, the model's R of the velocity rows");
     if (in.message_covariance && in.fields.empty())
       throw ConfigError(key + ".covariance: message: " + toString(in.type) +
@@ -98,20 +99,21 @@ void parseSensorInputs(const YAML::Node& block, const std::string& source, Estim
     if (in.remove_gravity && in.type != InputType::IMU)
       throw ConfigError(key + ".remove_gravitational_acceleration: only for sensor_msgs/Imu, found " +
                         toString(in.type));
-    if (in.remove_gravity && std::none_of(in.fields.begin(), in.fields.end(), [](const InputField& f) {
-          return f.quantity == Quantity::LINEAR_ACCELERATION;
-        }))
+    if (in.remove_gravity &&
+        std::none_of(in.fields.begin(), in.fields.end(),
+                     [](const InputField& f) { return f.quantity == Quantity::LINEAR_ACCELERATION; }))
       throw ConfigError(key + ".remove_gravitational_acceleration: the sensor reads no linear_acceleration field");
     in.relative = p.flag("relative", false);
     if (in.relative && !pose_type)
       throw ConfigError(key + ".relative: only for " + pose_types + ", found " + toString(in.type));
     if (in.relative && in.differential)
       throw ConfigError(key + ".relative: not with differential (a velocity has no origin)");
-    const bool derived =
-        std::find(c.derived_sensors.begin(), c.derived_sensors.end(), name) != c.derived_sensors.end();
+    const bool derived = std::find(c.derived_sensors.begin(), c.derived_sensors.end(), name) != c.derived_sensors.end();
     if (p.has("std") && !derived)
-      throw ConfigError(key + ".std: only for a sensor the model does not list (its rows of C and R then follow from "
-                        "the fields); sensor '" + name + "' is the model's, with its R");
+      throw ConfigError(key +
+                        ".std: only for a sensor the model does not list (its rows of C and R then follow from "
+                        "the fields); sensor '" +
+                        name + "' is the model's, with its R");
     p.take("std");  // read by withMotionSensors
     in.rate = p.number("rate", model_rate, 0.0, 1e9);
     if (!(in.rate > 0.0) || in.rate > model_rate * (1.0 + 1e-9))
@@ -127,8 +129,9 @@ GnssAlignment parseGnssAlignment(ParamReader& p, const EstimatorNodeConfig& c)
 {
   const std::string& source = p.source();
   GnssAlignment g;
-  const char* keys[] = {"magnetic_declination_radians", "yaw_offset", "zero_altitude", "use_odometry_yaw",
-                        "publish_gps_odometry", "publish_filtered_gps", "broadcast_utm_transform", "gnss_heading"};
+  const char* keys[] = {
+      "magnetic_declination_radians", "yaw_offset",           "zero_altitude",           "use_odometry_yaw",
+      "publish_gps_odometry",         "publish_filtered_gps", "broadcast_utm_transform", "gnss_heading"};
   g.navsat_transform = p.choice("gnss_alignment", "enu", {"enu", "navsat_transform"}) == "navsat_transform";
   const bool has_fix = std::any_of(c.inputs.begin(), c.inputs.end(),
                                    [](const SensorInput& in) { return in.type == InputType::NAVSATFIX; });
@@ -136,19 +139,22 @@ GnssAlignment parseGnssAlignment(ParamReader& p, const EstimatorNodeConfig& c)
   {
     for (const char* key : keys)
       if (p.has(key))
-        throw ConfigError(source + ": " + key + ": only with gnss_alignment: navsat_transform (found gnss_alignment: "
+        throw ConfigError(source + ": " + key +
+                          ": only with gnss_alignment: navsat_transform (found gnss_alignment: "
                           "enu, where world_frame is the ENU frame of the datum)");
     return g;
   }
   if (!has_fix)
-    throw ConfigError(source + ": gnss_alignment: navsat_transform needs a sensor_msgs/NavSatFix input (a sensors "
+    throw ConfigError(source +
+                      ": gnss_alignment: navsat_transform needs a sensor_msgs/NavSatFix input (a sensors "
                       "entry with type sensor_msgs/NavSatFix); found none");
-  const std::pair<const char*, int> needed[] = {
-      {"x", c.state_map.x}, {"y", c.state_map.y}, {"yaw", c.state_map.yaw}};
+  const std::pair<const char*, int> needed[] = {{"x", c.state_map.x}, {"y", c.state_map.y}, {"yaw", c.state_map.yaw}};
   for (const auto& n : needed)
     if (n.second < 0)
-      throw ConfigError(source + ": gnss_alignment: navsat_transform needs base_link's world pose from the estimate: "
-                        "state_mapping." + n.first + " is not mapped");
+      throw ConfigError(source +
+                        ": gnss_alignment: navsat_transform needs base_link's world pose from the estimate: "
+                        "state_mapping." +
+                        n.first + " is not mapped");
   // The motion's roll and pitch states (omni_3d; none under omni_2d or a linear model).
   const StateMap motion_states = motionStateMap(c.model.motion);
   g.roll = motion_states.roll;
@@ -179,7 +185,8 @@ GnssAlignment parseGnssAlignment(ParamReader& p, const EstimatorNodeConfig& c)
       if (c.inputs[i].type == InputType::IMU)
         g.heading_sensor = static_cast<int>(i);
     if (g.heading_sensor < 0)
-      throw ConfigError(source + ": gnss_heading: gnss_alignment: navsat_transform needs base_link's earth-referenced "
+      throw ConfigError(source +
+                        ": gnss_heading: gnss_alignment: navsat_transform needs base_link's earth-referenced "
                         "heading at the first fix: from a sensor_msgs/Imu input (none is configured) or, with "
                         "use_odometry_yaw: true, from the fused yaw");
   }
@@ -196,8 +203,8 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   if (p.has("model") && p.take("model").IsMap())
   {
     c.model_file = "(inline)";
-    c.model = parseModel(withMotionSensors(params["model"], sensors_block, source, c.derived_sensors),
-                         source + ": model");
+    c.model =
+        parseModel(withMotionSensors(params["model"], sensors_block, source, c.derived_sensors), source + ": model");
   }
   else
   {
@@ -233,7 +240,8 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
     est["algorithm"] = "kfio";
   c.settings = parseEstimatorSettings(est, source);
   if (c.settings.algorithm == Algorithm::ACK_KF)
-    throw ConfigError(source + ": algorithm: ack_kf needs nu_k (whether each command arrived), which the graph "
+    throw ConfigError(source +
+                      ": algorithm: ack_kf needs nu_k (whether each command arrived), which the graph "
                       "does not carry; use it offline with replay");
   try
   {
@@ -248,8 +256,8 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   if (!(c.period > 0.0))
     throw ConfigError(source + ": period: the model '" + c.model_file + "' has no period and none was given");
   if (!(c.period <= 3600.0))  // the model's, which ~period would not have accepted
-    throw ConfigError(source + ": period: the model '" + c.model_file + "' has period " +
-                      tokens::format(c.period, 6) + " s: expected a number of seconds in (0, 3600], the range of "
+    throw ConfigError(source + ": period: the model '" + c.model_file + "' has period " + tokens::format(c.period, 6) +
+                      " s: expected a number of seconds in (0, 3600], the range of "
                       "~period (give ~period to override it)");
   RuntimeSettings& rt = c.runtime;
   rt.late_policy = p.text("late_policy", "drop");
@@ -272,8 +280,9 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
     rt.adaptive_latency = false;
   }
   rt.latency_budget_min = p.number("latency_budget_min", 0.5 * c.period, 0.0, 3600.0);
-  rt.latency_budget_max = p.number(
-      "latency_budget_max", std::min(1.0, 0.5 * static_cast<double>(c.online.max_future_steps) * c.period), 0.0, 3600.0);
+  rt.latency_budget_max =
+      p.number("latency_budget_max", std::min(1.0, 0.5 * static_cast<double>(c.online.max_future_steps) * c.period),
+               0.0, 3600.0);
   c.timeline.period = c.period;
   c.timeline.max_ahead = p.number("max_stamp_ahead", 10.0, 0.0, 1e9);
   if (!(c.timeline.max_ahead > 0.0))
@@ -352,7 +361,8 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   c.publish_tf = p.flag("publish_tf", true);
   c.predict_to_current_time = p.flag("predict_to_current_time", false);
   if (p.has("frequency") && !c.predict_to_current_time)
-    throw ConfigError(source + ": frequency: the rate of the predict_to_current_time output, which is off (set "
+    throw ConfigError(source +
+                      ": frequency: the rate of the predict_to_current_time output, which is off (set "
                       "predict_to_current_time: true, or leave frequency out: the steps' rate is 1 / period)");
   c.frequency = p.number("frequency", 1.0 / c.period, 0.0, 1000.0);
   if (!(c.frequency > 0.0))
@@ -361,10 +371,10 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   c.base_link_frame = p.text("base_link_frame", "base_link");
   c.odom_frame = p.text("odom_frame", "odom");
   const std::pair<const char*, const std::string*> frames[] = {{"frame_id", &c.frame_id},
-                                                                {"child_frame_id", &c.child_frame_id},
-                                                                {"world_frame", &c.world_frame},
-                                                                {"base_link_frame", &c.base_link_frame},
-                                                                {"odom_frame", &c.odom_frame}};
+                                                               {"child_frame_id", &c.child_frame_id},
+                                                               {"world_frame", &c.world_frame},
+                                                               {"base_link_frame", &c.base_link_frame},
+                                                               {"odom_frame", &c.odom_frame}};
   for (const auto& f : frames)
     if (f.second->empty())
       throw ConfigError(source + ": " + f.first + ": expected a frame name, found an empty string");
@@ -380,13 +390,14 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   {
     const YAML::Node m = p.take("state_mapping");
     if (!m.IsMap())
-      throw ConfigError(source + ": state_mapping: expected a map from x, y, z, roll, pitch, yaw, vx, vy, vz, "
+      throw ConfigError(source +
+                        ": state_mapping: expected a map from x, y, z, roll, pitch, yaw, vx, vy, vz, "
                         "roll_rate, pitch_rate, yaw_rate to state indices");
     c.state_map = StateMap();
     ParamReader q(m, source + ": state_mapping");
-    int* entries[12] = {&c.state_map.x,  &c.state_map.y,  &c.state_map.z,  &c.state_map.roll,
-                        &c.state_map.pitch, &c.state_map.yaw, &c.state_map.vx, &c.state_map.vy,
-                        &c.state_map.vz, &c.state_map.roll_rate, &c.state_map.pitch_rate, &c.state_map.yaw_rate};
+    int* entries[12] = {&c.state_map.x,     &c.state_map.y,         &c.state_map.z,          &c.state_map.roll,
+                        &c.state_map.pitch, &c.state_map.yaw,       &c.state_map.vx,         &c.state_map.vy,
+                        &c.state_map.vz,    &c.state_map.roll_rate, &c.state_map.pitch_rate, &c.state_map.yaw_rate};
     const char* names[12] = {"x",  "y",  "z",  "roll",      "pitch",      "yaw",
                              "vx", "vy", "vz", "roll_rate", "pitch_rate", "yaw_rate"};
     std::vector<int> used;

@@ -119,8 +119,10 @@ YAML::Node deriveSensor(Motion motion, const std::string& name, const YAML::Node
     }
   }
   else if (!message)
-    throw ConfigError(key + ": give std (one standard deviation per field) or covariance: message (the messages' "
-                      "own covariances): the model lists no sensor '" + name + "' whose R could be used");
+    throw ConfigError(key +
+                      ": give std (one standard deviation per field) or covariance: message (the messages' "
+                      "own covariances): the model lists no sensor '" +
+                      name + "' whose R could be used");
   YAML::Node R(YAML::NodeType::Sequence);
   for (int i = 0; i < rows; ++i)
   {
@@ -189,9 +191,18 @@ YAML::Node withMotionSensors(const YAML::Node& model, const YAML::Node& sensors,
 StateMap motionStateMap(Motion motion)
 {
   StateMap m;
-  const std::pair<int*, const char*> entries[] = {
-      {&m.x, "x"},   {&m.y, "y"},   {&m.z, "z"},   {&m.roll, "roll"},       {&m.pitch, "pitch"},       {&m.yaw, "yaw"},
-      {&m.vx, "vx"}, {&m.vy, "vy"}, {&m.vz, "vz"}, {&m.roll_rate, "vroll"}, {&m.pitch_rate, "vpitch"}, {&m.yaw_rate, "vyaw"}};
+  const std::pair<int*, const char*> entries[] = {{&m.x, "x"},
+                                                  {&m.y, "y"},
+                                                  {&m.z, "z"},
+                                                  {&m.roll, "roll"},
+                                                  {&m.pitch, "pitch"},
+                                                  {&m.yaw, "yaw"},
+                                                  {&m.vx, "vx"},
+                                                  {&m.vy, "vy"},
+                                                  {&m.vz, "vz"},
+                                                  {&m.roll_rate, "vroll"},
+                                                  {&m.pitch_rate, "vpitch"},
+                                                  {&m.yaw_rate, "vyaw"}};
   const std::vector<std::string>& states = motionStateNames(motion);
   for (const auto& e : entries)
   {

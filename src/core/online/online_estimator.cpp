@@ -160,7 +160,7 @@ void OnlineEstimator::fillSample(long k, Sample& sample) const
 {
   const Slot& s = ring_[static_cast<std::size_t>(k) % ring_.size()];
   sample.dt = options_.step_duration;  // the steps' grid: k - 1 to k is one step_duration
-  if (s.k != k)  // nothing arrived for step k
+  if (s.k != k)                        // nothing arrived for step k
   {
     sample.gamma = false;
     sample.y.setConstant(std::numeric_limits<double>::quiet_NaN());
@@ -175,8 +175,8 @@ void OnlineEstimator::fillSample(long k, Sample& sample) const
   sample.y = s.y;
   for (std::size_t i = 0; i < s.gated.size(); ++i)
     if (s.gated[i])  // refused by its rejection threshold when the step was first taken
-      sample.y.segment(model_.sensors[i].offset, model_.sensors[i].size).setConstant(
-          std::numeric_limits<double>::quiet_NaN());
+      sample.y.segment(model_.sensors[i].offset, model_.sensors[i].size)
+          .setConstant(std::numeric_limits<double>::quiet_NaN());
   // Own R_k blocks: the model's R with each such sensor's block replaced, its cross-blocks zero.
   bool own = false;
   for (std::size_t i = 0; i < s.own_R.size(); ++i)

@@ -142,8 +142,8 @@ OfferResult OnlineEstimator::offerDisabled(std::size_t sensor, double position, 
   return r;
 }
 
-OfferResult OnlineEstimator::offerAt(double position, long given, std::size_t sensor, const double* y,
-                                     std::size_t size, const double* R)
+OfferResult OnlineEstimator::offerAt(double position, long given, std::size_t sensor, const double* y, std::size_t size,
+                                     const double* R)
 {
   OfferResult r;
   if (sensor >= model_.sensors.size())

@@ -13,7 +13,10 @@ namespace
 
 constexpr long kStepsPerCall = 1000;  ///< steps taken per call at most (the inputs are not starved)
 
-std::string streamSeconds(double s) { return tokens::format(s, 6); }
+std::string streamSeconds(double s)
+{
+  return tokens::format(s, 6);
+}
 
 }  // namespace
 
@@ -46,8 +49,12 @@ bool OnlineStream::admit(std::size_t sensor, double stamp, long step, const Cloc
       ++restarts_;
       last_restart_ = {why, now.wall};
       if (provisional)  // the message that anchored it was poisoned: counted as refused, after the fact
-        refuse(anchor_sensor_, "stamp " + tokens::format(poisoned, 10) + " anchored the timeline, and a later message "
-                               "contradicted it (" + why + ")", now);
+        refuse(anchor_sensor_,
+               "stamp " + tokens::format(poisoned, 10) +
+                   " anchored the timeline, and a later message "
+                   "contradicted it (" +
+                   why + ")",
+               now);
       restart(why);
     }
     anchor_sensor_ = sensor;
@@ -288,7 +295,8 @@ bool OnlineStream::deadlines(const Clocks& now)
     const double behind = now.ros - timeline_.clock().deadline(online_->nextStep());
     ++time_resets_;
     restart("ROS time is " + streamSeconds(behind) + " s past the next step's deadline, more than max_stamp_behind " +
-            streamSeconds(timeline_.options().max_behind) + " s (time jumped forward, or the estimator stalled): "
+            streamSeconds(timeline_.options().max_behind) +
+            " s (time jumped forward, or the estimator stalled): "
             "estimator reset, waiting for the stream to restart");
     return false;
   }
@@ -310,9 +318,8 @@ std::vector<std::string> OnlineStream::stampWarnings(double wall) const
   std::vector<std::string> out;
   auto recent = [&](const Event& e) { return !e.reason.empty() && wall - e.wall <= kRecentSeconds; };
   auto ago = [&](const Event& e) { return tokens::format(std::max(0.0, wall - e.wall), 2) + " s ago: " + e.reason; };
-  auto count = [](std::uint64_t n) {
-    return std::to_string(n) + (n == 1 ? " message refused for its stamp" : " messages refused for their stamp");
-  };
+  auto count = [](std::uint64_t n)
+  { return std::to_string(n) + (n == 1 ? " message refused for its stamp" : " messages refused for their stamp"); };
   for (std::size_t i = 0; i < refused_.size(); ++i)
     if (recent(last_refused_[i]))
       out.push_back("sensor '" + online_->model().sensors[i].name + "': " + count(refused_[i]) + ", the last " +

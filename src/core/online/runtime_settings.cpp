@@ -12,16 +12,21 @@ namespace networked_estimation
 namespace
 {
 
-std::string settingNumber(double v) { return tokens::format(v, 10); }
+std::string settingNumber(double v)
+{
+  return tokens::format(v, 10);
+}
 
 void budgetFits(const std::string& source, const std::string& key, double v, const RuntimeLimits& limits)
 {
   const double future = static_cast<double>(limits.max_future_steps) * limits.period;
   if (!(v < future))
     throw ConfigError(source + ": " + key + ": expected below max_future_steps x period = " + settingNumber(future) +
-                      " s (messages for the steps it waits on would be refused as far future), found " + settingNumber(v));
+                      " s (messages for the steps it waits on would be refused as far future), found " +
+                      settingNumber(v));
   if (!(v <= limits.max_stamp_behind))
-    throw ConfigError(source + ": " + key + ": expected at most max_stamp_behind = " + settingNumber(limits.max_stamp_behind) +
+    throw ConfigError(source + ": " + key +
+                      ": expected at most max_stamp_behind = " + settingNumber(limits.max_stamp_behind) +
                       " s (messages it waits for would be refused as too old), found " + settingNumber(v));
 }
 
@@ -29,7 +34,8 @@ void budgetFits(const std::string& source, const std::string& key, double v, con
 
 void validateRuntimeSettings(const RuntimeSettings& s, const RuntimeLimits& limits, const std::string& source)
 {
-  auto seconds = [&](const std::string& key, double v, bool zero_ok) {
+  auto seconds = [&](const std::string& key, double v, bool zero_ok)
+  {
     if (!std::isfinite(v) || v < 0.0 || (!zero_ok && v == 0.0))
       throw ConfigError(source + ": " + key + ": expected a number of seconds " + (zero_ok ? ">= 0" : "> 0") +
                         ", found " + settingNumber(v));
@@ -46,7 +52,8 @@ void validateRuntimeSettings(const RuntimeSettings& s, const RuntimeLimits& limi
     budgetFits(source, "latency_budget", s.latency_budget, limits);
   latePolicyFromString(s.late_policy, source);
   if (std::isnan(s.trace_bound) || s.trace_bound < 0.0)
-    throw ConfigError(source + ": trace_bound: expected a number >= 0 (inf: no bound), found " + settingNumber(s.trace_bound));
+    throw ConfigError(source + ": trace_bound: expected a number >= 0 (inf: no bound), found " +
+                      settingNumber(s.trace_bound));
 }
 
 std::string describe(const RuntimeSettings& s)

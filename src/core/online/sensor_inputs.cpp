@@ -81,7 +81,8 @@ std::vector<InputField> elements()
 /// a row here (and its message class in the nodelets' list, input_message_types.hpp).
 const std::vector<InputTypeInfo>& table()
 {
-  static const std::vector<InputTypeInfo> rows = [] {
+  static const std::vector<InputTypeInfo> rows = []
+  {
     const std::vector<InputTypeInfo> r = {
         {InputType::MEASUREMENT, "networked_estimation/Measurement", {}, true, true},
         {InputType::ODOMETRY, "nav_msgs/Odometry", join(pose("pose.pose."), twist("twist.twist.")), true, true},
@@ -95,8 +96,11 @@ const std::vector<InputTypeInfo>& table()
          join(join(orientation("orientation."), vector3("angular_velocity.", Quantity::ANGULAR_VELOCITY)),
               vector3("linear_acceleration.", Quantity::LINEAR_ACCELERATION)),
          true, true},
-        {InputType::NAVSATFIX, "sensor_msgs/NavSatFix",
-         {{"east", Quantity::ENU, 0}, {"north", Quantity::ENU, 1}, {"up", Quantity::ENU, 2}}, true, true},
+        {InputType::NAVSATFIX,
+         "sensor_msgs/NavSatFix",
+         {{"east", Quantity::ENU, 0}, {"north", Quantity::ENU, 1}, {"up", Quantity::ENU, 2}},
+         true,
+         true},
         {InputType::RANGE, "sensor_msgs/Range", {{"range", Quantity::SCALAR, 0}}, true, true},
         {InputType::FLOAT64, "std_msgs/Float64", {{"data", Quantity::SCALAR, 0}}, false, true},
         {InputType::TWIST_UNSTAMPED, "geometry_msgs/Twist", twist(""), false, true},
@@ -113,13 +117,20 @@ const std::vector<InputTypeInfo>& table()
 
 }  // namespace
 
-const InputTypeInfo& inputTypeInfo(InputType t) { return table().at(static_cast<std::size_t>(t)); }
+const InputTypeInfo& inputTypeInfo(InputType t)
+{
+  return table().at(static_cast<std::size_t>(t));
+}
 
-std::string toString(InputType t) { return inputTypeInfo(t).name; }
+std::string toString(InputType t)
+{
+  return inputTypeInfo(t).name;
+}
 
 const std::vector<InputType>& inputTypes()
 {
-  static const std::vector<InputType> all = [] {
+  static const std::vector<InputType> all = []
+  {
     std::vector<InputType> out;
     for (const InputTypeInfo& row : table())
       out.push_back(row.type);
@@ -130,7 +141,8 @@ const std::vector<InputType>& inputTypes()
 
 const std::vector<InputType>& sensorInputTypes()
 {
-  static const std::vector<InputType> sensors = [] {
+  static const std::vector<InputType> sensors = []
+  {
     std::vector<InputType> out;
     for (const InputTypeInfo& row : table())
       if (row.sensor)
@@ -148,7 +160,10 @@ const std::vector<InputType>& commandInputTypes()
   return commands;
 }
 
-const std::vector<InputField>& inputFields(InputType t) { return inputTypeInfo(t).fields; }
+const std::vector<InputField>& inputFields(InputType t)
+{
+  return inputTypeInfo(t).fields;
+}
 
 CovarianceSource covarianceOf(InputType type, const InputField& f)
 {
@@ -216,7 +231,8 @@ InputField inputFieldFromString(InputType type, const std::string& name, const s
   if (type == InputType::MEASUREMENT || type == InputType::CONTROL_INPUT)
     throw ConfigError(key + ": " + toString(type) + " has no field selection (it is taken whole)");
   if (type == InputType::FLOAT64_ARRAY)
-    throw ConfigError(key + ": '" + name + "' is not a field of std_msgs/Float64MultiArray (fields: data[i], 0 <= i < " +
+    throw ConfigError(key + ": '" + name +
+                      "' is not a field of std_msgs/Float64MultiArray (fields: data[i], 0 <= i < " +
                       std::to_string(kMaxArrayFields) + ")");
   throw ConfigError(key + ": '" + name + "' is not a field of " + toString(type) + " (fields: " + names + ")");
 }
@@ -234,7 +250,8 @@ InputTransport parseInputTransport(ParamReader& p, const std::string& prefix)
   const YAML::Node transport = p.take("transport");
   if (transport.IsDefined() && !transport.IsNull())
   {
-    const std::string v = transport.IsScalar() ? transport.Scalar() : std::string(transport.IsMap() ? "a map" : "a list");
+    const std::string v =
+        transport.IsScalar() ? transport.Scalar() : std::string(transport.IsMap() ? "a map" : "a list");
     if (v == "udp")
       out.transport = Transport::UDP;
     else if (v != "tcp")
@@ -252,7 +269,7 @@ InputTransport parseInputTransport(ParamReader& p, const std::string& prefix)
 }
 
 void parseInputBlock(ParamReader& p, const std::string& key, const std::vector<InputType>& allowed, int rows,
-                const std::string& what, SensorInput& in)
+                     const std::string& what, SensorInput& in)
 {
   in.topic = p.text("topic", in.topic);
   if (in.topic.empty())

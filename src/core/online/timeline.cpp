@@ -12,7 +12,10 @@ namespace networked_estimation
 namespace
 {
 
-std::string timelineSeconds(double s) { return tokens::format(s, 10); }
+std::string timelineSeconds(double s)
+{
+  return tokens::format(s, 10);
+}
 
 }  // namespace
 
@@ -28,11 +31,11 @@ Timeline::Admission Timeline::plausible(double stamp, double now) const
   if (!(stamp > 0.0))
     a.reason = "stamp " + timelineSeconds(stamp) + ": not a sample time (an unset header stamp?)";
   else if (now > 0.0 && stamp > now + options_.max_ahead)
-    a.reason = "stamp " + timelineSeconds(stamp) + " is " + timelineSeconds(stamp - now) + " s ahead of ROS time " + timelineSeconds(now) +
-               " (max_stamp_ahead " + timelineSeconds(options_.max_ahead) + " s)";
+    a.reason = "stamp " + timelineSeconds(stamp) + " is " + timelineSeconds(stamp - now) + " s ahead of ROS time " +
+               timelineSeconds(now) + " (max_stamp_ahead " + timelineSeconds(options_.max_ahead) + " s)";
   else if (now > 0.0 && stamp < now - options_.max_behind)
-    a.reason = "stamp " + timelineSeconds(stamp) + " is " + timelineSeconds(now - stamp) + " s behind ROS time " + timelineSeconds(now) +
-               " (max_stamp_behind " + timelineSeconds(options_.max_behind) + " s)";
+    a.reason = "stamp " + timelineSeconds(stamp) + " is " + timelineSeconds(now - stamp) + " s behind ROS time " +
+               timelineSeconds(now) + " (max_stamp_behind " + timelineSeconds(options_.max_behind) + " s)";
   else
     a.verdict = Verdict::ACCEPT;
   return a;
@@ -76,7 +79,8 @@ Timeline::Admission Timeline::decide(double stamp, long step, double now)
     else if (++misfits_ >= kMisfitsToRestart)
     {
       a.verdict = Verdict::RESTART;
-      a.reason = what + ", the " + std::to_string(misfits_) + "th such message in a row: the stream jumped, the "
+      a.reason = what + ", the " + std::to_string(misfits_) +
+                 "th such message in a row: the stream jumped, the "
                  "timeline restarts on it";
     }
     else
@@ -92,8 +96,9 @@ Timeline::Admission Timeline::decide(double stamp, long step, double now)
   if (before && !confirmed_ && (now > 0.0 ? ahead : !stepped_))
   {
     a.verdict = Verdict::RESTART;
-    a.reason = "stamp " + timelineSeconds(stamp) + " is " + timelineSeconds(anchor_stamp_ - stamp) + " s before the stamp " +
-               timelineSeconds(anchor_stamp_) + " that anchored the timeline ahead of ROS time, and nothing confirmed "
+    a.reason = "stamp " + timelineSeconds(stamp) + " is " + timelineSeconds(anchor_stamp_ - stamp) +
+               " s before the stamp " + timelineSeconds(anchor_stamp_) +
+               " that anchored the timeline ahead of ROS time, and nothing confirmed "
                "that anchor: the timeline restarts on this message";
     return a;
   }

@@ -14,9 +14,10 @@ namespace networked_estimation
 const std::vector<InputType>& simulatorOutputTypes()
 {
   static const std::vector<InputType> types = {
-      InputType::MEASUREMENT, InputType::ODOMETRY, InputType::POSE_WITH_COVARIANCE, InputType::POSE,
-      InputType::POINT,       InputType::TWIST_WITH_COVARIANCE, InputType::TWIST,   InputType::IMU,
-      InputType::NAVSATFIX,   InputType::RANGE};
+      InputType::MEASUREMENT, InputType::ODOMETRY, InputType::POSE_WITH_COVARIANCE,
+      InputType::POSE,        InputType::POINT,    InputType::TWIST_WITH_COVARIANCE,
+      InputType::TWIST,       InputType::IMU,      InputType::NAVSATFIX,
+      InputType::RANGE};
   return types;
 }
 
@@ -49,8 +50,9 @@ void parseOne(const YAML::Node& block, const std::string& key, const Sensor& sen
               SensorOutput& out)
 {
   if (!block.IsMap())
-    throw ConfigError(key + ": expected a map (keys: topic, type, fields, rate, frame_id, child_frame_id, "
-                            "covariance_scales)");
+    throw ConfigError(key +
+                      ": expected a map (keys: topic, type, fields, rate, frame_id, child_frame_id, "
+                      "covariance_scales)");
   ParamReader p(block, key);
   parseInputBlock(p, key, simulatorOutputTypes(), sensor.size, "row of sensor '" + sensor.name + "'", out.format);
   out.format.rate = p.number("rate", model_rate, 0.0, 1e9);

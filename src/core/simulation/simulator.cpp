@@ -34,13 +34,11 @@ Eigen::MatrixXd psdSqrt(const Eigen::MatrixXd& P)
   return ldlt.transpositionsP().transpose() * LD;
 }
 
-Eigen::MatrixXd lowerCholesky(const Eigen::MatrixXd& M, const std::string& name,
-                              const std::string& model_name)
+Eigen::MatrixXd lowerCholesky(const Eigen::MatrixXd& M, const std::string& name, const std::string& model_name)
 {
   Eigen::LLT<Eigen::MatrixXd> llt(M);
   if (llt.info() != Eigen::Success)
-    throw ConfigError("PlantSimulator: model '" + model_name + "': " + name +
-                      " is not positive definite");
+    throw ConfigError("PlantSimulator: model '" + model_name + "': " + name + " is not positive definite");
   return llt.matrixL();
 }
 
@@ -75,13 +73,12 @@ std::string shortNumber(double v)
 }
 
 template <typename Derived>
-void requireSize(const Eigen::EigenBase<Derived>& M, Eigen::Index rows, Eigen::Index cols,
-                 const std::string& name, const std::string& model_name)
+void requireSize(const Eigen::EigenBase<Derived>& M, Eigen::Index rows, Eigen::Index cols, const std::string& name,
+                 const std::string& model_name)
 {
   if (M.rows() != rows || M.cols() != cols)
-    throw ConfigError("PlantSimulator: model '" + model_name + "': " + name + " is " +
-                      std::to_string(M.rows()) + "x" + std::to_string(M.cols()) + ", expected " +
-                      std::to_string(rows) + "x" + std::to_string(cols));
+    throw ConfigError("PlantSimulator: model '" + model_name + "': " + name + " is " + std::to_string(M.rows()) + "x" +
+                      std::to_string(M.cols()) + ", expected " + std::to_string(rows) + "x" + std::to_string(cols));
 }
 
 }  // namespace
@@ -144,13 +141,13 @@ ControlSequence ControlSequence::parse(const std::string& text, const std::strin
 
 PlantSimulator::PlantSimulator(const Model& model, std::uint64_t seed, ControlSequence control,
                                std::unique_ptr<LossModel> actuator)
-  : model_(model)
-  , control_(control)
-  , actuator_(std::move(actuator))
-  , rng_x0_(deriveSeed(seed, 0))
-  , rng_w_(deriveSeed(seed, 1))
-  , rng_v_(deriveSeed(seed, 2))
-  , rng_eps_(deriveSeed(seed, 3))
+  : model_(model),
+    control_(control),
+    actuator_(std::move(actuator)),
+    rng_x0_(deriveSeed(seed, 0)),
+    rng_w_(deriveSeed(seed, 1)),
+    rng_v_(deriveSeed(seed, 2)),
+    rng_eps_(deriveSeed(seed, 3))
 {
   const int n = model.n(), nw = model.nw(), m = model.m(), p = model.p(), ne = model.ne();
   const std::string& name = model.name;
@@ -188,14 +185,13 @@ PlantSimulator::PlantSimulator(const Model& model, std::uint64_t seed, ControlSe
   for (int j = 0; j < ne; ++j)
     if (model.uncertainty[j].dC.size() > 0)
       c += std::abs(model.uncertainty[j].range) * infNorm(model.uncertainty[j].dC);
-  const double sd_v = c > 0.0 && m > 0
-                          ? std::sqrt(std::max(0.0, symmetricEigenvalues(model.R)(0))) / c
-                          : std::numeric_limits<double>::infinity();
+  const double sd_v = c > 0.0 && m > 0 ? std::sqrt(std::max(0.0, symmetricEigenvalues(model.R)(0))) / c
+                                       : std::numeric_limits<double>::infinity();
   const double lw = nw > 0 ? smallestNonZeroEigenvalue(model.B * q_step * model.B.transpose()) : 0.0;
   const double sd_w = lw > 0.0 ? std::sqrt(lw) : std::numeric_limits<double>::infinity();
   noise_sd_ = std::min(sd_v, sd_w);
-  noise_kind_ = sd_v <= sd_w ? "measurement noise sqrt(lambda_min(R)) / ||C||_inf"
-                             : "process noise sqrt(lambda_min+(B Q B'))";
+  noise_kind_ =
+      sd_v <= sd_w ? "measurement noise sqrt(lambda_min(R)) / ||C||_inf" : "process noise sqrt(lambda_min+(B Q B'))";
   state_limit_ = kFloorFraction * noise_sd_ / std::numeric_limits<double>::epsilon();
 
   angle_rows_ = angularRows(model);
@@ -375,7 +371,8 @@ void PlantSimulator::throwBeyondFloor() const
                         ", beyond the limit " + shortNumber(state_limit_) + " where rounding (||x_k||_inf * eps = " +
                         shortNumber(norm * std::numeric_limits<double>::epsilon()) + ") exceeds " +
                         shortNumber(kFloorFraction) + " of the smallest noise standard deviation in state units (" +
-                        noise_kind_ + " = " + shortNumber(noise_sd_) + "): results from this step on would be below the rounding floor; simulate fewer steps");
+                        noise_kind_ + " = " + shortNumber(noise_sd_) +
+                        "): results from this step on would be below the rounding floor; simulate fewer steps");
 }
 
 }  // namespace networked_estimation

@@ -16,13 +16,15 @@ bool unboundedAtEveryRate(double v)
   return std::isinf(v) && v > 0.0;
 }
 
-Model analysedModel(const Model& loaded, const Eigen::VectorXd* at, const std::string& at_label, std::string& local_note)
+Model analysedModel(const Model& loaded, const Eigen::VectorXd* at, const std::string& at_label,
+                    std::string& local_note)
 {
   local_note.clear();
   if (!loaded.nonlinear())
   {
     if (at)
-      throw ConfigError(at_label + " is only for a model with a built-in motion (model '" + loaded.name + "' is linear)");
+      throw ConfigError(at_label + " is only for a model with a built-in motion (model '" + loaded.name +
+                        "' is linear)");
     return loaded;
   }
   const Eigen::VectorXd x = at ? *at : loaded.x0;
@@ -76,7 +78,6 @@ std::vector<TraceEvidence> traceEvidence(const Model& model, const std::vector<s
 
 namespace
 {
-
 
 void jverdict(JsonWriter& w, const Verdict& v)
 {
@@ -176,7 +177,12 @@ void jtrace(JsonWriter& w, const TraceEvidence& e)
   w.member("h", r.h).member("lambda_block_min", r.lambda_block).member("lambda", r.lambda).member("norm_A", r.norm_A);
   w.key("a3").beginArray();
   for (const ExcitationA3& a : r.a3)
-    w.beginObject().member("p", a.p).member("printed", a.printed).member("proof", a.proof).member("holds", a.holds()).endObject();
+    w.beginObject()
+        .member("p", a.p)
+        .member("printed", a.printed)
+        .member("proof", a.proof)
+        .member("holds", a.holds())
+        .endObject();
   w.endArray().key("verdict");
   jverdict(w, r.verdict);
   w.member("caveat", ExcitationReport::caveat()).endObject();
@@ -238,7 +244,8 @@ std::string analysisJson(const StabilityReport& rep, const std::vector<std::stri
   w.br(0).endObject();
   return w.text() + "\n";
 }
-std::string verdictJson(const std::string& model_name, const VerdictReport& rep, const std::vector<std::string>& origins)
+std::string verdictJson(const std::string& model_name, const VerdictReport& rep,
+                        const std::vector<std::string>& origins)
 {
   JsonWriter w;
   w.beginObject();

@@ -93,8 +93,7 @@ void writeLinkNeeds(std::ostream& os, const std::vector<SensorLinkReport>& links
          << ", distance to the nearest edge " << textNumber(m.margin) << "\n    (" << m.note << ")\n";
     else if (!m.grows_regardless.empty())
       os << m.quantity << " " << textNumber(m.value) << ", needs: none (" << growRegardless(m.grows_regardless)
-         << "); the observed modes alone need " << textRate(m.converges_at_observed)
-         << "\n    (" << m.note << ")\n";
+         << "); the observed modes alone need " << textRate(m.converges_at_observed) << "\n    (" << m.note << ")\n";
     else if (std::isnan(m.band.converges_at))
       os << m.quantity << " " << textNumber(m.value) << ", no stable rate: " << m.note << "\n";
     else if (m.any_positive)
@@ -155,9 +154,9 @@ std::string analysisText(const Model& model, const StabilityReport& rep, const S
       for (const SensorLinkReport& l : rep.links)
         out << "channel " << l.sensor << ": arrival rate " << textNumber(l.arrival_rate) << ", recovery rate "
             << textNumber(l.recovery_rate) << "\n";
-    out << "capacity c = " << textNumber(rep.capacity.total) << " (c_lower = ln rho(A) = "
-        << textNumber(rep.capacity.lower) << ", c_upper = h(A) = " << textNumber(rep.capacity.upper)
-        << "): " << rep.capacity_note << "\n";
+    out << "capacity c = " << textNumber(rep.capacity.total)
+        << " (c_lower = ln rho(A) = " << textNumber(rep.capacity.lower)
+        << ", c_upper = h(A) = " << textNumber(rep.capacity.upper) << "): " << rep.capacity_note << "\n";
     out << "MARE bound at these rates: " << rep.mare_at_rates << "\n";
   }
   out << "estimator " << rep.estimator << ": " << rep.estimator_note << "\n";
@@ -181,8 +180,9 @@ std::string analysisText(const Model& model, const StabilityReport& rep, const S
         continue;
       }
       const ExcitationReport& r = e.report;
-      out << "h = " << r.h << ", smallest block excitation " << textNumber(r.lambda_block) << ", lambda = "
-          << textNumber(r.lambda) << ", ||A|| = " << textNumber(r.norm_A) << "\n    A3 (printed / proof form):";
+      out << "h = " << r.h << ", smallest block excitation " << textNumber(r.lambda_block)
+          << ", lambda = " << textNumber(r.lambda) << ", ||A|| = " << textNumber(r.norm_A)
+          << "\n    A3 (printed / proof form):";
       for (const ExcitationA3& a : r.a3)
         out << " p = " << a.p << ": " << textNumber(a.printed) << " / " << textNumber(a.proof)
             << (a.holds() ? " holds;" : " fails;");
@@ -208,8 +208,9 @@ std::string verdictText(const std::string& model_name, const std::string& local_
 std::string designText(const Model& model, const LinkDesign& d, const std::string& cost)
 {
   std::ostringstream out;
-  out << "link design for model " << model.name << " (i.i.d. links; cost: "
-      << (cost == "capacity" ? "sum of -ln(1 - rate)" : "sum of the arrival rates") << ")\n";
+  out << "link design for model " << model.name
+      << " (i.i.d. links; cost: " << (cost == "capacity" ? "sum of -ln(1 - rate)" : "sum of the arrival rates")
+      << ")\n";
   out << "  " << d.note << "\n";
   if (!d.applicable)
     return out.str();

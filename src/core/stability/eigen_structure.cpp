@@ -214,8 +214,8 @@ Verdict strongObservability(const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, 
     if (rank < static_cast<int>(group.size()))
     {
       std::ostringstream os;
-      os << "(A, C) is not strongly observable: the " << group.size() << " eigenvalue(s) of modulus "
-         << std::abs(ev[i]) << " give C V a column rank of " << rank;
+      os << "(A, C) is not strongly observable: the " << group.size() << " eigenvalue(s) of modulus " << std::abs(ev[i])
+         << " give C V a column rank of " << rank;
       v.kind = Verdict::Kind::UNSTABLE;
       v.reason = os.str();
       v.numbers["modulus"] = std::abs(ev[i]);

@@ -138,8 +138,9 @@ Verdict rseioTheorem5(const Model& model, double mu, const LinkModel& link, cons
   {
     if (!link.onOff())
     {
-      v.reason = "Zhou's Theorem 5: the arrivals of a Gilbert-Elliott chain with loss_good > 0 or loss_bad < 1 "
-                 "are not a Markov chain";
+      v.reason =
+          "Zhou's Theorem 5: the arrivals of a Gilbert-Elliott chain with loss_good > 0 or loss_bad < 1 "
+          "are not a Markov chain";
       return v;
     }
     v.numbers["alpha"] = 1.0 - link.p;
@@ -177,7 +178,8 @@ Verdict rseioTheorem5(const Model& model, double mu, const LinkModel& link, cons
   const Eigen::MatrixXd G1 = model.B * Eigen::LLT<Eigen::MatrixXd>(sym(f.Qtil)).matrixL().toDenseMatrix();
   const Eigen::MatrixXd G2 = model.B * Eigen::LLT<Eigen::MatrixXd>(sym(model.Q)).matrixL().toDenseMatrix();
   auto pd = [&](const Eigen::MatrixXd& S) { return conditionRatio(S) > rank_tol; };
-  auto repeat = [](std::vector<int> head, const std::vector<int>& unit, int times) {
+  auto repeat = [](std::vector<int> head, const std::vector<int>& unit, int times)
+  {
     for (int t = 0; t < times; ++t)
       head.insert(head.end(), unit.begin(), unit.end());
     return head;

@@ -149,7 +149,8 @@ BlockGrowth blockGrowth(const BlockStructure& block, const std::vector<LinkModel
 Schedule restrictSchedule(const Schedule& schedule, const std::vector<int>& set)
 {
   Schedule out = schedule;
-  auto restrict = [&](std::vector<std::vector<bool>>& masks) {
+  auto restrict = [&](std::vector<std::vector<bool>>& masks)
+  {
     for (std::vector<bool>& m : masks)
     {
       std::vector<bool> r;

@@ -56,8 +56,8 @@ std::vector<BlockStructure> analyseBlocks(const Eigen::MatrixXd& A, const std::v
 }
 
 std::vector<BlockStructure> analyseBlocks(const Eigen::MatrixXd& A, const std::vector<FmoBlock>& blocks,
-                                          const std::vector<Eigen::MatrixXd>& H,
-                                          const StabilityTolerances& tol, std::size_t lattice_cap)
+                                          const std::vector<Eigen::MatrixXd>& H, const StabilityTolerances& tol,
+                                          std::size_t lattice_cap)
 {
   std::vector<BlockStructure> out;
   const std::size_t ns = H.size();
@@ -106,7 +106,8 @@ std::vector<BlockStructure> analyseBlocks(const Eigen::MatrixXd& A, const std::v
       }
     }
     // Does sensor j at phase s inform on the subspace spanned by the orthonormal columns of B?
-    auto informs = [&](std::size_t j, int s, const Eigen::MatrixXcd& B) {
+    auto informs = [&](std::size_t j, int s, const Eigen::MatrixXcd& B)
+    {
       if (blk.diagonalizable)
         return (M[j][s] * B).norm() > 1e-8 * hscale[j];
       const Eigen::MatrixXcd& Kjs = K[j][s];
@@ -115,7 +116,8 @@ std::vector<BlockStructure> analyseBlocks(const Eigen::MatrixXd& A, const std::v
     // The lattice: the whole block and the atoms K_js, closed under intersection.
     std::vector<Eigen::MatrixXcd> elems;
     std::vector<Eigen::MatrixXcd> proj;
-    auto add = [&](const Eigen::MatrixXcd& B) {
+    auto add = [&](const Eigen::MatrixXcd& B)
+    {
       if (B.cols() == 0)
         return false;
       const Eigen::MatrixXcd P = B * B.adjoint();
@@ -169,8 +171,9 @@ std::vector<BlockStructure> analyseBlocks(const Eigen::MatrixXd& A, const std::v
     else if (blk.single_eigenvalue && elems.size() == 1)
     {
       bs.method = BlockStructure::Method::SINGLE_EIGENVALUE;
-      bs.reason = where.str() + ": single eigenvalue, every sensor that sees it observes it alone "
-                                "(Corollary 26: Phi = product of loss persistences)";
+      bs.reason = where.str() +
+                  ": single eigenvalue, every sensor that sees it observes it alone "
+                  "(Corollary 26: Phi = product of loss persistences)";
     }
     else
     {
@@ -322,7 +325,8 @@ Verdict marelliTest(const std::vector<BlockStructure>& blocks, const std::vector
   v.numbers["max |alpha|^2 Phi"] = worst;
   v.numbers["|alpha|"] = blocks[worst_k].block.modulus;
   std::ostringstream os;
-  os << "Theorem 14 (Marelli et al.): max |alpha_k|^2 Phi_k = " << worst << " at |alpha| = " << blocks[worst_k].block.modulus;
+  os << "Theorem 14 (Marelli et al.): max |alpha_k|^2 Phi_k = " << worst
+     << " at |alpha| = " << blocks[worst_k].block.modulus;
   if (schedule && schedule->active())
     os << " (with the sensor schedule, tau = " << schedule->period() << ")";
   if (any_unstable)
@@ -381,7 +385,8 @@ double exactCriticalRecoveryRate(const std::vector<BlockStructure>& blocks, doub
     if (b.method == BlockStructure::Method::UNAVAILABLE)
       return std::numeric_limits<double>::quiet_NaN();
   const std::size_t ns = blocks.front().relevant.size();
-  auto growth = [&](double r) {
+  auto growth = [&](double r)
+  {
     const std::vector<LinkModel> links(ns, LinkModel::gilbertElliott(p, r));
     double g = 0.0;
     for (const BlockStructure& b : blocks)

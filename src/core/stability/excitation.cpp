@@ -121,9 +121,10 @@ std::vector<ExcitationA3> ganLiuA3(double norm_A, double lambda, int n, int h, d
   {
     ExcitationA3 a;
     a.p = p;
-    a.printed = std::pow(2.0, (p - 1.0) / (p * h)) * norm_A * norm_A *
-                std::pow(lambda, 1.0 / (8.0 * n * p * p * (1.0 + R)));
-    a.proof = std::pow(16.0, p - 1.0) * std::pow(norm_A, 8.0 * p * h) * std::pow(lambda, 1.0 / (2.0 * n * h * (1.0 + R)));
+    a.printed =
+        std::pow(2.0, (p - 1.0) / (p * h)) * norm_A * norm_A * std::pow(lambda, 1.0 / (8.0 * n * p * p * (1.0 + R)));
+    a.proof =
+        std::pow(16.0, p - 1.0) * std::pow(norm_A, 8.0 * p * h) * std::pow(lambda, 1.0 / (2.0 * n * h * (1.0 + R)));
     out.push_back(a);
   }
   return out;
@@ -230,8 +231,8 @@ ExcitationReport ganLiuTrace(const Eigen::MatrixXd& A, const Eigen::MatrixXd& c,
   return blocks.report(lambdas);
 }
 
-Theorem1Monitor::Theorem1Monitor(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, const Eigen::MatrixXd& c,
-                                 double R, int h)
+Theorem1Monitor::Theorem1Monitor(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, const Eigen::MatrixXd& c, double R,
+                                 int h)
   : A_(A), Q_(Q), c_(c), R_(R), h_(h)
 {
   checkInputs(A, c, R, h);

@@ -78,13 +78,15 @@ LinkDesign designLinks(const Model& model, DesignCost cost, double growth_cap)
       poly.b.push_back(rhs);
     }
   }
-  const auto costOf = [&](const Eigen::VectorXd& u) {
+  const auto costOf = [&](const Eigen::VectorXd& u)
+  {
     double c = 0.0;
     for (Eigen::Index j = 0; j < u.size(); ++j)
       c += cost == DesignCost::CAPACITY ? u[j] : 1.0 - std::exp(-u[j]);
     return c;
   };
-  const auto feasible = [&](const Eigen::VectorXd& u) {
+  const auto feasible = [&](const Eigen::VectorXd& u)
+  {
     if ((u.array() < -1e-12).any())
       return false;
     for (std::size_t r = 0; r < poly.w.size(); ++r)
@@ -104,7 +106,8 @@ LinkDesign designLinks(const Model& model, DesignCost cost, double growth_cap)
     // Every vertex: S active constraints among the rows and the bounds u_j = 0.
     const std::size_t R = poly.w.size(), total = R + S;
     std::vector<std::size_t> pick;
-    std::function<void(std::size_t)> rec = [&](std::size_t from) {
+    std::function<void(std::size_t)> rec = [&](std::size_t from)
+    {
       if (pick.size() == S)
       {
         Eigen::MatrixXd M(static_cast<Eigen::Index>(S), static_cast<Eigen::Index>(S));

@@ -15,7 +15,10 @@ namespace networked_estimation
 namespace
 {
 
-std::string liveNumber(double v) { return tokens::format(v, 6); }
+std::string liveNumber(double v)
+{
+  return tokens::format(v, 6);
+}
 
 std::string rate(const RateEstimate& e, const char* unit)
 {
@@ -88,8 +91,9 @@ std::string statesOnlyMeasuredBy(const Model& m, std::size_t s)
       others = t != s && !m.C.block(m.sensors[t].offset, j, m.sensors[t].size, 1).isZero(0.0);
     if (others)
       continue;
-    out += (out.empty() ? "" : ", ") +
-           (static_cast<int>(m.states.size()) == m.n() ? m.states[static_cast<std::size_t>(j)] : "state " + std::to_string(j));
+    out +=
+        (out.empty() ? "" : ", ") + (static_cast<int>(m.states.size()) == m.n() ? m.states[static_cast<std::size_t>(j)]
+                                                                                : "state " + std::to_string(j));
   }
   return out;
 }
@@ -318,7 +322,7 @@ LiveStabilityReport LiveStability::evaluate() const
     const GanLiuBlocks& gb = *gan_liu_[si];
     const std::vector<bool> window = joint_.sensor(si).window();
     const std::uint64_t h = static_cast<std::uint64_t>(gb.h());
-    const std::uint64_t start = samples_[si] - window.size();  // the window's first sample
+    const std::uint64_t start = samples_[si] - window.size();                 // the window's first sample
     const std::uint64_t first = (start + h - 1) / h, end = samples_[si] / h;  // whole blocks [first, end)
     if (first >= end)
       continue;
@@ -336,9 +340,9 @@ LiveStabilityReport LiveStability::evaluate() const
     const ExcitationReport gl = gb.report(lambdas);
     add(sensor.name + " Gan-Liu excitation", "lambda " + liveNumber(gl.lambda) + " (h = " + std::to_string(gl.h) +
                                                  ", smallest block " + liveNumber(gl.lambda_block) + ")");
-    add(sensor.name + " Gan-Liu A3 (printed / proof)", "p = 1: " + liveNumber(gl.a3[0].printed) + " / " +
-                                                           liveNumber(gl.a3[0].proof) + "; p = 2: " +
-                                                           liveNumber(gl.a3[1].printed) + " / " + liveNumber(gl.a3[1].proof));
+    add(sensor.name + " Gan-Liu A3 (printed / proof)",
+        "p = 1: " + liveNumber(gl.a3[0].printed) + " / " + liveNumber(gl.a3[0].proof) +
+            "; p = 2: " + liveNumber(gl.a3[1].printed) + " / " + liveNumber(gl.a3[1].proof));
     add(sensor.name + " Gan-Liu verdict", toString(gl.verdict.kind) + ": " + gl.verdict.reason);
   }
   if (theorem1_)

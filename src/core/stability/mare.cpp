@@ -218,7 +218,8 @@ CriticalBand mareCriticalRate(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q
                               double lo, double hi, double tolerance, const MareOptions& options)
 {
   CriticalBand band;
-  auto status = [&](double lambda) {
+  auto status = [&](double lambda)
+  {
     ++band.evaluations;
     const Mare mare(A, Q, H, std::vector<double>(H.size(), lambda));
     return solveMare(mare, options, true).status;

@@ -112,8 +112,9 @@ std::vector<RateInterval> scanStable(const KindAt& kind, int points, double tol)
     }
     if (st[k] && (k == points || !st[k + 1]))
       out.back().upper =
-          k == points ? 1.0
-                      : bisect([&](double y) { return !isStable(y); }, x, static_cast<double>(k + 1) / points, tol).first;
+          k == points
+              ? 1.0
+              : bisect([&](double y) { return !isStable(y); }, x, static_cast<double>(k + 1) / points, tol).first;
   }
   return out;
 }
@@ -173,11 +174,13 @@ SensorMargin linkMargin(const Context& ctx, const SetData& all, const std::vecto
   }
   else
   {
-    m.note = "not applicable: a hidden Gilbert-Elliott chain (loss_good > 0 or loss_bad < 1): the recovery rate "
-             "does not determine its loss persistence";
+    m.note =
+        "not applicable: a hidden Gilbert-Elliott chain (loss_good > 0 or loss_bad < 1): the recovery rate "
+        "does not determine its loss persistence";
     return m;
   }
-  const KindAt kind = [&](double x) {
+  const KindAt kind = [&](double x)
+  {
     std::vector<LinkModel> at = links;
     at[i] = make(x);
     return linkVerdict(ctx, all, at).kind;
@@ -198,8 +201,10 @@ SensorMargin linkMargin(const Context& ctx, const SetData& all, const std::vecto
     m.scan_points = opt.scan_points;
     m.stable = scanStable(kind, opt.scan_points, tol);
     m.margin = intervalMargin(m.stable, m.value);
-    m.note = "p = " + num(own.p) + ", others fixed; a lattice block of order > 1 makes the stable set not a "
-             "half-line: stable for r in " + intervals(m.stable) + " (scan of " + std::to_string(opt.scan_points) +
+    m.note = "p = " + num(own.p) +
+             ", others fixed; a lattice block of order > 1 makes the stable set not a "
+             "half-line: stable for r in " +
+             intervals(m.stable) + " (scan of " + std::to_string(opt.scan_points) +
              " steps, bisection at each change, " + how + ")";
     return m;
   }
@@ -207,8 +212,9 @@ SensorMargin linkMargin(const Context& ctx, const SetData& all, const std::vecto
   if (m.any_positive)
   {
     m.margin = m.value;
-    m.note = "others fixed; any positive rate: a mode on the unit circle that only this sensor's link covers, "
-             "unbounded at rate 0 (Theorem 14, docs/stability.md 3.5d)";
+    m.note =
+        "others fixed; any positive rate: a mode on the unit circle that only this sensor's link covers, "
+        "unbounded at rate 0 (Theorem 14, docs/stability.md 3.5d)";
   }
   else if (m.band.converges_at == 0.0)
   {
@@ -227,9 +233,9 @@ SensorMargin linkMargin(const Context& ctx, const SetData& all, const std::vecto
   }
   else
   {
-    m.note = std::string("others fixed; ") +
-             (std::isnan(m.band.diverges_at) ? "not stable even at rate 1 (undecided there)"
-                                             : "unstable even at rate 1: this sensor cannot make the set stable");
+    m.note = std::string("others fixed; ") + (std::isnan(m.band.diverges_at)
+                                                  ? "not stable even at rate 1 (undecided there)"
+                                                  : "unstable even at rate 1: this sensor cannot make the set stable");
   }
   return m;
 }

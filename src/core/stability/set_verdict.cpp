@@ -212,9 +212,11 @@ Verdict setVerdictFrom(const SetData& d, const Verdict& links_verdict)
   else
   {
     v.kind = Verdict::Kind::NOT_APPLICABLE;
-    v.reason = "(A, B Q^1/2) has an uncontrollable mode with |lambda| >= 1, and no sensor observes " +
-               d.dead_states + " (" + d.dead_modes + ") even when every message arrives; the critical-rate "
-               "results assume (A, Q^1/2) controllable" + links;
+    v.reason = "(A, B Q^1/2) has an uncontrollable mode with |lambda| >= 1, and no sensor observes " + d.dead_states +
+               " (" + d.dead_modes +
+               ") even when every message arrives; the critical-rate "
+               "results assume (A, Q^1/2) controllable" +
+               links;
   }
   return v;
 }
@@ -241,8 +243,9 @@ Verdict linkVerdict(const Context& ctx, const SetData& d, const std::vector<Link
   if (!d.excited)
   {
     v.kind = Verdict::Kind::NOT_APPLICABLE;
-    v.reason = "(A, B Q^1/2) has an uncontrollable mode with |lambda| >= 1; the critical-rate results assume "
-               "(A, Q^1/2) controllable";
+    v.reason =
+        "(A, B Q^1/2) has an uncontrollable mode with |lambda| >= 1; the critical-rate results assume "
+        "(A, Q^1/2) controllable";
     return v;
   }
   const Verdict exact = marelliTest(d.blocks, links, opt.tol, &d.schedule);
@@ -279,8 +282,8 @@ Verdict linkVerdict(const Context& ctx, const SetData& d, const std::vector<Link
   if (all_iid && !opt.use_mare)
   {
     v.kind = Verdict::Kind::UNDECIDED;
-    v.reason = "above the necessary lower bound; the MARE upper bound is not tried here (analyze tries it); " +
-               exact.reason;
+    v.reason =
+        "above the necessary lower bound; the MARE upper bound is not tried here (analyze tries it); " + exact.reason;
     return v;
   }
   if (all_iid)
@@ -405,8 +408,8 @@ std::vector<SensorMargin> SetVerdicts::margins(const std::vector<LinkModel>& lin
   if (impl_->data.set.size() != S)
     throw std::invalid_argument("SetVerdicts::margins: the set must be every sensor of the model");
   if (links.size() != S)
-    throw std::invalid_argument("sensorMargins: " + std::to_string(links.size()) + " links for " +
-                                std::to_string(S) + " sensors");
+    throw std::invalid_argument("sensorMargins: " + std::to_string(links.size()) + " links for " + std::to_string(S) +
+                                " sensors");
   std::vector<SensorMargin> out;
   for (std::size_t i = 0; i < S; ++i)
     out.push_back(sensorMargin(impl_->ctx, impl_->data, links, static_cast<int>(i), links_only));

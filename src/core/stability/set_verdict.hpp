@@ -21,14 +21,14 @@ std::string num(double v);
 struct Context
 {
   const Model* model = nullptr;
-  Eigen::MatrixXd Qn;                  ///< B Q B'
-  Eigen::MatrixXd G;                   ///< B Q^1/2
-  std::vector<Eigen::MatrixXd> H;      ///< whitened, all sensors
+  Eigen::MatrixXd Qn;              ///< B Q B'
+  Eigen::MatrixXd G;               ///< B Q^1/2
+  std::vector<Eigen::MatrixXd> H;  ///< whitened, all sensors
   double rho = 0.0;
-  bool excited = true;                 ///< unstable modes controllable from the noise
-  bool has_channel = false;            ///< some sensor has a channel
-  std::vector<FmoBlock> fmo;           ///< fmoBlocks(A) of the model, shared by its sets
-  std::vector<LinkModel> links;        ///< per sensor (lossless: i.i.d. with arrival 1)
+  bool excited = true;           ///< unstable modes controllable from the noise
+  bool has_channel = false;      ///< some sensor has a channel
+  std::vector<FmoBlock> fmo;     ///< fmoBlocks(A) of the model, shared by its sets
+  std::vector<LinkModel> links;  ///< per sensor (lossless: i.i.d. with arrival 1)
   std::vector<bool> lossless;
   const AnalysisOptions* options = nullptr;
 };
@@ -48,8 +48,8 @@ struct SetData
   double rho = 0.0;
   bool excited = true;  ///< the noise excites every mode of A with |lambda| >= 1
   bool stable_A = false;
-  bool detectable = true;  ///< of the model itself (false: the quotient above is used)
-  int unobserved = 0;      ///< dimension of the unobservable subspace removed
+  bool detectable = true;          ///< of the model itself (false: the quotient above is used)
+  int unobserved = 0;              ///< dimension of the unobservable subspace removed
   Eigen::MatrixXd observed_basis;  ///< n x n_o, empty when nothing was removed
   /// The modes with |lambda| >= 1 that no sensor of the set observes, described ("" when none).
   std::string dead_reckoned;

@@ -47,7 +47,6 @@ inline double conditionRatio(const Eigen::MatrixXd& S)
   return mx > 0.0 ? ev.minCoeff() / mx : 0.0;
 }
 
-
 /// Spectral radius of a small matrix (the per-link operators of the exact test).
 inline double spectralRadiusSmall(const Eigen::MatrixXd& M)
 {

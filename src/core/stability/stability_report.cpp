@@ -130,8 +130,9 @@ RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const s
       ra.exact_method = "an eigenvalue with |lambda| >= 1 is seen by no sensor of the set: unbounded at every rate";
     else if (ra.exact_rate == 0.0)
     {
-      ra.exact_method = "Theorem 14 of Marelli et al. with every block on the unit circle: any positive rate is "
-                        "stable, rate 0 is not (docs/stability.md 3.5d):";
+      ra.exact_method =
+          "Theorem 14 of Marelli et al. with every block on the unit circle: any positive rate is "
+          "stable, rate 0 is not (docs/stability.md 3.5d):";
       for (const BlockStructure& b : ra.blocks)
         ra.exact_method += " " + b.reason + ";";
       ra.exact_method.pop_back();
@@ -190,9 +191,8 @@ RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const s
     else
     {
       const double p = link.p;
-      const KindAt kind = [&](double r) {
-        return marelliTest(d.blocks, std::vector<LinkModel>(N, LinkModel::gilbertElliott(p, r)), opt.tol).kind;
-      };
+      const KindAt kind = [&](double r)
+      { return marelliTest(d.blocks, std::vector<LinkModel>(N, LinkModel::gilbertElliott(p, r)), opt.tol).kind; };
       ra.recovery_stable = scanStable(kind, opt.scan_points, opt.exact_tolerance);
       if (ra.recovery_stable.empty())
       {
@@ -235,8 +235,9 @@ RateAnalysis analyseSet(const Context& ctx, const std::vector<int>& set, const s
     else if (link.kind == LinkModel::Kind::GILBERT_ELLIOTT && !link.onOff())
     {
       ra.aoe_theorem5.kind = Verdict::Kind::NOT_APPLICABLE;
-      ra.aoe_theorem5.reason = "the arrivals of a Gilbert-Elliott chain with loss_good > 0 or loss_bad < 1 are not "
-                               "the two-state Markov chain of Lin et al.";
+      ra.aoe_theorem5.reason =
+          "the arrivals of a Gilbert-Elliott chain with loss_good > 0 or loss_bad < 1 are not "
+          "the two-state Markov chain of Lin et al.";
       ra.aoe_theorem5.numbers["p_t"] = aoeRecoveryThreshold(d.rho);
     }
     else
@@ -330,8 +331,9 @@ std::string capacityNote(const StabilityReport& rep, bool any_markov, const SetD
   else if (c.total <= c.lower)
     out = "c <= c_lower: E[P] diverges for every allocation of rates with this capacity (Yang et al. Theorem 2)";
   else if (c.total > c.upper)
-    out = "c > c_upper: SOME allocation of rates with this capacity keeps E[P] bounded (Yang et al. Theorem 6); "
-          "this does NOT make this rate vector stable (see the verdict)";
+    out =
+        "c > c_upper: SOME allocation of rates with this capacity keeps E[P] bounded (Yang et al. Theorem 6); "
+        "this does NOT make this rate vector stable (see the verdict)";
   else
     out = "c_lower < c <= c_upper: the capacity alone decides nothing for this rate vector";
   if (any_markov)
@@ -351,7 +353,8 @@ void mareAtRates(const Context& ctx, const SetData& all, const std::vector<doubl
   }
   if (ctx.model->schedule.active())
   {
-    rep.mare_at_rates = "not applicable: a sensor schedule (the MARE bound assumes every sensor transmits at every step)";
+    rep.mare_at_rates =
+        "not applicable: a sensor schedule (the MARE bound assumes every sensor transmits at every step)";
     return;
   }
   if (!all.excited)
@@ -389,7 +392,6 @@ void mareAtRates(const Context& ctx, const SetData& all, const std::vector<doubl
   else
     rep.mare_at_rates = "undecided after " + std::to_string(mr.iterations) + " iterations (no certificate)";
 }
-
 
 }  // namespace
 
@@ -512,9 +514,8 @@ StabilityReport analyzeStability(const Model& model, const std::vector<std::opti
   std::vector<std::future<RateAnalysis>> per_sensor;
   if (options.per_sensor && model.sensors.size() > 1)
     for (std::size_t i = 0; i < model.sensors.size(); ++i)
-      per_sensor.push_back(std::async(std::launch::async, [&ctx, &model, i] {
-        return analyseSet(ctx, {static_cast<int>(i)}, model.sensors[i].name);
-      }));
+      per_sensor.push_back(std::async(std::launch::async, [&ctx, &model, i]
+                                      { return analyseSet(ctx, {static_cast<int>(i)}, model.sensors[i].name); }));
   rep.model = analyseSet(ctx, all, "model");
   for (auto& f : per_sensor)
     rep.sensors.push_back(f.get());
@@ -526,9 +527,8 @@ StabilityReport analyzeStability(const Model& model, const std::vector<std::opti
     std::vector<std::future<SensorMargin>> margins;
     if (options.per_sensor)
       for (std::size_t i = 0; i < S; ++i)
-        margins.push_back(std::async(i + 1 == S ? std::launch::deferred : std::launch::async, [&ctx, &all_set, i] {
-          return sensorMargin(ctx, all_set, ctx.links, static_cast<int>(i));
-        }));
+        margins.push_back(std::async(i + 1 == S ? std::launch::deferred : std::launch::async, [&ctx, &all_set, i]
+                                     { return sensorMargin(ctx, all_set, ctx.links, static_cast<int>(i)); }));
     for (std::size_t i = 0; i < S; ++i)
     {
       SensorLinkReport lr;
@@ -553,22 +553,26 @@ StabilityReport analyzeStability(const Model& model, const std::vector<std::opti
       rep.estimator_note = "the verdicts concern E[P] of the Kalman filter with intermittent observations";
       break;
     case Algorithm::EKFIO:
-      rep.estimator_note = "the verdicts concern E[P] of the Kalman filter with intermittent observations of this "
-                           "linear model (ekfio's linearisation): for a built-in motion a local verdict";
+      rep.estimator_note =
+          "the verdicts concern E[P] of the Kalman filter with intermittent observations of this "
+          "linear model (ekfio's linearisation): for a built-in motion a local verdict";
       break;
     case Algorithm::AOE:
     case Algorithm::OE:
     case Algorithm::ACK_KF:
-      rep.estimator_note = "OE, AOE and the ACK Kalman filter are stable together (Lin et al.'s Theorem 4); the "
-                           "verdicts concern that Kalman filter with intermittent observations";
+      rep.estimator_note =
+          "OE, AOE and the ACK Kalman filter are stable together (Lin et al.'s Theorem 4); the "
+          "verdicts concern that Kalman filter with intermittent observations";
       break;
     case Algorithm::RSEIO:
-      rep.estimator_note = "the rate verdicts concern the Kalman filter with intermittent observations (rseio with mu "
-                           "= 1); the rseio verdict is Zhou's Theorem 5";
+      rep.estimator_note =
+          "the rate verdicts concern the Kalman filter with intermittent observations (rseio with mu "
+          "= 1); the rseio verdict is Zhou's Theorem 5";
       break;
     case Algorithm::KF:
-      rep.estimator_note = "kf treats lost samples as measurements: its covariance is that of a Kalman filter without "
-                           "losses, and these verdicts do not describe its error";
+      rep.estimator_note =
+          "kf treats lost samples as measurements: its covariance is that of a Kalman filter without "
+          "losses, and these verdicts do not describe its error";
       break;
   }
   if (alg == Algorithm::RSEIO && ctx.has_channel && rep.uniform_links)
@@ -577,9 +581,9 @@ StabilityReport analyzeStability(const Model& model, const std::vector<std::opti
   {
     rep.rseio.kind = Verdict::Kind::NOT_APPLICABLE;
     rep.rseio.reason = alg != Algorithm::RSEIO ? "the estimator is not rseio"
-                       : !ctx.has_channel     ? "no channel given"
-                                              : "the sensors have different links; Zhou's Theorem 5 takes one link "
-                                                "for the whole measurement";
+                       : !ctx.has_channel      ? "no channel given"
+                                               : "the sensors have different links; Zhou's Theorem 5 takes one link "
+                                                 "for the whole measurement";
   }
   return rep;
 }

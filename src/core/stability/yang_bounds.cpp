@@ -126,8 +126,8 @@ Eigen::MatrixXd lowerBoundLimit(const Eigen::MatrixXd& A, const Eigen::MatrixXd&
   return sym(Eigen::Map<const Eigen::MatrixXd>(g.data(), n, n));
 }
 
-Eigen::MatrixXd informationLowerBoundLimit(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q,
-                                           const Eigen::MatrixXd& S, int max_iterations)
+Eigen::MatrixXd informationLowerBoundLimit(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, const Eigen::MatrixXd& S,
+                                           int max_iterations)
 {
   const int n = static_cast<int>(A.rows());
   Eigen::MatrixXd X = Q;

@@ -32,10 +32,9 @@ namespace
   const std::uint64_t out = c.delivered + c.dropped_model + c.dropped_queue + c.in_flight;
   if (in == out)
     return ::testing::AssertionSuccess();
-  return ::testing::AssertionFailure()
-         << "received " << c.received << " + duplicated " << c.duplicated << " != delivered "
-         << c.delivered << " + dropped_model " << c.dropped_model << " + dropped_queue "
-         << c.dropped_queue << " + in_flight " << c.in_flight;
+  return ::testing::AssertionFailure() << "received " << c.received << " + duplicated " << c.duplicated
+                                       << " != delivered " << c.delivered << " + dropped_model " << c.dropped_model
+                                       << " + dropped_queue " << c.dropped_queue << " + in_flight " << c.in_flight;
 }
 
 /// Lossless, no delay, big queue.
@@ -57,8 +56,7 @@ struct Trace
 
 /// Offers n messages (seq = i) at irregular but deterministic times, popping after every offer,
 /// then pops the rest. Optionally reconfigures to `s2` just before offer `switch_at`.
-Trace drive(const ne::ChannelSettings& s, int n, int switch_at = -1,
-            const ne::ChannelSettings* s2 = nullptr)
+Trace drive(const ne::ChannelSettings& s, int n, int switch_at = -1, const ne::ChannelSettings* s2 = nullptr)
 {
   ne::LossyChannel ch(s);
   Trace t;
@@ -80,8 +78,8 @@ Trace drive(const ne::ChannelSettings& s, int n, int switch_at = -1,
 
 bool sameEvent(const ne::ChannelRecord& a, const ne::ChannelRecord& b)
 {
-  return a.seq == b.seq && a.arrival == b.arrival && a.outcome == b.outcome &&
-         a.duplicated == b.duplicated && a.state == b.state && a.delay == b.delay;
+  return a.seq == b.seq && a.arrival == b.arrival && a.outcome == b.outcome && a.duplicated == b.duplicated &&
+         a.state == b.state && a.delay == b.delay;
 }
 
 bool sameEvents(const std::vector<ne::ChannelRecord>& a, const std::vector<ne::ChannelRecord>& b)
@@ -91,10 +89,9 @@ bool sameEvents(const std::vector<ne::ChannelRecord>& a, const std::vector<ne::C
 
 bool sameDeliveries(const std::vector<ne::Delivery>& a, const std::vector<ne::Delivery>& b)
 {
-  return a.size() == b.size() &&
-         std::equal(a.begin(), a.end(), b.begin(),
-                    [](const ne::Delivery& x, const ne::Delivery& y)
-                    { return x.seq == y.seq && x.duplicate == y.duplicate && x.due == y.due; });
+  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(),
+                                            [](const ne::Delivery& x, const ne::Delivery& y)
+                                            { return x.seq == y.seq && x.duplicate == y.duplicate && x.due == y.due; });
 }
 
 double Phi(double x)
@@ -122,8 +119,7 @@ double PhiInv(double q)
 double dkwEps(std::size_t n)
 {
   const double alpha = 1e-6;
-  return std::sqrt(std::log(2.0 / alpha) / (2.0 * static_cast<double>(n))) +
-         1.0 / static_cast<double>(n);
+  return std::sqrt(std::log(2.0 / alpha) / (2.0 * static_cast<double>(n))) + 1.0 / static_cast<double>(n);
 }
 
 /// n offers every 1 ms with reorder on (so the event delay is the drawn delay, never held),
@@ -308,8 +304,8 @@ TEST(LossyChannel, UniformJitterMeanAndMedian)
     EXPECT_GE(x, Finv(q - eps)) << "q " << q;
     EXPECT_LE(x, Finv(q + eps)) << "q " << q;
   }
-  std::cout << "[ stats    ] uniform: mean " << mean(d) << " (1, se " << se << "), median "
-            << ch.delayQuantile(0.5) << " (1 +- " << eps << ")\n";
+  std::cout << "[ stats    ] uniform: mean " << mean(d) << " (1, se " << se << "), median " << ch.delayQuantile(0.5)
+            << " (1 +- " << eps << ")\n";
 }
 
 TEST(LossyChannel, NormalJitterClippedMeanAndMedian)
@@ -343,9 +339,8 @@ TEST(LossyChannel, NormalJitterClippedMeanAndMedian)
     EXPECT_LE(x, mu + sigma * PhiInv(q + eps)) << "q " << q;
   }
   EXPECT_EQ(ch.delayQuantile(0.05), 0.0);  // 0.05 + eps < P(X = 0) = 0.159
-  std::cout << "[ stats    ] normal: mean " << mean(d) << " (" << m1 << ", se " << se
-            << "), P(0) " << zeros / n << " (" << p0 << "), median " << ch.delayQuantile(0.5)
-            << "\n";
+  std::cout << "[ stats    ] normal: mean " << mean(d) << " (" << m1 << ", se " << se << "), P(0) " << zeros / n << " ("
+            << p0 << "), median " << ch.delayQuantile(0.5) << "\n";
 }
 
 TEST(LossyChannel, ParetoJitterMeanAndTailQuantile)
@@ -364,8 +359,7 @@ TEST(LossyChannel, ParetoJitterMeanAndTailQuantile)
   const double se = jitter / std::sqrt(static_cast<double>(d.size()));
   EXPECT_NEAR(mean(d), delay, 5.0 * se);
   EXPECT_GE(*std::min_element(d.begin(), d.end()), delay - jitter / std::sqrt(3.0));
-  auto Finv = [&](double q)
-  { return delay + jitter * (std::pow(1.0 - q, -1.0 / 3.0) - 1.5) / std::sqrt(0.75); };
+  auto Finv = [&](double q) { return delay + jitter * (std::pow(1.0 - q, -1.0 / 3.0) - 1.5) / std::sqrt(0.75); };
   const double eps = dkwEps(ch.delaySamples());
   for (const double q : {0.5, 0.9, 0.95})  // q + eps < 1
   {
@@ -374,10 +368,9 @@ TEST(LossyChannel, ParetoJitterMeanAndTailQuantile)
     EXPECT_LE(x, Finv(q + eps)) << "q " << q;
   }
   // Heavy right tail: the 0.99 quantile is much further above the median than the 0.01 below.
-  EXPECT_GT(ch.delayQuantile(0.99) - ch.delayQuantile(0.5),
-            3.0 * (ch.delayQuantile(0.5) - ch.delayQuantile(0.01)));
-  std::cout << "[ stats    ] pareto: mean " << mean(d) << " (1, se " << se << "), q0.9 "
-            << ch.delayQuantile(0.9) << " (" << Finv(0.9) << ")\n";
+  EXPECT_GT(ch.delayQuantile(0.99) - ch.delayQuantile(0.5), 3.0 * (ch.delayQuantile(0.5) - ch.delayQuantile(0.01)));
+  std::cout << "[ stats    ] pareto: mean " << mean(d) << " (1, se " << se << "), q0.9 " << ch.delayQuantile(0.9)
+            << " (" << Finv(0.9) << ")\n";
 }
 
 // ------------------------------------------------------------------------------------------------
@@ -411,8 +404,7 @@ TEST(LossyChannel, DuplicateFractionAndCopiesFollowOriginals)
   // Independent Bernoulli(pd) per offer: se = sqrt(pd (1 - pd) / N).
   const double frac = static_cast<double>(copies) / N;
   EXPECT_NEAR(frac, pd, 5.0 * std::sqrt(pd * (1.0 - pd) / N));
-  std::cout << "[ stats    ] duplicate fraction " << frac << " (0.3, se "
-            << std::sqrt(pd * (1.0 - pd) / N) << ")\n";
+  std::cout << "[ stats    ] duplicate fraction " << frac << " (0.3, se " << std::sqrt(pd * (1.0 - pd) / N) << ")\n";
 }
 
 TEST(LossyChannel, DuplicateNeedsRoomInTheQueue)
@@ -459,8 +451,7 @@ TEST(LossyChannel, QueueLimitDropsAndCounts)
   for (int i = 0; i < 100; ++i)
   {
     const ne::ChannelRecord ev = ch.offer(i, 0.01 * i);
-    ASSERT_EQ(ev.outcome,
-              i < 10 ? ne::ChannelOutcome::DELIVERED : ne::ChannelOutcome::DROPPED_QUEUE);
+    ASSERT_EQ(ev.outcome, i < 10 ? ne::ChannelOutcome::DELIVERED : ne::ChannelOutcome::DROPPED_QUEUE);
     ASSERT_EQ(ev.delay, i < 10 ? 10.0 : 0.0);
     ASSERT_TRUE(balanced(ch.counters()));
   }
@@ -522,9 +513,8 @@ TEST(LossyChannel, GilbertElliottLossRateAndBurstLength)
   EXPECT_DOUBLE_EQ(ch.meanBurstLength(), static_cast<double>(lost) / bursts);
   const double se_burst = std::sqrt(1.0 - r) / r / std::sqrt(static_cast<double>(bursts));
   EXPECT_NEAR(ch.meanBurstLength(), 1.0 / r, 5.0 * se_burst);
-  std::cout << "[ stats    ] gilbert-elliott: loss rate " << ch.lossRate() << " (" << pi
-            << ", se " << se_rate << "), mean burst " << ch.meanBurstLength() << " (" << 1.0 / r
-            << ", se " << se_burst << ")\n";
+  std::cout << "[ stats    ] gilbert-elliott: loss rate " << ch.lossRate() << " (" << pi << ", se " << se_rate
+            << "), mean burst " << ch.meanBurstLength() << " (" << 1.0 / r << ", se " << se_burst << ")\n";
 }
 
 TEST(LossyChannel, BernoulliLossRateAndBurstLength)
@@ -540,8 +530,7 @@ TEST(LossyChannel, BernoulliLossRateAndBurstLength)
     ASSERT_TRUE(sameEvent(ch.offer(i, t.events[i].arrival), t.events[i]));
   EXPECT_NEAR(ch.lossRate(), l, 5.0 * std::sqrt(l * (1.0 - l) / N));
   const double bursts = ch.counters().dropped_model / ch.meanBurstLength();
-  EXPECT_NEAR(ch.meanBurstLength(), 1.0 / (1.0 - l),
-              5.0 * std::sqrt(l) / (1.0 - l) / std::sqrt(bursts));
+  EXPECT_NEAR(ch.meanBurstLength(), 1.0 / (1.0 - l), 5.0 * std::sqrt(l) / (1.0 - l) / std::sqrt(bursts));
 }
 
 // ------------------------------------------------------------------------------------------------
@@ -705,8 +694,7 @@ TEST(LossyChannel, StatisticsOnAHandMadeCase)
     k.delay = pattern[i] < 0 ? 0.0 : pattern[i];
     ch.reconfigure(k);
     const ne::ChannelRecord ev = ch.offer(i, 0.0);
-    ASSERT_EQ(ev.outcome, pattern[i] < 0 ? ne::ChannelOutcome::DROPPED_MODEL
-                                         : ne::ChannelOutcome::DELIVERED);
+    ASSERT_EQ(ev.outcome, pattern[i] < 0 ? ne::ChannelOutcome::DROPPED_MODEL : ne::ChannelOutcome::DELIVERED);
     if (pattern[i] >= 0)
     {
       ASSERT_EQ(ev.delay, pattern[i]);

@@ -74,8 +74,7 @@ TEST(BernoulliLoss, EmpiricalRateAndBurstLength)
     const double mean_burst = 1.0 / (1.0 - loss);
     EXPECT_DOUBLE_EQ(model.stationaryMeanBurstLength(), mean_burst);
     ASSERT_GT(s.bursts, 1000);
-    const double se_burst =
-        std::sqrt(loss) / (1.0 - loss) / std::sqrt(static_cast<double>(s.bursts));
+    const double se_burst = std::sqrt(loss) / (1.0 - loss) / std::sqrt(static_cast<double>(s.bursts));
     EXPECT_NEAR(s.meanBurst(), mean_burst, 5.0 * se_burst) << "loss " << loss;
   }
 }
@@ -158,8 +157,8 @@ TEST(GilbertElliottLoss, GeneralCaseRateAndBurstFormula)
   const double rho = pi * lb + (1.0 - pi) * lg;
   EXPECT_NEAR(model.stationaryLossRate(), rho, 1e-15);
   // Exact value by hand: P(recv, then lost) = sum_s,s' pi_s (1 - l_s) T(s, s') l_s'.
-  const double start = (1.0 - pi) * (1.0 - lg) * ((1.0 - p) * lg + p * lb) +
-                       pi * (1.0 - lb) * (r * lg + (1.0 - r) * lb);
+  const double start =
+      (1.0 - pi) * (1.0 - lg) * ((1.0 - p) * lg + p * lb) + pi * (1.0 - lb) * (r * lg + (1.0 - r) * lb);
   EXPECT_NEAR(model.stationaryMeanBurstLength(), rho / start, 1e-12);
   EXPECT_NEAR(model.stationaryMeanBurstLength(), 1.7137, 1e-3);  // 0.10667 / 0.06224
 
@@ -244,8 +243,7 @@ TEST(GilbertElliottLoss, StartsInStationaryLaw)
 
 TEST(GilbertElliottLoss, Reproducibility)
 {
-  ne::GilbertElliottLoss a(0.1, 0.3, 0.9, 0.05, 11), b(0.1, 0.3, 0.9, 0.05, 11),
-      c(0.1, 0.3, 0.9, 0.05, 12);
+  ne::GilbertElliottLoss a(0.1, 0.3, 0.9, 0.05, 11), b(0.1, 0.3, 0.9, 0.05, 11), c(0.1, 0.3, 0.9, 0.05, 12);
   const std::vector<bool> sa = sequence(a, 10000);
   EXPECT_EQ(sa, sequence(b, 10000));
   EXPECT_NE(sa, sequence(c, 10000));

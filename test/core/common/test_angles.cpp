@@ -39,8 +39,8 @@ TEST(Angles, WrapIntoTheHalfOpenInterval)
   EXPECT_EQ(wrapAngle(0.0), 0.0);
   EXPECT_EQ(wrapAngle(1.0), 1.0);  // inside: unchanged, bit for bit
   EXPECT_EQ(wrapAngle(-3.0), -3.0);
-  EXPECT_EQ(wrapAngle(kPi), kPi);    // pi stays
-  EXPECT_EQ(wrapAngle(-kPi), kPi);   // -pi is pi
+  EXPECT_EQ(wrapAngle(kPi), kPi);   // pi stays
+  EXPECT_EQ(wrapAngle(-kPi), kPi);  // -pi is pi
   EXPECT_EQ(wrapAngle(3.0 * kPi), kPi);
   EXPECT_EQ(wrapAngle(-3.0 * kPi), kPi);
   EXPECT_NEAR(wrapAngle(kPi + 0.25), -kPi + 0.25, 1e-15);
@@ -113,8 +113,9 @@ TEST(Angles, ModelRefusesWhatCannotWrap)
   const std::string h = kHeading;
   EXPECT_NE(modelError(h + "angles: [3]\n").find("angles[0]: state index 3 out of range (n = 3: 0 to 2)"),
             std::string::npos);
-  EXPECT_NE(modelError(h + "angles: [yaw]\n").find("angles[0]: 'yaw' is not a state index, and the model names no "
-                                                    "states"),
+  EXPECT_NE(modelError(h + "angles: [yaw]\n")
+                .find("angles[0]: 'yaw' is not a state index, and the model names no "
+                      "states"),
             std::string::npos);
   EXPECT_NE(modelError(h + "states: [yaw, vyaw, d]\nangles: [heading]\n")
                 .find("angles[0]: 'heading' is not a state (states: yaw, vyaw, d)"),
@@ -124,8 +125,7 @@ TEST(Angles, ModelRefusesWhatCannotWrap)
   EXPECT_NE(modelError(h + "angles: 0\n").find("angles: expected a list"), std::string::npos);
   EXPECT_NE(modelError(h + "states: [yaw, vyaw]\n").find("states: expected a list of 3 state names"),
             std::string::npos);
-  EXPECT_NE(modelError(h + "states: [yaw, yaw, d]\n").find("states[1]: duplicate state name 'yaw'"),
-            std::string::npos);
+  EXPECT_NE(modelError(h + "states: [yaw, yaw, d]\n").find("states[1]: duplicate state name 'yaw'"), std::string::npos);
   EXPECT_NE(modelError(h + "states: [yaw, '1', d]\n").find("states[1]: a state name must not be a number"),
             std::string::npos);
   // the yaw rate feeds the yaw, but an angle must feed nothing: column 1 of A is not e_1
@@ -497,7 +497,8 @@ TEST(Angles, AnAngleFieldNeedsAnAngularRow)
   const std::string model =
       "{name: t, period: 0.05, A: [[1, 0.05], [0, 1]], Q: [[1, 0], [0, 1]], states: [yaw, vyaw], "
       "sensors: [{name: imu, C: [[1, 0], [0, 1]], R: [[1, 0], [0, 1]]}]";
-  const std::string sensors = ", sensors: {imu: {type: sensor_msgs/Imu, fields: [orientation.yaw, angular_velocity.z]}}}";
+  const std::string sensors =
+      ", sensors: {imu: {type: sensor_msgs/Imu, fields: [orientation.yaw, angular_velocity.z]}}}";
   YAML::Node with = YAML::Load("{model: " + model + ", angles: [yaw]}" + sensors);
   EXPECT_NO_THROW(parseEstimatorNodeConfig(with, "/est"));
   YAML::Node without = YAML::Load("{model: " + model + "}" + sensors);
@@ -514,8 +515,9 @@ TEST(Angles, AnAngleFieldNeedsAnAngularRow)
         << e.what();
   }
   // the other way round is allowed: a plain number (Float64) that the model reads as an angle
-  YAML::Node plain = YAML::Load("{model: " + model + ", angles: [yaw]}" +
-                                ", sensors: {imu: {type: std_msgs/Float64MultiArray, fields: ['data[0]', 'data[1]']}}}");
+  YAML::Node plain =
+      YAML::Load("{model: " + model + ", angles: [yaw]}" +
+                 ", sensors: {imu: {type: std_msgs/Float64MultiArray, fields: ['data[0]', 'data[1]']}}}");
   EXPECT_NO_THROW(parseEstimatorNodeConfig(plain, "/est"));
 }
 

@@ -7,10 +7,10 @@
 
 #include "networked_estimation/common/covariance.hpp"
 
+using Eigen::MatrixXd;
 using networked_estimation::checkCovariance;
 using networked_estimation::CovarianceCheck;
 using networked_estimation::Definiteness;
-using Eigen::MatrixXd;
 
 namespace
 {
@@ -86,7 +86,7 @@ TEST(Covariance, ScaledToUnitDiagonal)
   const double T = 1e-3;
   MatrixXd Q(3, 3);
   Q << std::pow(T, 5) / 20, std::pow(T, 4) / 8, std::pow(T, 3) / 6,  //
-      std::pow(T, 4) / 8, std::pow(T, 3) / 3, T * T / 2,              //
+      std::pow(T, 4) / 8, std::pow(T, 3) / 3, T * T / 2,             //
       std::pow(T, 3) / 6, T * T / 2, T;
   EXPECT_TRUE(checkCovariance(Q, Definiteness::POSITIVE).ok());
   EXPECT_TRUE(positiveDefiniteByEigenvalues(Q));

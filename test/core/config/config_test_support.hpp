@@ -27,7 +27,6 @@ namespace ne = networked_estimation;
 namespace config_test
 {
 
-
 inline const char* const kZhou = R"(name: zhou_example
 period: 0.01
 A:  [[0.9802, 0.0196], [0.0, 0.9802]]
@@ -108,45 +107,32 @@ inline std::string errorOf(const std::function<void()>& f)
 
 inline std::string modelError(const std::string& yaml)
 {
-  return errorOf(
-      [&]
-      {
-        ne::parseModel(YAML::Load(yaml), "m.yaml");
-      });
+  return errorOf([&] { ne::parseModel(YAML::Load(yaml), "m.yaml"); });
 }
 
 inline std::string estimatorError(const std::string& yaml)
 {
-  return errorOf(
-      [&]
-      {
-        ne::parseEstimatorSettings(YAML::Load(yaml), "est.yaml");
-      });
+  return errorOf([&] { ne::parseEstimatorSettings(YAML::Load(yaml), "est.yaml"); });
 }
 
 inline std::string channelError(const std::string& yaml)
 {
-  return errorOf(
-      [&]
-      {
-        ne::parseChannelSettings(YAML::Load(yaml), "chan.yaml");
-      });
+  return errorOf([&] { ne::parseChannelSettings(YAML::Load(yaml), "chan.yaml"); });
 }
 
-#define EXPECT_CONTAINS(text, part) \
-  EXPECT_NE(std::string(text).find(part), std::string::npos) << "message: " << (text)
+#define EXPECT_CONTAINS(text, part) EXPECT_NE(std::string(text).find(part), std::string::npos) << "message: " << (text)
 
 /// Checks the message names the source, the key and the problem.
 inline void expectMessage(const std::string& msg, const std::string& source, const std::string& key,
-                   const std::string& problem)
+                          const std::string& problem)
 {
   EXPECT_EQ(msg.rfind(source + ":", 0), 0u) << "message: " << msg;
   EXPECT_CONTAINS(msg, key + ": ");
   EXPECT_CONTAINS(msg, problem);
 }
 
-inline void expectModelError(const std::vector<std::pair<std::string, std::string>>& changes,
-                      const std::string& key, const std::string& problem)
+inline void expectModelError(const std::vector<std::pair<std::string, std::string>>& changes, const std::string& key,
+                             const std::string& problem)
 {
   expectMessage(modelError(modelYaml(changes)), "m.yaml", key, problem);
 }
@@ -154,13 +140,13 @@ inline void expectModelError(const std::vector<std::pair<std::string, std::strin
 /// A scratch folder under the system temp directory, removed on destruction.
 class TempDir
 {
- public:
+public:
   TempDir()
   {
     const auto stamp = std::chrono::steady_clock::now().time_since_epoch().count();
-    path_ = std::filesystem::temp_directory_path() /
-            ("test_config_" + std::to_string(stamp) + "_" +
-             std::to_string(::testing::UnitTest::GetInstance()->random_seed()));
+    path_ =
+        std::filesystem::temp_directory_path() / ("test_config_" + std::to_string(stamp) + "_" +
+                                                  std::to_string(::testing::UnitTest::GetInstance()->random_seed()));
     std::filesystem::create_directories(path_);
   }
   ~TempDir()
@@ -177,7 +163,7 @@ class TempDir
   }
   const std::filesystem::path& path() const { return path_; }
 
- private:
+private:
   std::filesystem::path path_;
 };
 

@@ -7,8 +7,7 @@
 
 TEST(ParseChannelSettings, BernoulliDefaults)
 {
-  const ne::ChannelSettings s =
-      ne::parseChannelSettings(YAML::Load("model: bernoulli\nloss: 0.2"), "chan.yaml");
+  const ne::ChannelSettings s = ne::parseChannelSettings(YAML::Load("model: bernoulli\nloss: 0.2"), "chan.yaml");
   EXPECT_EQ(s.model, ne::LossModelKind::BERNOULLI);
   EXPECT_DOUBLE_EQ(s.loss, 0.2);
   EXPECT_EQ(s.seed, 0u);
@@ -58,51 +57,44 @@ TEST(ParseChannelSettings, Errors)
   expectMessage(unknown, "chan.yaml:1", "model", "unknown loss model 'markov'");
   EXPECT_CONTAINS(unknown, "bernoulli, gilbert_elliott");
   expectMessage(channelError("model: bernoulli"), "chan.yaml", "loss", "missing required key");
-  expectMessage(channelError("model: gilbert_elliott\nr: 0.1"), "chan.yaml", "p",
-                "missing required key");
-  expectMessage(channelError("model: gilbert_elliott\np: 0.1"), "chan.yaml", "r",
-                "missing required key");
+  expectMessage(channelError("model: gilbert_elliott\nr: 0.1"), "chan.yaml", "p", "missing required key");
+  expectMessage(channelError("model: gilbert_elliott\np: 0.1"), "chan.yaml", "r", "missing required key");
   expectMessage(channelError("model: bernoulli\nloss: 0.1\np: 0.2"), "chan.yaml:3", "p",
                 "key 'p' applies only to model gilbert_elliott (model is bernoulli)");
   expectMessage(channelError("model: bernoulli\nloss: 0.1\nloss_bad: 0.2"), "chan.yaml", "loss_bad",
                 "key 'loss_bad' applies only to model gilbert_elliott");
-  expectMessage(channelError("model: gilbert_elliott\np: 0.1\nr: 0.1\nloss: 0.2"), "chan.yaml",
-                "loss", "key 'loss' applies only to model bernoulli (model is gilbert_elliott)");
+  expectMessage(channelError("model: gilbert_elliott\np: 0.1\nr: 0.1\nloss: 0.2"), "chan.yaml", "loss",
+                "key 'loss' applies only to model bernoulli (model is gilbert_elliott)");
   expectMessage(channelError("model: bernoulli\nloss: 1.2"), "chan.yaml:2", "loss",
                 "expected a probability in [0, 1], found 1.2");
-  expectMessage(channelError("model: bernoulli\nloss: .nan"), "chan.yaml", "loss",
-                "expected a finite number");
-  expectMessage(channelError("model: gilbert_elliott\np: -0.1\nr: 0.1"), "chan.yaml", "p",
+  expectMessage(channelError("model: bernoulli\nloss: .nan"), "chan.yaml", "loss", "expected a finite number");
+  expectMessage(channelError("model: gilbert_elliott\np: -0.1\nr: 0.1"), "chan.yaml", "p", "expected a probability");
+  expectMessage(channelError("model: gilbert_elliott\np: 0.1\nr: 0.1\nloss_good: 2"), "chan.yaml", "loss_good",
                 "expected a probability");
-  expectMessage(channelError("model: gilbert_elliott\np: 0.1\nr: 0.1\nloss_good: 2"), "chan.yaml",
-                "loss_good", "expected a probability");
   expectMessage(channelError("model: bernoulli\nloss: 0.1\nseed: -1"), "chan.yaml", "seed",
                 "expected a non-negative integer, found -1");
   expectMessage(channelError("model: bernoulli\nloss: 0.1\nseed: 1.5"), "chan.yaml", "seed",
                 "expected a non-negative integer, found '1.5'");
-  expectMessage(channelError("model: bernoulli\nloss: 0.1\nseed: 18446744073709551616"),
-                "chan.yaml", "seed", "integer out of range");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\nseed: 18446744073709551616"), "chan.yaml", "seed",
+                "integer out of range");
   expectMessage(channelError("model: bernoulli\nloss: 0.1\ndelay: -0.5"), "chan.yaml", "delay",
                 "expected a non-negative number of seconds, found -0.5");
   expectMessage(channelError("model: bernoulli\nloss: 0.1\njitter: -1"), "chan.yaml", "jitter",
                 "expected a non-negative number of seconds");
-  expectMessage(channelError("model: bernoulli\nloss: 0.1\ndistribution: cauchy"), "chan.yaml",
-                "distribution",
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\ndistribution: cauchy"), "chan.yaml", "distribution",
                 "unknown distribution 'cauchy' (expected one of: uniform, normal, pareto)");
   expectMessage(channelError("model: bernoulli\nloss: 0.1\nreorder: yes"), "chan.yaml", "reorder",
                 "expected true or false, found 'yes'");
   expectMessage(channelError("model: bernoulli\nloss: 0.1\nreorder: 1"), "chan.yaml", "reorder",
                 "expected true or false");
-  expectMessage(channelError("model: bernoulli\nloss: 0.1\nduplicate: 1.5"), "chan.yaml",
-                "duplicate", "expected a probability");
-  expectMessage(channelError("model: bernoulli\nloss: 0.1\nqueue_limit: 0"), "chan.yaml",
-                "queue_limit", "expected an integer >= 1, found 0");
-  expectMessage(channelError("model: bernoulli\nloss: 0.1\nqueue_limit: 10.5"), "chan.yaml",
-                "queue_limit", "expected an integer >= 1");
-  expectMessage(channelError("model: bernoulli\nloss: 0.1\nrate: 5"), "chan.yaml:3", "rate",
-                "unknown key");
-  expectMessage(channelError("model: bernoulli\nloss: abc"), "chan.yaml", "loss",
-                "expected a number, found 'abc'");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\nduplicate: 1.5"), "chan.yaml", "duplicate",
+                "expected a probability");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\nqueue_limit: 0"), "chan.yaml", "queue_limit",
+                "expected an integer >= 1, found 0");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\nqueue_limit: 10.5"), "chan.yaml", "queue_limit",
+                "expected an integer >= 1");
+  expectMessage(channelError("model: bernoulli\nloss: 0.1\nrate: 5"), "chan.yaml:3", "rate", "unknown key");
+  expectMessage(channelError("model: bernoulli\nloss: abc"), "chan.yaml", "loss", "expected a number, found 'abc'");
 }
 
 TEST(LoadChannelSettings, FileAndMissingFile)
@@ -113,19 +105,9 @@ TEST(LoadChannelSettings, FileAndMissingFile)
   EXPECT_DOUBLE_EQ(s.loss, 0.25);
   EXPECT_EQ(s.seed, 7u);
   const std::string missing = (dir.path() / "none.yaml").string();
-  EXPECT_EQ(errorOf(
-                [&]
-                {
-                  ne::loadChannelSettings(missing);
-                }),
-            missing + ": cannot open file");
+  EXPECT_EQ(errorOf([&] { ne::loadChannelSettings(missing); }), missing + ": cannot open file");
   const std::string bad = dir.write("bad.yaml", "model: bernoulli\nloss: {0.1\n");
-  EXPECT_CONTAINS(errorOf(
-                      [&]
-                      {
-                        ne::loadChannelSettings(bad);
-                      }),
-                  "YAML syntax error");
+  EXPECT_CONTAINS(errorOf([&] { ne::loadChannelSettings(bad); }), "YAML syntax error");
 }
 
 // Runtime changes of a channel: merged onto the current settings and validated as a whole.
@@ -171,7 +153,8 @@ TEST(ChannelSettingsMerge, InvalidChangesAreRejectedWithTheKey)
 {
   ne::ChannelSettings base;
   base.loss = 0.1;
-  auto expectError = [&](const std::string& yaml, const std::string& fragment) {
+  auto expectError = [&](const std::string& yaml, const std::string& fragment)
+  {
     try
     {
       ne::mergeChannelSettings(base, YAML::Load(yaml), "~set_parameters");

@@ -354,43 +354,141 @@ TEST(KinematicModel, BadInputNamesTheOption)
   const auto add = [&cases](const std::string& expected, KinematicSpec s) { cases.push_back({expected, s}); };
   KinematicSpec s = spec("constant_velocity", 2, 50, 0.5);
   add("kinematic model 'robot': motion: expected constant_velocity or constant_acceleration, found 'constant_speed'",
-      [s]() mutable { s.motion = "constant_speed"; return s; }());
-  add("dims: expected 1, 2 or 3, found 0", [s]() mutable { s.dims = 0; return s; }());
-  add("dims: expected 1, 2 or 3, found 4", [s]() mutable { s.dims = 4; return s; }());
-  add("rate: expected a finite number of Hz > 0, found 0", [s]() mutable { s.rate = 0; return s; }());
-  add("rate: expected a finite number of Hz > 0, found -50", [s]() mutable { s.rate = -50; return s; }());
-  add("rate: expected a finite number of Hz > 0, found inf", [s]() mutable { s.rate = kInf; return s; }());
-  add("rate: expected a finite number of Hz > 0, found nan", [s]() mutable { s.rate = kNaN; return s; }());
+      [s]() mutable
+      {
+        s.motion = "constant_speed";
+        return s;
+      }());
+  add("dims: expected 1, 2 or 3, found 0",
+      [s]() mutable
+      {
+        s.dims = 0;
+        return s;
+      }());
+  add("dims: expected 1, 2 or 3, found 4",
+      [s]() mutable
+      {
+        s.dims = 4;
+        return s;
+      }());
+  add("rate: expected a finite number of Hz > 0, found 0",
+      [s]() mutable
+      {
+        s.rate = 0;
+        return s;
+      }());
+  add("rate: expected a finite number of Hz > 0, found -50",
+      [s]() mutable
+      {
+        s.rate = -50;
+        return s;
+      }());
+  add("rate: expected a finite number of Hz > 0, found inf",
+      [s]() mutable
+      {
+        s.rate = kInf;
+        return s;
+      }());
+  add("rate: expected a finite number of Hz > 0, found nan",
+      [s]() mutable
+      {
+        s.rate = kNaN;
+        return s;
+      }());
   add("accel-density: expected a finite spectral density > 0 (m^2/s^3), found 0",
-      [s]() mutable { s.density = 0; return s; }());
+      [s]() mutable
+      {
+        s.density = 0;
+        return s;
+      }());
   add("accel-density: expected a finite spectral density > 0 (m^2/s^3), found nan",
-      [s]() mutable { s.density = kNaN; return s; }());
+      [s]() mutable
+      {
+        s.density = kNaN;
+        return s;
+      }());
   add("jerk-density: expected a finite spectral density > 0 (m^2/s^5), found -1",
-      [s]() mutable { s.motion = "constant_acceleration"; s.density = -1; return s; }());
-  add("sensors: expected at least one sensor, found none", [s]() mutable { s.sensors.clear(); return s; }());
+      [s]() mutable
+      {
+        s.motion = "constant_acceleration";
+        s.density = -1;
+        return s;
+      }());
+  add("sensors: expected at least one sensor, found none",
+      [s]() mutable
+      {
+        s.sensors.clear();
+        return s;
+      }());
   add("sensors[1].name: duplicate sensor name 'gnss' (also sensors[0].name)",
-      [s]() mutable { s.sensors[1].name = "gnss"; return s; }());
-  add("sensors[0].name: expected a non-empty name, found ''", [s]() mutable { s.sensors[0].name = ""; return s; }());
+      [s]() mutable
+      {
+        s.sensors[1].name = "gnss";
+        return s;
+      }());
+  add("sensors[0].name: expected a non-empty name, found ''",
+      [s]() mutable
+      {
+        s.sensors[0].name = "";
+        return s;
+      }());
   add("sensors[1].quantity: expected position or velocity for a constant_velocity model, found 'speed'",
-      [s]() mutable { s.sensors[1].quantity = "speed"; return s; }());
+      [s]() mutable
+      {
+        s.sensors[1].quantity = "speed";
+        return s;
+      }());
   add("sensors[1].quantity: expected position or velocity for a constant_velocity model (acceleration needs a "
       "constant_acceleration model), found 'acceleration'",
-      [s]() mutable { s.sensors[1].quantity = "acceleration"; return s; }());
+      [s]() mutable
+      {
+        s.sensors[1].quantity = "acceleration";
+        return s;
+      }());
   add("sensors[1].quantity: expected position, velocity or acceleration for a constant_acceleration model, found "
       "'jerk'",
-      [s]() mutable { s.motion = "constant_acceleration"; s.sensors[1].quantity = "jerk"; return s; }());
+      [s]() mutable
+      {
+        s.motion = "constant_acceleration";
+        s.sensors[1].quantity = "jerk";
+        return s;
+      }());
   add("sensors[1].sigma: expected a finite standard deviation > 0 (m/s), found 0",
-      [s]() mutable { s.sensors[1].sigma = 0; return s; }());
+      [s]() mutable
+      {
+        s.sensors[1].sigma = 0;
+        return s;
+      }());
   add("sensors[0].sigma: expected a finite standard deviation > 0 (m), found -2",
-      [s]() mutable { s.sensors[0].sigma = -2; return s; }());
+      [s]() mutable
+      {
+        s.sensors[0].sigma = -2;
+        return s;
+      }());
   add("sensors[0].sigma: expected a finite standard deviation > 0 (m), found inf",
-      [s]() mutable { s.sensors[0].sigma = kInf; return s; }());
+      [s]() mutable
+      {
+        s.sensors[0].sigma = kInf;
+        return s;
+      }());
   add("x0: expected 4 entries (n = 4, the state x, y, vx, vy), found 3",
-      [s]() mutable { s.x0 = VectorXd::Zero(3); return s; }());
+      [s]() mutable
+      {
+        s.x0 = VectorXd::Zero(3);
+        return s;
+      }());
   add("p0-velocity: expected a finite variance >= 0 (m/s squared), found -1",
-      [s]() mutable { s.p0_velocity = -1; return s; }());
+      [s]() mutable
+      {
+        s.p0_velocity = -1;
+        return s;
+      }());
   add("p0-position: expected a finite variance >= 0 (m squared), found nan",
-      [s]() mutable { s.p0_position = kNaN; return s; }());
+      [s]() mutable
+      {
+        s.p0_position = kNaN;
+        return s;
+      }());
   for (const Case& c : cases)
   {
     const std::string what = refusal(c.s);
@@ -458,9 +556,11 @@ TEST(ModelWriter, ControlUncertaintyAndSchedulesReadBack)
 {
   const std::string base =
       "name: full\nperiod: 0.1\nA: [[1, 0.1, 0], [0, 1, 0], [0, 0, 0.9]]\nQ: [[0.3, 0, 0], [0, 0.1, 0], [0, 0, 1]]\n"
-      "sensors:\n  - {name: a, C: [[1, 0, 0]], R: [[0.7]]}\n  - {name: b, C: [[0, 1, 0], [0, 0, 1]], R: [[1, 0.2], [0.2, 2]]}\n"
+      "sensors:\n  - {name: a, C: [[1, 0, 0]], R: [[0.7]]}\n  - {name: b, C: [[0, 1, 0], [0, 0, 1]], R: [[1, 0.2], "
+      "[0.2, 2]]}\n"
       "x0: [0.1, 0, 0]\nP0: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]\ncontrol: {Bu: [[0.5], [1], [0]]}\n"
-      "uncertainty:\n  - {dA: [[0, 0.01, 0], [0, 0, 0], [0, 0, 0]], range: 0.3}\n  - {dC: [[0.1, 0, 0], [0, 0, 0], [0, 0, 0]], range: 1}\n";
+      "uncertainty:\n  - {dA: [[0, 0.01, 0], [0, 0, 0], [0, 0, 0]], range: 0.3}\n  - {dC: [[0.1, 0, 0], [0, 0, 0], [0, "
+      "0, 0]], range: 1}\n";
   const std::vector<std::string> schedules = {
       "",
       "schedule: {pattern: [[a], [b], []]}\n",
@@ -508,9 +608,9 @@ TEST(KinematicModel, HeadingIsAnAxisAndAnAngle)
     SCOPED_TRACE(s.motion);
     const int D = 3, n = order * D;
     ASSERT_EQ(m.n(), n);
-    EXPECT_EQ(m.states, order == 2 ? (std::vector<std::string>{"x", "y", "yaw", "vx", "vy", "vyaw"})
-                                   : (std::vector<std::string>{"x", "y", "yaw", "vx", "vy", "vyaw", "ax", "ay",
-                                                               "ayaw"}));
+    EXPECT_EQ(m.states, order == 2
+                            ? (std::vector<std::string>{"x", "y", "yaw", "vx", "vy", "vyaw"})
+                            : (std::vector<std::string>{"x", "y", "yaw", "vx", "vy", "vyaw", "ax", "ay", "ayaw"}));
     EXPECT_EQ(m.angles, (std::vector<int>{2}));
     MatrixXd A1, Q1, Ah, Qh;
     closedForm(order, 0.05, 0.5, A1, Q1);
@@ -548,15 +648,37 @@ TEST(KinematicModel, HeadingIsAnAxisAndAnAngle)
   }
   KinematicSpec s = spec("constant_velocity", 2, 20, 0.5);
   s.heading_density = 0.1;
-  EXPECT_NE(refusal([s]() mutable { s.dims = 1; return s; }()).find("heading: a heading needs a robot in 2-D or 3-D"),
+  EXPECT_NE(refusal(
+                [s]() mutable
+                {
+                  s.dims = 1;
+                  return s;
+                }())
+                .find("heading: a heading needs a robot in 2-D or 3-D"),
             std::string::npos);
-  EXPECT_NE(refusal([s]() mutable { s.heading_density = -1; return s; }())
+  EXPECT_NE(refusal(
+                [s]() mutable
+                {
+                  s.heading_density = -1;
+                  return s;
+                }())
                 .find("heading: expected a finite spectral density > 0 (rad^2/s^3), found -1"),
             std::string::npos);
-  EXPECT_NE(refusal([s]() mutable { s.sensors[1].quantity = "yaw_acceleration"; return s; }())
+  EXPECT_NE(refusal(
+                [s]() mutable
+                {
+                  s.sensors[1].quantity = "yaw_acceleration";
+                  return s;
+                }())
                 .find("(yaw_acceleration needs a constant_acceleration model)"),
             std::string::npos);
-  EXPECT_NE(refusal([s]() mutable { s.p0_yaw = -1; return s; }()).find("p0-yaw: expected a finite variance >= 0"),
+  EXPECT_NE(refusal(
+                [s]() mutable
+                {
+                  s.p0_yaw = -1;
+                  return s;
+                }())
+                .find("p0-yaw: expected a finite variance >= 0"),
             std::string::npos);
   KinematicSpec plain = spec("constant_velocity", 2, 20, 0.5);
   plain.sensors[1].quantity = "yaw";

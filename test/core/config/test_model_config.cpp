@@ -96,13 +96,12 @@ TEST(ParseModel, Defaults)
 
 TEST(ParseModel, MultiSensorStacksCAndR)
 {
-  const ne::Model m =
-      ne::parseModel(YAML::Load(modelYaml({{"C", kRemove},
-                                           {"R", kRemove},
-                                           {"sensors",
-                                            "[{name: left,  C: [[1, 0]], R: [[0.5]]},"
-                                            " {name: right, C: [[0, 1]], R: [[0.7]]}]"}})),
-                     "m.yaml");
+  const ne::Model m = ne::parseModel(YAML::Load(modelYaml({{"C", kRemove},
+                                                           {"R", kRemove},
+                                                           {"sensors",
+                                                            "[{name: left,  C: [[1, 0]], R: [[0.5]]},"
+                                                            " {name: right, C: [[0, 1]], R: [[0.7]]}]"}})),
+                                     "m.yaml");
   ASSERT_EQ(m.m(), 2);
   Eigen::Matrix2d C;
   C << 1, 0, 0, 1;
@@ -121,14 +120,14 @@ TEST(ParseModel, MultiSensorStacksCAndR)
 
 TEST(ParseModel, MultiSensorWithBlocksOfDifferentSizes)
 {
-  const ne::Model m = ne::parseModel(
-      YAML::Load(modelYaml({{"C", kRemove},
-                            {"R", kRemove},
-                            {"sensors",
-                             "[{name: a, C: [[1, 0], [0, 1]], R: [[2, 0.5], [0.5, 1]]},"
-                             " {name: b, C: [[1, 1]], R: [[3]]}]"},
-                            {"uncertainty", "[{dC: [[0, 1], [0, 0], [1, 0]], range: 0.5}]"}})),
-      "m.yaml");
+  const ne::Model m =
+      ne::parseModel(YAML::Load(modelYaml({{"C", kRemove},
+                                           {"R", kRemove},
+                                           {"sensors",
+                                            "[{name: a, C: [[1, 0], [0, 1]], R: [[2, 0.5], [0.5, 1]]},"
+                                            " {name: b, C: [[1, 1]], R: [[3]]}]"},
+                                           {"uncertainty", "[{dC: [[0, 1], [0, 0], [1, 0]], range: 0.5}]"}})),
+                     "m.yaml");
   ASSERT_EQ(m.m(), 3);
   EXPECT_EQ(m.sensors[1].offset, 2);
   EXPECT_EQ(m.sensors[1].size, 1);
@@ -181,14 +180,12 @@ TEST(ParseModelErrors, WrongDimensions)
   expectModelError({{"Q", "[[1, 0, 0], [0, 1, 0]]"}}, "Q", "expected 2x2");
   expectModelError({{"Q", "[[1, 0, 0], [0, 1, 0]]"}}, "Q", "found 2x3");
   expectModelError({{"A", "[[1, 0, 0], [0, 1, 0]]"}}, "A", "expected a square matrix");
-  expectModelError({{"B", "[[1, 0], [0, 1], [1, 1]]"}}, "B",
-                   "expected 2x2 (n = 2 rows), found 3x2");
+  expectModelError({{"B", "[[1, 0], [0, 1], [1, 1]]"}}, "B", "expected 2x2 (n = 2 rows), found 3x2");
   expectModelError({{"C", "[[1, 0, 1]]"}}, "C", "expected 1x2 (n = 2 columns), found 1x3");
   expectModelError({{"R", "[[1, 0], [0, 1]]"}}, "R", "expected 1x1");
   expectModelError({{"P0", "[[1]]"}}, "P0", "expected 2x2");
   expectModelError({{"x0", "[1, 2, 3]"}}, "x0", "expected 2 entries");
-  expectModelError({{"control", "{Bu: [[1]]}"}}, "control.Bu",
-                   "expected 2x1 (n = 2 rows), found 1x1");
+  expectModelError({{"control", "{Bu: [[1]]}"}}, "control.Bu", "expected 2x1 (n = 2 rows), found 1x1");
   // Q follows the columns of B
   expectModelError({{"B", "[[1], [1]]"}}, "Q", "expected 1x1 (nw = 1");
 }
@@ -196,10 +193,8 @@ TEST(ParseModelErrors, WrongDimensions)
 TEST(ParseModelErrors, UncertaintyDimensions)
 {
   expectModelError({{"uncertainty", "[{dA: [[1]]}]"}}, "uncertainty[0].dA", "expected 2x2");
-  expectModelError({{"uncertainty", "[{dA: [[0, 0], [0, 0]]}, {dB: [[1, 0]]}]"}},
-                   "uncertainty[1].dB", "expected 2x2");
-  expectModelError({{"uncertainty", "[{dC: [[1, 0], [0, 1]]}]"}}, "uncertainty[0].dC",
-                   "expected 1x2");
+  expectModelError({{"uncertainty", "[{dA: [[0, 0], [0, 0]]}, {dB: [[1, 0]]}]"}}, "uncertainty[1].dB", "expected 2x2");
+  expectModelError({{"uncertainty", "[{dC: [[1, 0], [0, 1]]}]"}}, "uncertainty[0].dC", "expected 1x2");
 }
 
 TEST(ParseModelErrors, RaggedRows)
@@ -232,8 +227,7 @@ TEST(ParseModelErrors, NanAndInf)
 
 TEST(ParseModelErrors, NotSymmetric)
 {
-  expectModelError({{"Q", "[[1, 0.5], [0.4, 1]]"}}, "Q",
-                   "not symmetric (Q(0,1) = 0.5 but Q(1,0) = 0.4)");
+  expectModelError({{"Q", "[[1, 0.5], [0.4, 1]]"}}, "Q", "not symmetric (Q(0,1) = 0.5 but Q(1,0) = 0.4)");
   expectModelError({{"C", "[[1, 0], [0, 1]]"}, {"R", "[[1, 0.1], [0, 1]]"}}, "R", "not symmetric");
   expectModelError({{"P0", "[[1, 0], [0.2, 1]]"}}, "P0", "not symmetric");
 }
@@ -241,18 +235,15 @@ TEST(ParseModelErrors, NotSymmetric)
 TEST(ParseModelErrors, SymmetryToleranceIsRelative)
 {
   // A relative asymmetry of 1e-12 is accepted.
-  EXPECT_NO_THROW(ne::parseModel(
-      YAML::Load(modelYaml({{"Q", "[[1000, 1], [1.000000000001, 1000]]"}})), "m.yaml"));
+  EXPECT_NO_THROW(ne::parseModel(YAML::Load(modelYaml({{"Q", "[[1000, 1], [1.000000000001, 1000]]"}})), "m.yaml"));
 }
 
 TEST(ParseModelErrors, NotPositiveDefinite)
 {
-  expectModelError({{"Q", "[[1, 0], [0, -0.5]]"}}, "Q",
-                   "not positive definite (smallest eigenvalue -0.5)");
+  expectModelError({{"Q", "[[1, 0], [0, -0.5]]"}}, "Q", "not positive definite (smallest eigenvalue -0.5)");
   expectModelError({{"Q", "[[1, 1], [1, 1]]"}}, "Q", "not positive definite");
   expectModelError({{"R", "[[0]]"}}, "R", "not positive definite (smallest eigenvalue 0");
-  expectModelError({{"P0", "[[1, 0], [0, -0.5]]"}}, "P0",
-                   "not positive semidefinite (smallest eigenvalue -0.5)");
+  expectModelError({{"P0", "[[1, 0], [0, -0.5]]"}}, "P0", "not positive semidefinite (smallest eigenvalue -0.5)");
 }
 
 // The strict test is on Q scaled to unit diagonal (D^-1/2 Q D^-1/2, D = diag(Q)): positive
@@ -299,12 +290,10 @@ TEST(ParseModelErrors, DefinitenessIsScaleAware)
 TEST(ParseModelErrors, UnknownKeys)
 {
   expectModelError({{"foo", "1"}}, "foo", "unknown key");
-  expectModelError({{"uncertainty", "[{dA: [[0, 0], [0, 0]], rnage: 1}]"}}, "uncertainty[0].rnage",
-                   "unknown key");
+  expectModelError({{"uncertainty", "[{dA: [[0, 0], [0, 0]], rnage: 1}]"}}, "uncertainty[0].rnage", "unknown key");
   expectModelError({{"control", "{Bu: [[1], [0]], u: 1}"}}, "control.u", "unknown key");
-  expectModelError(
-      {{"C", kRemove}, {"R", kRemove}, {"sensors", "[{name: a, C: [[1, 0]], R: [[1]], rate: 10}]"}},
-      "sensors[0].rate", "unknown key");
+  expectModelError({{"C", kRemove}, {"R", kRemove}, {"sensors", "[{name: a, C: [[1, 0]], R: [[1]], rate: 10}]"}},
+                   "sensors[0].rate", "unknown key");
   // the line of the unknown key is reported (appended key is on line 10)
   EXPECT_CONTAINS(modelError(modelYaml({{"foo", "1"}})), "m.yaml:10: foo: unknown key");
 }
@@ -321,31 +310,23 @@ TEST(ParseModelErrors, MissingRequiredKeys)
 
 TEST(ParseModelErrors, SensorsAndCRTogether)
 {
-  expectModelError({{"sensors", "[{name: a, C: [[1, 0]], R: [[1]]}]"}}, "sensors",
-                   "cannot be combined with C/R");
+  expectModelError({{"sensors", "[{name: a, C: [[1, 0]], R: [[1]]}]"}}, "sensors", "cannot be combined with C/R");
 }
 
 TEST(ParseModelErrors, SensorEntries)
 {
-  const auto sensors = [](const std::string& list)
-  {
-    return std::vector<std::pair<std::string, std::string>>{
-        {"C", kRemove}, {"R", kRemove}, {"sensors", list}};
+  const auto sensors = [](const std::string& list) {
+    return std::vector<std::pair<std::string, std::string>>{{"C", kRemove}, {"R", kRemove}, {"sensors", list}};
   };
-  expectModelError(
-      sensors("[{name: a, C: [[1, 0]], R: [[1]]}, {name: b, C: [[1, 0, 0]], R: [[1]]}]"),
-      "sensors[1].C", "expected 1x2 (n = 2 columns), found 1x3");
-  expectModelError(
-      sensors("[{name: a, C: [[1, 0]], R: [[1]]}, {name: b, C: [[0, 1]], R: [[1, 0], [0, 1]]}]"),
-      "sensors[1].R", "expected 1x1");
-  expectModelError(sensors("[{name: a, C: [[1, 0]], R: [[-1]]}]"), "sensors[0].R",
-                   "not positive definite");
-  expectModelError(sensors("[{name: a, C: [[1, 0], [0, 1]], R: [[1, 2], [3, 1]]}]"), "sensors[0].R",
-                   "not symmetric");
-  expectModelError(sensors("[{name: a, C: [[1, 0]], R: [[1]]}, {name: a, C: [[0, 1]], R: [[1]]}]"),
-                   "sensors[1].name", "duplicate sensor name 'a'");
-  expectModelError(sensors("[{name: '', C: [[1, 0]], R: [[1]]}]"), "sensors[0].name",
-                   "must not be empty");
+  expectModelError(sensors("[{name: a, C: [[1, 0]], R: [[1]]}, {name: b, C: [[1, 0, 0]], R: [[1]]}]"), "sensors[1].C",
+                   "expected 1x2 (n = 2 columns), found 1x3");
+  expectModelError(sensors("[{name: a, C: [[1, 0]], R: [[1]]}, {name: b, C: [[0, 1]], R: [[1, 0], [0, 1]]}]"),
+                   "sensors[1].R", "expected 1x1");
+  expectModelError(sensors("[{name: a, C: [[1, 0]], R: [[-1]]}]"), "sensors[0].R", "not positive definite");
+  expectModelError(sensors("[{name: a, C: [[1, 0], [0, 1]], R: [[1, 2], [3, 1]]}]"), "sensors[0].R", "not symmetric");
+  expectModelError(sensors("[{name: a, C: [[1, 0]], R: [[1]]}, {name: a, C: [[0, 1]], R: [[1]]}]"), "sensors[1].name",
+                   "duplicate sensor name 'a'");
+  expectModelError(sensors("[{name: '', C: [[1, 0]], R: [[1]]}]"), "sensors[0].name", "must not be empty");
   expectModelError(sensors("[{C: [[1, 0]], R: [[1]]}]"), "sensors[0].name", "missing required key");
   expectModelError(sensors("[{name: a, C: [[1, 0]]}]"), "sensors[0].R", "missing required key");
   expectModelError(sensors("[]"), "sensors", "expected a non-empty list");
@@ -363,8 +344,7 @@ TEST(ParseModelErrors, NegativeRange)
 {
   expectModelError({{"uncertainty", "[{dA: [[0, 1], [0, 0]], range: -1}]"}}, "uncertainty[0].range",
                    "expected a non-negative number, found -1");
-  expectModelError({{"uncertainty", "[{range: abc}]"}}, "uncertainty[0].range",
-                   "expected a number, found 'abc'");
+  expectModelError({{"uncertainty", "[{range: abc}]"}}, "uncertainty[0].range", "expected a number, found 'abc'");
 }
 
 TEST(ParseModelErrors, NonPositivePeriod)
@@ -413,11 +393,7 @@ ne::Model handBuilt()
 
 std::string validateError(const ne::Model& m)
 {
-  return errorOf(
-      [&]
-      {
-        ne::validateModel(m, "hand");
-      });
+  return errorOf([&] { ne::validateModel(m, "hand"); });
 }
 
 TEST(ValidateModel, AcceptsValidModel)
@@ -467,8 +443,7 @@ TEST(ValidateModel, RejectsBrokenModels)
   expectMessage(validateError(m), "hand", "R", "not block diagonal");
 
   m = handBuilt();
-  m.uncertainty.push_back(
-      {Eigen::MatrixXd::Zero(2, 2), Eigen::MatrixXd::Zero(2, 2), Eigen::MatrixXd::Zero(1, 2), 0.0});
+  m.uncertainty.push_back({Eigen::MatrixXd::Zero(2, 2), Eigen::MatrixXd::Zero(2, 2), Eigen::MatrixXd::Zero(1, 2), 0.0});
   expectMessage(validateError(m), "hand", "uncertainty[0].dC", "expected 2x2");
 
   m = handBuilt();
@@ -494,41 +469,22 @@ TEST(LoadModel, ReadsFileAndDefaultsNameToStem)
 
   // errors name the file path and the line
   const std::string bad = dir.write("bad.yaml", modelYaml({{"Q", "[[1, 0.5], [0.4, 1]]"}}));
-  EXPECT_EQ(errorOf(
-                [&]
-                {
-                  ne::loadModel(bad);
-                }),
-            bad + ":5: Q: not symmetric (Q(0,1) = 0.5 but Q(1,0) = 0.4)");
+  EXPECT_EQ(errorOf([&] { ne::loadModel(bad); }), bad + ":5: Q: not symmetric (Q(0,1) = 0.5 but Q(1,0) = 0.4)");
 }
 
 TEST(LoadModel, MissingFile)
 {
   TempDir dir;
   const std::string path = (dir.path() / "nope.yaml").string();
-  EXPECT_EQ(errorOf(
-                [&]
-                {
-                  ne::loadModel(path);
-                }),
-            path + ": cannot open file");
-  EXPECT_CONTAINS(errorOf(
-                      [&]
-                      {
-                        ne::loadModel(dir.path().string());
-                      }),
-                  "cannot open file");
+  EXPECT_EQ(errorOf([&] { ne::loadModel(path); }), path + ": cannot open file");
+  EXPECT_CONTAINS(errorOf([&] { ne::loadModel(dir.path().string()); }), "cannot open file");
 }
 
 TEST(LoadModel, YamlSyntaxError)
 {
   TempDir dir;
   const std::string path = dir.write("syntax.yaml", "name: x\nA: [[1, 0], [0, 1]\nQ: [[1]]\n");
-  const std::string msg = errorOf(
-      [&]
-      {
-        ne::loadModel(path);
-      });
+  const std::string msg = errorOf([&] { ne::loadModel(path); });
   EXPECT_EQ(msg.rfind(path + ":", 0), 0u) << msg;
   EXPECT_CONTAINS(msg, "YAML syntax error");
   // the line number follows the path
@@ -541,17 +497,7 @@ TEST(LoadModel, TopLevelNotAMap)
 {
   TempDir dir;
   const std::string path = dir.write("list.yaml", "- 1\n- 2\n");
-  EXPECT_CONTAINS(errorOf(
-                      [&]
-                      {
-                        ne::loadModel(path);
-                      }),
-                  "expected a map of keys at the top level");
+  EXPECT_CONTAINS(errorOf([&] { ne::loadModel(path); }), "expected a map of keys at the top level");
   const std::string empty = dir.write("empty.yaml", "");
-  EXPECT_EQ(errorOf(
-                [&]
-                {
-                  ne::loadModel(empty);
-                }),
-            empty + ": empty document (expected a map of keys)");
+  EXPECT_EQ(errorOf([&] { ne::loadModel(empty); }), empty + ": empty document (expected a map of keys)");
 }

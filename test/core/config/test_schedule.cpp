@@ -51,8 +51,7 @@ std::string errorOf(const std::string& schedule)
   return "";
 }
 
-#define EXPECT_CONTAINS(text, part) \
-  EXPECT_NE(std::string(text).find(part), std::string::npos) << "message: " << (text)
+#define EXPECT_CONTAINS(text, part) EXPECT_NE(std::string(text).find(part), std::string::npos) << "message: " << (text)
 
 ChannelSettings bernoulli(double loss)
 {
@@ -104,7 +103,8 @@ TEST(Schedule, Errors)
   EXPECT_CONTAINS(errorOf("  pattern: [gnss]\n"), "schedule.pattern[0]: expected a list of sensor names");
   // a schedule under which nothing is ever received
   EXPECT_CONTAINS(errorOf("  pattern: [[], []]\n"), "schedule.pattern: no step schedules a sensor (every step is [])");
-  EXPECT_CONTAINS(errorOf("  subsets: [[], []]\n  probabilities: [0.5, 0.5]\n"), "schedule.subsets: every subset is []");
+  EXPECT_CONTAINS(errorOf("  subsets: [[], []]\n  probabilities: [0.5, 0.5]\n"),
+                  "schedule.subsets: every subset is []");
   EXPECT_CONTAINS(errorOf("  pattern: [[gnss]]\n  probabilities: [1]\n"), "cannot be combined with schedule.pattern");
   EXPECT_CONTAINS(errorOf("  subsets: [[gnss], [camera]]\n"), "needs probabilities (i.i.d.) or transition");
   EXPECT_CONTAINS(errorOf("  subsets: [[gnss], [camera]]\n  probabilities: [0.5, 0.6]\n"), "must sum to 1, found 1.1");

@@ -37,8 +37,8 @@ TEST(SensorLinks, PlainChannelForEverySensorNamedOneOverridesIt)
   EXPECT_EQ(all.link[1]->loss, 0.3);
 
   // the named one wins, in either order of the options; the other keeps the plain channel
-  for (const auto& args : {std::vector<std::string>{radio, "camera=" + wired},
-                           std::vector<std::string>{"camera=" + wired, radio}})
+  for (const auto& args :
+       {std::vector<std::string>{radio, "camera=" + wired}, std::vector<std::string>{"camera=" + wired, radio}})
   {
     ne::SensorLinks mixed = ne::resolveSensorLinks(m, args);
     ASSERT_TRUE(mixed.link[0] && mixed.link[1]);
@@ -62,14 +62,7 @@ TEST(SensorLinks, RefusesWhatIsNotASensorTwiceOrUnreadable)
   const ne::Model m = ne::loadModel(dir.write("two.yaml", kTwoSensors));
   const std::string radio = dir.write("radio.yaml", "{model: bernoulli, loss: 0.3}");
   const std::string bad = dir.write("bad.yaml", "{model: bernoulli, loss: 1.5}");
-  auto error = [&](const std::vector<std::string>& args)
-  {
-    return errorOf(
-        [&]
-        {
-          ne::resolveSensorLinks(m, args);
-        });
-  };
+  auto error = [&](const std::vector<std::string>& args) { return errorOf([&] { ne::resolveSensorLinks(m, args); }); };
   const std::string lidar = error({"lidar=" + radio});
   EXPECT_CONTAINS(lidar, "'lidar' is not a sensor of model 'two'");
   EXPECT_CONTAINS(lidar, "gps, camera");

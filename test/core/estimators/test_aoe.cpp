@@ -174,7 +174,8 @@ TEST(AoeSelfCheck, T2T3CovarianceOrderingOnRealisations)
       s.u = u;
       s.nu = nu ? 1 : 0;
       const MatrixXd Pe_prev = r.aoe->covariance();
-      const double nubar1 = (1 - q2) * r.aoe->commandArrivalProbability() + q1 * (1 - r.aoe->commandArrivalProbability());
+      const double nubar1 =
+          (1 - q2) * r.aoe->commandArrivalProbability() + q1 * (1 - r.aoe->commandArrivalProbability());
       r.oe->step(s);
       r.aoe->step(s);
       r.ack->step(s);
@@ -189,8 +190,8 @@ TEST(AoeSelfCheck, T2T3CovarianceOrderingOnRealisations)
       if (!gamma)
       {
         const VectorXd bu = r.model.Bu * u;
-        const MatrixXd expect = r.model.A * Pe_prev * r.model.A.transpose() + r.model.Q +
-                                nubar1 * (1 - nubar1) * bu * bu.transpose();
+        const MatrixXd expect =
+            r.model.A * Pe_prev * r.model.A.transpose() + r.model.Q + nubar1 * (1 - nubar1) * bu * bu.transpose();
         EXPECT_LT(maxAbsDiff(r.aoe->covariance(), expect), 1e-9 * expect.norm()) << "T3, k " << k;
       }
     }

@@ -147,7 +147,8 @@ OmniSpec omni2dSpec()
   s.rate = 20;
   // per second: small pose noise, velocities and accelerations that wander
   s.process_noise = {1e-4, 1e-4, 1e-4, 0.01, 0.01, 0.01, 0.1, 0.1};
-  s.sensors = {{"gps", {"x", "y"}, {0.5}}, {"imu", {"yaw", "vyaw", "ax", "ay"}, {0.02, 0.01, 0.1, 0.1}},
+  s.sensors = {{"gps", {"x", "y"}, {0.5}},
+               {"imu", {"yaw", "vyaw", "ax", "ay"}, {0.02, 0.01, 0.1, 0.1}},
                {"odom", {"vx", "vy", "vyaw"}, {0.05}}};
   s.x0 = {0, 0, 3.0, 1.0, 0, 0.8, 0, 0};
   s.p0 = {0.01};
@@ -162,7 +163,8 @@ OmniSpec omni3dSpec()
   s.rate = 20;
   s.process_noise = {1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 0.01, 0.01, 0.01, 0.01, 0.01, 0.01, 0.1, 0.1, 0.1};
   s.sensors = {{"gps", {"x", "y", "z"}, {0.5}},
-               {"imu", {"roll", "pitch", "yaw", "vroll", "vpitch", "vyaw", "ax", "ay", "az"},
+               {"imu",
+                {"roll", "pitch", "yaw", "vroll", "vpitch", "vyaw", "ax", "ay", "az"},
                 {0.02, 0.02, 0.02, 0.01, 0.01, 0.01, 0.1, 0.1, 0.1}},
                {"odom", {"vx", "vy", "vz"}, {0.05}}};
   s.x0 = {0, 0, 0, 0.1, -0.1, 3.0, 1.0, 0, 0, 0.05, -0.05, 0.8, 0, 0, 0};
@@ -473,7 +475,8 @@ TEST(Ekfio, TwoDModeIsTheOmni2dFilter)
 {
   OmniSpec s3 = omni3dSpec();
   s3.two_d_mode = true;
-  s3.sensors = {{"gps", {"x", "y"}, {0.5}}, {"imu", {"yaw", "vyaw", "ax", "ay"}, {0.02, 0.01, 0.1, 0.1}},
+  s3.sensors = {{"gps", {"x", "y"}, {0.5}},
+                {"imu", {"yaw", "vyaw", "ax", "ay"}, {0.02, 0.01, 0.1, 0.1}},
                 {"odom", {"vx", "vy", "vyaw"}, {0.05}}};
   s3.process_noise = {1e-4, 1e-4, 7, 7, 7, 1e-4, 0.01, 0.01, 7, 7, 7, 0.01, 0.1, 0.1, 7};  // 7: held, unused
   s3.x0 = {0, 0, 0, 0, 0, 3.0, 1.0, 0, 0, 0, 0, 0.8, 0, 0, 0};
@@ -676,7 +679,8 @@ TEST(PredictAhead, ABuiltInMotionPredictsOverDt)
 {
   OmniSpec planar = omni3dSpec();  // two_d_mode: as in TwoDModeIsTheOmni2dFilter
   planar.two_d_mode = true;
-  planar.sensors = {{"gps", {"x", "y"}, {0.5}}, {"imu", {"yaw", "vyaw", "ax", "ay"}, {0.02, 0.01, 0.1, 0.1}},
+  planar.sensors = {{"gps", {"x", "y"}, {0.5}},
+                    {"imu", {"yaw", "vyaw", "ax", "ay"}, {0.02, 0.01, 0.1, 0.1}},
                     {"odom", {"vx", "vy", "vyaw"}, {0.05}}};
   planar.process_noise = {1e-4, 1e-4, 7, 7, 7, 1e-4, 0.01, 0.01, 7, 7, 7, 0.01, 0.1, 0.1, 7};
   planar.x0 = {0, 0, 0, 0, 0, 3.0, 1.0, 0, 0, 0, 0, 0.8, 0, 0, 0};
@@ -722,7 +726,8 @@ TEST(PredictAhead, Refusals)
   MatrixXd Pp;
   const VectorXd x = VectorXd::Zero(2);
   const MatrixXd P = MatrixXd::Identity(2, 2);
-  auto message = [&](const Model& m, const VectorXd& x0, const MatrixXd& P0, double period, double dt) {
+  auto message = [&](const Model& m, const VectorXd& x0, const MatrixXd& P0, double period, double dt)
+  {
     try
     {
       predictAhead(m, period, x0, P0, dt, xp, Pp);
@@ -733,7 +738,8 @@ TEST(PredictAhead, Refusals)
     }
     return std::string("<no error>");
   };
-  EXPECT_EQ(message(lin, x, P, 0.1, -0.5).rfind("dt: expected a finite time >= 0 s", 0), 0u) << message(lin, x, P, 0.1, -0.5);
+  EXPECT_EQ(message(lin, x, P, 0.1, -0.5).rfind("dt: expected a finite time >= 0 s", 0), 0u)
+      << message(lin, x, P, 0.1, -0.5);
   EXPECT_EQ(message(omni, omni.x0, omni.P0, 0.1, kNaN).rfind("dt: expected a finite time >= 0 s", 0), 0u);
   EXPECT_EQ(message(lin, x, P, 0.0, 0.5).rfind("period: expected a finite step period > 0 s", 0), 0u);
   const std::string far = message(lin, x, P, 0.1, 0.1 * (kMaxPredictAheadSteps + 1));

@@ -133,10 +133,9 @@ bool hasFixedForm(Algorithm a, int n, int m, int nw)
 // fixed form for the Kalman filters, aoe and oe but not for rseio (n = 1 with m = 2, n = 4 with m = 4,
 // nw != n).
 const std::vector<Shape> kShapes = {
-    {1, 1, {1}, 1, 1}, {1, 1, {1}, 2, 1},    {1, 1, {1, 1}, 1, 0}, {2, 2, {1}, 1, 1},
-    {2, 2, {1}, 2, 0}, {2, 2, {1, 1}, 2, 1}, {2, 2, {2}, 1, 0},    {2, 2, {2}, 2, 1},
-    {2, 1, {1}, 1, 1}, {4, 4, {1, 1}, 1, 1}, {4, 4, {2}, 2, 1},    {4, 4, {2, 2}, 2, 1},
-    {4, 2, {2, 2}, 1, 1},
+    {1, 1, {1}, 1, 1},    {1, 1, {1}, 2, 1},    {1, 1, {1, 1}, 1, 0}, {2, 2, {1}, 1, 1}, {2, 2, {1}, 2, 0},
+    {2, 2, {1, 1}, 2, 1}, {2, 2, {2}, 1, 0},    {2, 2, {2}, 2, 1},    {2, 1, {1}, 1, 1}, {4, 4, {1, 1}, 1, 1},
+    {4, 4, {2}, 2, 1},    {4, 4, {2, 2}, 2, 1}, {4, 2, {2, 2}, 1, 1},
 };
 
 }  // namespace
@@ -294,7 +293,8 @@ TEST(FixedSize, RejectsBadInputLikeTheDynamicForm)
 TEST(FixedSize, FactoryPicksTheFormFromTheSizes)
 {
   Rng rng(11);
-  auto formOf = [&](int n, int nw, std::vector<int> sensors, Algorithm a) {
+  auto formOf = [&](int n, int nw, std::vector<int> sensors, Algorithm a)
+  {
     const Model m = shapedModel(rng, {n, nw, sensors, 1, 1}, 0.9);
     return makeEstimator(m, settingsFor(a))->implementation();
   };
@@ -369,8 +369,8 @@ Sample withoutOneSensor(Rng& rng, const Model& m, const Sample& s)
   return g;
 }
 
-const std::vector<Algorithm> kEveryAlgorithm = {Algorithm::KF, Algorithm::KFIO, Algorithm::ACK_KF, Algorithm::RSEIO,
-                                                Algorithm::AOE, Algorithm::OE, Algorithm::EKFIO};
+const std::vector<Algorithm> kEveryAlgorithm = {Algorithm::KF,  Algorithm::KFIO, Algorithm::ACK_KF, Algorithm::RSEIO,
+                                                Algorithm::AOE, Algorithm::OE,   Algorithm::EKFIO};
 
 }  // namespace
 

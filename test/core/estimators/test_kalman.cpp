@@ -282,7 +282,8 @@ TEST(BadInput, RejectedWithoutTouchingTheEstimate)
     est->step(good);
     const VectorXd x = est->state();
     const MatrixXd P = est->covariance();
-    auto expectRejected = [&](const Sample& s, const std::string& fragment) {
+    auto expectRejected = [&](const Sample& s, const std::string& fragment)
+    {
       try
       {
         est->step(s);
@@ -325,8 +326,8 @@ TEST(BadInput, RejectedWithoutTouchingTheEstimate)
 TEST(StepR, EqualsTheModelsRAndReplacesIt)
 {
   for (int n : {2, 3})
-    for (Algorithm a : {Algorithm::KF, Algorithm::KFIO, Algorithm::ACK_KF, Algorithm::RSEIO, Algorithm::AOE,
-                        Algorithm::OE})
+    for (Algorithm a :
+         {Algorithm::KF, Algorithm::KFIO, Algorithm::ACK_KF, Algorithm::RSEIO, Algorithm::AOE, Algorithm::OE})
     {
       Rng rng(40 + n);
       const Model m = randomModel(rng, n, n, {1, 1}, 0, 1);

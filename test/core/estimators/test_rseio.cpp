@@ -122,7 +122,8 @@ TEST(Rseio, EqualsBruteForceMinimiserWithKnownInput)
     const int n = 2 + trial % 3;
     // odd trials: two sensors and two parameters (rank [S T] > n: Gram form); even: one of each
     const bool big = trial % 2 == 1;
-    Model m = randomModel(rng, n, 2, big ? std::vector<int>{1, 1} : std::vector<int>{1}, big ? 2 : 1, 1 + trial % 3 / 2);
+    Model m =
+        randomModel(rng, n, 2, big ? std::vector<int>{1, 1} : std::vector<int>{1}, big ? 2 : 1, 1 + trial % 3 / 2);
     const double mu = rng.uniform(0.3, 0.95);
     const VectorXd y = randomMatrix(rng, m.m(), 1);
     const VectorXd u = randomMatrix(rng, m.p(), 1, 2.0);

@@ -128,9 +128,9 @@ TEST(CovarianceOnly, EstimatorModeGivesTheOrdinaryCovariance)
             pattern.y[i] = nan;
         ordinary->step(data);
         only->step(pattern);
-        ASSERT_TRUE(ordinary->covariance() == only->covariance())
-            << toString(a) << " n = " << n << " k = " << k << "\n" << ordinary->covariance() << "\n\n"
-            << only->covariance();
+        ASSERT_TRUE(ordinary->covariance() == only->covariance()) << toString(a) << " n = " << n << " k = " << k << "\n"
+                                                                  << ordinary->covariance() << "\n\n"
+                                                                  << only->covariance();
       }
       EXPECT_TRUE(only->state() == model.x0) << toString(a);
       EXPECT_FALSE(ordinary->state() == model.x0) << toString(a);
@@ -164,7 +164,8 @@ TEST(CovarianceOnly, SameArrivalsAsTheStateSimulatingRuns)
 {
   Files f;
   const std::string model_path = f.write("scheduled.yaml", kScheduled);
-  const std::vector<std::string> channels = {"s1=" + f.write("b.yaml", kBernoulli), "s2=" + f.write("ge.yaml", kGilbert)};
+  const std::vector<std::string> channels = {"s1=" + f.write("b.yaml", kBernoulli),
+                                             "s2=" + f.write("ge.yaml", kGilbert)};
   const std::vector<std::string> settings = {f.write("kfio.yaml", "algorithm: kfio\n"),
                                              f.write("rseio.yaml", "algorithm: rseio\nmu: 0.9\n")};
   const long runs = 150, T = 40;
@@ -186,8 +187,10 @@ TEST(CovarianceOnly, SameArrivalsAsTheStateSimulatingRuns)
   LossyRunOptions options;
   options.sensor_links = resolveSensorLinks(model, channels).link;
   std::vector<EstimatorSettings> es = {loadEstimatorSettings(settings[0]), loadEstimatorSettings(settings[1])};
-  WorkerFactory simulated = [&]() -> RunFunction {
-    return [&](long run, double* out) {
+  WorkerFactory simulated = [&]() -> RunFunction
+  {
+    return [&](long run, double* out)
+    {
       LossyRun plant(model, cfg.seed + static_cast<std::uint64_t>(run), options);
       auto kfio = makeEstimator(model, es[0]);
       auto rseio = makeEstimator(model, es[1]);

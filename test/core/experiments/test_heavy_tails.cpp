@@ -169,8 +169,10 @@ namespace
 /// first (so the per-run growth exponents are known) and Pareto-like values for the second.
 WorkerFactory seriesValues()
 {
-  return []() -> RunFunction {
-    return [](long r, double* out) {
+  return []() -> RunFunction
+  {
+    return [](long r, double* out)
+    {
       Rng rng(deriveSeed(5, static_cast<std::uint64_t>(r)));
       const double g = 0.01 * static_cast<double>(r % 5 - 2);
       for (int k = 1; k <= 12; ++k)
@@ -207,9 +209,8 @@ TEST(HeavyTailStatistics, EngineMatchesTheDirectComputation)
       col.push_back(raw[static_cast<std::size_t>(r) * 24 + v]);
     for (std::size_t t = 0; t < 2; ++t)
     {
-      const double above = static_cast<double>(std::count_if(col.begin(), col.end(), [&](double c) {
-        return c > st.thresholds[t];
-      }));
+      const double above =
+          static_cast<double>(std::count_if(col.begin(), col.end(), [&](double c) { return c > st.thresholds[t]; }));
       EXPECT_NEAR(m.exceed[v * 2 + t], above / runs, 1e-12) << v << " " << t;
     }
     EXPECT_LE(std::abs(m.sketches[v].quantile(0.5) - exactQuantile(col, 0.5)), 0.0101 * exactQuantile(col, 0.5));
@@ -361,7 +362,7 @@ void checkTailDecay(const TailCase& tc)
   const double log_rho = std::log(p2 / p1) / K;
   const double se = std::sqrt((1.0 / p2 - 1.0 / p1) / n) / K;
   EXPECT_NEAR(log_rho, std::log(tc.rho), 4.5 * se) << tc.channel;
-  const double closed = std::log(tc.rho * a2);  // > 0: E[P] infinite
+  const double closed = std::log(tc.rho * a2);        // > 0: E[P] infinite
   ASSERT_GT(std::abs(closed), 6 * se) << tc.channel;  // the case decides the side of 1
   EXPECT_EQ(log_rho + std::log(a2) > 0.0, closed > 0.0) << tc.channel;
   // where the mean is infinite the outputs say the mean is not estimable

@@ -55,8 +55,10 @@ TEST(MonteCarloEngine, MomentsMatchDirectComputation)
 {
   // values of run r: r and r^2 (deterministic), 130 runs span three blocks
   const long runs = 130;
-  WorkerFactory f = []() -> RunFunction {
-    return [](long r, double* out) {
+  WorkerFactory f = []() -> RunFunction
+  {
+    return [](long r, double* out)
+    {
       out[0] = static_cast<double>(r);
       out[1] = 5.0;
     };
@@ -75,8 +77,10 @@ TEST(MonteCarloEngine, MomentsMatchDirectComputation)
 
 TEST(MonteCarloEngine, RethrowsErrorOfRun)
 {
-  WorkerFactory f = []() -> RunFunction {
-    return [](long r, double* out) {
+  WorkerFactory f = []() -> RunFunction
+  {
+    return [](long r, double* out)
+    {
       if (r == 70)
         throw DivergenceError("boom");
       out[0] = 1.0;
@@ -312,8 +316,9 @@ TEST(MonteCarlo, OutputFormats)
   EXPECT_EQ(r.cases[0].series[0].time_average, 2.0);
   EXPECT_EQ(r.cases[0].series[0].final_value, 3.0);
   // se = sd / sqrt(n); no quantiles computed: empty cells
-  EXPECT_EQ(experimentCsv(r), "case,series,x,mean,sd,n,se,p5,p25,median,p75,p95\nc,S,1,1,0.5,3,0.2886751346,,,,,\n"
-                              "c,S,2,3,0,3,0,,,,,\n");
+  EXPECT_EQ(experimentCsv(r),
+            "case,series,x,mean,sd,n,se,p5,p25,median,p75,p95\nc,S,1,1,0.5,3,0.2886751346,,,,,\n"
+            "c,S,2,3,0,3,0,,,,,\n");
   const std::string json = experimentJson(r);
   EXPECT_NE(json.find("\"y_label\": \"a \\\"quoted\\\" \\\\ label\""), std::string::npos) << json;
   EXPECT_NE(json.find("\"line\\nbreak\""), std::string::npos);
@@ -355,8 +360,10 @@ bool sameBits(const std::vector<double>& a, const std::vector<double>& b)
 /// infinite, its M2 NaN).
 WorkerFactory awkwardValues(bool nonfinite)
 {
-  return [nonfinite]() -> RunFunction {
-    return [nonfinite](long r, double* out) {
+  return [nonfinite]() -> RunFunction
+  {
+    return [nonfinite](long r, double* out)
+    {
       const double x = static_cast<double>(r);
       out[0] = std::sin(x) / 3.0;
       out[1] = 1e300 * std::cos(0.7 * x);
@@ -413,8 +420,8 @@ TEST(MonteCarloShards, ShardSpecSyntax)
   EXPECT_TRUE(parseShardSpec("3/7", k, n));
   EXPECT_EQ(k, 3);
   EXPECT_EQ(n, 7);
-  for (const char* bad : {"0/3", "4/3", "x", "1/0", "", "1/", "/3", "1/3/4", "-1/3", "+1/3", " 1/3", "1/3 ", "1.0/3",
-                          "1/99999999"})
+  for (const char* bad :
+       {"0/3", "4/3", "x", "1/0", "", "1/", "/3", "1/3/4", "-1/3", "+1/3", " 1/3", "1/3 ", "1.0/3", "1/99999999"})
     EXPECT_FALSE(parseShardSpec(bad, k, n)) << "'" << bad << "'";
 }
 
@@ -455,8 +462,8 @@ TEST(MonteCarloShards, MergedBlocksEqualUnshardedBitForBit)
             ASSERT_EQ(static_cast<long>(calls[0].blocks.size()), expected_blocks);  // 0 for some with N = 7
             // through the file format and back: every double exactly
             const ShardFile written = engineShard(calls, runs, k, n);
-            const ShardFile read = parseShard(shardJson(written), "mem/zhou_fig1.shard-" + std::to_string(k) + "-of-" +
-                                                                   std::to_string(n) + ".json");
+            const ShardFile read = parseShard(
+                shardJson(written), "mem/zhou_fig1.shard-" + std::to_string(k) + "-of-" + std::to_string(n) + ".json");
             ASSERT_EQ(read.calls.size(), 1u);
             ASSERT_EQ(read.calls[0].blocks.size(), calls[0].blocks.size());
             for (std::size_t j = 0; j < calls[0].blocks.size(); ++j)
@@ -480,7 +487,8 @@ TEST(MonteCarloShards, MergedBlocksEqualUnshardedBitForBit)
           EXPECT_TRUE(!raw || sameBits(merged_raw, plain_raw));
           // a replay returns the merged moments without running anything
           BlockSession replay = BlockSession::replay({merged});
-          WorkerFactory never = []() -> RunFunction {
+          WorkerFactory never = []() -> RunFunction
+          {
             ADD_FAILURE() << "a replay ran a worker";
             return [](long, double*) {};
           };
@@ -568,7 +576,8 @@ TEST(MonteCarloShards, MergeRefusesShardsThatDoNotBelongTogether)
     three.push_back(runShard(cfg, k, 3));
     three.back().path = "d/" + shardFileName("zhou_fig2", k, 3);
   }
-  auto refused = [](std::vector<ShardFile> shards, const std::vector<std::string>& words) {
+  auto refused = [](std::vector<ShardFile> shards, const std::vector<std::string>& words)
+  {
     try
     {
       mergeShards(std::move(shards));
@@ -600,7 +609,8 @@ TEST(MonteCarloShards, MergeRefusesShardsThatDoNotBelongTogether)
 
   // malformed files name the file, the line and the problem
   const std::string text = shardJson(three[0]);
-  auto malformed = [](const std::string& t, const std::string& word) {
+  auto malformed = [](const std::string& t, const std::string& word)
+  {
     try
     {
       parseShard(t, "bad.json");
@@ -634,7 +644,8 @@ namespace
 
 bool sameModel(const Model& a, const Model& b, std::string& why)
 {
-  auto mat = [&](const char* name, const Eigen::MatrixXd& x, const Eigen::MatrixXd& y) {
+  auto mat = [&](const char* name, const Eigen::MatrixXd& x, const Eigen::MatrixXd& y)
+  {
     if (x.rows() == y.rows() && x.cols() == y.cols() && x == y)
       return true;
     std::ostringstream os;
@@ -645,12 +656,12 @@ bool sameModel(const Model& a, const Model& b, std::string& why)
   };
   if (a.name != b.name || a.period != b.period)
   {
-    why = "name or period: " + a.name + " " + std::to_string(a.period) + " vs " + b.name + " " +
-          std::to_string(b.period);
+    why =
+        "name or period: " + a.name + " " + std::to_string(a.period) + " vs " + b.name + " " + std::to_string(b.period);
     return false;
   }
-  if (!mat("A", a.A, b.A) || !mat("B", a.B, b.B) || !mat("Q", a.Q, b.Q) || !mat("C", a.C, b.C) ||
-      !mat("R", a.R, b.R) || !mat("x0", a.x0, b.x0) || !mat("P0", a.P0, b.P0) || !mat("Bu", a.Bu, b.Bu))
+  if (!mat("A", a.A, b.A) || !mat("B", a.B, b.B) || !mat("Q", a.Q, b.Q) || !mat("C", a.C, b.C) || !mat("R", a.R, b.R) ||
+      !mat("x0", a.x0, b.x0) || !mat("P0", a.P0, b.P0) || !mat("Bu", a.Bu, b.Bu))
     return false;
   if (a.sensors.size() != b.sensors.size() || a.uncertainty.size() != b.uncertainty.size())
   {

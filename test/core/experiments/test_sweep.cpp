@@ -126,10 +126,12 @@ TEST(Sweep, AxisErrorsNameTheArgument)
 {
   expectAxisError("gnss.arrival_rate", "expected NAME=LO:HI:N with NAME SENSOR.PARAM, ESTIMATOR.PARAM or model.ENTRY");
   expectAxisError("arrival_rate=0:1:3", "expected NAME=LO:HI:N with NAME SENSOR.PARAM, ESTIMATOR.PARAM or model.ENTRY");
-  expectAxisError("gnss.arrival_rate=0:1", "expected NAME=LO:HI:N with NAME SENSOR.PARAM, ESTIMATOR.PARAM or model.ENTRY");
-  expectAxisError("gnss.latency=0:1:3", "unknown parameter 'latency' (valid: a sensor's arrival_rate, recovery_rate, "
-                                        "loss, p, r, loss_good, loss_bad; an estimator's mu, recovery, failure; the "
-                                        "model's model.A[i][j], C[i][j], Q* or R*)");
+  expectAxisError("gnss.arrival_rate=0:1",
+                  "expected NAME=LO:HI:N with NAME SENSOR.PARAM, ESTIMATOR.PARAM or model.ENTRY");
+  expectAxisError("gnss.latency=0:1:3",
+                  "unknown parameter 'latency' (valid: a sensor's arrival_rate, recovery_rate, "
+                  "loss, p, r, loss_good, loss_bad; an estimator's mu, recovery, failure; the "
+                  "model's model.A[i][j], C[i][j], Q* or R*)");
   expectAxisError("gnss.delay=0:1:3", "delay is not simulated by the Monte Carlo");
   expectAxisError("model.B[0][0]=0:1:3", "unknown model entry 'B[0][0]'");
   expectAxisError("model.A[0]=0:1:3", "unknown model entry 'A[0]'");
@@ -149,7 +151,8 @@ TEST(Sweep, AxisErrorsNameTheArgument)
   expectAxisError("gnss.recovery_rate=-0.1:1:3", "recovery_rate must lie in [0, 1]");
 
   const Model m = test::scalarTwoSensorModel(1.5, "gnss", "camera");
-  auto resolveError = [&](std::vector<std::string> args, const std::string& part) {
+  auto resolveError = [&](std::vector<std::string> args, const std::string& part)
+  {
     std::vector<SweepAxis> axes;
     for (const std::string& a : args)
       axes.push_back(parseSweepAxis(a));
@@ -266,14 +269,16 @@ TEST(Sweep, AxesOverAnyParameterParseAndResolve)
   rseio.mu = 0.8;
   const std::vector<std::string> names = {"kfio", "robust"};
   const std::vector<EstimatorSettings> settings = {kfio, rseio};
-  auto resolves = [&](std::vector<std::string> args) {
+  auto resolves = [&](std::vector<std::string> args)
+  {
     std::vector<SweepAxis> axes;
     for (const std::string& arg : args)
       axes.push_back(parseSweepAxis(arg));
     resolveSweepAxes(axes, m, links, names, settings);
     return axes;
   };
-  auto refused = [&](std::vector<std::string> args, const std::string& part) {
+  auto refused = [&](std::vector<std::string> args, const std::string& part)
+  {
     try
     {
       resolves(args);
@@ -356,17 +361,20 @@ TEST(Sweep, ModelAndSettingsPointsEqualTheChangedFiles)
   // the scalar plant with an uncertain a (eps ~ U[-1, 1] times 0.1): without uncertainty rseio is
   // kfio and mu changes nothing
   const std::string uncertain = "\nuncertainty:\n  - dA: [[0.1]]\n    range: 1.0\n";
-  const std::string sensors = "sensors:\n  - {name: gnss,   C: [[1.0]], R: [[4.0]]}\n"
-                              "  - {name: camera, C: [[1.0]], R: [[0.25]]}\nx0: [0]\nP0: [[1]]";
+  const std::string sensors =
+      "sensors:\n  - {name: gnss,   C: [[1.0]], R: [[4.0]]}\n"
+      "  - {name: camera, C: [[1.0]], R: [[0.25]]}\nx0: [0]\nP0: [[1]]";
   MonteCarloConfig a = sweepConfig(f, {"model.Q*=1:3:2", "robust.mu=0.5:0.9:2"}, 130, 25);
-  a.model_path = f.write("q1.yaml", "name: unstable_two_links\nperiod: 0.1\nA: [[1.5]]\nQ: [[1.0]]\n" + sensors + uncertain);
+  a.model_path =
+      f.write("q1.yaml", "name: unstable_two_links\nperiod: 0.1\nA: [[1.5]]\nQ: [[1.0]]\n" + sensors + uncertain);
   a.settings_paths = {f.kf, rseio};
   const ExperimentResult ra = runExperiment(a);
   ASSERT_EQ(ra.sweep->points, 4);
   // the point (Q* = 3, mu = 0.9) from files: Q = 3 and mu = 0.9, one point on a link axis that
   // changes nothing (gnss and camera are lossless in both)
   MonteCarloConfig b = sweepConfig(f, {"gnss.arrival_rate=1:1:1"}, 130, 25);
-  b.model_path = f.write("q3.yaml", "name: unstable_two_links\nperiod: 0.1\nA: [[1.5]]\nQ: [[3.0]]\n" + sensors + uncertain);
+  b.model_path =
+      f.write("q3.yaml", "name: unstable_two_links\nperiod: 0.1\nA: [[1.5]]\nQ: [[3.0]]\n" + sensors + uncertain);
   b.settings_paths = {f.kf, f.write("robust2.yaml", "algorithm: rseio\nmu: 0.9\n")};
   const ExperimentResult rb = runExperiment(b);
   for (std::size_t j = 0; j < 2; ++j)
@@ -419,7 +427,8 @@ TEST(Sweep, PointLinks)
 TEST(Sweep, ThreadCountAndShardsDoNotChangeResults)
 {
   Files f;
-  const MonteCarloConfig c = sweepConfig(f, {"gnss.arrival_rate=0.3:0.9:3", "camera.arrival_rate=0.2:0.8:4"}, 150, 20, 1);
+  const MonteCarloConfig c =
+      sweepConfig(f, {"gnss.arrival_rate=0.3:0.9:3", "camera.arrival_rate=0.2:0.8:4"}, 150, 20, 1);
   const ExperimentResult one = runExperiment(c);
   MonteCarloConfig c3 = c;
   c3.threads = 3;
@@ -466,8 +475,9 @@ TEST(Sweep, RunsThatCannotBeCountedAreRecordedNotAveraged)
   // arrivals: P_k = 100 P_k-1 + Q overflows near k = 7. Every run diverges at arrival rate 0, some
   // at 0.5 (7 consecutive losses), none at 1.
   MonteCarloConfig huge = sweepConfig(f, {"y.arrival_rate=0:1:3"}, 100, 10);
-  huge.model_path = f.write("huge.yaml", "name: huge_noise\nA: [[10.0]]\nQ: [[1e295]]\n"
-                                         "sensors:\n  - {name: y, C: [[1.0]], R: [[1e295]]}\nx0: [0]\nP0: [[1]]\n");
+  huge.model_path = f.write("huge.yaml",
+                            "name: huge_noise\nA: [[10.0]]\nQ: [[1e295]]\n"
+                            "sensors:\n  - {name: y, C: [[1.0]], R: [[1e295]]}\nx0: [0]\nP0: [[1]]\n");
   const ExperimentResult d = runExperiment(huge);
   ASSERT_EQ(d.sweep->cells.size(), 3u);
   EXPECT_EQ(d.sweep->cells[0].diverged, 100);

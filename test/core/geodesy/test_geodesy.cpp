@@ -37,10 +37,10 @@ TEST(LocalEnu, MatchesEarthCentredRotationAndRoundTrips)
     double lat0, lon0, alt0, lat, lon, alt;
   };
   const Case cases[] = {
-      {48.137, 11.575, 520.0, 48.1375, 11.5762, 523.5},   // 100 m scale
-      {-33.86, 151.21, 10.0, -33.87, 151.19, 60.0},       // southern/eastern hemisphere, km scale
-      {0.0, -0.0001, 0.0, 0.0001, 0.0001, 0.0},           // across the prime meridian at the equator
-      {64.1, -21.9, 30.0, 64.1, -21.9, 30.0},             // the datum itself
+      {48.137, 11.575, 520.0, 48.1375, 11.5762, 523.5},  // 100 m scale
+      {-33.86, 151.21, 10.0, -33.87, 151.19, 60.0},      // southern/eastern hemisphere, km scale
+      {0.0, -0.0001, 0.0, 0.0001, 0.0001, 0.0},          // across the prime meridian at the equator
+      {64.1, -21.9, 30.0, 64.1, -21.9, 30.0},            // the datum itself
   };
   for (const Case& c : cases)
   {

@@ -59,7 +59,7 @@ TEST(NavSatAlignment, HeadingIsReadingPlusDeclinationPlusOffsetWrapped)
 {
   EXPECT_NEAR(ne::enuHeading(0.2, 0.1, 0.3), 0.6, 1e-12);
   EXPECT_NEAR(ne::enuHeading(3.0, 0.2, 0.0), 3.2 - 2 * M_PI, 1e-12);  // wrapped into (-pi, pi]
-  EXPECT_NEAR(ne::enuHeading(0.0, 0.0, M_PI / 2), M_PI / 2, 1e-12);  // an IMU reading 0 facing north
+  EXPECT_NEAR(ne::enuHeading(0.0, 0.0, M_PI / 2), M_PI / 2, 1e-12);   // an IMU reading 0 facing north
 }
 
 TEST(NavSatAlignment, FixesOfAKnownDriveLandOnTheWorldTrack)
@@ -201,7 +201,8 @@ TEST(NavSatAlignment, WorldFromUtmPutsUtmCoordinatesOnTheWorldTrack)
   ne::NavSatAlignment a;
   std::string why;
   ASSERT_TRUE(a.align(Eigen::Vector3d(0.5 * std::cos(s.heading), 0.5 * std::sin(s.heading), 0.0), s.heading,
-                      ne::BasePose(), s.lever, why)) << why;
+                      ne::BasePose(), s.lever, why))
+      << why;
   ne::UtmPoint u;
   ASSERT_TRUE(ne::utmOf(lat0, lon0, alt0, u, why)) << why;
   EXPECT_GT(std::fabs(u.convergence), 1.0 * kDeg);  // so that a missing rotation would show

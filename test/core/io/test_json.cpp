@@ -59,8 +59,9 @@ TEST(JsonWriter, LayoutSeparatorsAndOrder)
   w.br(2).key("empty").beginArray().endArray();
   w.br(0).endObject();
   // members stay in the order written (not sorted), ", " and ": " between them, breaks where asked
-  EXPECT_EQ(w.text(), "{\n  \"z\": 1,\n  \"list\": [1.5, -2],\n  \"rows\": [\n    {\"a\": true, \"b\": null}\n  ],\n"
-                      "  \"empty\": []\n}");
+  EXPECT_EQ(w.text(),
+            "{\n  \"z\": 1,\n  \"list\": [1.5, -2],\n  \"rows\": [\n    {\"a\": true, \"b\": null}\n  ],\n"
+            "  \"empty\": []\n}");
 }
 
 TEST(JsonWriter, NumbersAndStrings)
@@ -83,8 +84,8 @@ TEST(JsonDocument, DoublesRoundTripBitForBit)
 {
   // doubles of every magnitude, written and read back: the same bits
   std::mt19937_64 rng(7);
-  std::vector<double> v = {0.0, -0.0, 1.0, 0.1, 1e-300, 5e-324, 1.7976931348623157e308, 9007199254740993.0,
-                           85739067664200288.0};
+  std::vector<double> v = {
+      0.0, -0.0, 1.0, 0.1, 1e-300, 5e-324, 1.7976931348623157e308, 9007199254740993.0, 85739067664200288.0};
   for (int i = 0; i < 2000; ++i)
   {
     std::uint64_t bits = rng();
@@ -126,7 +127,11 @@ TEST(JsonDocument, FieldErrorsNameTheLineAndTheField)
   EXPECT_EQ(fieldError(text, [](const JsonField& f) { f["u"].uint64(); }),
             "f.json: line 6: 'u': expected a non-negative integer, found -1");
   EXPECT_EQ(fieldError(text, [](const JsonField& f) { f.keys({"n", "list"}); }), "f.json: line 6: 'u': unknown key");
-  EXPECT_EQ(fieldError(text, [](const JsonField& f) { f.keys({"n", "list", "u", "w"}); }), "f.json: line 1: missing key 'w'");
+  EXPECT_EQ(fieldError(text,
+                       [](const JsonField& f) {
+                         f.keys({"n", "list", "u", "w"});
+                       }),
+            "f.json: line 1: missing key 'w'");
   EXPECT_EQ(fieldError("{\"a\": 11}", [](const JsonField& f) { f["a"].integer(1, 10); }),
             "f.json: line 1: 'a': expected an integer in [1, 10], found 11");
   EXPECT_EQ(fieldError("{\"a\": 0}", [](const JsonField& f) { f["a"].integer(1, 10); }),

@@ -151,12 +151,13 @@ TEST(ReplayInput, NoiseCellsKeptOnLossRows)
 TEST(ReplayInput, PerSensorLoss)
 {
   const Model model = twoSensorModel();
-  const ReplayInput in = parse("k,gamma,y1,y2,y3\n"
-                               "1,1,1,2,3\n"
-                               "2,1,,4,5\n"
-                               "3,1,6,,\n"
-                               "4,1,,,\n",
-                               model);
+  const ReplayInput in = parse(
+      "k,gamma,y1,y2,y3\n"
+      "1,1,1,2,3\n"
+      "2,1,,4,5\n"
+      "3,1,6,,\n"
+      "4,1,,,\n",
+      model);
   ASSERT_EQ(in.rows.size(), 4u);
   EXPECT_EQ(in.rows[0].y, Eigen::Vector3d(1, 2, 3));
   EXPECT_TRUE(isNaN(in.rows[1].y[0]));  // left lost
@@ -513,11 +514,12 @@ TEST(ReplayInput, PerStepRColumns)
 {
   const Model model = twoSensorModel();  // left: y1; right: y2, y3
   EXPECT_EQ(replayRColumns(model), (std::vector<std::string>{"r1_1", "r2_2", "r2_3", "r3_3"}));
-  const ReplayInput in = parse("k,gamma,y1,y2,y3,r1_1,r2_2,r2_3,r3_3\n"
-                               "1,1,0.5,1,2,,,,\n"
-                               "2,1,0.5,1,2,4,2,0.5,3\n"
-                               "3,1,0.5,-,-,0.25,,,\n",
-                               model);
+  const ReplayInput in = parse(
+      "k,gamma,y1,y2,y3,r1_1,r2_2,r2_3,r3_3\n"
+      "1,1,0.5,1,2,,,,\n"
+      "2,1,0.5,1,2,4,2,0.5,3\n"
+      "3,1,0.5,-,-,0.25,,,\n",
+      model);
   ASSERT_TRUE(in.has_R);
   EXPECT_EQ(in.rows[0].R.size(), 0);  // none given: the model's R
   Eigen::MatrixXd R2(3, 3);

@@ -132,7 +132,8 @@ TEST(LinkEstimates, LiveMonitorAndOfflineFitGiveTheSameNumbers)
   FitOptions o;
   o.fit_ge = false;
   const LossFit fit = fitLoss(a, o);
-  auto same = [](const RateEstimate& x, const RateEstimate& y, const char* what) {
+  auto same = [](const RateEstimate& x, const RateEstimate& y, const char* what)
+  {
     EXPECT_EQ(x.value, y.value) << what;
     EXPECT_EQ(x.lower, y.lower) << what;
     EXPECT_EQ(x.upper, y.upper) << what;
@@ -285,7 +286,7 @@ TEST(LinkFit, StatisticsOnAHandMadeTrace)
   EXPECT_EQ(s.lost, 6u);
   EXPECT_EQ(s.longest_burst, 3u);
   EXPECT_NEAR(s.longest_outage, 0.4, 1e-12);
-  EXPECT_NEAR(s.mean_burst, 2.0, 1e-12);       // bursts 2, 1, 3
+  EXPECT_NEAR(s.mean_burst, 2.0, 1e-12);      // bursts 2, 1, 3
   EXPECT_NEAR(s.mean_gap, 5.0 / 4.0, 1e-12);  // gaps 1, 2, 1, 1
   ASSERT_GE(s.bursts.size(), 4u);
   EXPECT_EQ(s.bursts[1], 1u);
@@ -322,9 +323,9 @@ SlotTrace delayTrace(double delay, double jitter, DelayDistribution law, std::ui
     t.copies.push_back(1);
     t.receipt_order.push_back(k);
   }
-  std::stable_sort(t.receipt_order.begin(), t.receipt_order.end(), [&](std::size_t a, std::size_t b) {
-    return 0.02 * double(a) + t.delay[a] < 0.02 * double(b) + t.delay[b];
-  });
+  std::stable_sort(t.receipt_order.begin(), t.receipt_order.end(),
+                   [&](std::size_t a, std::size_t b)
+                   { return 0.02 * double(a) + t.delay[a] < 0.02 * double(b) + t.delay[b]; });
   return t;
 }
 
@@ -618,7 +619,8 @@ TEST(LinkTrace, DuplicatesReorderingAndRate)
 
 TEST(LinkTrace, Refusals)
 {
-  auto message = [](const LinkRecord& r, const TraceOptions& o) -> std::string {
+  auto message = [](const LinkRecord& r, const TraceOptions& o) -> std::string
+  {
     try
     {
       analyseLink(r, o);
@@ -630,8 +632,9 @@ TEST(LinkTrace, Refusals)
     return "accepted";
   };
   const TraceOptions o;
-  EXPECT_NE(message(periodicRecord(std::vector<std::uint8_t>(49, 1), 0.1, 0.0, true), o).find("49 messages, fewer "
-                                                                                              "than the 50"),
+  EXPECT_NE(message(periodicRecord(std::vector<std::uint8_t>(49, 1), 0.1, 0.0, true), o)
+                .find("49 messages, fewer "
+                      "than the 50"),
             std::string::npos);
   LinkRecord zero = periodicRecord(std::vector<std::uint8_t>(100, 1), 0.1, 0.0, false);
   for (double& s : zero.stamp)
@@ -709,9 +712,8 @@ TEST(LinkTrace, CsvAndEventsFiles)
     out << "%time,field.header.seq,field.header.stamp,field.header.frame_id,field.seq,field.input_stamp,"
            "field.outcome,field.duplicated,field.state,field.delay,field.sampled_delay\n";
     for (int k = 0; k < 60; ++k)
-      out << k << "," << k << "," << (1000000000LL + 20000000LL * k) << ",," << (k + 3) << ",0,"
-          << (k % 5 == 0 ? 1 : 0) << "," << (k == 7 ? "True" : "False") << ",0," << (k % 5 == 0 ? 0.0 : 0.01 * (k % 3))
-          << ",0\n";
+      out << k << "," << k << "," << (1000000000LL + 20000000LL * k) << ",," << (k + 3) << ",0," << (k % 5 == 0 ? 1 : 0)
+          << "," << (k == 7 ? "True" : "False") << ",0," << (k % 5 == 0 ? 0.0 : 0.01 * (k % 3)) << ",0\n";
   }
   EXPECT_TRUE(isEventsCsv(ev));
   const SlotTrace t = readEventSlots(ev);
@@ -900,7 +902,8 @@ TEST(TraceChannel, SettingsAndRefusals)
 {
   const TraceFiles f = traceFiles("settings");
   const ChannelSettings s = loadChannelSettings(f.channel);
-  auto refusal = [](const std::string& yaml) -> std::string {
+  auto refusal = [](const std::string& yaml) -> std::string
+  {
     try
     {
       parseChannelSettings(YAML::Load(yaml), "chan.yaml");
@@ -912,11 +915,13 @@ TEST(TraceChannel, SettingsAndRefusals)
     return "accepted";
   };
   EXPECT_NE(refusal("model: trace").find("model trace needs trace"), std::string::npos);
-  EXPECT_NE(refusal("model: trace\ntrace: " + f.csv + "\ndelay: 0.1").find("key 'delay' does not apply to model "
-                                                                           "trace"),
+  EXPECT_NE(refusal("model: trace\ntrace: " + f.csv + "\ndelay: 0.1")
+                .find("key 'delay' does not apply to model "
+                      "trace"),
             std::string::npos);
-  EXPECT_NE(refusal("model: trace\ntrace: " + f.csv + "\nloss: 0.1").find("key 'loss' applies only to model "
-                                                                          "bernoulli (model is trace)"),
+  EXPECT_NE(refusal("model: trace\ntrace: " + f.csv + "\nloss: 0.1")
+                .find("key 'loss' applies only to model "
+                      "bernoulli (model is trace)"),
             std::string::npos);
   EXPECT_NE(refusal("model: bernoulli\nloss: 0.1\ntrace: x.csv").find("key 'trace' applies only to model trace"),
             std::string::npos);
@@ -929,8 +934,8 @@ TEST(TraceChannel, SettingsAndRefusals)
   EXPECT_NE(refusal("model: trace\ntrace: " + bag).find("trace_topic must name the topic"), std::string::npos);
   EXPECT_NE(refusal("model: trace\ntrace: " + bag + "\ntrace_topic: /gps").find("no topic /gps in the bag"),
             std::string::npos);
-  const ChannelSettings b = parseChannelSettings(YAML::Load("model: trace\ntrace: " + bag + "\ntrace_topic: /imu/data"),
-                                                 "chan.yaml");
+  const ChannelSettings b =
+      parseChannelSettings(YAML::Load("model: trace\ntrace: " + bag + "\ntrace_topic: /imu/data"), "chan.yaml");
   EXPECT_EQ(b.replay->slots(), 3061u);
   // Written back and read again: the same file; a runtime change keeps the loaded trace.
   const ChannelSettings again = parseChannelSettings(toYaml(s), "again");
@@ -977,9 +982,11 @@ TEST(TraceChannel, SeededChannelsUnchangedBitForBit)
 {
   // Digests of 20 000 offers (outcomes, states, copies, delays, deliveries) of two seeded channels,
   // computed with the code before model: trace existed (commit e6c4a26).
-  auto digest = [](const ChannelSettings& s) {
+  auto digest = [](const ChannelSettings& s)
+  {
     std::uint64_t h = 1469598103934665603ull;
-    auto add = [&h](const void* p, std::size_t n) {
+    auto add = [&h](const void* p, std::size_t n)
+    {
       const unsigned char* c = static_cast<const unsigned char*>(p);
       for (std::size_t i = 0; i < n; ++i)
       {

@@ -29,24 +29,28 @@ protected:
     char tmpl[] = "/tmp/test_estimator_config.XXXXXX";
     ASSERT_NE(mkdtemp(tmpl), nullptr);
     dir_ = tmpl;
-    scalar_ = write("scalar.yaml", "name: s\nperiod: 0.02\nA: [[0.9]]\nQ: [[1]]\nC: [[1]]\nR: [[1]]\nx0: [0]\nP0: [[1]]\n");
-    planar_ = write("planar.yaml",
-                    "name: p\nperiod: 0.05\nA: [[1, 0], [0, 1]]\nQ: [[1, 0], [0, 1]]\nx0: [0, 0]\nP0: [[1, 0], [0, 1]]\n"
-                    "sensors:\n  - {name: a, C: [[1, 0], [0, 1]], R: [[1, 0], [0, 1]]}\n"
-                    "  - {name: b, C: [[1, 1]], R: [[2]]}\n");
+    scalar_ =
+        write("scalar.yaml", "name: s\nperiod: 0.02\nA: [[0.9]]\nQ: [[1]]\nC: [[1]]\nR: [[1]]\nx0: [0]\nP0: [[1]]\n");
+    planar_ =
+        write("planar.yaml",
+              "name: p\nperiod: 0.05\nA: [[1, 0], [0, 1]]\nQ: [[1, 0], [0, 1]]\nx0: [0, 0]\nP0: [[1, 0], [0, 1]]\n"
+              "sensors:\n  - {name: a, C: [[1, 0], [0, 1]], R: [[1, 0], [0, 1]]}\n"
+              "  - {name: b, C: [[1, 1]], R: [[2]]}\n");
     // planar with its second state a yaw (an angle, which a yaw field must feed: docs/formats.md 1.2b)
-    planar_yaw_ = write("planar_yaw.yaml",
-                        "name: p\nperiod: 0.05\nA: [[1, 0], [0, 1]]\nQ: [[1, 0], [0, 1]]\nx0: [0, 0]\nP0: [[1, 0], [0, 1]]\n"
-                        "states: [x, yaw]\nangles: [yaw]\n"
-                        "sensors:\n  - {name: a, C: [[1, 0], [0, 1]], R: [[1, 0], [0, 1]]}\n"
-                        "  - {name: b, C: [[1, 0]], R: [[2]]}\n");
+    planar_yaw_ =
+        write("planar_yaw.yaml",
+              "name: p\nperiod: 0.05\nA: [[1, 0], [0, 1]]\nQ: [[1, 0], [0, 1]]\nx0: [0, 0]\nP0: [[1, 0], [0, 1]]\n"
+              "states: [x, yaw]\nangles: [yaw]\n"
+              "sensors:\n  - {name: a, C: [[1, 0], [0, 1]], R: [[1, 0], [0, 1]]}\n"
+              "  - {name: b, C: [[1, 0]], R: [[2]]}\n");
     control_ = write("control.yaml",
                      "name: c\nperiod: 0.01\nA: [[1.1]]\nQ: [[1]]\nC: [[1]]\nR: [[1]]\nx0: [0]\nP0: [[1]]\n"
                      "control: {Bu: [[1]]}\n");
     no_period_ = write("no_period.yaml", "name: n\nA: [[0.9]]\nQ: [[1]]\nC: [[1]]\nR: [[1]]\nx0: [0]\nP0: [[1]]\n");
-    wide_ = write("wide.yaml",
-                  "name: w\nperiod: 0.01\nA: [[1, 0], [0, 1]]\nQ: [[1, 0], [0, 1]]\nx0: [0, 0]\nP0: [[1, 0], [0, 1]]\n"
-                  "C: [[1, 0], [0, 1], [1, 1], [1, -1]]\nR: [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n");
+    wide_ =
+        write("wide.yaml",
+              "name: w\nperiod: 0.01\nA: [[1, 0], [0, 1]]\nQ: [[1, 0], [0, 1]]\nx0: [0, 0]\nP0: [[1, 0], [0, 1]]\n"
+              "C: [[1, 0], [0, 1], [1, 1], [1, -1]]\nR: [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n");
   }
   void TearDown() override
   {
@@ -160,8 +164,7 @@ TEST_F(EstimatorConfig, EveryKeyIsRead)
   EXPECT_FALSE(c.live_stability);
   EXPECT_EQ(c.stability_window, 400u);
   EXPECT_EQ(c.stability_min_samples, 40u);
-  const ne::EstimatorNodeConfig a =
-      parse("{algorithm: aoe, control_link: {recovery: 0.3, failure: 0.4}}", control_);
+  const ne::EstimatorNodeConfig a = parse("{algorithm: aoe, control_link: {recovery: 0.3, failure: 0.4}}", control_);
   EXPECT_EQ(a.settings.algorithm, ne::Algorithm::AOE);
   EXPECT_TRUE(a.settings.has_control_link);
   EXPECT_DOUBLE_EQ(a.settings.recovery, 0.3);
@@ -169,9 +172,7 @@ TEST_F(EstimatorConfig, EveryKeyIsRead)
 
 TEST_F(EstimatorConfig, RefusalsNameTheKey)
 {
-  auto has = [](const std::string& msg, const std::string& what) {
-    return msg.find(what) != std::string::npos;
-  };
+  auto has = [](const std::string& msg, const std::string& what) { return msg.find(what) != std::string::npos; };
   EXPECT_TRUE(has(error("{model: ''}"), "model: required parameter is empty"));
   {
     YAML::Node n = YAML::Load("{algorithm: kfio}");
@@ -198,9 +199,9 @@ TEST_F(EstimatorConfig, RefusalsNameTheKey)
   // out through the budgets it sets (latency_budget_min is half a period)
   for (const char* period : {"1e300", "3601"})
   {
-    const std::string slow = write(std::string("slow") + period + ".yaml",
-                                   std::string("name: s\nperiod: ") + period +
-                                       "\nA: [[0.9]]\nQ: [[1]]\nC: [[1]]\nR: [[1]]\nx0: [0]\nP0: [[1]]\n");
+    const std::string slow = write(
+        std::string("slow") + period + ".yaml",
+        std::string("name: s\nperiod: ") + period + "\nA: [[0.9]]\nQ: [[1]]\nC: [[1]]\nR: [[1]]\nx0: [0]\nP0: [[1]]\n");
     EXPECT_EQ(error("", slow), "/est parameters: period: the model '" + slow + "' has period " +
                                    (period[1] == 'e' ? "1e+300" : "3601") +
                                    " s: expected a number of seconds in (0, 3600], the range of ~period (give "
@@ -208,11 +209,13 @@ TEST_F(EstimatorConfig, RefusalsNameTheKey)
     EXPECT_DOUBLE_EQ(parse("{period: 0.5}", slow).period, 0.5);  // ~period given: the model's is not used
   }
   EXPECT_TRUE(has(error("{latency_budget: -0.1}"), "latency_budget: expected a number of seconds >= 0, found -0.1"));
-  EXPECT_TRUE(has(error("{latency_budget: soon}"), "latency_budget: expected auto or a number of seconds, found 'soon'"));
+  EXPECT_TRUE(
+      has(error("{latency_budget: soon}"), "latency_budget: expected auto or a number of seconds, found 'soon'"));
   EXPECT_TRUE(has(error("{latency_budget: .nan}"), "latency_budget: expected a number of seconds >= 0, found nan"));
   EXPECT_TRUE(has(error("{latency_budget: 21}"), "latency_budget: expected below max_future_steps x period = 20 s"));
-  EXPECT_TRUE(has(error("{latency_budget: 2, max_stamp_behind: 1}"), "latency_budget: expected at most "
-                                                                        "max_stamp_behind = 1 s"));
+  EXPECT_TRUE(has(error("{latency_budget: 2, max_stamp_behind: 1}"),
+                  "latency_budget: expected at most "
+                  "max_stamp_behind = 1 s"));
   EXPECT_TRUE(has(error("{latency_budget_min: 0.5, latency_budget_max: 0.2}"),
                   "latency_budget_min: expected at most latency_budget_max = 0.2 s, found 0.5"));
   EXPECT_TRUE(has(error("{latency_budget_max: 0}"), "latency_budget_max: expected a number of seconds > 0, found 0"));
@@ -236,7 +239,7 @@ TEST_F(EstimatorConfig, RefusalsNameTheKey)
   EXPECT_TRUE(has(error("{frame_id: [a, b]}"), "frame_id: expected a string"));
   for (const char* key : {"frame_id", "child_frame_id", "world_frame", "base_link_frame", "odom_frame"})
     EXPECT_TRUE(has(error(std::string("{") + key + ": ''}"), std::string(key) + ": expected a frame name, found an "
-                                                                                    "empty string"))
+                                                                                "empty string"))
         << key;
   // Every message names where the parameters came from.
   EXPECT_TRUE(has(error("{queue_size: 0}"), "/est parameters: "));
@@ -279,9 +282,8 @@ TEST_F(EstimatorConfig, SensorsBlock)
 
 TEST_F(EstimatorConfig, SensorsBlockRefusalsNameTheKey)
 {
-  auto has = [](const std::string& text, const std::string& part) {
-    EXPECT_NE(text.find(part), std::string::npos) << text << "\n  expected: " << part;
-  };
+  auto has = [](const std::string& text, const std::string& part)
+  { EXPECT_NE(text.find(part), std::string::npos) << text << "\n  expected: " << part; };
   has(error("{sensors: {c: {}}}", planar_), "sensors.c: 'c' is not a sensor of the model (sensors: a, b)");
   has(error("{sensors: {b: {type: sensor_msgs/Gps, fields: [x]}}}", planar_),
       "sensors.b.type: unknown type 'sensor_msgs/Gps' (types: networked_estimation/Measurement, nav_msgs/Odometry");
@@ -289,7 +291,8 @@ TEST_F(EstimatorConfig, SensorsBlockRefusalsNameTheKey)
       "sensors.b.fields[0]: 'eest' is not a field of sensor_msgs/NavSatFix (fields: east, north, up)");
   has(error("{sensors: {b: {type: sensor_msgs/Imu, fields: [angular_velocity.z, angular_velocity.x]}}}", planar_),
       "sensors.b.fields: expected 1 fields (one per row of sensor 'b'), found 2");
-  has(error("{sensors: {b: {type: sensor_msgs/Imu}}}", planar_), "sensors.b.fields: expected a list of sensor_msgs/Imu");
+  has(error("{sensors: {b: {type: sensor_msgs/Imu}}}", planar_),
+      "sensors.b.fields: expected a list of sensor_msgs/Imu");
   has(error("{sensors: {b: {fields: [data]}}}", planar_),
       "sensors.b.fields: networked_estimation/Measurement has no field selection");
   has(error("{sensors: {b: {rate: 0}}}", planar_), "sensors.b.rate: expected > 0 and at most the model's rate 20");
@@ -298,7 +301,8 @@ TEST_F(EstimatorConfig, SensorsBlockRefusalsNameTheKey)
   has(error("{sensors: {b: {colour: red}}}", planar_), "sensors.b: unknown parameter(s): colour");
   has(error("{sensors: {b: {covariance: message}}}", planar_),
       "sensors.b.covariance: message: networked_estimation/Measurement carries no covariance (use covariance: model)");
-  has(error("{sensors: {b: {type: geometry_msgs/PoseStamped, fields: [pose.position.x], covariance: message}}}", planar_),
+  has(error("{sensors: {b: {type: geometry_msgs/PoseStamped, fields: [pose.position.x], covariance: message}}}",
+            planar_),
       "sensors.b.covariance: message: geometry_msgs/PoseStamped has no covariance of 'pose.position.x'");
   has(error("{sensors: {b: {type: sensor_msgs/Imu, fields: [orientation.z], covariance: message}}}", planar_),
       "has no covariance of 'orientation.z'");
@@ -309,14 +313,16 @@ TEST_F(EstimatorConfig, SensorsBlockRefusalsNameTheKey)
   EXPECT_EQ(parse("{sensors: {b: {rejection_threshold: 3}}}", planar_).online.rejection_threshold,
             (std::vector<double>{std::numeric_limits<double>::infinity(), 3.0}));
   const ne::EstimatorNodeConfig m = parse(
-      "{sensors: {a: {type: nav_msgs/Odometry, fields: [pose.pose.position.x, twist.twist.angular.z], covariance: message}}}",
+      "{sensors: {a: {type: nav_msgs/Odometry, fields: [pose.pose.position.x, twist.twist.angular.z], covariance: "
+      "message}}}",
       planar_);
   EXPECT_TRUE(m.inputs[0].message_covariance);
   EXPECT_FALSE(m.inputs[1].message_covariance);
   EXPECT_EQ(ne::covarianceOf(ne::InputType::ODOMETRY, m.inputs[0].fields[1]).block, ne::CovarianceBlock::TWIST);
   EXPECT_EQ(ne::covarianceOf(ne::InputType::ODOMETRY, m.inputs[0].fields[1]).index, 5);
-  EXPECT_EQ(ne::covarianceOf(ne::InputType::IMU, ne::inputFieldFromString(ne::InputType::IMU, "orientation.yaw", "k")).block,
-            ne::CovarianceBlock::ORIENTATION);
+  EXPECT_EQ(
+      ne::covarianceOf(ne::InputType::IMU, ne::inputFieldFromString(ne::InputType::IMU, "orientation.yaw", "k")).block,
+      ne::CovarianceBlock::ORIENTATION);
   // robot_localization's per-input options: relative (poses), remove_gravitational_acceleration (Imu)
   const ne::EstimatorNodeConfig rl = parse(
       "{sensors: {a: {type: nav_msgs/Odometry, fields: [pose.pose.position.x, pose.pose.position.y], relative: true}, "
@@ -330,10 +336,12 @@ TEST_F(EstimatorConfig, SensorsBlockRefusalsNameTheKey)
       "sensors.b.relative: only for a pose (nav_msgs/Odometry, geometry_msgs/PoseWithCovarianceStamped, "
       "geometry_msgs/PoseStamped), found sensor_msgs/Imu");
   has(error("{sensors: {b: {type: nav_msgs/Odometry, fields: [pose.pose.position.x], "
-            "remove_gravitational_acceleration: true}}}", planar_),
+            "remove_gravitational_acceleration: true}}}",
+            planar_),
       "sensors.b.remove_gravitational_acceleration: only for sensor_msgs/Imu, found nav_msgs/Odometry");
   has(error("{sensors: {b: {type: sensor_msgs/Imu, fields: [angular_velocity.z], "
-            "remove_gravitational_acceleration: true}}}", planar_),
+            "remove_gravitational_acceleration: true}}}",
+            planar_),
       "sensors.b.remove_gravitational_acceleration: the sensor reads no linear_acceleration field");
   has(error("{sensors: {b: {type: nav_msgs/Odometry, fields: [pose.pose.position.x], relative: sometimes}}}", planar_),
       "relative: expected true or false, found 'sometimes'");
@@ -348,10 +356,12 @@ TEST_F(EstimatorConfig, SensorsBlockRefusalsNameTheKey)
   has(error("{sensors: {b: {type: nav_msgs/Odometry, fields: [twist.twist.linear.x], differential: true}}}", planar_),
       "sensors.b.fields[0]: twist.twist.linear.x: differential reads positions and roll / pitch / yaw of the pose");
   has(error("{sensors: {b: {type: nav_msgs/Odometry, fields: [pose.pose.position.x], differential: true, "
-            "relative: true}}}", planar_),
+            "relative: true}}}",
+            planar_),
       "sensors.b.relative: not with differential");
   has(error("{sensors: {b: {type: nav_msgs/Odometry, fields: [pose.pose.position.x], differential: true, "
-            "covariance: message}}}", planar_),
+            "covariance: message}}}",
+            planar_),
       "sensors.b.covariance: message: not with differential");
   has(error("{sensors: {b: [1, 2]}}", planar_), "sensors.b: expected a map");
   has(error("{sensors: [a, b]}", planar_), "sensors: expected a map from sensor names");
@@ -402,9 +412,8 @@ TEST_F(EstimatorConfig, OdometryOutputSettings)
   EXPECT_EQ(c.state_map.yaw, 1);
   EXPECT_EQ(c.state_map.vx, 0);
   EXPECT_EQ(parse("{world_frame: map, frame_id: odom}", planar_).world_frame, "map");
-  auto has = [](const std::string& text, const std::string& part) {
-    EXPECT_NE(text.find(part), std::string::npos) << text << "\n  expected: " << part;
-  };
+  auto has = [](const std::string& text, const std::string& part)
+  { EXPECT_NE(text.find(part), std::string::npos) << text << "\n  expected: " << part; };
   has(error("{state_mapping: {x: 0, y: 0}}", planar_), "state_mapping.y: state index 0 is mapped twice");
   has(error("{state_mapping: {x: 2}}", planar_), "state_mapping");
   has(error("{state_mapping: {heading: 0}}", planar_), "unknown parameter(s): heading");
@@ -426,9 +435,8 @@ TEST_F(EstimatorConfig, CommandInput)
       parse("{command: {type: std_msgs/Float64MultiArray, fields: ['data[3]']}}", control_);
   EXPECT_EQ(a.command.fields[0].quantity, ne::Quantity::ELEMENT);
   EXPECT_EQ(a.command.fields[0].axis, 3);
-  auto has = [](const std::string& text, const std::string& part) {
-    EXPECT_NE(text.find(part), std::string::npos) << text << "\n  expected: " << part;
-  };
+  auto has = [](const std::string& text, const std::string& part)
+  { EXPECT_NE(text.find(part), std::string::npos) << text << "\n  expected: " << part; };
   has(error("{command: {type: geometry_msgs/Twist, fields: [linear.x]}}"), "command: model 's' has no control input");
   has(error("{command: {type: sensor_msgs/Imu, fields: [angular_velocity.z]}}", control_),
       "command.type: unknown type 'sensor_msgs/Imu' (types: networked_estimation/ControlInput, geometry_msgs/Twist, "
@@ -467,16 +475,16 @@ TEST_F(EstimatorConfig, InputTransport)
   EXPECT_EQ(u.command.transport.transport, ne::Transport::UDP);
   EXPECT_FALSE(u.command.transport.tcp_nodelay);
   EXPECT_EQ(u.inputs[0].transport.transport, ne::Transport::TCP);  // the sensor keeps its own
-  auto has = [](const std::string& text, const std::string& part) {
-    EXPECT_NE(text.find(part), std::string::npos) << text << "\n  expected: " << part;
-  };
+  auto has = [](const std::string& text, const std::string& part)
+  { EXPECT_NE(text.find(part), std::string::npos) << text << "\n  expected: " << part; };
   has(error("{sensors: {b: {transport: sctp}}}", planar_),
       "/est parameters: sensors.b.transport: expected tcp or udp, found 'sctp'");
   has(error("{sensors: {b: {transport: UDP}}}", planar_), "sensors.b.transport: expected tcp or udp, found 'UDP'");
   has(error("{sensors: {b: {transport: [udp]}}}", planar_), "sensors.b.transport: expected tcp or udp, found 'a list'");
   has(error("{sensors: {a: {tcp_nodelay: maybe}}}", planar_),
       "sensors.a.tcp_nodelay: expected true or false, found 'maybe'");
-  has(error("{sensors: {a: {tcp_nodelay: {x: 1}}}}", planar_), "sensors.a.tcp_nodelay: expected true or false, found 'a map'");
+  has(error("{sensors: {a: {tcp_nodelay: {x: 1}}}}", planar_),
+      "sensors.a.tcp_nodelay: expected true or false, found 'a map'");
   has(error("{command: {transport: unreliable}}", control_),
       "/est parameters: command.transport: expected tcp or udp, found 'unreliable'");
   has(error("{command: {tcp_nodelay: 2}}", control_), "command.tcp_nodelay: expected true or false, found '2'");
@@ -484,16 +492,18 @@ TEST_F(EstimatorConfig, InputTransport)
   has(error("{sensors: {a: {transprot: udp}}}", planar_), "sensors.a: unknown parameter(s): transprot");
   // A nodelet's own ~transport / ~tcp_nodelay (the LossyChannel's `in`): the same rules, the keys
   // named after its parameters' source.
-  auto own = [](const std::string& yaml) {
+  auto own = [](const std::string& yaml)
+  {
     ne::ParamReader p(YAML::Load(yaml), "/ch parameters");
     return ne::parseInputTransport(p, "/ch parameters: ");
   };
   EXPECT_EQ(own("{model: bernoulli}").transport, ne::Transport::TCP);
   EXPECT_EQ(own("{transport: udp, tcp_nodelay: false}").transport, ne::Transport::UDP);
   EXPECT_FALSE(own("{transport: udp, tcp_nodelay: false}").tcp_nodelay);
-  for (const auto& bad : {std::make_pair("{transport: rudp}", "/ch parameters: transport: expected tcp or udp, found 'rudp'"),
-                          std::make_pair("{tcp_nodelay: on_and_off}",
-                                         "/ch parameters: tcp_nodelay: expected true or false, found 'on_and_off'")})
+  for (const auto& bad :
+       {std::make_pair("{transport: rudp}", "/ch parameters: transport: expected tcp or udp, found 'rudp'"),
+        std::make_pair("{tcp_nodelay: on_and_off}",
+                       "/ch parameters: tcp_nodelay: expected true or false, found 'on_and_off'")})
   {
     try
     {
@@ -542,7 +552,8 @@ TEST_F(EstimatorConfig, RobotTemplateParses)
   EXPECT_EQ(c.settings.algorithm, ne::Algorithm::EKFIO);
   EXPECT_EQ(c.model.motion, ne::Motion::OMNI_2D);
   EXPECT_EQ(c.derived_sensors, (std::vector<std::string>{"wheels", "imu", "gps"}));
-  auto measures = [&](std::size_t sensor) {
+  auto measures = [&](std::size_t sensor)
+  {
     std::vector<std::string> states;
     const ne::Sensor& s = c.model.sensors[sensor];
     for (int i = 0; i < s.size; ++i)
@@ -579,7 +590,8 @@ TEST(RuntimeSettings, ValidatedAsAWhole)
   limits.period = 0.02;
   limits.max_future_steps = 1000;
   limits.max_stamp_behind = 3.0;
-  auto refusal = [&](const ne::RuntimeSettings& s) {
+  auto refusal = [&](const ne::RuntimeSettings& s)
+  {
     try
     {
       ne::validateRuntimeSettings(s, limits, "reconfigure");
@@ -602,8 +614,9 @@ TEST(RuntimeSettings, ValidatedAsAWhole)
   s.latency_budget = -0.5;
   EXPECT_EQ(refusal(s), "reconfigure: latency_budget: expected a number of seconds >= 0, found -0.5");
   s.latency_budget = 3.5;
-  EXPECT_EQ(refusal(s), "reconfigure: latency_budget: expected at most max_stamp_behind = 3 s (messages it waits for "
-                        "would be refused as too old), found 3.5");
+  EXPECT_EQ(refusal(s),
+            "reconfigure: latency_budget: expected at most max_stamp_behind = 3 s (messages it waits for "
+            "would be refused as too old), found 3.5");
   s.latency_budget = 0.25;
   EXPECT_EQ(refusal(s), "");
   EXPECT_EQ(ne::describe(s), "latency_budget 0.25 s, late_policy drop, trace_bound inf");
@@ -621,8 +634,9 @@ TEST(RuntimeSettings, ValidatedAsAWhole)
   EXPECT_EQ(refusal(s), "reconfigure: latency_budget_max: expected a number of seconds > 0, found inf");
   limits.max_stamp_behind = 100.0;
   s.latency_budget_max = 25.0;
-  EXPECT_EQ(refusal(s), "reconfigure: latency_budget_max: expected below max_future_steps x period = 20 s (messages "
-                        "for the steps it waits on would be refused as far future), found 25");
+  EXPECT_EQ(refusal(s),
+            "reconfigure: latency_budget_max: expected below max_future_steps x period = 20 s (messages "
+            "for the steps it waits on would be refused as far future), found 25");
 }
 
 // The `sensors` block, table-driven: each malformed value (empty, repeated, out of range, wrong
@@ -631,26 +645,23 @@ TEST(RuntimeSettings, ValidatedAsAWhole)
 TEST_F(EstimatorConfig, SensorsBlockMalformedValues)
 {
   const std::vector<std::pair<std::string, std::string>> table = {
-      {"{sensors: {b: {topic: ''}}}",
-       "/est parameters: sensors.b.topic: expected a topic name, found an empty string"},
-      {"{sensors: {b: {topic: [a, b]}}}",
-       "/est parameters: sensors.b: topic: expected a string, found '[a, b]'"},
+      {"{sensors: {b: {topic: ''}}}", "/est parameters: sensors.b.topic: expected a topic name, found an empty string"},
+      {"{sensors: {b: {topic: [a, b]}}}", "/est parameters: sensors.b: topic: expected a string, found '[a, b]'"},
       {"{sensors: {b: {type: ''}}}",
-       "/est parameters: sensors.b.type: unknown type '' (types: networked_estimation/Measurement, nav_msgs/Odometry, geometry_msgs/PoseWithCovarianceStamped, geometry_msgs/PoseStamped, geometry_msgs/PointStamped, geometry_msgs/TwistWithCovarianceStamped, geometry_msgs/TwistStamped, sensor_msgs/Imu, sensor_msgs/NavSatFix, sensor_msgs/Range, std_msgs/Float64, geometry_msgs/Twist, std_msgs/Float64MultiArray)"},
-      {"{sensors: {b: {type: [x]}}}",
-       "/est parameters: sensors.b: type: expected a string, found '[x]'"},
+       "/est parameters: sensors.b.type: unknown type '' (types: networked_estimation/Measurement, nav_msgs/Odometry, "
+       "geometry_msgs/PoseWithCovarianceStamped, geometry_msgs/PoseStamped, geometry_msgs/PointStamped, "
+       "geometry_msgs/TwistWithCovarianceStamped, geometry_msgs/TwistStamped, sensor_msgs/Imu, sensor_msgs/NavSatFix, "
+       "sensor_msgs/Range, std_msgs/Float64, geometry_msgs/Twist, std_msgs/Float64MultiArray)"},
+      {"{sensors: {b: {type: [x]}}}", "/est parameters: sensors.b: type: expected a string, found '[x]'"},
       {"{sensors: {b: {type: sensor_msgs/Range, fields: []}}}",
        "/est parameters: sensors.b.fields: expected a list of sensor_msgs/Range fields, one per row of sensor 'b'"},
       {"{sensors: {b: {type: sensor_msgs/Range, fields: [range, range]}}}",
        "/est parameters: sensors.b.fields: expected 1 fields (one per row of sensor 'b'), found 2"},
       {"{sensors: {b: {type: sensor_msgs/Range, fields: range}}}",
        "/est parameters: sensors.b.fields: expected a list of sensor_msgs/Range fields, one per row of sensor 'b'"},
-      {"{sensors: {b: {rate: fast}}}",
-       "/est parameters: sensors.b: rate: expected a number, found 'fast'"},
-      {"{sensors: {b: {rate: -5}}}",
-       "/est parameters: sensors.b: rate: expected a number in [0, 1e+09], found -5"},
-      {"{sensors: {b: {rate: .nan}}}",
-       "/est parameters: sensors.b: rate: expected a number in [0, 1e+09], found nan"},
+      {"{sensors: {b: {rate: fast}}}", "/est parameters: sensors.b: rate: expected a number, found 'fast'"},
+      {"{sensors: {b: {rate: -5}}}", "/est parameters: sensors.b: rate: expected a number in [0, 1e+09], found -5"},
+      {"{sensors: {b: {rate: .nan}}}", "/est parameters: sensors.b: rate: expected a number in [0, 1e+09], found nan"},
       {"{sensors: {b: {rejection_threshold: many}}}",
        "/est parameters: sensors.b: rejection_threshold: expected a number, found 'many'"},
       {"{sensors: {b: {rejection_threshold: -1}}}",
@@ -659,16 +670,13 @@ TEST_F(EstimatorConfig, SensorsBlockMalformedValues)
        "/est parameters: sensors.b: covariance: expected model | message, found ''"},
       {"{sensors: {b: {covariance: [model]}}}",
        "/est parameters: sensors.b: covariance: expected a string, found '[model]'"},
-      {"{sensors: {'': {}}}",
-       "/est parameters: sensors.: '' is not a sensor of the model (sensors: a, b)"},
-      {"{sensors: {c: {topic: /c}}}",
-       "/est parameters: sensors.c: 'c' is not a sensor of the model (sensors: a, b)"},
-      {"{sensors: 3}",
-       "/est parameters: sensors: expected a map from sensor names to input settings"},
-      {"{sensors: {b: 3}}",
-       "/est parameters: sensors.b: expected a map (keys: topic, type, fields, rate)"},
+      {"{sensors: {'': {}}}", "/est parameters: sensors.: '' is not a sensor of the model (sensors: a, b)"},
+      {"{sensors: {c: {topic: /c}}}", "/est parameters: sensors.c: 'c' is not a sensor of the model (sensors: a, b)"},
+      {"{sensors: 3}", "/est parameters: sensors: expected a map from sensor names to input settings"},
+      {"{sensors: {b: 3}}", "/est parameters: sensors.b: expected a map (keys: topic, type, fields, rate)"},
       {"{sensors: {b: {type: sensor_msgs/Range, fields: [range], covariance: message, rate: 10}}}",
-       "/est parameters: sensors.b.covariance: message: sensor_msgs/Range has no covariance of 'range' (use covariance: model)"},
+       "/est parameters: sensors.b.covariance: message: sensor_msgs/Range has no covariance of 'range' (use "
+       "covariance: model)"},
   };
   for (const auto& row : table)
     EXPECT_EQ(error(row.first, planar_), row.second) << row.first;
@@ -702,8 +710,9 @@ TEST_F(EstimatorConfig, EkfioWithARobotMotion)
 // they name) and its R (std, or the messages' covariances); the Odometry output maps every state.
 TEST_F(EstimatorConfig, MotionSensorsFromFieldsAlone)
 {
-  const std::string q8 = "Q: [[1,0,0,0,0,0,0,0],[0,1,0,0,0,0,0,0],[0,0,1,0,0,0,0,0],[0,0,0,1,0,0,0,0],"
-                         "[0,0,0,0,1,0,0,0],[0,0,0,0,0,1,0,0],[0,0,0,0,0,0,1,0],[0,0,0,0,0,0,0,1]]\n";
+  const std::string q8 =
+      "Q: [[1,0,0,0,0,0,0,0],[0,1,0,0,0,0,0,0],[0,0,1,0,0,0,0,0],[0,0,0,1,0,0,0,0],"
+      "[0,0,0,0,1,0,0,0],[0,0,0,0,0,1,0,0],[0,0,0,0,0,0,1,0],[0,0,0,0,0,0,0,1]]\n";
   const std::string bare = write("bare2d.yaml", "name: rover\nperiod: 0.05\nmotion: omni_2d\n" + q8);
   const ne::EstimatorNodeConfig c = parse(
       "{algorithm: ekfio, sensors: {"
@@ -777,8 +786,9 @@ TEST_F(EstimatorConfig, MotionSensorsFromFieldsAlone)
   EXPECT_EQ(d.position_indices, (std::vector<int>{0, 1, 2}));
 
   // a model that lists a sensor keeps its C and R; the others are derived after it
-  const std::string listed = write("listed.yaml", "name: rover\nperiod: 0.05\nmotion: omni_2d\n" + q8 +
-                                                      "sensors:\n  - {name: wheels, C: [[0,0,0,1,0,0,0,0]], R: [[0.3]]}\n");
+  const std::string listed =
+      write("listed.yaml", "name: rover\nperiod: 0.05\nmotion: omni_2d\n" + q8 +
+                               "sensors:\n  - {name: wheels, C: [[0,0,0,1,0,0,0,0]], R: [[0.3]]}\n");
   const ne::EstimatorNodeConfig e = parse(
       "{algorithm: ekfio, sensors: {gps: {type: sensor_msgs/NavSatFix, fields: [east], std: [1]}, "
       "wheels: {type: nav_msgs/Odometry, fields: [twist.twist.linear.x]}}}",
@@ -795,19 +805,21 @@ TEST_F(EstimatorConfig, MotionSensorsFromFieldsAlone)
                 .state_map.yaw,
             -1);
   // an inline model too
-  const ne::EstimatorNodeConfig f = parse("{algorithm: ekfio, model: {name: r, period: 0.05, motion: omni_2d, " +
-                                          q8.substr(0, q8.size() - 1) +
-                                          "}, sensors: {w: {type: nav_msgs/Odometry, fields: [twist.twist.linear.y], "
-                                          "std: [0.1]}}}");
+  const ne::EstimatorNodeConfig f =
+      parse("{algorithm: ekfio, model: {name: r, period: 0.05, motion: omni_2d, " + q8.substr(0, q8.size() - 1) +
+            "}, sensors: {w: {type: nav_msgs/Odometry, fields: [twist.twist.linear.y], "
+            "std: [0.1]}}}");
   EXPECT_EQ(f.model.C(0, 4), 1.0);
 }
 
 TEST_F(EstimatorConfig, MotionSensorsRefusalsNameTheKey)
 {
-  const std::string q8 = "Q: [[1,0,0,0,0,0,0,0],[0,1,0,0,0,0,0,0],[0,0,1,0,0,0,0,0],[0,0,0,1,0,0,0,0],"
-                         "[0,0,0,0,1,0,0,0],[0,0,0,0,0,1,0,0],[0,0,0,0,0,0,1,0],[0,0,0,0,0,0,0,1]]\n";
+  const std::string q8 =
+      "Q: [[1,0,0,0,0,0,0,0],[0,1,0,0,0,0,0,0],[0,0,1,0,0,0,0,0],[0,0,0,1,0,0,0,0],"
+      "[0,0,0,0,1,0,0,0],[0,0,0,0,0,1,0,0],[0,0,0,0,0,0,1,0],[0,0,0,0,0,0,0,1]]\n";
   const std::string bare = write("bare2d.yaml", "name: rover\nperiod: 0.05\nmotion: omni_2d\n" + q8);
-  auto refused = [&](const std::string& sensors, const std::string& expected) {
+  auto refused = [&](const std::string& sensors, const std::string& expected)
+  {
     const std::string e = error("{algorithm: ekfio, sensors: {" + sensors + "}}", bare);
     EXPECT_NE(e.find(expected), std::string::npos) << "message: " << e << "\nexpected: " << expected;
   };
@@ -834,8 +846,9 @@ TEST_F(EstimatorConfig, MotionSensorsRefusalsNameTheKey)
   refused("w: {type: nav_msgs/Odometry, std: [1]}", "sensors.w.fields: expected a list of nav_msgs/Odometry fields");
   refused("w: {type: nav_msgs/Odometry, fields: [twist.twist.linear.x], std: [1], stdd: 2}",
           "unknown parameter(s): stdd");
-  EXPECT_NE(error("{algorithm: ekfio}", bare).find("/est parameters: sensors: the model (motion omni_2d) lists no "
-                                                   "sensors"),
+  EXPECT_NE(error("{algorithm: ekfio}", bare)
+                .find("/est parameters: sensors: the model (motion omni_2d) lists no "
+                      "sensors"),
             std::string::npos);
   // std on a sensor the model lists: its R is the model's
   const std::string listed = write("listed.yaml", "name: rover\nperiod: 0.05\nmotion: omni_2d\n" + q8 +
@@ -846,10 +859,10 @@ TEST_F(EstimatorConfig, MotionSensorsRefusalsNameTheKey)
                 .find("sensors.w.std: only for a sensor the model does not list"),
             std::string::npos);
   // a linear model has no states to name: std is refused, the sensor must be the model's
-  EXPECT_NE(error("{sensors: {a: {type: geometry_msgs/PointStamped, fields: [point.x, point.y], std: [1, 1]}}}",
-                  planar_)
-                .find("sensors.a.std: only for a sensor the model does not list"),
-            std::string::npos);
+  EXPECT_NE(
+      error("{sensors: {a: {type: geometry_msgs/PointStamped, fields: [point.x, point.y], std: [1, 1]}}}", planar_)
+          .find("sensors.a.std: only for a sensor the model does not list"),
+      std::string::npos);
 }
 
 // gnss_alignment: enu (the default, world_frame is the ENU frame of the datum) or navsat_transform
@@ -886,9 +899,11 @@ TEST_F(EstimatorConfig, GnssAlignment)
   EXPECT_EQ(d.gnss.roll, -1);  // omni_2d: no roll or pitch state
   // Every key read.
   const ne::EstimatorNodeConfig c =
-      parse("{" + all + ", gnss_alignment: navsat_transform, magnetic_declination_radians: 0.2, yaw_offset: -1.5, "
-            "zero_altitude: true, publish_gps_odometry: true, publish_filtered_gps: true, "
-            "broadcast_utm_transform: true, gnss_heading: imu}", rover);
+      parse("{" + all +
+                ", gnss_alignment: navsat_transform, magnetic_declination_radians: 0.2, yaw_offset: -1.5, "
+                "zero_altitude: true, publish_gps_odometry: true, publish_filtered_gps: true, "
+                "broadcast_utm_transform: true, gnss_heading: imu}",
+            rover);
   EXPECT_EQ(c.gnss.magnetic_declination, 0.2);
   EXPECT_EQ(c.gnss.yaw_offset, -1.5);
   EXPECT_TRUE(c.gnss.zero_altitude && c.gnss.publish_gps_odometry && c.gnss.publish_filtered_gps &&
@@ -901,8 +916,8 @@ TEST_F(EstimatorConfig, GnssAlignment)
   // Without an Imu input: only with use_odometry_yaw.
   const std::string no_imu = "algorithm: ekfio, " + mapping + ", sensors: {" + odom + ", " + gps +
                              ", imu: {type: geometry_msgs/PoseStamped, fields: [pose.orientation.yaw]}}";
-  EXPECT_TRUE(parse("{" + no_imu + ", gnss_alignment: navsat_transform, use_odometry_yaw: true}", rover)
-                  .gnss.use_odometry_yaw);
+  EXPECT_TRUE(
+      parse("{" + no_imu + ", gnss_alignment: navsat_transform, use_odometry_yaw: true}", rover).gnss.use_odometry_yaw);
   const std::string p = "/est parameters: ";
   EXPECT_EQ(error("{" + no_imu + ", gnss_alignment: navsat_transform}", rover),
             p + "gnss_heading: gnss_alignment: navsat_transform needs base_link's earth-referenced heading at the "
@@ -915,8 +930,9 @@ TEST_F(EstimatorConfig, GnssAlignment)
   {
     const std::string name = std::string(key).substr(0, std::string(key).find(':'));
     EXPECT_EQ(error("{" + all + ", " + key + "}", rover),
-              p + name + ": only with gnss_alignment: navsat_transform (found gnss_alignment: enu, where world_frame "
-                         "is the ENU frame of the datum)");
+              p + name +
+                  ": only with gnss_alignment: navsat_transform (found gnss_alignment: enu, where world_frame "
+                  "is the ENU frame of the datum)");
   }
   EXPECT_EQ(error("{" + all + ", gnss_alignment: utm}", rover).find(p + "gnss_alignment: "), 0u);
   // navsat_transform needs a NavSatFix input and the pose in state_mapping.
@@ -924,24 +940,24 @@ TEST_F(EstimatorConfig, GnssAlignment)
             p + "gnss_alignment: navsat_transform needs a sensor_msgs/NavSatFix input (a sensors entry with type "
                 "sensor_msgs/NavSatFix); found none");
   EXPECT_EQ(error("{algorithm: ekfio, state_mapping: {x: 0, y: 1}, sensors: {" + odom + ", " + imu + ", " + gps +
-                  "}, gnss_alignment: navsat_transform}", rover),
+                      "}, gnss_alignment: navsat_transform}",
+                  rover),
             p + "gnss_alignment: navsat_transform needs base_link's world pose from the estimate: state_mapping.yaw "
                 "is not mapped");
   // gnss_heading: a sensor of the model, of type Imu, not with use_odometry_yaw; the values' ranges.
   EXPECT_EQ(error("{" + all + ", gnss_alignment: navsat_transform, gnss_heading: odom}", rover),
             p + "gnss_heading: sensor 'odom' is nav_msgs/Odometry, expected sensor_msgs/Imu (its orientation yaw, "
                 "earth-referenced)");
-  EXPECT_EQ(error("{" + all + ", gnss_alignment: navsat_transform, gnss_heading: compass}", rover).find(
-                p + "gnss_heading"), 0u);
-  EXPECT_EQ(error("{" + all + ", gnss_alignment: navsat_transform, gnss_heading: imu, use_odometry_yaw: true}",
-                  rover),
+  EXPECT_EQ(
+      error("{" + all + ", gnss_alignment: navsat_transform, gnss_heading: compass}", rover).find(p + "gnss_heading"),
+      0u);
+  EXPECT_EQ(error("{" + all + ", gnss_alignment: navsat_transform, gnss_heading: imu, use_odometry_yaw: true}", rover),
             p + "gnss_heading: not with use_odometry_yaw: true (the heading is then the fused yaw)");
-  for (const char* bad : {"magnetic_declination_radians: 4", "magnetic_declination_radians: .nan",
-                          "yaw_offset: 7", "yaw_offset: east", "zero_altitude: maybe", "publish_gps_odometry: 2"})
+  for (const char* bad : {"magnetic_declination_radians: 4", "magnetic_declination_radians: .nan", "yaw_offset: 7",
+                          "yaw_offset: east", "zero_altitude: maybe", "publish_gps_odometry: 2"})
   {
     const std::string name = std::string(bad).substr(0, std::string(bad).find(':'));
-    EXPECT_EQ(error("{" + all + ", gnss_alignment: navsat_transform, " + bad + "}", rover).find(p + name), 0u)
-        << bad;
+    EXPECT_EQ(error("{" + all + ", gnss_alignment: navsat_transform, " + bad + "}", rover).find(p + name), 0u) << bad;
   }
 }
 
@@ -950,7 +966,8 @@ TEST_F(EstimatorConfig, GnssAlignment)
 // and 0x10).
 TEST(ParamReader, OneGrammarForBooleansAndIntegers)
 {
-  auto flag = [](const std::string& value) {
+  auto flag = [](const std::string& value)
+  {
     ne::ParamReader p(YAML::Load("k: " + value), "/n parameters");
     return p.flag("k", false);
   };
@@ -969,7 +986,8 @@ TEST(ParamReader, OneGrammarForBooleansAndIntegers)
       EXPECT_NE(std::string(e.what()).find("/n parameters: k: expected true or false"), std::string::npos) << e.what();
     }
   }
-  auto integer = [](const std::string& value) {
+  auto integer = [](const std::string& value)
+  {
     ne::ParamReader p(YAML::Load("k: " + value), "/n parameters");
     return p.integer("k", 0, -100, 100);
   };

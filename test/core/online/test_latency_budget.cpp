@@ -46,7 +46,7 @@ TEST(LatencyBudget, AdaptiveCoversTheDelaysSeen)
   for (int i = 0; i < 1000; ++i)
     b.arrived(0, delay(rng), 100.0 + 0.02 * i);
   const double budget = b.budget();
-  EXPECT_GT(budget, 0.04);   // well above the minimum: the delays' 99th percentile is about 42 ms
+  EXPECT_GT(budget, 0.04);  // well above the minimum: the delays' 99th percentile is about 42 ms
   EXPECT_LT(budget, 0.2);
   long late = 0;
   for (int i = 0; i < 100000; ++i)

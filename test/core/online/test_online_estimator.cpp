@@ -44,7 +44,8 @@ Stream simulate(const ne::Model& model, int steps, std::uint64_t seed)
 
 /// Offline reference: the estimator stepped on y_k where `arrived[k-1][sensor]` is true.
 std::vector<Eigen::VectorXd> offline(const ne::Model& model, const ne::EstimatorSettings& st, const Stream& s,
-                                     const std::vector<std::vector<bool>>& arrived, std::vector<Eigen::MatrixXd>* P = nullptr)
+                                     const std::vector<std::vector<bool>>& arrived,
+                                     std::vector<Eigen::MatrixXd>* P = nullptr)
 {
   auto est = ne::makeEstimator(model, st);
   std::vector<Eigen::VectorXd> out;
@@ -138,8 +139,8 @@ TEST(OnlineEstimator, InOrderWithLossesEqualsOfflineForEveryAlgorithm)
   std::vector<std::vector<bool>> arrived(T, std::vector<bool>(1));
   for (auto& a : arrived)
     a[0] = rng.bernoulli(0.7);
-  for (ne::Algorithm a : {ne::Algorithm::KF, ne::Algorithm::KFIO, ne::Algorithm::RSEIO, ne::Algorithm::AOE,
-                          ne::Algorithm::OE})
+  for (ne::Algorithm a :
+       {ne::Algorithm::KF, ne::Algorithm::KFIO, ne::Algorithm::RSEIO, ne::Algorithm::AOE, ne::Algorithm::OE})
   {
     for (ne::LatePolicy lp : {ne::LatePolicy::DROP, ne::LatePolicy::REWIND})
     {
@@ -264,7 +265,7 @@ TEST(OnlineEstimator, RewindFusesLateDataWithinTheHistoryExactly)
     for (long k = 1; k <= T; ++k)
     {
       const long d = static_cast<long>(rng.uniform() * 13.0);  // 0..12
-      arrivals_at[k + d].push_back(k);  // delivered just before step k + d is processed
+      arrivals_at[k + d].push_back(k);                         // delivered just before step k + d is processed
     }
     for (long k = 1; k <= T; ++k)
     {
@@ -409,7 +410,8 @@ TEST(OnlineEstimator, RandomScheduleDrawIsOfferedAndChecked)
   on.process();  // no draw for step 3
   EXPECT_EQ(on.counters().schedule_missing, 1u);
   EXPECT_EQ(on.lastDue(), (std::vector<bool>{true, false}));
-  auto reason = [&](ne::OfferResult r) {
+  auto reason = [&](ne::OfferResult r)
+  {
     EXPECT_EQ(r.offer, Offer::REJECTED);
     return r.reason;
   };
@@ -443,7 +445,7 @@ TEST(OnlineEstimator, SlowerSensorIsDueOnlyAtItsOwnSteps)
     sent[k - 1][0] = true;
     ASSERT_EQ(offerY(on, model, s, k, 0), Offer::ACCEPTED);
     const bool slow_step = k >= 3 && (k - 3) % 4 == 0;  // the slow sensor's phase: 3, 7, 11, ...
-    const bool slow_sent = slow_step && k != 19;         // its sample of step 19 is lost
+    const bool slow_sent = slow_step && k != 19;        // its sample of step 19 is lost
     // Complete without the slow sensor unless it is due; before its first sample (k = 3) never.
     EXPECT_EQ(on.nextComplete(), k > 3 && !slow_step) << k;
     if (slow_sent)
@@ -508,7 +510,8 @@ TEST(OnlineEstimator, BadInputIsRejectedWithAReasonAndCounted)
   const double y[2] = {1.0, 2.0};
   const double bad[2] = {1.0, kNaN};
   const double inf[2] = {std::numeric_limits<double>::infinity(), 0.0};
-  auto reason = [&](ne::OfferResult r) {
+  auto reason = [&](ne::OfferResult r)
+  {
     EXPECT_EQ(r.offer, Offer::REJECTED);
     return r.reason;
   };
@@ -660,8 +663,8 @@ TEST(OnlineEstimator, OwnRBlocksMakeTheStepsR)
 // the model, d^2 is chi-square with 2 degrees of freedom, P(d > 10) = exp(-50)).
 TEST(OnlineEstimator, RejectionThresholdForEveryAlgorithm)
 {
-  for (ne::Algorithm a : {ne::Algorithm::KF, ne::Algorithm::KFIO, ne::Algorithm::RSEIO, ne::Algorithm::AOE,
-                          ne::Algorithm::OE})
+  for (ne::Algorithm a :
+       {ne::Algorithm::KF, ne::Algorithm::KFIO, ne::Algorithm::RSEIO, ne::Algorithm::AOE, ne::Algorithm::OE})
   {
     const ne::Model model = ne::test::aoeModel();  // control, two rows of y
     const int T = 60;

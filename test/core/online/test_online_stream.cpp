@@ -231,7 +231,8 @@ TEST(OnlineStream, APoisonedFirstMessageCannotHoldTheTimeline)
   for (const Case& c : cases)
   {
     Stream st(adaptiveSettings());
-    const double latest = run(st, t0, 2.0, [&] { st.offer(0, c.stamp, t0, c.named ? 1 : -1); }, c.named);
+    const double latest = run(
+        st, t0, 2.0, [&] { st.offer(0, c.stamp, t0, c.named ? 1 : -1); }, c.named);
     const double now = t0 + 1.1;
     EXPECT_GE(latest, now - 0.1) << c.name << ": the estimate 1 s after the good stream began is stale";
     EXPECT_LE(latest, now) << c.name;
@@ -330,20 +331,19 @@ TEST(OnlineStream, APoisonedFirstMessageNeverStartsTheTimeline)
     bool same = true;  ///< the steps equal the reference's
   };
   const char* const contradicted = "anchored the timeline, and a later message contradicted it (stamp 2000000.095";
-  const Case cases[] = {
-      {"stamp 0", 0.0, t0, false, 1, 0, "stamp 0: not a sample time"},
-      {"1e6 s ahead", t0 + 1e6, t0, false, 1, 0, "(max_stamp_ahead 10 s)"},
-      {"5 s ahead", t0 + 5.0, t0, false, 1, 1, contradicted},
-      {"2.9 s ahead", t0 + 2.9, t0, false, 1, 1, contradicted},
-      {"0.9 s ahead", t0 + 0.9, t0, false, 1, 1, contradicted},
-      {"5 s behind", t0 - 5.0, t0, false, 1, 0, "(max_stamp_behind 3 s)"},
-      {"2.9 s behind", t0 - 2.9, t0, false, 0, 0, "", false},
-      {"named, 5 s ahead", t0 + 5.0, t0, true, 1, 1, contradicted},
-      {"named, 0.9 s ahead", t0 + 0.9, t0, true, 1, 1, contradicted},
-      {"1e6 s ahead, before the clock", t0 + 1e6, 0.0, false, 1, 1, contradicted},
-      {"0.5 s ahead, before the clock", t0 + 0.5, 0.0, false, 1, 1, contradicted},
-      {"named, 1e6 s ahead, before the clock", t0 + 1e6, 0.0, true, 1, 1, contradicted},
-      {"named, 0.5 s ahead, before the clock", t0 + 0.5, 0.0, true, 1, 1, contradicted}};
+  const Case cases[] = {{"stamp 0", 0.0, t0, false, 1, 0, "stamp 0: not a sample time"},
+                        {"1e6 s ahead", t0 + 1e6, t0, false, 1, 0, "(max_stamp_ahead 10 s)"},
+                        {"5 s ahead", t0 + 5.0, t0, false, 1, 1, contradicted},
+                        {"2.9 s ahead", t0 + 2.9, t0, false, 1, 1, contradicted},
+                        {"0.9 s ahead", t0 + 0.9, t0, false, 1, 1, contradicted},
+                        {"5 s behind", t0 - 5.0, t0, false, 1, 0, "(max_stamp_behind 3 s)"},
+                        {"2.9 s behind", t0 - 2.9, t0, false, 0, 0, "", false},
+                        {"named, 5 s ahead", t0 + 5.0, t0, true, 1, 1, contradicted},
+                        {"named, 0.9 s ahead", t0 + 0.9, t0, true, 1, 1, contradicted},
+                        {"1e6 s ahead, before the clock", t0 + 1e6, 0.0, false, 1, 1, contradicted},
+                        {"0.5 s ahead, before the clock", t0 + 0.5, 0.0, false, 1, 1, contradicted},
+                        {"named, 1e6 s ahead, before the clock", t0 + 1e6, 0.0, true, 1, 1, contradicted},
+                        {"named, 0.5 s ahead, before the clock", t0 + 0.5, 0.0, true, 1, 1, contradicted}};
   for (const std::size_t sensors : {std::size_t(1), std::size_t(2)})
   {
     const ne::Model model = sensors == 1 ? oneSensorModel() : ne::test::scalarTwoSensorModel(0.9, "a", "b");
@@ -373,20 +373,21 @@ TEST(OnlineStream, APoisonedFirstMessageNeverStartsTheTimeline)
         {
           EXPECT_EQ(r.steps.size(), reference.steps.size()) << name;
           for (std::size_t i = 0; i < std::min(r.steps.size(), reference.steps.size()); ++i)
-            if (r.steps[i].k != reference.steps[i].k || !(std::fabs(r.steps[i].stamp - reference.steps[i].stamp) <= 1e-9) ||
+            if (r.steps[i].k != reference.steps[i].k ||
+                !(std::fabs(r.steps[i].stamp - reference.steps[i].stamp) <= 1e-9) ||
                 !(std::fabs(r.steps[i].x - reference.steps[i].x) <= 1e-12))
             {
               ADD_FAILURE() << name << ": step #" << i << " is step " << r.steps[i].k << " stamped " << std::fixed
-                            << r.steps[i].stamp - t0 << " s after t0, x = " << r.steps[i].x << "; without the poison: step "
-                            << reference.steps[i].k << " stamped " << reference.steps[i].stamp - t0 << ", x = "
-                            << reference.steps[i].x;
+                            << r.steps[i].stamp - t0 << " s after t0, x = " << r.steps[i].x
+                            << "; without the poison: step " << reference.steps[i].k << " stamped "
+                            << reference.steps[i].stamp - t0 << ", x = " << reference.steps[i].x;
               break;
             }
         }
         else
         {
-          const auto past = std::count_if(r.steps.begin(), r.steps.end(),
-                                          [&](const Recorder::Step& st) { return st.stamp < t0; });
+          const auto past =
+              std::count_if(r.steps.begin(), r.steps.end(), [&](const Recorder::Step& st) { return st.stamp < t0; });
           EXPECT_LE(past, 150) << name << ": more steps before the good stream than max_stamp_behind holds";
           EXPECT_LE(r.steps.size(), reference.steps.size() + 150u) << name;
         }
@@ -413,8 +414,9 @@ TEST(OnlineStream, TheDiagnosticsSayWhatWasRefused)
   st.s.measurement(1, t0 + 20.0, -1, &y, 1, nullptr, Stream::clocks(t0, 101.0));
   std::vector<std::string> w = st.s.stampWarnings(101.5);
   ASSERT_EQ(w.size(), 1u);
-  EXPECT_EQ(w[0], "sensor 'b': 2 messages refused for their stamp, the last 0.5 s ago: stamp 2000020 is 20 s ahead of "
-                  "ROS time 2000000 (max_stamp_ahead 10 s)");
+  EXPECT_EQ(w[0],
+            "sensor 'b': 2 messages refused for their stamp, the last 0.5 s ago: stamp 2000020 is 20 s ahead of "
+            "ROS time 2000000 (max_stamp_ahead 10 s)");
   EXPECT_EQ(st.s.refusedPerSensor()[1], 2u);
   EXPECT_TRUE(st.s.stampWarnings(111.5).empty());  // 10.5 s later
   // A command stamped 0 (no header stamp), once the timeline runs.
@@ -422,8 +424,9 @@ TEST(OnlineStream, TheDiagnosticsSayWhatWasRefused)
   st.s.heldCommand(0.0, &y, 1, Stream::clocks(t0, 102.0));
   w = st.s.stampWarnings(103.0);
   ASSERT_EQ(w.size(), 2u);
-  EXPECT_EQ(w[1], "commands and schedules: 1 message refused for its stamp, the last 1 s ago: command: stamp 0: not "
-                  "a sample time (an unset header stamp?)");
+  EXPECT_EQ(w[1],
+            "commands and schedules: 1 message refused for its stamp, the last 1 s ago: command: stamp 0: not "
+            "a sample time (an unset header stamp?)");
   // A restart: an anchor taken before the clock (ROS time 0), 1e6 s ahead of the first message
   // that arrives with one.
   Stream r(adaptiveSettings());
@@ -431,10 +434,14 @@ TEST(OnlineStream, TheDiagnosticsSayWhatWasRefused)
   r.s.measurement(0, t0, -1, &y, 1, nullptr, Stream::clocks(t0, 201.0));
   w = r.s.stampWarnings(203.0);
   ASSERT_EQ(w.size(), 2u);
-  EXPECT_TRUE(has(w[0], "sensor 'a': 1 message refused for its stamp, the last 2 s ago: stamp 3000000 anchored the "
-                        "timeline, and a later message contradicted it (stamp 2000000 is 1000000 s before")) << w[0];
-  EXPECT_TRUE(has(w[1], "timeline restarted 2 s ago: stamp 2000000 is 1000000 s before the stamp 3000000 that anchored "
-                        "the timeline ahead of ROS time")) << w[1];
+  EXPECT_TRUE(has(w[0],
+                  "sensor 'a': 1 message refused for its stamp, the last 2 s ago: stamp 3000000 anchored the "
+                  "timeline, and a later message contradicted it (stamp 2000000 is 1000000 s before"))
+      << w[0];
+  EXPECT_TRUE(has(w[1],
+                  "timeline restarted 2 s ago: stamp 2000000 is 1000000 s before the stamp 3000000 that anchored "
+                  "the timeline ahead of ROS time"))
+      << w[1];
 }
 
 // ROS time jumping forward by a day restarts the timeline at once (no step taken for the gap); a
@@ -498,7 +505,8 @@ TEST(OnlineStream, TimeJumpsAndAFastClockDoNotGrind)
 TEST(OnlineStream, TheBudgetFollowsTheDelaysAndLossesAreCounted)
 {
   const double t0 = 3000.0;
-  auto feed = [&](Stream& st) {
+  auto feed = [&](Stream& st)
+  {
     for (int i = 0; i < 1000; ++i)  // 1 ms ticks; a's samples arrive 1 ms after their stamps, b's 30 ms
     {
       const double now = t0 + 0.001 * i;

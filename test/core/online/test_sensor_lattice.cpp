@@ -18,9 +18,9 @@ namespace
 
 struct Fed
 {
-  std::vector<long> steps;     ///< the step of each sample that was sent
-  std::vector<long> index;     ///< its lattice index j
-  std::vector<double> nominal; ///< its jitter-free position
+  std::vector<long> steps;      ///< the step of each sample that was sent
+  std::vector<long> index;      ///< its lattice index j
+  std::vector<double> nominal;  ///< its jitter-free position
 };
 
 /// Samples j = 0, 1, ... at position phase + j * spacing + jitter (uniform +-`jitter` of the

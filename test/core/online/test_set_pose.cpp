@@ -34,7 +34,7 @@ ne::Model planar()
   m.sensors = {{"pose", 0, 3}};
   m.x0 = (Eigen::VectorXd(6) << 0.1, 0.2, 0.3, 0.4, 0.5, 0.6).finished();
   m.P0 = 2.0 * Eigen::MatrixXd::Identity(6, 6);
-  m.P0(0, 3) = m.P0(3, 0) = 0.5;  // a position-velocity correlation the reset must cut
+  m.P0(0, 3) = m.P0(3, 0) = 0.5;   // a position-velocity correlation the reset must cut
   m.P0(3, 4) = m.P0(4, 3) = 0.25;  // a velocity-velocity one it keeps
   m.Bu = Eigen::MatrixXd(6, 0);
   m.angles = {2};
@@ -60,7 +60,7 @@ ne::PoseWithCovariance pose(double x, double y, double yaw)
   p.covariance[7] = 0.09;
   p.covariance[35] = 0.16;
   p.covariance[5] = p.covariance[30] = -0.02;  // x-yaw
-  p.covariance[14] = 99.0;                    // z: not mapped
+  p.covariance[14] = 99.0;                     // z: not mapped
   return p;
 }
 
@@ -124,11 +124,11 @@ TEST(SetPose, RollAndPitchWhenMapped)
   m.angles = {1, 2};
   ne::PoseWithCovariance p = pose(3.0, -4.0, 0.5);
   p.pose[3] = 0.1;
-  p.pose[4] = 3.5;  // beyond pi: wrapped
-  p.covariance[21] = 0.25;                    // roll
-  p.covariance[28] = 0.36;                    // pitch
-  p.covariance[22] = p.covariance[27] = 0.03; // roll-pitch
-  p.covariance[3] = p.covariance[18] = 0.01;  // x-roll
+  p.pose[4] = 3.5;                             // beyond pi: wrapped
+  p.covariance[21] = 0.25;                     // roll
+  p.covariance[28] = 0.36;                     // pitch
+  p.covariance[22] = p.covariance[27] = 0.03;  // roll-pitch
+  p.covariance[3] = p.covariance[18] = 0.01;   // x-roll
   Eigen::VectorXd x;
   Eigen::MatrixXd P;
   ne::poseReset(m, s, p, x, P);
@@ -144,7 +144,8 @@ TEST(SetPose, RollAndPitchWhenMapped)
 TEST(SetPose, BadPosesAreRefusedNamingTheProblem)
 {
   const ne::Model m = planar();
-  EXPECT_NE(errorOf(m, ne::StateMap{}, pose(1, 2, 3)).find("state_mapping maps none of x, y, z, roll, pitch, yaw"), std::string::npos);
+  EXPECT_NE(errorOf(m, ne::StateMap{}, pose(1, 2, 3)).find("state_mapping maps none of x, y, z, roll, pitch, yaw"),
+            std::string::npos);
   EXPECT_NE(errorOf(m, xyYaw(), pose(std::nan(""), 2, 3)).find("x is not finite"), std::string::npos);
   EXPECT_NE(errorOf(m, xyYaw(), pose(1, 2, INFINITY)).find("yaw is not finite"), std::string::npos);
   ne::PoseWithCovariance p = pose(1, 2, 3);
@@ -220,7 +221,8 @@ TEST(SetPose, BadEstimatesLeaveTheFilterAsItWas)
   ne::OnlineEstimator online(m, st, ne::OnlineOptions{});
   const Eigen::VectorXd before = online.estimator().state();
   const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(6, 6);
-  auto refused = [&](const Eigen::VectorXd& x, const Eigen::MatrixXd& P, const std::string& what) {
+  auto refused = [&](const Eigen::VectorXd& x, const Eigen::MatrixXd& P, const std::string& what)
+  {
     try
     {
       online.setEstimate(x, P);

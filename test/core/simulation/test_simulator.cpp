@@ -154,9 +154,9 @@ TEST(ControlSequence, Parse)
 TEST(ControlSequence, ParseErrors)
 {
   for (const std::string bad :
-       {"", "constant", "constant:", "constant:abc", "constant:1:2", "constant:1x", "constant: 1",
-        "constant:inf", "constant:nan", "step:10", "step:1.5:2", "step::2", "step:10:nan",
-        "paper:", "paper:1:2", "paper:-inf", "Paper", "linear:1", "constant:1e999"})
+       {"", "constant", "constant:", "constant:abc", "constant:1:2", "constant:1x", "constant: 1", "constant:inf",
+        "constant:nan", "step:10", "step:1.5:2", "step::2", "step:10:nan", "paper:", "paper:1:2", "paper:-inf", "Paper",
+        "linear:1", "constant:1e999"})
   {
     try
     {
@@ -166,7 +166,7 @@ TEST(ControlSequence, ParseErrors)
     catch (const ne::ConfigError& e)
     {
       EXPECT_EQ(std::string(e.what()), "--control: cannot parse control sequence '" + bad +
-                                            "' (expected constant:V, step:K:V, paper or paper:V)");
+                                           "' (expected constant:V, step:K:V, paper or paper:V)");
     }
   }
 }
@@ -338,8 +338,7 @@ TEST(PlantSimulator, NuFollowsActuatorSequence)
   m.Bu = mat(2, 1, {-1.0, 1.0});
   m.Q = 1e-12 * Eigen::MatrixXd::Identity(2, 2);
   const ne::ControlSequence control = ne::ControlSequence::parse("step:5:2", "test");
-  ne::PlantSimulator sim(m, 12, control,
-                         std::make_unique<ne::GilbertElliottLoss>(0.2, 0.3, 1.0, 0.0, 31));
+  ne::PlantSimulator sim(m, 12, control, std::make_unique<ne::GilbertElliottLoss>(0.2, 0.3, 1.0, 0.0, 31));
   ne::GilbertElliottLoss reference(0.2, 0.3, 1.0, 0.0, 31);
   Eigen::VectorXd prev = sim.state();
   int delivered = 0, lost = 0;
@@ -434,8 +433,7 @@ TEST(PlantSimulator, EpsDrawsAreUniformAndTimedCorrectly)
   // Uniform[-r, r]: mean 0 with se r / sqrt(3 N); E[eps^2] = r^2 / 3 with
   // Var(eps^2) = r^4 / 5 - r^4 / 9 = 4 r^4 / 45, so se sqrt(4 / 45) r^2 / sqrt(N).
   EXPECT_NEAR(sum / N, 0.0, 5.0 * range / std::sqrt(3.0 * N));
-  EXPECT_NEAR(sum2 / N, range * range / 3.0,
-              5.0 * std::sqrt(4.0 / 45.0) * range * range / std::sqrt(N));
+  EXPECT_NEAR(sum2 / N, range * range / 3.0, 5.0 * std::sqrt(4.0 / 45.0) * range * range / std::sqrt(N));
 }
 
 // ------------------------------------------------------------------------------------------------

@@ -115,6 +115,5 @@ inline std::vector<std::optional<ChannelSettings>> iidLinks(const std::vector<do
   return out;
 }
 
-
 }  // namespace test
 }  // namespace networked_estimation

@@ -227,7 +227,8 @@ TEST(JointLinkMonitor, PerSensorRatesDecideAndUnionDoesNot)
     const JointLinkStatus st = mon.evaluate();
     ASSERT_EQ(st.sensors.size(), 2u);
     EXPECT_NEAR(st.sensors[0].arrival.value, rate, 0.03);
-    EXPECT_EQ(st.status.level, rate < 0.4 ? LinkCondition::Level::ERROR : LinkCondition::Level::OK) << st.status.message;
+    EXPECT_EQ(st.status.level, rate < 0.4 ? LinkCondition::Level::ERROR : LinkCondition::Level::OK)
+        << st.status.message;
     if (rate < 0.4)
       EXPECT_GT(any.arrivalRate().lower, 0.45);  // the union rate looks healthy
     ChannelSettings ca, cb;
@@ -420,7 +421,8 @@ TEST(LiveStability, ConstantVelocityRobot)
   // The level follows the links' verdict (dead reckoning is a robot's normal setup, not a link
   // problem); the message names the dead-reckoned states by their names.
   EXPECT_EQ(rv.status.level, LinkCondition::Level::OK) << rv.status.message;
-  EXPECT_NE(valueOf(rv, "dead-reckoned").find("(1, 1) of x, y that"), std::string::npos) << valueOf(rv, "dead-reckoned");
+  EXPECT_NE(valueOf(rv, "dead-reckoned").find("(1, 1) of x, y that"), std::string::npos)
+      << valueOf(rv, "dead-reckoned");
   EXPECT_NE(rv.status.message.find("dead-reckoned: x, y grow regardless of the links"), std::string::npos)
       << rv.status.message;
   // What the odometry needs concerns the modes it observes (the velocities): any rate, not "none".
@@ -494,7 +496,8 @@ TEST(LiveStability, RelinearisedKeepsTheWindows)
     const Model stable = scalarTwoSensors(0.9);
     local = std::make_unique<LiveStability>(fed.relinearised(stable));
   }
-  const auto values = [](const LiveStabilityReport& r) {
+  const auto values = [](const LiveStabilityReport& r)
+  {
     std::string out = toString(r.status.level) + " " + r.status.message + "\n";
     for (const auto& kv : r.values)
       if (kv.first.find("Theorem 1") == std::string::npos)  // kfio's invariant along the fed model's own steps

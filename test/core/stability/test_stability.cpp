@@ -215,8 +215,10 @@ TEST(Stability, T8ExcitationArithmetic)
   const double lam = 1 - lk;
   const double nrm = 1.0;  // spectral norm of a rotation, computed below
   EXPECT_NEAR(Eigen::JacobiSVD<MatrixXd>(A).singularValues()[0], nrm, 1e-12);
-  auto printed = [&](int p) { return std::pow(2.0, (p - 1.0) / (p * h)) * nrm * nrm * std::pow(lam, 1.0 / (8.0 * n * p * p * (1 + R))); };
-  auto proof = [&](int p) { return std::pow(16.0, p - 1.0) * std::pow(nrm, 8.0 * p * h) * std::pow(lam, 1.0 / (2.0 * n * h * (1 + R))); };
+  auto printed = [&](int p)
+  { return std::pow(2.0, (p - 1.0) / (p * h)) * nrm * nrm * std::pow(lam, 1.0 / (8.0 * n * p * p * (1 + R))); };
+  auto proof = [&](int p)
+  { return std::pow(16.0, p - 1.0) * std::pow(nrm, 8.0 * p * h) * std::pow(lam, 1.0 / (2.0 * n * h * (1 + R))); };
   EXPECT_NEAR(printed(1), 0.997285, 1e-6);
   EXPECT_NEAR(proof(1), 0.994577, 1e-6);
   EXPECT_NEAR(printed(2), 1.188, 1e-3);
@@ -588,7 +590,8 @@ TEST(StabilityLinks, OneDimensionalBlocksExactRate)
 TEST(StabilityLinks, RotationStableInterval)
 {
   const Model m = simpleModel(mat(2, 2, {0, -1.2, 1.2, 0}), mat(1, 2, {1, 0}));
-  const auto at = [&](double r) {
+  const auto at = [&](double r)
+  {
     const ChannelSettings ge = gilbert(0.5, r);
     return analyzeStability(m, &ge);
   };
@@ -741,7 +744,8 @@ TEST(StabilityLinks, MarkovLatticeOppositePhases)
           const double g = 16.0 * twoStepBad(p1, r1) * twoStepBad(p2, r2);
           if (std::abs(g - 1.0) < 0.02)
             continue;
-          const Verdict v = stabilityVerdict(m, {0, 1}, {LinkModel::gilbertElliott(p1, r1), LinkModel::gilbertElliott(p2, r2)});
+          const Verdict v =
+              stabilityVerdict(m, {0, 1}, {LinkModel::gilbertElliott(p1, r1), LinkModel::gilbertElliott(p2, r2)});
           EXPECT_EQ(v.kind, g < 1.0 ? Verdict::Kind::STABLE : Verdict::Kind::UNSTABLE)
               << p1 << " " << r1 << " " << p2 << " " << r2 << " 16 f1 f2 = " << g << ": " << v.reason;
           ++checked;
@@ -752,8 +756,8 @@ TEST(StabilityLinks, MarkovLatticeOppositePhases)
   {
     const double f1 = twoStepBad(0.05, 0.6), f2 = hiddenTwoStep(0.1, r2, 0.9, 0.1);
     const double g = 16.0 * f1 * f2;
-    const Verdict v =
-        stabilityVerdict(m, {0, 1}, {LinkModel::gilbertElliott(0.05, 0.6), LinkModel::gilbertElliott(0.1, r2, 0.9, 0.1)});
+    const Verdict v = stabilityVerdict(
+        m, {0, 1}, {LinkModel::gilbertElliott(0.05, 0.6), LinkModel::gilbertElliott(0.1, r2, 0.9, 0.1)});
     ASSERT_GT(std::abs(g - 1.0), 0.02) << r2;
     EXPECT_EQ(v.kind, g < 1.0 ? Verdict::Kind::STABLE : Verdict::Kind::UNSTABLE) << r2 << " 16 f1 f2 = " << g;
   }
@@ -1043,10 +1047,19 @@ TEST(StabilityJordan, LatticePredictsEveryWindow)
     int T;
   };
   const std::vector<System> systems = {
-      {"jordan pair", mat(4, 4, {1.5, 1, 0, 0, 0, 1.5, 0, 0, 0, 0, -1.5, 1, 0, 0, 0, -1.5}), {mat(1, 4, {1, 0, 1, 0})}, 12},
+      {"jordan pair",
+       mat(4, 4, {1.5, 1, 0, 0, 0, 1.5, 0, 0, 0, 0, -1.5, 1, 0, 0, 0, -1.5}),
+       {mat(1, 4, {1, 0, 1, 0})},
+       12},
       {"constant velocity", mat(2, 2, {1, 0.1, 0, 1}), {mat(1, 2, {1, 0}), mat(1, 2, {0, 1})}, 7},
-      {"constant acceleration", mat(3, 3, {1, 0.1, 0.005, 0, 1, 0.1, 0, 0, 1}), {mat(1, 3, {0, 1, 0}), mat(1, 3, {1, 0, 0})}, 6},
-      {"jordan beside 1-D", mat(3, 3, {1.2, 1, 0, 0, 1.2, 0, 0, 0, 1.2}), {mat(1, 3, {0, 1, 1}), mat(1, 3, {1, 0, 0})}, 6}};
+      {"constant acceleration",
+       mat(3, 3, {1, 0.1, 0.005, 0, 1, 0.1, 0, 0, 1}),
+       {mat(1, 3, {0, 1, 0}), mat(1, 3, {1, 0, 0})},
+       6},
+      {"jordan beside 1-D",
+       mat(3, 3, {1.2, 1, 0, 0, 1.2, 0, 0, 0, 1.2}),
+       {mat(1, 3, {0, 1, 1}), mat(1, 3, {1, 0, 0})},
+       6}};
   for (const System& sys : systems)
   {
     const auto blocks = analyseBlocks(sys.A, sys.H);
@@ -1098,8 +1111,8 @@ TEST(StabilityJordan, LatticePredictsEveryWindow)
 // the position sensor informs on (Phi = its loss persistence, the velocity sensor cannot help).
 TEST(StabilityJordan, PhiOfJordanStructures)
 {
-  const auto pair = analyseBlocks(mat(4, 4, {1.5, 1, 0, 0, 0, 1.5, 0, 0, 0, 0, -1.5, 1, 0, 0, 0, -1.5}),
-                                  {mat(1, 4, {1, 0, 1, 0})});
+  const auto pair =
+      analyseBlocks(mat(4, 4, {1.5, 1, 0, 0, 0, 1.5, 0, 0, 0, 0, -1.5, 1, 0, 0, 0, -1.5}), {mat(1, 4, {1, 0, 1, 0})});
   ASSERT_EQ(pair.size(), 1u);
   EXPECT_EQ(pair[0].method, BlockStructure::Method::LATTICE);
   EXPECT_EQ(pair[0].block.order, 2);
@@ -1169,8 +1182,8 @@ TEST(StabilityJordan, ConstantVelocityVerdictsAndMargins)
 // SetVerdicts computes the model's part once: the same verdicts and margins as the free functions.
 TEST(StabilityJordan, SetVerdictsAgreeWithFreeFunctions)
 {
-  const Model m = multiModel(mat(3, 3, {1.2, 1, 0, 0, 1.2, 0, 0, 0, 0.5}),
-                             {mat(1, 3, {1, 0, 1}), mat(1, 3, {0, 1, 0})});
+  const Model m =
+      multiModel(mat(3, 3, {1.2, 1, 0, 0, 1.2, 0, 0, 0, 0.5}), {mat(1, 3, {1, 0, 1}), mat(1, 3, {0, 1, 0})});
   const SetVerdicts sv(m, {0, 1});
   EXPECT_TRUE(sv.exact());
   for (double a : {0.1, 0.3, 0.5})

@@ -99,8 +99,7 @@ TEST(StabilityMonteCarlo, CriticalRate)
   {
     MatrixXd A, C;
   };
-  const std::vector<Case> cases = {{mat(1, 1, {2.0}), mat(1, 1, {1})},
-                                   {mat(2, 2, {2, 0, 0, 3}), mat(1, 2, {1, 1})}};
+  const std::vector<Case> cases = {{mat(1, 1, {2.0}), mat(1, 1, {1})}, {mat(2, 2, {2, 0, 0, 3}), mat(1, 2, {1, 1})}};
   for (const Case& c : cases)
   {
     const Model m = simpleModel(c.A, c.C);
@@ -170,9 +169,10 @@ TEST(StabilityMonteCarlo, PerSensorBoundaryTwoSystems)
       const double ratio = mean[k2 - 1] / mean[k1 - 1];
       const double g = s.lattice ? std::sqrt(f) : f;
       const double model_ratio = burstRatio(g, k1, k2);
-      std::printf("system %s: sensor 2 needs %.6f; at %.4f (f = %.1f) E[tr P_%d]/E[tr P_%d] = %.3f (burst model %.3f, "
-                  "g = 1: %.3f)\n",
-                  s.name, need, lambda2, f, k2, k1, ratio, model_ratio, at_one);
+      std::printf(
+          "system %s: sensor 2 needs %.6f; at %.4f (f = %.1f) E[tr P_%d]/E[tr P_%d] = %.3f (burst model %.3f, "
+          "g = 1: %.3f)\n",
+          s.name, need, lambda2, f, k2, k1, ratio, model_ratio, at_one);
       if (f > 1.0)
         EXPECT_GT(ratio, at_one) << s.name << " below the boundary: E[tr P] should grow";
       else
@@ -315,7 +315,8 @@ TEST(StabilityMonteCarlo, RotationIntervalEnds)
     ASSERT_GT(pt.r, 0.0);
     ASSERT_LE(pt.r, 1.0);
     const ChannelSettings link = gilbert(0.5, pt.r);
-    EXPECT_EQ(analyzeStability(m, &link).model.verdict.kind, pt.stable ? Verdict::Kind::STABLE : Verdict::Kind::UNSTABLE);
+    EXPECT_EQ(analyzeStability(m, &link).model.verdict.kind,
+              pt.stable ? Verdict::Kind::STABLE : Verdict::Kind::UNSTABLE);
     const PhiEstimate e = estimatePhi(A, c, link, 10000000, 6, 22, seed++);
     const double lg = std::log(alpha2 * e.phi);
     const double computed = blockPhi(block, {LinkModel::gilbertElliott(0.5, pt.r)});
@@ -421,8 +422,9 @@ TEST(StabilityMonteCarlo, ScheduledExampleThroughTheSimulator)
               f > 1 ? Verdict::Kind::UNSTABLE : Verdict::Kind::STABLE);
     const std::vector<double> mean = meanTraceSimulated(m, iidChannels({1 - eps, 1 - eps}), 20000, k2, 31);
     const double ratio = mean[k2 - 1] / mean[k1 - 1];
-    std::printf("scheduled example: eps = %.4f (f = %.1f): E[tr P_%d]/E[tr P_%d] = %.3f (burst model %.3f, g = 1: %.3f)\n",
-                eps, f, k2, k1, ratio, burstRatioPoly(1.2 * 1.2 * std::sqrt(eps), 2, k1, k2), at_one);
+    std::printf(
+        "scheduled example: eps = %.4f (f = %.1f): E[tr P_%d]/E[tr P_%d] = %.3f (burst model %.3f, g = 1: %.3f)\n", eps,
+        f, k2, k1, ratio, burstRatioPoly(1.2 * 1.2 * std::sqrt(eps), 2, k1, k2), at_one);
     if (f > 1)
       EXPECT_GT(ratio, at_one);
     else
@@ -456,9 +458,10 @@ TEST(StabilityMonteCarlo, ConstantVelocityNeedsAnyPositivePositionRate)
   const std::vector<double> slow = meanTrace(m, iidChannels({0.05, 1.0}), 4000, 800, 31);
   const std::vector<double> none = meanTrace(m, iidChannels({0.0, 1.0}), 1, 800, 31);
   const double r_slow = slow[799] / slow[399], r_none = none[799] / none[399];
-  std::printf("constant velocity: E[tr P_800] / E[tr P_400] = %.4f at position rate 0.05, %.4f at rate 0 (tr P_800 "
-              "= %.1f)\n",
-              r_slow, r_none, none[799]);
+  std::printf(
+      "constant velocity: E[tr P_800] / E[tr P_400] = %.4f at position rate 0.05, %.4f at rate 0 (tr P_800 "
+      "= %.1f)\n",
+      r_slow, r_none, none[799]);
   EXPECT_LT(r_slow, 1.1);
   EXPECT_GT(r_none, 1.8);
   EXPECT_GE(none[799] - none[399], 400.0);

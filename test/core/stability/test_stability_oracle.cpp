@@ -59,7 +59,7 @@ struct OracleCase
   std::vector<Block> blocks;
   std::vector<std::vector<bool>> sees;  ///< sees[s][b]: sensor s sees block b
   std::vector<std::optional<ChannelSettings>> links;
-  std::vector<double> f;                ///< per sensor: loss persistence of its link
+  std::vector<double> f;  ///< per sensor: loss persistence of its link
 };
 
 /// A random angle in (0.2, pi - 0.2) whose ratio to pi is at least 2e-3 from every p/q, q <= 30: the
@@ -296,7 +296,10 @@ std::string describeCase(const OracleCase& c)
   char buf[128];
   for (const Block& b : c.blocks)
   {
-    std::snprintf(buf, sizeof buf, " %s |%.4f|", b.kind == Block::REAL ? "real" : b.kind == Block::JORDAN ? "jordan" : "pair",
+    std::snprintf(buf, sizeof buf, " %s |%.4f|",
+                  b.kind == Block::REAL     ? "real"
+                  : b.kind == Block::JORDAN ? "jordan"
+                                            : "pair",
                   b.modulus);
     out += buf;
   }
@@ -338,8 +341,9 @@ TEST(StabilityOracle, RandomModelsAgreeWithTheClosedForm)
       ++disagreements;
     EXPECT_EQ(v.verdict.kind, want) << "model " << k << " (" << describeCase(c) << "): oracle " << name(truth)
                                     << ", verdict " << describe(v.verdict);
-    EXPECT_EQ(v.links_verdict.kind, want_links) << "model " << k << " (" << describeCase(c) << "): oracle "
-                                                << name(links_truth) << ", links' verdict " << describe(v.links_verdict);
+    EXPECT_EQ(v.links_verdict.kind, want_links)
+        << "model " << k << " (" << describeCase(c) << "): oracle " << name(links_truth) << ", links' verdict "
+        << describe(v.links_verdict);
     // Each sensor's needed rate, the others fixed.
     for (std::size_t s = 0; s < c.f.size(); ++s)
     {
@@ -373,9 +377,10 @@ TEST(StabilityOracle, RandomModelsAgreeWithTheClosedForm)
       }
     }
   }
-  std::printf("oracle: %d models, %d verdicts and %d needed rates checked, %d within 1e-6 of the boundary "
-              "skipped, %d unbounded, %d with dead-reckoned modes, %d disagreements\n",
-              models, verdicts, margins, close, unstable, dead, disagreements);
+  std::printf(
+      "oracle: %d models, %d verdicts and %d needed rates checked, %d within 1e-6 of the boundary "
+      "skipped, %d unbounded, %d with dead-reckoned modes, %d disagreements\n",
+      models, verdicts, margins, close, unstable, dead, disagreements);
   EXPECT_EQ(disagreements, 0);
   // The generator must reach both sides and the dead-reckoned case, or the test proves little.
   EXPECT_GE(models - close, 200);
@@ -394,8 +399,8 @@ namespace
 /// The sample mean of tr P_k over `runs` runs of the random Riccati recursion, k = 0..steps.
 /// links[s]: {arrival probability after an arrival, arrival probability after a loss} (i.i.d.:
 /// both the arrival rate; on/off Gilbert-Elliott: 1 - p and r), starting from the stationary law.
-std::vector<double> meanTrace(const Model& m, const std::vector<std::pair<double, double>>& links, int runs,
-                              int steps, std::uint64_t seed)
+std::vector<double> meanTrace(const Model& m, const std::vector<std::pair<double, double>>& links, int runs, int steps,
+                              std::uint64_t seed)
 {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> u(0.0, 1.0);
