@@ -33,6 +33,8 @@ PACKAGES=(
 )
 TEST_PACKAGES=(
   python3-rostest libgtest-dev googletest libbenchmark-dev catkin-lint
+  # The C++ style check (test/test_format.sh, .clang-format): clang-format 14 on Debian 12.
+  clang-format
   python3-pytest python3-distributed python3-numpy python3-matplotlib
   # The real-network test (test/test_real_link.sh): nftables drops packets between two network
   # namespaces (`ip` is iproute2's, in every Debian system).
