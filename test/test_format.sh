@@ -5,7 +5,9 @@
 # with 14 and prints SKIPPED otherwise, as without clang-format (NE_REQUIRE_FORMAT=1 fails then).
 # Usage: test_format.sh SOURCE_DIR
 set -uo pipefail
-src="$1"
+# The repository's real folder: a workspace's package folder may hold links into it (not to the
+# dot files).
+src="$(dirname "$(readlink -f "$1/CMakeLists.txt")")"
 skip() {
   echo "format: SKIPPED ($1)"
   [ "${NE_REQUIRE_FORMAT:-0}" = 1 ] && { echo "0 passed, 1 failed"; exit 1; }
