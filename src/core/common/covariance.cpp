@@ -1,9 +1,9 @@
 // The one validity check of a covariance matrix (covariance.hpp).
 #include "networked_estimation/common/covariance.hpp"
 
-#include <Eigen/Eigenvalues>
 #include <cmath>
 
+#include "networked_estimation/common/eigenvalues.hpp"
 #include "networked_estimation/common/number_format.hpp"
 
 namespace networked_estimation
@@ -60,14 +60,13 @@ bool certainlyPositiveDefinite(const Eigen::Ref<const Eigen::MatrixXd>& M)
   return std::isfinite(frobenius2) && 1.0 / frobenius2 > kDefinitenessTolerance * static_cast<double>(n);
 }
 
-/// Ascending eigenvalues of the symmetric part; false when they could not be computed.
+/// Ascending eigenvalues of a symmetric S (common/eigenvalues.hpp); false when they could not be
+/// computed.
 bool eigenvalues(const Eigen::MatrixXd& S, Eigen::VectorXd& ev)
 {
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(S, Eigen::EigenvaluesOnly);
-  if (solver.info() != Eigen::Success)
-    return false;
-  ev = solver.eigenvalues();
-  return true;
+  bool converged = false;
+  ev = symmetricEigenvalues(S, &converged);
+  return converged;
 }
 
 void definiteness(const Eigen::Ref<const Eigen::MatrixXd>& M, CovarianceCheck& out)
