@@ -1,6 +1,7 @@
 // What the Estimator publishes (estimator_outputs.hpp).
 #include "estimator_outputs.hpp"
 
+#include "networked_estimation/common/error.hpp"
 #include "networked_estimation/estimators/estimator.hpp"
 #include "odometry_output.hpp"
 
