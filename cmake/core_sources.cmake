@@ -3,10 +3,11 @@ set(NE_CORE_SOURCES
   # channel/: loss models and the lossy channel engine
   src/core/channel/channel.cpp
   src/core/channel/loss_model.cpp
-  # config/: the shared YAML reader and the three configuration files it reads; kinematic models
+  # config/: the checked-field reader (field), the YAML helpers and the three configuration files it reads; kinematic models
   # and the model file writer (make_model)
   src/core/config/channel_settings.cpp
   src/core/config/estimator_settings.cpp
+  src/core/config/field.cpp
   src/core/config/kinematic_model.cpp
   src/core/config/model_config.cpp
   src/core/config/model_validation.cpp

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "config/field.hpp"
 #include "config/yaml_reader.hpp"
 #include "networked_estimation/common/error.hpp"
 
@@ -34,47 +35,58 @@ const std::vector<Algorithm>& algorithmValues()
   return values;
 }
 
+/// The control link's two probabilities.
+void readControlLink(const Field& link, EstimatorSettings& settings)
+{
+  static const std::vector<KeyRule<EstimatorSettings>> table = {
+      requiredKey<EstimatorSettings>("recovery",
+                                     [](const Field& f, EstimatorSettings& s) { s.recovery = f.probability(); }),
+      requiredKey<EstimatorSettings>("failure",
+                                     [](const Field& f, EstimatorSettings& s) { s.failure = f.probability(); }),
+  };
+  readKeys(link, table, settings);
+  settings.has_control_link = true;
+}
+
 EstimatorSettings parseEstimatorSettingsImpl(const YAML::Node& node, const std::string& source)
 {
-  const Reader in(source);
-  in.requireTopMap(node);
-  in.checkKeys(node, "", {"algorithm", "mu", "control_link", "max_components"});
-
-  EstimatorSettings settings;
-  const YAML::Node algorithm = in.require(node, "", "algorithm");
-  settings.algorithm = algorithmValues()[in.choice(algorithm, "algorithm", "algorithm", algorithmNames())];
-
-  if (const YAML::Node mu = node["mu"])
-  {
-    settings.mu = in.number(mu, "mu");
-    if (!(settings.mu > 0.0 && settings.mu <= 1.0))
-    {
-      in.fail(mu, "mu", "expected a number in (0, 1], found " + mu.Scalar());
-    }
-  }
-  else if (settings.algorithm == Algorithm::RSEIO)
-  {
-    in.fail(node, "mu", "missing required key (algorithm rseio needs mu in (0, 1])");
-  }
-
-  if (const YAML::Node link = node["control_link"])
-  {
-    in.requireMap(link, "control_link");
-    in.checkKeys(link, "control_link", {"recovery", "failure"});
-    settings.recovery = in.probability(in.require(link, "control_link", "recovery"), "control_link.recovery");
-    settings.failure = in.probability(in.require(link, "control_link", "failure"), "control_link.failure");
-    settings.has_control_link = true;
-  }
-
-  if (const YAML::Node max = node["max_components"])
-  {
-    const std::uint64_t value = in.integer(max, "max_components", 1);
-    if (value > std::numeric_limits<std::size_t>::max())
-    {
-      in.fail(max, "max_components", "integer out of range, found " + max.Scalar());
-    }
-    settings.max_components = static_cast<std::size_t>(value);
-  }
+  using S = EstimatorSettings;
+  static const std::vector<KeyRule<S>> table = {
+      requiredKey<S>("algorithm", [](const Field& f, S& s)
+                     { s.algorithm = algorithmValues()[f.oneOf("algorithm", algorithmNames())]; }),
+      optionalKey<S>(
+          "mu",
+          [](const Field& f, S& s)
+          {
+            s.mu = f.number();
+            if (!(s.mu > 0.0 && s.mu <= 1.0))
+            {
+              f.fail("expected a number in (0, 1], found " + f.text());
+            }
+          },
+          [](const Field& map, S& s)
+          {
+            if (s.algorithm == Algorithm::RSEIO)
+            {
+              map.required("mu", "algorithm rseio needs mu in (0, 1]");
+            }
+          }),
+      optionalKey<S>("control_link", readControlLink),
+      optionalKey<S>("max_components",
+                     [](const Field& f, S& s)
+                     {
+                       const std::uint64_t value = f.integer(1);
+                       if (value > std::numeric_limits<std::size_t>::max())
+                       {
+                         f.fail("integer out of range, found " + f.text());
+                       }
+                       s.max_components = static_cast<std::size_t>(value);
+                     }),
+  };
+  const Field root(node, source);
+  root.requireTopMap();
+  S settings;
+  readKeys(root, table, settings);
   return settings;
 }
 
