@@ -6,10 +6,12 @@
 
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
 
+#include "config/field.hpp"
 #include "config/yaml_reader.hpp"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/link/channel_trace.hpp"
@@ -21,133 +23,162 @@ using namespace detail;
 namespace
 {
 
+const std::vector<std::string>& modelNames()
+{
+  static const std::vector<std::string> names = {"bernoulli", "gilbert_elliott", "trace"};
+  return names;
+}
+
+/// The settings being read, with the map they come from (the model's row checks its other keys).
+struct ChannelParse
+{
+  ChannelSettings settings;
+  Field map;
+};
+
+/// The model a key belongs to ("" for a key of every model).
+std::string ownerOf(const std::string& key)
+{
+  if (key == "loss")
+    return "bernoulli";
+  if (key == "p" || key == "r" || key == "loss_bad" || key == "loss_good")
+    return "gilbert_elliott";
+  if (key.rfind("trace", 0) == 0)
+    return "trace";
+  return "";
+}
+
+/// `model`, then the keys of the other models are refused.
+void readModel(const Field& f, ChannelParse& p)
+{
+  const std::size_t index = f.oneOf("loss model", modelNames());
+  p.settings.model = index == 0   ? LossModelKind::BERNOULLI
+                     : index == 1 ? LossModelKind::GILBERT_ELLIOTT
+                                  : LossModelKind::TRACE;
+  const std::string& model = modelNames()[index];
+  for (auto it = p.map.node().begin(); it != p.map.node().end(); ++it)
+  {
+    const std::string key = it->first.Scalar();
+    const std::string owner = ownerOf(key);
+    if (!owner.empty() && owner != model)
+    {
+      Field(it->first, p.map.source())
+          .failAt(childKey(p.map.key(), key),
+                  "key '" + key + "' applies only to model " + owner + " (model is " + model + ")");
+    }
+    if (p.settings.model == LossModelKind::TRACE && (key == "delay" || key == "jitter" || key == "distribution"))
+    {
+      Field(it->first, p.map.source())
+          .failAt(childKey(p.map.key(), key),
+                  "key '" + key + "' does not apply to model trace (a trace replays its recorded delays)");
+    }
+  }
+}
+
+/// A key that `model` needs (`why` names it) and the others refuse.
+std::function<void(const Field&, ChannelParse&)> neededBy(LossModelKind model, const std::string& key,
+                                                          const std::string& why)
+{
+  return [model, key, why](const Field& map, ChannelParse& p)
+  {
+    if (p.settings.model == model)
+    {
+      map.required(key, why);
+    }
+  };
+}
+
+/// A non-empty scalar: a file or topic name.
+std::string name(const Field& f, const std::string& what)
+{
+  if (!f.isScalar() || f.text().empty())
+  {
+    f.fail("expected " + what + ", found " + describe(f.node()));
+  }
+  return f.text();
+}
+
+const std::vector<KeyRule<ChannelParse>>& channelTable()
+{
+  using P = ChannelParse;
+  static const std::string ge_needs = "model gilbert_elliott needs p and r";
+  static const std::vector<KeyRule<P>> table = {
+      requiredKey<P>("model", readModel),
+      optionalKey<P>(
+          "loss", [](const Field& f, P& p) { p.settings.loss = f.probability(); },
+          neededBy(LossModelKind::BERNOULLI, "loss", "model bernoulli needs loss")),
+      optionalKey<P>(
+          "p", [](const Field& f, P& p) { p.settings.p = f.probability(); },
+          neededBy(LossModelKind::GILBERT_ELLIOTT, "p", ge_needs)),
+      optionalKey<P>(
+          "r", [](const Field& f, P& p) { p.settings.r = f.probability(); },
+          neededBy(LossModelKind::GILBERT_ELLIOTT, "r", ge_needs)),
+      optionalKey<P>("loss_bad", [](const Field& f, P& p) { p.settings.loss_bad = f.probability(); }),
+      optionalKey<P>("loss_good", [](const Field& f, P& p) { p.settings.loss_good = f.probability(); }),
+      optionalKey<P>(
+          "trace", [](const Field& f, P& p) { p.settings.trace = name(f, "a file name"); },
+          neededBy(LossModelKind::TRACE, "trace",
+                   "model trace needs trace: a trace CSV (stamp,receipt[,seq]), a LossyChannel's events CSV, or a "
+                   "ROS bag with trace_topic")),
+      optionalKey<P>("trace_topic", [](const Field& f, P& p) { p.settings.trace_topic = name(f, "a topic name"); }),
+      optionalKey<P>("trace_rate", [](const Field& f, P& p)
+                     { p.settings.trace_rate = f.nonNegative("number of Hz (0: learnt from the stamps)"); }),
+      optionalKey<P>("seed", [](const Field& f, P& p) { p.settings.seed = f.integer(0); }),
+      optionalKey<P>("delay", [](const Field& f, P& p) { p.settings.delay = f.nonNegative("number of seconds"); }),
+      optionalKey<P>("jitter", [](const Field& f, P& p) { p.settings.jitter = f.nonNegative("number of seconds"); }),
+      optionalKey<P>("distribution",
+                     [](const Field& f, P& p)
+                     {
+                       static const std::vector<std::string> names = {"uniform", "normal", "pareto"};
+                       static const DelayDistribution values[] = {DelayDistribution::UNIFORM, DelayDistribution::NORMAL,
+                                                                  DelayDistribution::PARETO};
+                       p.settings.distribution = values[f.oneOf("distribution", names)];
+                     }),
+      optionalKey<P>("reorder", [](const Field& f, P& p) { p.settings.reorder = f.boolean(); }),
+      optionalKey<P>("duplicate", [](const Field& f, P& p) { p.settings.duplicate = f.probability(); }),
+      optionalKey<P>("queue_limit",
+                     [](const Field& f, P& p)
+                     {
+                       const std::uint64_t value = f.integer(1);
+                       if (value > std::numeric_limits<std::size_t>::max())
+                       {
+                         f.fail("integer out of range, found " + f.text());
+                       }
+                       p.settings.queue_limit = static_cast<std::size_t>(value);
+                     }),
+  };
+  return table;
+}
+
 /// `reuse`: settings whose loaded trace is taken again when the trace keys are the same (runtime
 /// changes do not read the file again); `base_dir`: where a relative trace file is.
 ChannelSettings parseChannelSettingsImpl(const YAML::Node& node, const std::string& source,
                                          const ChannelSettings* reuse = nullptr, const std::string& base_dir = "")
 {
-  const Reader in(source);
-  in.requireTopMap(node);
-  in.checkKeys(node, "",
-               {"model", "loss", "p", "r", "loss_bad", "loss_good", "seed", "delay", "jitter", "distribution",
-                "reorder", "duplicate", "queue_limit", "trace", "trace_topic", "trace_rate"});
-
-  ChannelSettings settings;
-  static const std::vector<std::string> model_names = {"bernoulli", "gilbert_elliott", "trace"};
-  const YAML::Node model = in.require(node, "", "model");
-  const std::size_t model_index = in.choice(model, "model", "loss model", model_names);
-  settings.model = model_index == 0   ? LossModelKind::BERNOULLI
-                   : model_index == 1 ? LossModelKind::GILBERT_ELLIOTT
-                                      : LossModelKind::TRACE;
-
-  // Keys of the other models are rejected.
-  for (auto it = node.begin(); it != node.end(); ++it)
+  const Field root(node, source);
+  root.requireTopMap();
+  ChannelParse p{ChannelSettings(), root};
+  readKeys(root, channelTable(), p);
+  ChannelSettings& settings = p.settings;
+  if (settings.model != LossModelKind::TRACE)
   {
-    const std::string key = it->first.Scalar();
-    std::string owner;
-    if (key == "loss")
-      owner = "bernoulli";
-    else if (key == "p" || key == "r" || key == "loss_bad" || key == "loss_good")
-      owner = "gilbert_elliott";
-    else if (key.rfind("trace", 0) == 0)
-      owner = "trace";
-    if (!owner.empty() && owner != model_names[model_index])
-    {
-      in.fail(it->first, key,
-              "key '" + key + "' applies only to model " + owner + " (model is " + model_names[model_index] + ")");
-    }
-    if (settings.model == LossModelKind::TRACE && (key == "delay" || key == "jitter" || key == "distribution"))
-      in.fail(it->first, key, "key '" + key + "' does not apply to model trace (a trace replays its recorded delays)");
+    return settings;
   }
-
-  if (settings.model == LossModelKind::BERNOULLI)
+  if (!base_dir.empty() && settings.trace.front() != '/')
+    settings.trace = base_dir + "/" + settings.trace;
+  if (reuse && reuse->replay && reuse->trace == settings.trace && reuse->trace_topic == settings.trace_topic &&
+      reuse->trace_rate == settings.trace_rate)
   {
-    settings.loss = in.probability(in.require(node, "", "loss", "model bernoulli needs loss"), "loss");
+    settings.replay = reuse->replay;
+    return settings;
   }
-  else if (settings.model == LossModelKind::TRACE)
+  try
   {
-    const YAML::Node file = in.require(node, "", "trace",
-                                       "model trace needs trace: a trace CSV (stamp,receipt[,seq]), a LossyChannel's "
-                                       "events CSV, or a ROS bag with trace_topic");
-    if (!file.IsScalar() || file.Scalar().empty())
-      in.fail(file, "trace", "expected a file name, found " + describe(file));
-    settings.trace = file.Scalar();
-    if (!base_dir.empty() && settings.trace.front() != '/')
-      settings.trace = base_dir + "/" + settings.trace;
-    if (const YAML::Node topic = node["trace_topic"])
-    {
-      if (!topic.IsScalar() || topic.Scalar().empty())
-        in.fail(topic, "trace_topic", "expected a topic name, found " + describe(topic));
-      settings.trace_topic = topic.Scalar();
-    }
-    if (const YAML::Node rate = node["trace_rate"])
-    {
-      settings.trace_rate = in.nonNegative(rate, "trace_rate", "number of Hz (0: learnt from the stamps)");
-    }
-    if (reuse && reuse->replay && reuse->trace == settings.trace && reuse->trace_topic == settings.trace_topic &&
-        reuse->trace_rate == settings.trace_rate)
-      settings.replay = reuse->replay;
-    else
-    {
-      try
-      {
-        settings.replay = loadChannelTrace(settings.trace, settings.trace_topic, settings.trace_rate);
-      }
-      catch (const InputError& e)
-      {
-        in.fail(file, "trace", e.what());
-      }
-    }
+    settings.replay = loadChannelTrace(settings.trace, settings.trace_topic, settings.trace_rate);
   }
-  else
+  catch (const InputError& e)
   {
-    settings.p = in.probability(in.require(node, "", "p", "model gilbert_elliott needs p and r"), "p");
-    settings.r = in.probability(in.require(node, "", "r", "model gilbert_elliott needs p and r"), "r");
-    if (node["loss_bad"])
-    {
-      settings.loss_bad = in.probability(node["loss_bad"], "loss_bad");
-    }
-    if (node["loss_good"])
-    {
-      settings.loss_good = in.probability(node["loss_good"], "loss_good");
-    }
-  }
-
-  if (node["seed"])
-  {
-    settings.seed = in.integer(node["seed"], "seed", 0);
-  }
-  if (node["delay"])
-  {
-    settings.delay = in.nonNegative(node["delay"], "delay", "number of seconds");
-  }
-  if (node["jitter"])
-  {
-    settings.jitter = in.nonNegative(node["jitter"], "jitter", "number of seconds");
-  }
-  if (node["distribution"])
-  {
-    static const std::vector<std::string> names = {"uniform", "normal", "pareto"};
-    static const DelayDistribution values[] = {DelayDistribution::UNIFORM, DelayDistribution::NORMAL,
-                                               DelayDistribution::PARETO};
-    settings.distribution = values[in.choice(node["distribution"], "distribution", "distribution", names)];
-  }
-  if (node["reorder"])
-  {
-    settings.reorder = in.boolean(node["reorder"], "reorder");
-  }
-  if (node["duplicate"])
-  {
-    settings.duplicate = in.probability(node["duplicate"], "duplicate");
-  }
-  if (const YAML::Node limit = node["queue_limit"])
-  {
-    const std::uint64_t value = in.integer(limit, "queue_limit", 1);
-    if (value > std::numeric_limits<std::size_t>::max())
-    {
-      in.fail(limit, "queue_limit", "integer out of range, found " + limit.Scalar());
-    }
-    settings.queue_limit = static_cast<std::size_t>(value);
+    root["trace"].fail(e.what());
   }
   return settings;
 }
