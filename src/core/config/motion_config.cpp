@@ -5,6 +5,7 @@
 
 #include <cmath>
 
+#include "config/yaml_reader.hpp"
 #include "networked_estimation/common/error.hpp"
 
 namespace networked_estimation
@@ -26,70 +27,67 @@ std::string angleList(Motion motion)
 
 }  // namespace
 
-void readMotion(const Reader& in, const YAML::Node& node, Model& model)
+void readMotion(const Field& f, const Field& map, Model& model)
 {
-  const YAML::Node m_node = node["motion"];
-  if (!m_node)
-  {
-    if (node["two_d_mode"])
-      in.fail(node["two_d_mode"], "two_d_mode", "only with motion omni_3d (a linear model has no planar constraint)");
-    return;
-  }
-  const std::string name = in.string(m_node, "motion");
+  const std::string name = f.string();
   try
   {
     model.motion = motionFromString(name, "motion");
   }
   catch (const ConfigError&)
   {
-    in.fail(m_node, "motion", "expected omni_2d or omni_3d, found '" + name + "'");
+    f.fail("expected omni_2d or omni_3d, found '" + name + "'");
   }
   const std::string why = "not used with motion " + name + " (";
-  if (node["A"])
-    in.fail(node["A"], "A", why + "the motion equations predict; docs/algorithms.md 7)");
-  if (node["B"])
-    in.fail(node["B"], "B", why + "the process noise enters every state: Q is n x n, per second)");
-  if (node["control"])
-    in.fail(node["control"], "control", why + "a built-in motion has no command input)");
-  if (node["uncertainty"])
-    in.fail(node["uncertainty"], "uncertainty", why + "a built-in motion has no uncertain parameters)");
-  if (!node["period"])
-    in.fail(node, "period", "required with motion " + name + " (the step of a sample without its own duration)");
-  if (const YAML::Node t = node["two_d_mode"])
-  {
-    model.two_d_mode = in.boolean(t, "two_d_mode");
-    if (model.two_d_mode && model.motion != Motion::OMNI_3D)
-      in.fail(t, "two_d_mode", "only for omni_3d (omni_2d is planar already)");
-  }
+  if (map["A"])
+    map["A"].fail(why + "the motion equations predict; docs/algorithms.md 7)");
+  if (map["B"])
+    map["B"].fail(why + "the process noise enters every state: Q is n x n, per second)");
+  if (map["control"])
+    map["control"].fail(why + "a built-in motion has no command input)");
+  if (map["uncertainty"])
+    map["uncertainty"].fail(why + "a built-in motion has no uncertain parameters)");
+  if (!map["period"])
+    map.failAt(map["period"].key(),
+               "required with motion " + name + " (the step of a sample without its own duration)");
   const int n = motionStates(model.motion);
   model.A.resize(0, 0);
   model.B = Eigen::MatrixXd::Identity(n, n);
+  model.states = motionStateNames(model.motion);
+  model.angles = motionAngles(model.motion);
 }
 
-void readMotionNames(const Reader& in, const YAML::Node& node, Model& model)
+void readTwoDMode(const Field& f, Model& model)
+{
+  if (!model.nonlinear())
+    f.fail("only with motion omni_3d (a linear model has no planar constraint)");
+  model.two_d_mode = f.boolean();
+  if (model.two_d_mode && model.motion != Motion::OMNI_3D)
+    f.fail("only for omni_3d (omni_2d is planar already)");
+}
+
+void checkMotionStates(const Field& f, const Model& model)
 {
   const std::vector<std::string>& names = motionStateNames(model.motion);
-  const std::string motion = toString(model.motion);
-  if (const YAML::Node s = node["states"])
-  {
-    bool same = s.IsSequence() && s.size() == names.size();
-    for (std::size_t i = 0; same && i < names.size(); ++i)
-      same = s[i].IsScalar() && s[i].Scalar() == names[i];
-    if (!same)
-      in.fail(s, "states", motion + "'s states are " + joinList(names) + " (leave the key out)");
-  }
-  if (const YAML::Node a = node["angles"])
-  {
-    const std::vector<int>& angles = motionAngles(model.motion);
-    bool same = a.IsSequence() && a.size() == angles.size();
-    for (std::size_t i = 0; same && i < angles.size(); ++i)
-      same = a[i].IsScalar() && (a[i].Scalar() == names[static_cast<std::size_t>(angles[i])] ||
-                                 a[i].Scalar() == std::to_string(angles[i]));
-    if (!same)
-      in.fail(a, "angles", motion + "'s angles are " + angleList(model.motion) + " (leave the key out)");
-  }
-  model.states = names;
-  model.angles = motionAngles(model.motion);
+  const YAML::Node& s = f.node();
+  bool same = s.IsSequence() && s.size() == names.size();
+  for (std::size_t i = 0; same && i < names.size(); ++i)
+    same = s[i].IsScalar() && s[i].Scalar() == names[i];
+  if (!same)
+    f.fail(toString(model.motion) + "'s states are " + joinList(names) + " (leave the key out)");
+}
+
+void checkMotionAngles(const Field& f, const Model& model)
+{
+  const std::vector<std::string>& names = motionStateNames(model.motion);
+  const std::vector<int>& angles = motionAngles(model.motion);
+  const YAML::Node& a = f.node();
+  bool same = a.IsSequence() && a.size() == angles.size();
+  for (std::size_t i = 0; same && i < angles.size(); ++i)
+    same = a[i].IsScalar() &&
+           (a[i].Scalar() == names[static_cast<std::size_t>(angles[i])] || a[i].Scalar() == std::to_string(angles[i]));
+  if (!same)
+    f.fail(toString(model.motion) + "'s angles are " + angleList(model.motion) + " (leave the key out)");
 }
 
 std::pair<std::string, std::string> motionModelProblem(const Model& model)

@@ -5,7 +5,7 @@
 #include <string>
 #include <utility>
 
-#include "config/yaml_reader.hpp"
+#include "config/field.hpp"
 #include "networked_estimation/config/model.hpp"
 
 namespace networked_estimation
@@ -13,15 +13,15 @@ namespace networked_estimation
 namespace detail
 {
 
-/// For a file with `motion`: reads it and `two_d_mode`, refuses A, B, control and uncertainty (they
-/// belong to linear models) and a missing period; sets the model's motion, A empty and B = I.
-/// Without `motion`, refuses `two_d_mode`. Fails through `in` naming the key.
-void readMotion(const Reader& in, const YAML::Node& node, Model& model);
-
-/// For a motion model: `states` and `angles`, when given, must be the motion's; the model gets
-/// them either way.
-void readMotionNames(const Reader& in, const YAML::Node& node, Model& model);
-
+/// `motion` (f) of a model file (map): reads it, refuses A, B, control and uncertainty (they belong
+/// to linear models) and a missing period; sets the model's motion, A empty, B = I, and the
+/// motion's state names and angles. Fails naming the key.
+void readMotion(const Field& f, const Field& map, Model& model);
+/// `two_d_mode`: only with motion omni_3d.
+void readTwoDMode(const Field& f, Model& model);
+/// For a motion model, `states` and `angles` when given must be the motion's.
+void checkMotionStates(const Field& f, const Model& model);
+void checkMotionAngles(const Field& f, const Model& model);
 /// validateModel's checks of a built-in motion (A empty, B = I, no control, no uncertainty, the
 /// motion's states and angles, two_d_mode only for omni_3d, a period): {key, problem}, or empty.
 std::pair<std::string, std::string> motionModelProblem(const Model& model);

@@ -2,6 +2,8 @@
 // (schedule.hpp, schedule_config.hpp).
 #include "config/schedule_config.hpp"
 
+#include "config/yaml_reader.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <complex>
@@ -80,26 +82,24 @@ namespace detail
 namespace
 {
 
-/// A list of sensor names -> mask; `key` is e.g. "schedule.pattern[1]".
-std::vector<bool> parseSet(const Reader& in, const YAML::Node& node, const std::string& key,
-                           const std::vector<Sensor>& sensors)
+/// A list of sensor names -> mask; `f` is e.g. schedule.pattern[1].
+std::vector<bool> parseSet(const Field& f, const std::vector<Sensor>& sensors)
 {
-  if (!node.IsSequence())
-    in.fail(node, key, "expected a list of sensor names (e.g. [gnss, camera]; [] for none), found " + describe(node));
+  if (!f.isList())
+    f.fail("expected a list of sensor names (e.g. [gnss, camera]; [] for none), found " + describe(f.node()));
   std::vector<std::string> names;
   for (const Sensor& s : sensors)
     names.push_back(s.name);
   std::vector<bool> mask(sensors.size(), false);
-  for (std::size_t i = 0; i < node.size(); ++i)
+  for (const Field& e : f.elements())
   {
-    const std::string name = in.string(node[i], indexKey(key, i));
+    const std::string name = e.string();
     const auto it = std::find(names.begin(), names.end(), name);
     if (it == names.end())
-      in.fail(node[i], indexKey(key, i),
-              "'" + name + "' is not a sensor of the model (sensors: " + joinList(names) + ")");
+      e.fail("'" + name + "' is not a sensor of the model (sensors: " + joinList(names) + ")");
     const std::size_t s = static_cast<std::size_t>(it - names.begin());
     if (mask[s])
-      in.fail(node[i], indexKey(key, i), "sensor '" + name + "' listed twice");
+      e.fail("sensor '" + name + "' listed twice");
     mask[s] = true;
   }
   return mask;
@@ -142,86 +142,112 @@ bool noneScheduled(const std::vector<std::vector<bool>>& sets)
 
 }  // namespace
 
-Schedule parseSchedule(const Reader& in, const YAML::Node& node, const std::vector<Sensor>& sensors)
+namespace
 {
-  in.requireMap(node, "schedule");
-  in.checkKeys(node, "schedule", {"pattern", "subsets", "probabilities", "transition"});
+
+/// The schedule being read, with its map and the model's sensors.
+struct ScheduleParse
+{
   Schedule sch;
-  if (node["pattern"])
+  Field map;
+  const std::vector<Sensor>& sensors;
+};
+
+void readPattern(const Field& p, ScheduleParse& out)
+{
+  for (const char* other : {"subsets", "probabilities", "transition"})
+    if (out.map[other])
+      out.map[other].fail(
+          "cannot be combined with schedule.pattern (a periodic schedule is a pattern; a random one is "
+          "subsets with probabilities or a transition matrix)");
+  if (!p.isList() || p.size() == 0)
+    p.fail("expected a non-empty list of steps, each a list of sensor names (e.g. [[gnss], [camera]]), found " +
+           describe(p.node()));
+  out.sch.kind = Schedule::Kind::PERIODIC;
+  for (const Field& step : p.elements())
+    out.sch.pattern.push_back(parseSet(step, out.sensors));
+  if (noneScheduled(out.sch.pattern))
+    p.fail(
+        "no step schedules a sensor (every step is []): the estimator would never receive a measurement; "
+        "name at least one sensor in some step");
+}
+
+void readSubsets(const Field& s, ScheduleParse& out)
+{
+  if (!s.isList() || s.size() == 0)
+    s.fail("expected a non-empty list of subsets, each a list of sensor names, found " + describe(s.node()));
+  out.sch.kind = Schedule::Kind::RANDOM;
+  for (const Field& subset : s.elements())
+    out.sch.subsets.push_back(parseSet(subset, out.sensors));
+  if (noneScheduled(out.sch.subsets))
+    s.fail(
+        "every subset is []: the estimator would never receive a measurement; name at least one sensor in "
+        "some subset");
+}
+
+void readProbabilities(const Field& f, ScheduleParse& out)
+{
+  if (out.map["transition"])
+    out.map.fail("give either probabilities (i.i.d.) or transition (Markov), not both");
+  const int K = static_cast<int>(out.sch.subsets.size());
+  const Eigen::VectorXd p = f.vector(K, std::to_string(K) + " subsets");
+  for (int i = 0; i < K; ++i)
+    if (p[i] < 0.0 || p[i] > 1.0)
+      f.failAt(indexKey(f.key(), static_cast<std::size_t>(i)),
+               "expected a probability in [0, 1], found " + formatNumber(p[i]));
+  if (std::abs(p.sum() - 1.0) > 1e-9)
+    f.fail("the probabilities must sum to 1, found " + formatNumber(p.sum()));
+  out.sch.transition = Eigen::VectorXd::Ones(K) * p.transpose();
+  out.sch.initial = p;
+}
+
+void readTransition(const Field& f, ScheduleParse& out)
+{
+  const int K = static_cast<int>(out.sch.subsets.size());
+  Schedule& sch = out.sch;
+  sch.markov = true;
+  sch.transition = f.matrix(K, K, std::to_string(K) + " subsets");
+  for (int i = 0; i < K; ++i)
   {
-    for (const char* other : {"subsets", "probabilities", "transition"})
-      if (node[other])
-        in.fail(node[other], std::string("schedule.") + other,
-                "cannot be combined with schedule.pattern (a periodic schedule is a pattern; a random one is "
-                "subsets with probabilities or a transition matrix)");
-    const YAML::Node p = node["pattern"];
-    if (!p.IsSequence() || p.size() == 0)
-      in.fail(p, "schedule.pattern",
-              "expected a non-empty list of steps, each a list of sensor names (e.g. [[gnss], [camera]]), found " +
-                  describe(p));
-    sch.kind = Schedule::Kind::PERIODIC;
-    for (std::size_t t = 0; t < p.size(); ++t)
-      sch.pattern.push_back(parseSet(in, p[t], indexKey("schedule.pattern", t), sensors));
-    if (noneScheduled(sch.pattern))
-      in.fail(p, "schedule.pattern",
-              "no step schedules a sensor (every step is []): the estimator would never receive a measurement; "
-              "name at least one sensor in some step");
+    for (int j = 0; j < K; ++j)
+      if (sch.transition(i, j) < 0.0 || sch.transition(i, j) > 1.0)
+        f.fail("entry (" + std::to_string(i) + "," + std::to_string(j) + "): expected a probability in [0, 1], found " +
+               formatNumber(sch.transition(i, j)));
+    if (std::abs(sch.transition.row(i).sum() - 1.0) > 1e-9)
+      f.fail("row " + std::to_string(i) + " must sum to 1 (rows are the current subset), found " +
+             formatNumber(sch.transition.row(i).sum()));
   }
-  else
-  {
-    const YAML::Node s = in.require(node, "schedule", "subsets", " (or give schedule.pattern for a periodic schedule)");
-    if (!s.IsSequence() || s.size() == 0)
-      in.fail(s, "schedule.subsets",
-              "expected a non-empty list of subsets, each a list of sensor names, found " + describe(s));
-    sch.kind = Schedule::Kind::RANDOM;
-    for (std::size_t i = 0; i < s.size(); ++i)
-      sch.subsets.push_back(parseSet(in, s[i], indexKey("schedule.subsets", i), sensors));
-    if (noneScheduled(sch.subsets))
-      in.fail(s, "schedule.subsets",
-              "every subset is []: the estimator would never receive a measurement; name at least one sensor in "
-              "some subset");
-    const int K = static_cast<int>(s.size());
-    const bool probs = static_cast<bool>(node["probabilities"]), trans = static_cast<bool>(node["transition"]);
-    if (probs == trans)
-      in.fail(node, "schedule",
-              probs ? "give either probabilities (i.i.d.) or transition (Markov), not both"
-                    : "a random schedule needs probabilities (i.i.d.) or transition (Markov chain over the subsets)");
-    if (probs)
-    {
-      const Eigen::VectorXd p =
-          in.vector(node["probabilities"], "schedule.probabilities", K, std::to_string(K) + " subsets");
-      for (int i = 0; i < K; ++i)
-        if (p[i] < 0.0 || p[i] > 1.0)
-          in.fail(node["probabilities"], indexKey("schedule.probabilities", static_cast<std::size_t>(i)),
-                  "expected a probability in [0, 1], found " + formatNumber(p[i]));
-      if (std::abs(p.sum() - 1.0) > 1e-9)
-        in.fail(node["probabilities"], "schedule.probabilities",
-                "the probabilities must sum to 1, found " + formatNumber(p.sum()));
-      sch.transition = Eigen::VectorXd::Ones(K) * p.transpose();
-      sch.initial = p;
-    }
-    else
-    {
-      sch.markov = true;
-      sch.transition = in.matrix(node["transition"], "schedule.transition", K, K, std::to_string(K) + " subsets");
-      for (int i = 0; i < K; ++i)
-      {
-        for (int j = 0; j < K; ++j)
-          if (sch.transition(i, j) < 0.0 || sch.transition(i, j) > 1.0)
-            in.fail(node["transition"], "schedule.transition",
-                    "entry (" + std::to_string(i) + "," + std::to_string(j) +
-                        "): expected a probability in [0, 1], found " + formatNumber(sch.transition(i, j)));
-        if (std::abs(sch.transition.row(i).sum() - 1.0) > 1e-9)
-          in.fail(node["transition"], "schedule.transition",
-                  "row " + std::to_string(i) + " must sum to 1 (rows are the current subset), found " +
-                      formatNumber(sch.transition.row(i).sum()));
-      }
-      sch.initial = stationary(sch.transition);
-      if (!sch.initial.allFinite())
-        in.fail(node["transition"], "schedule.transition", "the chain has no unique stationary distribution");
-    }
-  }
-  return sch;
+  sch.initial = stationary(sch.transition);
+  if (!sch.initial.allFinite())
+    f.fail("the chain has no unique stationary distribution");
+}
+
+}  // namespace
+
+Schedule parseSchedule(const Field& f, const std::vector<Sensor>& sensors)
+{
+  using P = ScheduleParse;
+  static const std::vector<KeyRule<P>> table = {
+      optionalKey<P>("pattern", readPattern),
+      optionalKey<P>("subsets", readSubsets,
+                     [](const Field& map, P& out)
+                     {
+                       if (out.sch.kind != Schedule::Kind::PERIODIC)
+                         map.required("subsets", " (or give schedule.pattern for a periodic schedule)");
+                     }),
+      optionalKey<P>("probabilities", readProbabilities,
+                     [](const Field& map, P& out)
+                     {
+                       if (out.sch.kind == Schedule::Kind::RANDOM && !map["transition"])
+                         map.fail(
+                             "a random schedule needs probabilities (i.i.d.) or transition (Markov chain over "
+                             "the subsets)");
+                     }),
+      optionalKey<P>("transition", readTransition),
+  };
+  ScheduleParse out{Schedule(), f, sensors};
+  readKeys(f, table, out);
+  return out.sch;
 }
 
 std::string scheduleProblem(const Schedule& sch, std::size_t S)

@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "config/yaml_reader.hpp"
+#include "config/field.hpp"
 #include "networked_estimation/config/model.hpp"
 #include "networked_estimation/config/schedule.hpp"
 
@@ -15,7 +15,7 @@ namespace detail
 
 /// Parses the `schedule` map of a model file whose sensors are known. Throws ConfigError naming
 /// the key (schedule.pattern[1][0], schedule.probabilities, ...) and the problem.
-Schedule parseSchedule(const Reader& in, const YAML::Node& node, const std::vector<Sensor>& sensors);
+Schedule parseSchedule(const Field& f, const std::vector<Sensor>& sensors);
 
 /// The first problem of an already built schedule for `sensors` sensors: "<key>: <problem>", or ""
 /// when it is fine (used by validateModel).
