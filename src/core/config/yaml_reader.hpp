@@ -1,7 +1,7 @@
-// The shared YAML reader of the configuration files (model, estimator settings, channel settings):
-// typed access to YAML nodes and matrix checks, each failure a ConfigError shaped
-// "<source>:<line>: <key>: <problem>" (the line is omitted when unknown), where <key> is the full
-// key path (e.g. "sensors[1].R", "control_link.failure"). Private to the core.
+// The YAML helpers of the configuration readers: the one grammar of booleans and integers, key
+// paths, messages shaped "<source>:<line>: <key>: <problem>" (the line is omitted when unknown),
+// matrix checks without a node, and loading a file. The typed reader itself is config/field.hpp.
+// Private to the core.
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -54,70 +54,6 @@ std::string finitenessProblem(const Eigen::MatrixXd& M, const std::string& label
 /// it, e.g. 0 inf), else for its first NaN; "" when M is finite.
 std::string nonFiniteEntry(const Eigen::MatrixXd& M, const std::string& label);
 // Symmetry and definiteness: common/covariance.hpp (checkCovariance).
-
-/// Typed access to YAML nodes, throwing ConfigError with source, line and key path.
-class Reader
-{
-public:
-  explicit Reader(const std::string& source) : source_(source) {}
-
-  const std::string& source() const { return source_; }
-
-  [[noreturn]] void fail(const YAML::Node& at, const std::string& key, const std::string& problem) const;
-
-  /// The document root must be a map.
-  void requireTopMap(const YAML::Node& node) const;
-
-  /// A nested value that must be a map.
-  void requireMap(const YAML::Node& node, const std::string& key) const;
-
-  /// Rejects non-scalar, duplicate and unknown keys of `map` (whose own key path is `prefix`).
-  void checkKeys(const YAML::Node& map, const std::string& prefix, const std::vector<std::string>& known) const;
-
-  /// Child `key` of `map`; throws "missing required key" (with `why` appended) when absent.
-  YAML::Node require(const YAML::Node& map, const std::string& prefix, const std::string& key,
-                     const std::string& why = "") const;
-
-  /// Any number, including .nan / .inf (no finiteness check).
-  double rawNumber(const YAML::Node& node, const std::string& key) const;
-
-  /// A finite number.
-  double number(const YAML::Node& node, const std::string& key) const;
-
-  double probability(const YAML::Node& node, const std::string& key) const;
-
-  double nonNegative(const YAML::Node& node, const std::string& key, const std::string& what) const;
-
-  /// A decimal integer in [min, 2^64 - 1].
-  std::uint64_t integer(const YAML::Node& node, const std::string& key, std::uint64_t min) const;
-
-  /// true or false (also True/TRUE/False/FALSE, YAML 1.2); not yes/no/on/off/1/0.
-  bool boolean(const YAML::Node& node, const std::string& key) const;
-
-  std::string string(const YAML::Node& node, const std::string& key) const;
-
-  /// One of `names`; returns its index.
-  std::size_t choice(const YAML::Node& node, const std::string& key, const std::string& what,
-                     const std::vector<std::string>& names) const;
-
-  /// A non-empty matrix written as a list of rows of finite numbers. rows / cols < 0 leave that
-  /// dimension free; `hint` explains the expected size, e.g. "n = 2 columns".
-  Eigen::MatrixXd matrix(const YAML::Node& node, const std::string& key, int rows, int cols,
-                         const std::string& hint) const;
-
-  /// A flat list of exactly `size` finite numbers.
-  Eigen::VectorXd vector(const YAML::Node& node, const std::string& key, int size, const std::string& hint) const;
-
-private:
-  /// One finite matrix / vector entry; `where` is e.g. "entry (0,1)".
-  double entry(const YAML::Node& node, const std::string& key, const std::string& where) const;
-
-  std::string source_;
-};
-
-/// Checks symmetry and definiteness of a parsed matrix, failing at `node`.
-void checkCovariance(const Reader& in, const YAML::Node& node, const std::string& key, const std::string& label,
-                     const Eigen::MatrixXd& M, bool strict);
 
 /// "n = 3".
 std::string countText(const char* what, int value);
