@@ -3,6 +3,7 @@
 #include <limits>
 #include <sstream>
 
+#include "config/field.hpp"
 #include "config/yaml_reader.hpp"
 #include "networked_estimation/common/error.hpp"
 
@@ -21,34 +22,26 @@ bool ParamReader::has(const std::string& key) const
 
 namespace
 {
-std::string show(const YAML::Node& n)
+/// Parameter `key` as a checked field: messages "<source>: <key>: <problem>", a value of the wrong
+/// kind shown as it is (parameters have no line to point at).
+detail::Field field(const YAML::Node& params, const std::string& source, const std::string& key)
 {
-  YAML::Emitter e;
-  e << YAML::Flow << n;
-  return e.c_str();
+  return detail::Field(params, source, detail::Field::Origin::PARAMETERS)[key];
 }
 }  // namespace
 
 double ParamReader::number(const std::string& key, double def, double lo, double hi)
 {
   used_.insert(key);
-  const YAML::Node n = params_[key];
-  if (!n)
+  const detail::Field f = field(params_, source_, key);
+  if (!f)
     return def;
-  double v = 0.0;
-  try
-  {
-    v = n.as<double>();
-  }
-  catch (const YAML::Exception&)
-  {
-    throw ConfigError(source_ + ": " + key + ": expected a number, found '" + show(n) + "'");
-  }
+  const double v = f.rawNumber();
   if (!(v >= lo && v <= hi))
   {
     std::ostringstream os;
-    os << source_ << ": " << key << ": expected a number in [" << lo << ", " << hi << "], found " << v;
-    throw ConfigError(os.str());
+    os << "expected a number in [" << lo << ", " << hi << "], found " << v;
+    f.fail(os.str());
   }
   return v;
 }
@@ -56,50 +49,41 @@ double ParamReader::number(const std::string& key, double def, double lo, double
 long ParamReader::integer(const std::string& key, long def, long lo, long hi)
 {
   used_.insert(key);
-  const YAML::Node n = params_[key];
-  if (!n)
+  const detail::Field f = field(params_, source_, key);
+  if (!f)
     return def;
   long long parsed = 0;
-  if (!n.IsScalar() || !detail::integerText(n.Scalar(), parsed) || parsed < std::numeric_limits<long>::min() ||
+  if (!f.isScalar() || !detail::integerText(f.text(), parsed) || parsed < std::numeric_limits<long>::min() ||
       parsed > std::numeric_limits<long>::max())
-    throw ConfigError(source_ + ": " + key + ": expected an integer, found '" + show(n) + "'");
+    f.fail("expected an integer, found " + f.found());
   const long v = static_cast<long>(parsed);
   if (v < lo || v > hi)
-    throw ConfigError(source_ + ": " + key + ": expected an integer in [" + std::to_string(lo) + ", " +
-                      std::to_string(hi) + "], found " + std::to_string(v));
+    f.fail("expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], found " +
+           std::to_string(v));
   return v;
 }
 
 bool ParamReader::flag(const std::string& key, bool def)
 {
   used_.insert(key);
-  const YAML::Node n = params_[key];
-  if (!n)
-    return def;
-  bool v = false;
-  if (!n.IsScalar() || !detail::booleanText(n.Scalar(), v))
-    throw ConfigError(source_ + ": " + key + ": expected true or false, found '" + show(n) + "'");
-  return v;
+  const detail::Field f = field(params_, source_, key);
+  return f ? f.boolean() : def;
 }
 
 std::string ParamReader::text(const std::string& key, const std::string& def)
 {
   used_.insert(key);
-  const YAML::Node n = params_[key];
-  if (!n)
-    return def;
-  if (!n.IsScalar())
-    throw ConfigError(source_ + ": " + key + ": expected a string, found '" + show(n) + "'");
-  return n.as<std::string>();
+  const detail::Field f = field(params_, source_, key);
+  return f ? f.string() : def;
 }
 
 std::string ParamReader::required(const std::string& key)
 {
   if (!has(key))
-    throw ConfigError(source_ + ": " + key + ": required parameter is missing");
+    throw ConfigError(detail::message(source_, 0, key, "required parameter is missing"));
   const std::string v = text(key, "");
   if (v.empty())
-    throw ConfigError(source_ + ": " + key + ": required parameter is empty");
+    throw ConfigError(detail::message(source_, 0, key, "required parameter is empty"));
   return v;
 }
 
@@ -112,39 +96,32 @@ std::string ParamReader::choice(const std::string& key, const std::string& def, 
   std::string list;
   for (const std::string& c : choices)
     list += (list.empty() ? "" : " | ") + c;
-  throw ConfigError(source_ + ": " + key + ": expected " + list + ", found '" + v + "'");
+  throw ConfigError(detail::message(source_, 0, key, "expected " + list + ", found '" + v + "'"));
 }
 
 std::vector<int> ParamReader::indices(const std::string& key, const std::vector<int>& def, int bound)
 {
   used_.insert(key);
-  const YAML::Node n = params_[key];
-  if (!n)
+  const detail::Field f = field(params_, source_, key);
+  if (!f)
     return def;
+  if (!f.isList())
+    f.fail("expected a list of state indices, found " + f.found());
   std::vector<int> out;
-  if (!n.IsSequence())
-    throw ConfigError(source_ + ": " + key + ": expected a list of state indices, found '" + show(n) + "'");
-  for (const YAML::Node& e : n)
+  for (const detail::Field& e : f.elements())
   {
-    int i = -1;
-    try
-    {
-      i = e.as<int>();
-    }
-    catch (const YAML::Exception&)
-    {
-      throw ConfigError(source_ + ": " + key + ": expected integer indices, found '" + show(n) + "'");
-    }
+    long long i = -1;
+    if (!e.isScalar() || !detail::integerText(e.text(), i))
+      f.fail("expected integer indices, found " + f.found());
     if (i < 0 || i >= bound)
-      throw ConfigError(source_ + ": " + key + ": index " + std::to_string(i) + " outside the state [0, " +
-                        std::to_string(bound) + ")");
+      f.fail("index " + std::to_string(i) + " outside the state [0, " + std::to_string(bound) + ")");
     for (int j : out)
       if (j == i)
-        throw ConfigError(source_ + ": " + key + ": index " + std::to_string(i) + " repeated");
-    out.push_back(i);
+        f.fail("index " + std::to_string(i) + " repeated");
+    out.push_back(static_cast<int>(i));
   }
   if (out.size() > 3)
-    throw ConfigError(source_ + ": " + key + ": at most 3 indices (x, y, z), found " + std::to_string(out.size()));
+    f.fail("at most 3 indices (x, y, z), found " + std::to_string(out.size()));
   return out;
 }
 
