@@ -37,7 +37,7 @@ Field::Field(std::shared_ptr<const Document> origin, YAML::Node node, std::strin
 
 std::string Field::found() const
 {
-  if (origin_->origin == Origin::PARAMETERS && (node_.IsSequence() || node_.IsMap()))
+  if (origin_->origin == Origin::PARAMETERS && (isList() || isMap()))
   {
     YAML::Emitter out;
     out << YAML::Flow << node_;
@@ -65,19 +65,19 @@ Field Field::operator[](const std::string& name) const
 {
   // A const node's operator[] does not insert the key when it is absent.
   const YAML::Node& map = node_;
-  return Field(origin_, node_.IsMap() ? map[name] : YAML::Node(YAML::NodeType::Undefined), childKey(key_, name));
+  return Field(origin_, isMap() ? map[name] : YAML::Node(YAML::NodeType::Undefined), childKey(key_, name));
 }
 
 Field Field::operator[](std::size_t i) const
 {
   const YAML::Node& list = node_;
-  return Field(origin_, node_.IsSequence() ? list[i] : YAML::Node(YAML::NodeType::Undefined), indexKey(key_, i));
+  return Field(origin_, isList() ? list[i] : YAML::Node(YAML::NodeType::Undefined), indexKey(key_, i));
 }
 
 std::vector<Field> Field::elements() const
 {
   std::vector<Field> out;
-  if (node_.IsSequence())
+  if (isList())
   {
     out.reserve(node_.size());
     for (std::size_t i = 0; i < node_.size(); ++i)
@@ -100,7 +100,7 @@ Field Field::required(const std::string& name, const std::string& why) const
 
 void Field::requireMap() const
 {
-  if (!node_.IsMap())
+  if (!isMap())
   {
     fail("expected a map, found " + found());
   }
@@ -144,7 +144,7 @@ void Field::checkKeys(const std::vector<std::string>& known) const
 
 double Field::rawNumber() const
 {
-  if (!node_.IsScalar())
+  if (!isScalar())
   {
     fail("expected a number, found " + found());
   }
@@ -198,7 +198,7 @@ double Field::nonNegative(const std::string& what) const
 std::uint64_t Field::integer(std::uint64_t min) const
 {
   const std::string expected = min == 0 ? "a non-negative integer" : "an integer >= " + std::to_string(min);
-  if (!node_.IsScalar())
+  if (!isScalar())
   {
     fail("expected " + expected + ", found " + found());
   }
@@ -233,7 +233,7 @@ std::uint64_t Field::integer(std::uint64_t min) const
 bool Field::boolean() const
 {
   bool value = false;
-  if (node_.IsScalar() && booleanText(node_.Scalar(), value))
+  if (isScalar() && booleanText(node_.Scalar(), value))
   {
     return value;
   }
@@ -242,7 +242,7 @@ bool Field::boolean() const
 
 std::string Field::string() const
 {
-  if (!node_.IsScalar())
+  if (!isScalar())
   {
     fail("expected a string, found " + found());
   }
@@ -262,7 +262,7 @@ std::size_t Field::oneOf(const std::string& what, const std::vector<std::string>
 
 Eigen::MatrixXd Field::matrix(int rows, int cols, const std::string& hint) const
 {
-  if (!node_.IsSequence())
+  if (!isList())
   {
     fail("expected a matrix (list of rows), found " + found());
   }
@@ -314,7 +314,7 @@ Eigen::MatrixXd Field::matrix(int rows, int cols, const std::string& hint) const
 
 Eigen::VectorXd Field::vector(int size, const std::string& hint) const
 {
-  if (!node_.IsSequence())
+  if (!isList())
   {
     fail("expected a list of numbers, found " + found());
   }

@@ -50,11 +50,12 @@ public:
   /// Whether the value is given (an absent key is not; `key: null` is).
   bool present() const { return node_.IsDefined(); }
   explicit operator bool() const { return present(); }
-  bool isMap() const { return node_.IsMap(); }
-  bool isList() const { return node_.IsSequence(); }
-  bool isScalar() const { return node_.IsScalar(); }
+  // (An absent field is none of these: yaml-cpp throws on the type of an absent key's node.)
+  bool isMap() const { return present() && node_.IsMap(); }
+  bool isList() const { return present() && node_.IsSequence(); }
+  bool isScalar() const { return present() && node_.IsScalar(); }
   /// The scalar's text ("" for anything else).
-  std::string text() const { return node_.IsScalar() ? node_.Scalar() : std::string(); }
+  std::string text() const { return isScalar() ? node_.Scalar() : std::string(); }
 
   /// What this value is, for "found ..." in messages ("nothing", "null", "'text'", "a list" or
   /// the value, see Origin).
@@ -70,7 +71,7 @@ public:
   /// Element i of a list; its key path is "<key>[i]".
   Field operator[](std::size_t i) const;
   /// Number of elements of a list or entries of a map (0 for a scalar).
-  std::size_t size() const { return node_.size(); }
+  std::size_t size() const { return isList() || isMap() ? node_.size() : 0; }
   /// The elements of a list, in order.
   std::vector<Field> elements() const;
   /// Child `name`; "missing required key" (with `why` in parentheses) when absent.
