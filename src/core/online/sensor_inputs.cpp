@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <limits>
 
+#include "config/yaml_reader.hpp"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/config/param_reader.hpp"
 #include "networked_estimation/geodesy/local_enu.hpp"
@@ -260,7 +261,7 @@ InputTransport parseInputTransport(ParamReader& p, const std::string& prefix)
   const YAML::Node nodelay = p.take("tcp_nodelay");
   if (nodelay.IsDefined() && !nodelay.IsNull())
   {
-    if (!nodelay.IsScalar() || !YAML::convert<bool>::decode(nodelay, out.tcp_nodelay))
+    if (!nodelay.IsScalar() || !detail::booleanText(nodelay.Scalar(), out.tcp_nodelay))  // the one grammar
       throw ConfigError(prefix + "tcp_nodelay: expected true or false, found '" +
                         (nodelay.IsScalar() ? nodelay.Scalar() : std::string(nodelay.IsMap() ? "a map" : "a list")) +
                         "'");

@@ -470,7 +470,7 @@ TEST_F(EstimatorConfig, InputTransport)
   EXPECT_EQ(ne::toString(ne::Transport::UDP), "udp");
   EXPECT_EQ(ne::toString(ne::Transport::TCP), "tcp");
   const ne::EstimatorNodeConfig u = parse(
-      "{command: {topic: /cmd_vel, type: geometry_msgs/Twist, fields: [linear.x], transport: udp, tcp_nodelay: no}}",
+      "{command: {topic: /cmd_vel, type: geometry_msgs/Twist, fields: [linear.x], transport: udp, tcp_nodelay: false}}",
       control_);
   EXPECT_EQ(u.command.transport.transport, ne::Transport::UDP);
   EXPECT_FALSE(u.command.transport.tcp_nodelay);
@@ -488,6 +488,10 @@ TEST_F(EstimatorConfig, InputTransport)
   has(error("{command: {transport: unreliable}}", control_),
       "/est parameters: command.transport: expected tcp or udp, found 'unreliable'");
   has(error("{command: {tcp_nodelay: 2}}", control_), "command.tcp_nodelay: expected true or false, found '2'");
+  // The one grammar of booleans: yaml-cpp's own would take no, off and y.
+  for (const std::string word : {"no", "off", "y", "yes"})
+    has(error("{sensors: {a: {tcp_nodelay: " + word + "}}}", planar_),
+        "sensors.a.tcp_nodelay: expected true or false, found '" + word + "'");
   // A misspelt key is still refused, not taken for a transport setting.
   has(error("{sensors: {a: {transprot: udp}}}", planar_), "sensors.a: unknown parameter(s): transprot");
   // A nodelet's own ~transport / ~tcp_nodelay (the LossyChannel's `in`): the same rules, the keys
