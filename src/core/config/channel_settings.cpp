@@ -93,7 +93,7 @@ std::string name(const Field& f, const std::string& what)
 {
   if (!f.isScalar() || f.text().empty())
   {
-    f.fail("expected " + what + ", found " + describe(f.node()));
+    f.fail("expected " + what + ", found " + f.found());
   }
   return f.text();
 }

@@ -39,7 +39,7 @@ std::vector<std::string> parseStateNames(const Field& f, int n)
   if (!node.IsSequence() || static_cast<int>(node.size()) != n)
   {
     f.fail("expected a list of " + std::to_string(n) + " state names (" + countText("n", n) + "), found " +
-           (node.IsSequence() ? std::to_string(node.size()) + " names" : describe(node)));
+           (node.IsSequence() ? std::to_string(node.size()) + " names" : f.found()));
   }
   std::vector<std::string> names;
   for (std::size_t i = 0; i < node.size(); ++i)
@@ -72,7 +72,7 @@ std::vector<int> parseAngles(const Field& f, const std::vector<std::string>& sta
   const YAML::Node& node = f.node();
   if (!node.IsSequence())
   {
-    f.fail("expected a list of state indices or state names, found " + describe(node));
+    f.fail("expected a list of state indices or state names, found " + f.found());
   }
   std::vector<int> angles;
   for (std::size_t i = 0; i < node.size(); ++i)
@@ -80,7 +80,7 @@ std::vector<int> parseAngles(const Field& f, const std::vector<std::string>& sta
     const Field e = f[i];
     if (!e.isScalar())
     {
-      e.fail("expected a state index or a state name, found " + describe(e.node()));
+      e.fail("expected a state index or a state name, found " + e.found());
     }
     const std::string text = e.text();
     const bool digits = !text.empty() && text.find_first_not_of("0123456789") == std::string::npos;
@@ -207,7 +207,7 @@ void readSensors(const Field& f, ModelParse& p)
   if (!f.isList() || f.size() == 0)
   {
     f.fail("expected a non-empty list of sensors ({name, C, R}), found " +
-           (f.isList() ? std::string("an empty list") : describe(f.node())));
+           (f.isList() ? std::string("an empty list") : f.found()));
   }
   std::vector<Eigen::MatrixXd> cs;
   std::vector<Eigen::MatrixXd> rs;
@@ -253,7 +253,7 @@ void readUncertainty(const Field& f, ModelParse& p)
   };
   if (!f.isList())
   {
-    f.fail("expected a list of {dA, dB, dC, range}, found " + describe(f.node()));
+    f.fail("expected a list of {dA, dB, dC, range}, found " + f.found());
   }
   for (const Field& e : f.elements())
   {

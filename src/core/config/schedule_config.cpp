@@ -86,7 +86,7 @@ namespace
 std::vector<bool> parseSet(const Field& f, const std::vector<Sensor>& sensors)
 {
   if (!f.isList())
-    f.fail("expected a list of sensor names (e.g. [gnss, camera]; [] for none), found " + describe(f.node()));
+    f.fail("expected a list of sensor names (e.g. [gnss, camera]; [] for none), found " + f.found());
   std::vector<std::string> names;
   for (const Sensor& s : sensors)
     names.push_back(s.name);
@@ -153,6 +153,22 @@ struct ScheduleParse
   const std::vector<Sensor>& sensors;
 };
 
+/// A non-empty list of sensor sets (`expected` says what each is) of which at least one names a
+/// sensor (`all_empty` says why otherwise).
+std::vector<std::vector<bool>> readSets(const Field& f, const std::vector<Sensor>& sensors, const std::string& expected,
+                                        const std::string& all_empty)
+{
+  if (!f.isList() || f.size() == 0)
+    f.fail("expected a non-empty list of " + expected + ", found " + f.found());
+  std::vector<std::vector<bool>> sets;
+  for (const Field& set : f.elements())
+    sets.push_back(parseSet(set, sensors));
+  if (noneScheduled(sets))
+    f.fail(all_empty + ": the estimator would never receive a measurement; name at least one sensor in some " +
+           (expected.rfind("steps", 0) == 0 ? "step" : "subset"));
+  return sets;
+}
+
 void readPattern(const Field& p, ScheduleParse& out)
 {
   for (const char* other : {"subsets", "probabilities", "transition"})
@@ -160,29 +176,15 @@ void readPattern(const Field& p, ScheduleParse& out)
       out.map[other].fail(
           "cannot be combined with schedule.pattern (a periodic schedule is a pattern; a random one is "
           "subsets with probabilities or a transition matrix)");
-  if (!p.isList() || p.size() == 0)
-    p.fail("expected a non-empty list of steps, each a list of sensor names (e.g. [[gnss], [camera]]), found " +
-           describe(p.node()));
   out.sch.kind = Schedule::Kind::PERIODIC;
-  for (const Field& step : p.elements())
-    out.sch.pattern.push_back(parseSet(step, out.sensors));
-  if (noneScheduled(out.sch.pattern))
-    p.fail(
-        "no step schedules a sensor (every step is []): the estimator would never receive a measurement; "
-        "name at least one sensor in some step");
+  out.sch.pattern = readSets(p, out.sensors, "steps, each a list of sensor names (e.g. [[gnss], [camera]])",
+                             "no step schedules a sensor (every step is [])");
 }
 
 void readSubsets(const Field& s, ScheduleParse& out)
 {
-  if (!s.isList() || s.size() == 0)
-    s.fail("expected a non-empty list of subsets, each a list of sensor names, found " + describe(s.node()));
   out.sch.kind = Schedule::Kind::RANDOM;
-  for (const Field& subset : s.elements())
-    out.sch.subsets.push_back(parseSet(subset, out.sensors));
-  if (noneScheduled(out.sch.subsets))
-    s.fail(
-        "every subset is []: the estimator would never receive a measurement; name at least one sensor in "
-        "some subset");
+  out.sch.subsets = readSets(s, out.sensors, "subsets, each a list of sensor names", "every subset is []");
 }
 
 void readProbabilities(const Field& f, ScheduleParse& out)
