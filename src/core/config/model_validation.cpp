@@ -121,48 +121,84 @@ std::string stateName(const Model& model, int i)
                                                                      : "state " + std::to_string(i);
 }
 
-void validateModel(const Model& model, const std::string& source)
+namespace
 {
-  const auto fail = [&source](const std::string& key, const std::string& problem)
-  { throw ConfigError(message(source, 0, key, problem)); };
-  const auto checkSize = [&fail](const std::string& key, const Eigen::MatrixXd& M, Eigen::Index rows, Eigen::Index cols,
-                                 const std::string& hint)
+
+/// The checks of a built model, each failing with "<source>: <key>: <problem>" (no line: the model
+/// may not come from a file).
+class ModelChecks
+{
+public:
+  ModelChecks(const Model& model, const std::string& source)
+    : model_(model), source_(source), n_(model.n()), n_text_(countText("n", model.n()))
+  {
+  }
+
+  [[noreturn]] void fail(const std::string& key, const std::string& problem) const
+  {
+    throw ConfigError(message(source_, 0, key, problem));
+  }
+
+  void size(const std::string& key, const Eigen::MatrixXd& M, Eigen::Index rows, Eigen::Index cols,
+            const std::string& hint) const
   {
     if (M.rows() != rows || M.cols() != cols)
     {
       fail(key, "expected " + dims(rows, cols) + (hint.empty() ? "" : " (" + hint + ")") + ", found " +
                     dims(M.rows(), M.cols()));
     }
-  };
-  const auto checkFinite = [&fail](const std::string& key, const std::string& label, const Eigen::MatrixXd& M)
+  }
+
+  void finite(const std::string& key, const std::string& label, const Eigen::MatrixXd& M) const
   {
     const std::string problem = finitenessProblem(M, label);
     if (!problem.empty())
     {
       fail(key, problem);
     }
-  };
-  const auto checkCov =
-      [&fail, &checkFinite](const std::string& key, const std::string& label, const Eigen::MatrixXd& M, bool strict)
+  }
+
+  void covariance(const std::string& key, const std::string& label, const Eigen::MatrixXd& M, bool strict) const
   {
-    checkFinite(key, label, M);
+    finite(key, label, M);
     const CovarianceCheck check =
         networked_estimation::checkCovariance(M, strict ? Definiteness::POSITIVE : Definiteness::SEMIDEFINITE);
     if (!check.ok())
     {
       fail(key, check.describe(label));
     }
-  };
+  }
 
-  if (!std::isfinite(model.period) || model.period < 0.0)
+  /// period, A (or the motion), B, Q.
+  void dynamics() const;
+  /// C, R and the sensors that cover C's rows.
+  void sensors() const;
+  /// x0, P0.
+  void initial() const;
+  void uncertainty() const;
+  /// states, angles.
+  void names() const;
+  /// control.Bu, schedule.
+  void controlAndSchedule() const;
+
+private:
+  const Model& model_;
+  const std::string& source_;
+  const Eigen::Index n_;
+  const std::string n_text_;
+};
+
+void ModelChecks::dynamics() const
+{
+  if (!std::isfinite(model_.period) || model_.period < 0.0)
   {
-    fail("period", "expected a positive number of seconds (or 0 for unset), found " + formatNumber(model.period));
+    fail("period", "expected a positive number of seconds (or 0 for unset), found " + formatNumber(model_.period));
   }
 
   // A, or a built-in motion
-  if (model.nonlinear())
+  if (model_.nonlinear())
   {
-    const auto problem = motionModelProblem(model);
+    const auto problem = motionModelProblem(model_);
     if (!problem.first.empty())
     {
       fail(problem.first, problem.second);
@@ -170,62 +206,62 @@ void validateModel(const Model& model, const std::string& source)
   }
   else
   {
-    if (model.two_d_mode)
+    if (model_.two_d_mode)
     {
       fail("two_d_mode", "only with motion omni_3d (a linear model has no planar constraint)");
     }
-    if (model.A.size() == 0)
+    if (model_.A.size() == 0)
     {
       fail("A", "empty matrix");
     }
-    if (model.A.rows() != model.A.cols())
+    if (model_.A.rows() != model_.A.cols())
     {
-      fail("A", "expected a square matrix (n x n), found " + dims(model.A.rows(), model.A.cols()));
+      fail("A", "expected a square matrix (n x n), found " + dims(model_.A.rows(), model_.A.cols()));
     }
-    checkFinite("A", "A", model.A);
+    finite("A", "A", model_.A);
   }
-  const Eigen::Index n = model.n();
-  const std::string n_text = countText("n", static_cast<int>(n));
 
   // B, Q
-  if (model.B.rows() != n || model.B.cols() == 0)
+  if (model_.B.rows() != n_ || model_.B.cols() == 0)
   {
-    fail("B", "expected " + std::to_string(n) + " rows and at least one column (" + n_text + "), found " +
-                  dims(model.B.rows(), model.B.cols()));
+    fail("B", "expected " + std::to_string(n_) + " rows and at least one column (" + n_text_ + "), found " +
+                  dims(model_.B.rows(), model_.B.cols()));
   }
-  checkFinite("B", "B", model.B);
-  const Eigen::Index nw = model.B.cols();
-  checkSize("Q", model.Q, nw, nw, countText("nw", static_cast<int>(nw)) + ", the columns of B");
-  checkCov("Q", "Q", model.Q, true);
-  if (model.nonlinear())
+  finite("B", "B", model_.B);
+  const Eigen::Index nw = model_.B.cols();
+  size("Q", model_.Q, nw, nw, countText("nw", static_cast<int>(nw)) + ", the columns of B");
+  covariance("Q", "Q", model_.Q, true);
+  if (model_.nonlinear())
   {
-    const std::string problem = motionPeriodProblem(model);
+    const std::string problem = motionPeriodProblem(model_);
     if (!problem.empty())
     {
       fail("period", problem);
     }
   }
+}
 
-  // C, R, sensors
-  if (model.C.rows() == 0 || model.C.cols() != n)
+void ModelChecks::sensors() const
+{
+  if (model_.C.rows() == 0 || model_.C.cols() != n_)
   {
-    fail("C", "expected at least one row and " + std::to_string(n) + " columns (" + n_text + "), found " +
-                  dims(model.C.rows(), model.C.cols()));
+    fail("C", "expected at least one row and " + std::to_string(n_) + " columns (" + n_text_ + "), found " +
+                  dims(model_.C.rows(), model_.C.cols()));
   }
-  checkFinite("C", "C", model.C);
-  const Eigen::Index m = model.C.rows();
-  checkSize("R", model.R, m, m, countText("m", static_cast<int>(m)) + ", the rows of C");
-  checkCov("R", "R", model.R, true);
+  finite("C", "C", model_.C);
+  const Eigen::Index m = model_.C.rows();
+  size("R", model_.R, m, m, countText("m", static_cast<int>(m)) + ", the rows of C");
+  covariance("R", "R", model_.R, true);
 
-  if (model.sensors.empty())
+  if (model_.sensors.empty())
   {
     fail("sensors", "at least one sensor is required");
   }
   Eigen::Index next = 0;
   std::set<std::string> names;
-  for (std::size_t i = 0; i < model.sensors.size(); ++i)
+  for (std::size_t i = 0; i < model_.sensors.size(); ++i)
   {
-    const Sensor& s = model.sensors[i];
+    const Sensor& s = model_.sensors[i];
     const std::string key = indexKey("sensors", i);
     if (s.name.empty())
     {
@@ -248,86 +284,111 @@ void validateModel(const Model& model, const std::string& source)
   {
     fail("sensors", "the sensors cover " + std::to_string(next) + " rows but C has " + std::to_string(m));
   }
-  for (const Sensor& a : model.sensors)
+  for (const Sensor& a : model_.sensors)
   {
-    for (const Sensor& b : model.sensors)
+    for (const Sensor& b : model_.sensors)
     {
-      if (&a != &b && !model.R.block(a.offset, b.offset, a.size, b.size).isZero(0.0))
+      if (&a != &b && !model_.R.block(a.offset, b.offset, a.size, b.size).isZero(0.0))
       {
         fail("R", "not block diagonal over sensors (R couples sensors '" + a.name + "' and '" + b.name + "')");
       }
     }
   }
+}
 
-  // x0, P0
-  if (model.x0.size() != n)
+void ModelChecks::initial() const
+{
+  if (model_.x0.size() != n_)
   {
-    fail("x0", "expected " + std::to_string(n) + " entries (" + n_text + "), found " + std::to_string(model.x0.size()));
+    fail("x0",
+         "expected " + std::to_string(n_) + " entries (" + n_text_ + "), found " + std::to_string(model_.x0.size()));
   }
-  checkFinite("x0", "x0", model.x0);
-  checkSize("P0", model.P0, n, n, n_text);
-  checkCov("P0", "P0", model.P0, false);
+  finite("x0", "x0", model_.x0);
+  size("P0", model_.P0, n_, n_, n_text_);
+  covariance("P0", "P0", model_.P0, false);
+}
 
-  // uncertainty
-  for (std::size_t j = 0; j < model.uncertainty.size(); ++j)
+void ModelChecks::uncertainty() const
+{
+  const Eigen::Index nw = model_.B.cols();
+  const Eigen::Index m = model_.C.rows();
+  for (std::size_t j = 0; j < model_.uncertainty.size(); ++j)
   {
-    const Uncertainty& u = model.uncertainty[j];
+    const Uncertainty& u = model_.uncertainty[j];
     const std::string key = indexKey("uncertainty", j);
-    checkSize(key + ".dA", u.dA, n, n, n_text);
-    checkFinite(key + ".dA", "dA", u.dA);
-    checkSize(key + ".dB", u.dB, n, nw, n_text + ", " + countText("nw", static_cast<int>(nw)));
-    checkFinite(key + ".dB", "dB", u.dB);
-    checkSize(key + ".dC", u.dC, m, n, countText("m", static_cast<int>(m)) + " stacked rows, " + n_text);
-    checkFinite(key + ".dC", "dC", u.dC);
+    size(key + ".dA", u.dA, n_, n_, n_text_);
+    finite(key + ".dA", "dA", u.dA);
+    size(key + ".dB", u.dB, n_, nw, n_text_ + ", " + countText("nw", static_cast<int>(nw)));
+    finite(key + ".dB", "dB", u.dB);
+    size(key + ".dC", u.dC, m, n_, countText("m", static_cast<int>(m)) + " stacked rows, " + n_text_);
+    finite(key + ".dC", "dC", u.dC);
     if (!std::isfinite(u.range) || u.range < 0.0)
     {
       fail(key + ".range", "expected a non-negative number, found " + formatNumber(u.range));
     }
   }
+}
 
-  // states, angles
-  if (!model.states.empty())
+void ModelChecks::names() const
+{
+  if (!model_.states.empty())
   {
-    if (static_cast<Eigen::Index>(model.states.size()) != n)
+    if (static_cast<Eigen::Index>(model_.states.size()) != n_)
     {
-      fail("states",
-           "expected " + std::to_string(n) + " names (" + n_text + "), found " + std::to_string(model.states.size()));
+      fail("states", "expected " + std::to_string(n_) + " names (" + n_text_ + "), found " +
+                         std::to_string(model_.states.size()));
     }
     std::set<std::string> state_names;
-    for (std::size_t i = 0; i < model.states.size(); ++i)
+    for (std::size_t i = 0; i < model_.states.size(); ++i)
     {
-      if (model.states[i].empty() || !state_names.insert(model.states[i]).second)
+      if (model_.states[i].empty() || !state_names.insert(model_.states[i]).second)
       {
-        fail(indexKey("states", i), "expected a unique non-empty name, found '" + model.states[i] + "'");
+        fail(indexKey("states", i), "expected a unique non-empty name, found '" + model_.states[i] + "'");
       }
     }
   }
-  for (std::size_t a = 0; a < model.angles.size(); ++a)
+  for (std::size_t a = 0; a < model_.angles.size(); ++a)
   {
-    const int j = model.angles[a];
+    const int j = model_.angles[a];
     const std::string key = indexKey("angles", a);
-    if (j < 0 || j >= n || (a > 0 && j <= model.angles[a - 1]))
+    if (j < 0 || j >= n_ || (a > 0 && j <= model_.angles[a - 1]))
     {
-      fail(key, "expected distinct state indices in [0, " + std::to_string(n - 1) + "], ascending, found " +
+      fail(key, "expected distinct state indices in [0, " + std::to_string(n_ - 1) + "], ascending, found " +
                     std::to_string(j));
     }
-    checkAngle(model, j, fail);
+    checkAngle(model_, j, [this](const std::string& key, const std::string& problem) { fail(key, problem); });
   }
+}
 
+void ModelChecks::controlAndSchedule() const
+{
   // control
-  if (model.Bu.rows() != n)
+  if (model_.Bu.rows() != n_)
   {
-    fail("control.Bu", "expected " + std::to_string(n) + " rows (" + n_text + "; use an " + std::to_string(n) +
-                           "x0 matrix without control), found " + dims(model.Bu.rows(), model.Bu.cols()));
+    fail("control.Bu", "expected " + std::to_string(n_) + " rows (" + n_text_ + "; use an " + std::to_string(n_) +
+                           "x0 matrix without control), found " + dims(model_.Bu.rows(), model_.Bu.cols()));
   }
-  checkFinite("control.Bu", "Bu", model.Bu);
+  finite("control.Bu", "Bu", model_.Bu);
 
   // schedule
-  const std::string schedule_problem = scheduleProblem(model.schedule, model.sensors.size());
+  const std::string schedule_problem = scheduleProblem(model_.schedule, model_.sensors.size());
   if (!schedule_problem.empty())
   {
-    throw ConfigError(message(source, 0, "", schedule_problem));
+    throw ConfigError(message(source_, 0, "", schedule_problem));
   }
+}
+
+}  // namespace
+
+void validateModel(const Model& model, const std::string& source)
+{
+  const ModelChecks check(model, source);
+  check.dynamics();
+  check.sensors();
+  check.initial();
+  check.uncertainty();
+  check.names();
+  check.controlAndSchedule();
 }
 
 std::size_t sensorIndex(const Model& model, const std::string& name, const std::string& key)
