@@ -193,10 +193,12 @@ GnssAlignment parseGnssAlignment(ParamReader& p, const EstimatorNodeConfig& c)
   return g;
 }
 
-EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std::string& source)
+namespace
 {
-  ParamReader p(params, source);
-  EstimatorNodeConfig c;
+
+/// `model`: a model file, or the model itself (a map with the keys of a model file).
+void readModel(ParamReader& p, const YAML::Node& params, const std::string& source, EstimatorNodeConfig& c)
+{
   // model: a model file, or the model itself (a map with the keys of a model file). With a built-in
   // motion, the sensors the model does not list come from the `sensors` block's fields.
   const YAML::Node sensors_block = params["sensors"];
@@ -230,8 +232,12 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
     if (!root["name"])
       c.model.name = std::filesystem::path(c.model_file).stem().string();
   }
-  const Model& model = c.model;
+}
 
+/// The filter: algorithm, mu, control_link, max_components, as the estimator settings.
+void readFilter(ParamReader& p, const std::string& source, EstimatorNodeConfig& c)
+{
+  const Model& model = c.model;
   YAML::Node est(YAML::NodeType::Map);
   for (const char* key : {"algorithm", "mu", "control_link", "max_components"})
     if (p.has(key))
@@ -251,7 +257,13 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   {
     throw ConfigError(source + ": " + e.what());
   }
+}
 
+/// The steps and the timeline: period, late_policy, the history and step windows, latency_budget
+/// and the stamps accepted ahead and behind.
+void readTiming(ParamReader& p, const std::string& source, EstimatorNodeConfig& c)
+{
+  const Model& model = c.model;
   c.period = p.number("period", model.period, 0.0, 3600.0);
   if (!(c.period > 0.0))
     throw ConfigError(source + ": period: the model '" + c.model_file + "' has no period and none was given");
@@ -294,7 +306,12 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
       0.0, 1e9);
   if (!(c.timeline.max_behind > 0.0))
     throw ConfigError(source + ": max_stamp_behind: expected a number of seconds > 0, found 0");
+}
 
+/// Every sensor's input (input_type, the `sensors` block) and the command's.
+void readInputs(ParamReader& p, const std::string& source, EstimatorNodeConfig& c)
+{
+  const Model& model = c.model;
   c.input_type = p.choice("input_type", "measurement", {"measurement", "range", "point"});
   for (const Sensor& s : model.sensors)
   {
@@ -345,6 +362,12 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
     c.online.rejection_threshold.push_back(in.rejection_threshold);
   }
   validateOnlineOptions(c.online, source);
+}
+
+/// The datum, the frames, the position indices and the state mapping.
+void readFrames(ParamReader& p, const std::string& source, EstimatorNodeConfig& c)
+{
+  const Model& model = c.model;
   if (p.has("datum"))
     c.datum = parseDatum(p.take("datum"), source + ": datum");
   c.frame_id = p.text("frame_id", "map");
@@ -413,6 +436,13 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
     }
     q.rejectUnknown();
   }
+}
+
+/// The GNSS alignment, the runtime limits, the queue and the live stability settings.
+void readOutputsAndLinks(ParamReader& p, const std::string& source, EstimatorNodeConfig& c)
+{
+  const Model& model = c.model;
+  RuntimeSettings& rt = c.runtime;
   c.gnss = parseGnssAlignment(p, c);
   const double inf = std::numeric_limits<double>::infinity();
   rt.trace_bound = p.number("trace_bound", inf, 0.0, inf);
@@ -429,6 +459,20 @@ EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std
   c.stability_min_samples = static_cast<std::size_t>(p.integer("stability_min_samples", 100, 1, window));
   p.take("diagnostic_period");  // read by diagnostic_updater
   p.take("reconfigure");        // dynamic_reconfigure's own namespace
+}
+
+}  // namespace
+
+EstimatorNodeConfig parseEstimatorNodeConfig(const YAML::Node& params, const std::string& source)
+{
+  ParamReader p(params, source);
+  EstimatorNodeConfig c;
+  readModel(p, params, source, c);
+  readFilter(p, source, c);
+  readTiming(p, source, c);
+  readInputs(p, source, c);
+  readFrames(p, source, c);
+  readOutputsAndLinks(p, source, c);
   p.rejectUnknown();
   return c;
 }
