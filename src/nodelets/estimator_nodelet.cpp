@@ -58,8 +58,11 @@ void EstimatorNodelet::onInit()
       continue;
     }
     SensorSink sink;
-    sink.ok = [this, i](const ros::Time& stamp, const ros::Time& receipt, const double* y, std::size_t n,
-                        const double* R) { offer(i, -1, stamp.toSec(), receipt, y, n, R); };
+    sink.ok = [this, i](const ros::Time& receipt, SensorSample s)
+    {
+      s.sensor = i;
+      offer(s, receipt);
+    };
     const std::string who = "sensor '" + model.sensors[i].name + "' (" + toString(in.type) + " on " + in.topic + ")";
     sink.bad = [this, who](const std::string& why) { reject(who + ": " + why); };
     sink.fallback = [this, who](const std::string& why) { covarianceFallback(who + ": " + why); };
@@ -86,8 +89,7 @@ void EstimatorNodelet::onInit()
   else if (model.hasControl())
   {
     SensorSink sink;
-    sink.ok = [this](const ros::Time& stamp, const ros::Time&, const double* u, std::size_t n, const double*)
-    { onHeldCommand(stamp, u, n); };
+    sink.ok = [this](const ros::Time&, const SensorSample& s) { onHeldCommand({-1, s.y, s.size, s.stamp}); };
     const std::string who = "command (" + toString(command.type) + " on " + command.topic + ")";
     sink.bad = [this, who](const std::string& why) { reject(who + ": " + why); };
     sink.frames = frames_.get();
@@ -197,7 +199,7 @@ void EstimatorNodelet::measurement(std::size_t sensor, const Measurement::ConstP
     reject("step " + std::to_string(m->step) + " out of range");
     return;
   }
-  offer(sensor, static_cast<long>(m->step), t, receipt, m->y.data(), m->y.size());
+  offer({static_cast<long>(m->step), sensor, m->y.data(), m->y.size(), nullptr, t}, receipt);
 }
 
 void EstimatorNodelet::covarianceFallback(const std::string& why)
@@ -223,11 +225,10 @@ void EstimatorNodelet::onDisabled(std::size_t sensor, const ros::Time& stamp, co
                           static_cast<unsigned long>(stream_->online().counters().disabled_per_sensor[sensor]));
 }
 
-void EstimatorNodelet::offer(std::size_t sensor, long k, double stamp, const ros::Time& receipt, const double* y,
-                             std::size_t size, const double* R)
+void EstimatorNodelet::offer(const SensorSample& s, const ros::Time& receipt)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  const OfferResult r = stream_->measurement(sensor, stamp, k, y, size, R, clocks(receipt));
+  const OfferResult r = stream_->measurement(s, clocks(receipt));
   if (r.offer == Offer::REJECTED)
     warnRejected("measurement", r);
 }
@@ -256,7 +257,7 @@ void EstimatorNodelet::onCommand(const ControlInput::ConstPtr& c)
     return;
   }
   const OfferResult r =
-      stream_->command(static_cast<long>(c->step), c->header.stamp.toSec(), c->u.data(), c->u.size(), clocks());
+      stream_->command({static_cast<long>(c->step), c->u.data(), c->u.size(), c->header.stamp.toSec()}, clocks());
   if (r.offer == Offer::REJECTED)
     warnRejected("command", r);
 }
@@ -276,10 +277,10 @@ void EstimatorNodelet::onSchedule(const ScheduleStep::ConstPtr& sc)
     warnRejected("schedule", r);
 }
 
-void EstimatorNodelet::onHeldCommand(const ros::Time& stamp, const double* u, std::size_t n)
+void EstimatorNodelet::onHeldCommand(const CommandSample& c)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  const OfferResult r = stream_->heldCommand(stamp.toSec(), u, n, clocks());
+  const OfferResult r = stream_->heldCommand(c, clocks());
   if (r.offer == Offer::REJECTED)
     warnRejected("command", r);
 }

@@ -53,6 +53,7 @@
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/online/estimator_node_config.hpp"
 #include "networked_estimation/online/online_stream.hpp"
+#include "networked_estimation/online/sensor_sample.hpp"
 #include "param_yaml.hpp"
 #include "sensor_subscriptions.hpp"
 #include "sim_clock_watch.hpp"
@@ -114,11 +115,10 @@ private:
   /// A message without an estimate of the sensor's fields (Imu covariance -1): not fused, counted.
   void onDisabled(std::size_t sensor, const ros::Time& stamp, const ros::Time& receipt, const std::string& why);
 
-  /// k < 0: the step comes from the stamp (the sensor's own sample steps). Estimates are published
-  /// with the mutex held, so that they leave in step order whichever thread takes the step
-  /// (publish only queues the message; it never calls back into us).
-  void offer(std::size_t sensor, long k, double stamp, const ros::Time& receipt, const double* y, std::size_t size,
-             const double* R = nullptr);
+  /// A sensor's sample (s.step < 1: its step comes from its stamp, the sensor's own sample steps).
+  /// Estimates are published with the mutex held, so that they leave in step order whichever
+  /// thread takes the step (publish only queues the message; it never calls back into us).
+  void offer(const SensorSample& s, const ros::Time& receipt);
 
   /// ROS time (or the receipt time of the message at hand), wall time and the measured rate of ROS
   /// time (mutex held).
@@ -133,7 +133,7 @@ private:
   /// A command of a standard type (a Twist on /cmd_vel...): its step is the nearest one to its
   /// stamp (its arrival for unstamped types), and it holds until the next one, as a robot base
   /// holds /cmd_vel: a step without a command of its own uses the latest earlier one.
-  void onHeldCommand(const ros::Time& stamp, const double* u, std::size_t n);
+  void onHeldCommand(const CommandSample& c);
 
   void reject(const std::string& why);
 

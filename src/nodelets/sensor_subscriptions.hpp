@@ -15,6 +15,7 @@
 #include "frame_transforms.hpp"
 #include "gnss_alignment.hpp"
 #include "input_preprocessing.hpp"
+#include "networked_estimation/online/sensor_sample.hpp"
 #include "sensor_adapters.hpp"
 #include "transport_watch.hpp"
 
@@ -23,11 +24,10 @@ namespace networked_estimation
 
 struct SensorSink
 {
-  /// A valid message: its fields, and (covariance: message) their R_k block, row-major, or null for
-  /// the model's R.
-  std::function<void(const ros::Time& stamp, const ros::Time& receipt, const double* y, std::size_t size,
-                     const double* R)>
-      ok;
+  /// A valid message, received at `receipt`: its stamp, its fields (y), and (covariance: message)
+  /// their R_k block, or null for the model's R. The sample does not know its sensor (index 0), and
+  /// its values live only during the call.
+  std::function<void(const ros::Time& receipt, const SensorSample& s)> ok;
   std::function<void(const std::string& why)> bad;
   /// covariance: message, and the message said it has none: the model's R is used (counted).
   std::function<void(const std::string& why)> fallback;
@@ -116,7 +116,12 @@ inline void deliver(const SensorInput& in, const MessageView& v, const ros::Time
         sink.bad(why);
         return;
     }
-  sink.ok(stamp, receipt, y.data(), n, own);
+  SensorSample s;
+  s.y = y.data();
+  s.size = n;
+  s.R = own;
+  s.stamp = stamp.toSec();
+  sink.ok(receipt, s);
 }
 
 template <class M>
