@@ -47,17 +47,8 @@ void EstimatorNodelet::onInit()
   for (std::size_t i = 0; i < model.sensors.size(); ++i)
   {
     const SensorInput& in = inputs[i];
-    if (in.type == InputType::MEASUREMENT)
-    {
-      subs_.push_back(subscribeEvents<Measurement>(
-          in_nh, in.topic, queueSize(),
-          [this, i](const ros::MessageEvent<Measurement const>& e)
-          { onMeasurement(i, e.getConstMessage(), e.getReceiptTime()); },
-          in.transport));
-      watchTransport(in_nh, i);
-      continue;
-    }
     SensorSink sink;
+    sink.sensor = model.sensors[i].name;
     sink.ok = [this, i](const ros::Time& receipt, SensorSample s)
     {
       s.sensor = i;
@@ -83,13 +74,13 @@ void EstimatorNodelet::onInit()
     publishDatum(d);
   }
   const SensorInput& command = config_.command;
-  if (model.hasControl() && command.type == InputType::CONTROL_INPUT)
-    cmd_sub_ = in_nh.subscribe(command.topic, queueSize(), &EstimatorNodelet::onCommand, this,
-                               transportHints(command.transport));
-  else if (model.hasControl())
+  if (model.hasControl())
   {
     SensorSink sink;
-    sink.ok = [this](const ros::Time&, const SensorSample& s) { onHeldCommand({-1, s.y, s.size, s.stamp}); };
+    const bool held = command.type != InputType::CONTROL_INPUT;  // no step: held (onCommand)
+    sink.ok = [this, held](const ros::Time&, const SensorSample& s) {
+      onCommand({s.step, s.y, s.size, s.stamp}, held);
+    };
     const std::string who = "command (" + toString(command.type) + " on " + command.topic + ")";
     sink.bad = [this, who](const std::string& why) { reject(who + ": " + why); };
     sink.frames = frames_.get();
@@ -173,35 +164,6 @@ void EstimatorNodelet::configure(ros::NodeHandle& pnh)
   link_.configure(c, getName());
 }
 
-void EstimatorNodelet::onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m, const ros::Time& receipt)
-{
-  try
-  {
-    measurement(sensor, m, receipt);
-  }
-  catch (const std::exception& e)
-  {
-    NODELET_ERROR_THROTTLE(1.0, "Estimator: measurement callback failed: %s", e.what());
-  }
-}
-
-void EstimatorNodelet::measurement(std::size_t sensor, const Measurement::ConstPtr& m, const ros::Time& receipt)
-{
-  const std::string& expected = stream_->online().model().sensors[sensor].name;
-  if (!m->sensor.empty() && m->sensor != expected)
-  {
-    reject("sensor: expected '" + expected + "', found '" + m->sensor + "'");
-    return;
-  }
-  const double t = m->header.stamp.toSec();
-  if (m->step > static_cast<std::uint64_t>(std::numeric_limits<long>::max() / 2))
-  {
-    reject("step " + std::to_string(m->step) + " out of range");
-    return;
-  }
-  offer({static_cast<long>(m->step), sensor, m->y.data(), m->y.size(), nullptr, t}, receipt);
-}
-
 void EstimatorNodelet::covarianceFallback(const std::string& why)
 {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -227,10 +189,17 @@ void EstimatorNodelet::onDisabled(std::size_t sensor, const ros::Time& stamp, co
 
 void EstimatorNodelet::offer(const SensorSample& s, const ros::Time& receipt)
 {
-  std::lock_guard<std::mutex> lock(mutex_);
-  const OfferResult r = stream_->measurement(s, clocks(receipt));
-  if (r.offer == Offer::REJECTED)
-    warnRejected("measurement", r);
+  try
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const OfferResult r = stream_->measurement(s, clocks(receipt));
+    if (r.offer == Offer::REJECTED)
+      warnRejected("measurement", r);
+  }
+  catch (const std::exception& e)  // the step and its outputs run in here
+  {
+    NODELET_ERROR_THROTTLE(1.0, "Estimator: measurement callback failed: %s", e.what());
+  }
 }
 
 Clocks EstimatorNodelet::clocks(const ros::Time& receipt) const
@@ -248,16 +217,10 @@ void EstimatorNodelet::warnRejected(const char* what, const OfferResult& r)
                         toString(config_.settings.algorithm).c_str(), what, r.reason.c_str(), rejectedLocked());
 }
 
-void EstimatorNodelet::onCommand(const ControlInput::ConstPtr& c)
+void EstimatorNodelet::onCommand(const CommandSample& c, bool held)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (c->step > static_cast<std::uint64_t>(std::numeric_limits<long>::max() / 2))
-  {
-    rejectLocked("command step " + std::to_string(c->step) + " out of range");
-    return;
-  }
-  const OfferResult r =
-      stream_->command({static_cast<long>(c->step), c->u.data(), c->u.size(), c->header.stamp.toSec()}, clocks());
+  const OfferResult r = held ? stream_->heldCommand(c, clocks()) : stream_->command(c, clocks());
   if (r.offer == Offer::REJECTED)
     warnRejected("command", r);
 }
@@ -275,14 +238,6 @@ void EstimatorNodelet::onSchedule(const ScheduleStep::ConstPtr& sc)
       stream_->schedule(static_cast<long>(sc->step), sc->header.stamp.toSec(), transmitting, clocks());
   if (r.offer == Offer::REJECTED)
     warnRejected("schedule", r);
-}
-
-void EstimatorNodelet::onHeldCommand(const CommandSample& c)
-{
-  std::lock_guard<std::mutex> lock(mutex_);
-  const OfferResult r = stream_->heldCommand(c, clocks());
-  if (r.offer == Offer::REJECTED)
-    warnRejected("command", r);
 }
 
 void EstimatorNodelet::reject(const std::string& why)
