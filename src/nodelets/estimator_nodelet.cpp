@@ -47,19 +47,13 @@ void EstimatorNodelet::onInit()
   for (std::size_t i = 0; i < model.sensors.size(); ++i)
   {
     const SensorInput& in = inputs[i];
-    if (in.type == InputType::MEASUREMENT)
-    {
-      subs_.push_back(subscribeEvents<Measurement>(
-          in_nh, in.topic, queueSize(),
-          [this, i](const ros::MessageEvent<Measurement const>& e)
-          { onMeasurement(i, e.getConstMessage(), e.getReceiptTime()); },
-          in.transport));
-      watchTransport(in_nh, i);
-      continue;
-    }
     SensorSink sink;
-    sink.ok = [this, i](const ros::Time& stamp, const ros::Time& receipt, const double* y, std::size_t n,
-                        const double* R) { offer(i, -1, stamp.toSec(), receipt, y, n, R); };
+    sink.sensor = model.sensors[i].name;
+    sink.ok = [this, i](const ros::Time& receipt, SensorSample s)
+    {
+      s.sensor = i;
+      offer(s, receipt);
+    };
     const std::string who = "sensor '" + model.sensors[i].name + "' (" + toString(in.type) + " on " + in.topic + ")";
     sink.bad = [this, who](const std::string& why) { reject(who + ": " + why); };
     sink.fallback = [this, who](const std::string& why) { covarianceFallback(who + ": " + why); };
@@ -80,14 +74,13 @@ void EstimatorNodelet::onInit()
     publishDatum(d);
   }
   const SensorInput& command = config_.command;
-  if (model.hasControl() && command.type == InputType::CONTROL_INPUT)
-    cmd_sub_ = in_nh.subscribe(command.topic, queueSize(), &EstimatorNodelet::onCommand, this,
-                               transportHints(command.transport));
-  else if (model.hasControl())
+  if (model.hasControl())
   {
     SensorSink sink;
-    sink.ok = [this](const ros::Time& stamp, const ros::Time&, const double* u, std::size_t n, const double*)
-    { onHeldCommand(stamp, u, n); };
+    const bool held = command.type != InputType::CONTROL_INPUT;  // no step: held (onCommand)
+    sink.ok = [this, held](const ros::Time&, const SensorSample& s) {
+      onCommand({s.step, s.y, s.size, s.stamp}, held);
+    };
     const std::string who = "command (" + toString(command.type) + " on " + command.topic + ")";
     sink.bad = [this, who](const std::string& why) { reject(who + ": " + why); };
     sink.frames = frames_.get();
@@ -171,35 +164,6 @@ void EstimatorNodelet::configure(ros::NodeHandle& pnh)
   link_.configure(c, getName());
 }
 
-void EstimatorNodelet::onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m, const ros::Time& receipt)
-{
-  try
-  {
-    measurement(sensor, m, receipt);
-  }
-  catch (const std::exception& e)
-  {
-    NODELET_ERROR_THROTTLE(1.0, "Estimator: measurement callback failed: %s", e.what());
-  }
-}
-
-void EstimatorNodelet::measurement(std::size_t sensor, const Measurement::ConstPtr& m, const ros::Time& receipt)
-{
-  const std::string& expected = stream_->online().model().sensors[sensor].name;
-  if (!m->sensor.empty() && m->sensor != expected)
-  {
-    reject("sensor: expected '" + expected + "', found '" + m->sensor + "'");
-    return;
-  }
-  const double t = m->header.stamp.toSec();
-  if (m->step > static_cast<std::uint64_t>(std::numeric_limits<long>::max() / 2))
-  {
-    reject("step " + std::to_string(m->step) + " out of range");
-    return;
-  }
-  offer(sensor, static_cast<long>(m->step), t, receipt, m->y.data(), m->y.size());
-}
-
 void EstimatorNodelet::covarianceFallback(const std::string& why)
 {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -223,13 +187,19 @@ void EstimatorNodelet::onDisabled(std::size_t sensor, const ros::Time& stamp, co
                           static_cast<unsigned long>(stream_->online().counters().disabled_per_sensor[sensor]));
 }
 
-void EstimatorNodelet::offer(std::size_t sensor, long k, double stamp, const ros::Time& receipt, const double* y,
-                             std::size_t size, const double* R)
+void EstimatorNodelet::offer(const SensorSample& s, const ros::Time& receipt)
 {
-  std::lock_guard<std::mutex> lock(mutex_);
-  const OfferResult r = stream_->measurement(sensor, stamp, k, y, size, R, clocks(receipt));
-  if (r.offer == Offer::REJECTED)
-    warnRejected("measurement", r);
+  try
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const OfferResult r = stream_->measurement(s, clocks(receipt));
+    if (r.offer == Offer::REJECTED)
+      warnRejected("measurement", r);
+  }
+  catch (const std::exception& e)  // the step and its outputs run in here
+  {
+    NODELET_ERROR_THROTTLE(1.0, "Estimator: measurement callback failed: %s", e.what());
+  }
 }
 
 Clocks EstimatorNodelet::clocks(const ros::Time& receipt) const
@@ -247,16 +217,10 @@ void EstimatorNodelet::warnRejected(const char* what, const OfferResult& r)
                         toString(config_.settings.algorithm).c_str(), what, r.reason.c_str(), rejectedLocked());
 }
 
-void EstimatorNodelet::onCommand(const ControlInput::ConstPtr& c)
+void EstimatorNodelet::onCommand(const CommandSample& c, bool held)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (c->step > static_cast<std::uint64_t>(std::numeric_limits<long>::max() / 2))
-  {
-    rejectLocked("command step " + std::to_string(c->step) + " out of range");
-    return;
-  }
-  const OfferResult r =
-      stream_->command(static_cast<long>(c->step), c->header.stamp.toSec(), c->u.data(), c->u.size(), clocks());
+  const OfferResult r = held ? stream_->heldCommand(c, clocks()) : stream_->command(c, clocks());
   if (r.offer == Offer::REJECTED)
     warnRejected("command", r);
 }
@@ -274,14 +238,6 @@ void EstimatorNodelet::onSchedule(const ScheduleStep::ConstPtr& sc)
       stream_->schedule(static_cast<long>(sc->step), sc->header.stamp.toSec(), transmitting, clocks());
   if (r.offer == Offer::REJECTED)
     warnRejected("schedule", r);
-}
-
-void EstimatorNodelet::onHeldCommand(const ros::Time& stamp, const double* u, std::size_t n)
-{
-  std::lock_guard<std::mutex> lock(mutex_);
-  const OfferResult r = stream_->heldCommand(stamp.toSec(), u, n, clocks());
-  if (r.offer == Offer::REJECTED)
-    warnRejected("command", r);
 }
 
 void EstimatorNodelet::reject(const std::string& why)

@@ -45,14 +45,13 @@
 #include "gnss_alignment.hpp"
 #include "link_diagnostics.hpp"
 #include "load_failure.hpp"
-#include "networked_estimation/ControlInput.h"
 #include "networked_estimation/EstimatorConfig.h"
-#include "networked_estimation/Measurement.h"
 #include "networked_estimation/ScheduleStep.h"
 #include "networked_estimation/SetPose.h"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/online/estimator_node_config.hpp"
 #include "networked_estimation/online/online_stream.hpp"
+#include "networked_estimation/online/sensor_sample.hpp"
 #include "param_yaml.hpp"
 #include "sensor_subscriptions.hpp"
 #include "sim_clock_watch.hpp"
@@ -104,21 +103,16 @@ private:
 
   // --- inputs (the dispatch thread) ---------------------------------------------------------------
 
-  /// `receipt`: the ROS time roscpp received the message at (its lateness is judged by it).
-  void onMeasurement(std::size_t sensor, const Measurement::ConstPtr& m, const ros::Time& receipt);
-
-  void measurement(std::size_t sensor, const Measurement::ConstPtr& m, const ros::Time& receipt);
-
   /// covariance: message, and a message without one: counted, warned about (throttled).
   void covarianceFallback(const std::string& why);
   /// A message without an estimate of the sensor's fields (Imu covariance -1): not fused, counted.
   void onDisabled(std::size_t sensor, const ros::Time& stamp, const ros::Time& receipt, const std::string& why);
 
-  /// k < 0: the step comes from the stamp (the sensor's own sample steps). Estimates are published
-  /// with the mutex held, so that they leave in step order whichever thread takes the step
-  /// (publish only queues the message; it never calls back into us).
-  void offer(std::size_t sensor, long k, double stamp, const ros::Time& receipt, const double* y, std::size_t size,
-             const double* R = nullptr);
+  /// A sensor's sample (s.step < 1: its step comes from its stamp, the sensor's own sample steps),
+  /// received at `receipt`, the ROS time roscpp received the message at (its lateness is judged by
+  /// it). Estimates are published with the mutex held, so that they leave in step order whichever
+  /// thread takes the step (publish only queues the message; it never calls back into us).
+  void offer(const SensorSample& s, const ros::Time& receipt);
 
   /// ROS time (or the receipt time of the message at hand), wall time and the measured rate of ROS
   /// time (mutex held).
@@ -126,14 +120,13 @@ private:
   /// Logs a refused input, naming it (throttled).
   void warnRejected(const char* what, const OfferResult& r);
 
-  void onCommand(const ControlInput::ConstPtr& c);
-
   void onSchedule(const ScheduleStep::ConstPtr& sc);
 
-  /// A command of a standard type (a Twist on /cmd_vel...): its step is the nearest one to its
-  /// stamp (its arrival for unstamped types), and it holds until the next one, as a robot base
-  /// holds /cmd_vel: a step without a command of its own uses the latest earlier one.
-  void onHeldCommand(const ros::Time& stamp, const double* u, std::size_t n);
+  /// A command: a ControlInput names its step; one of a standard type (`held`: a Twist on
+  /// /cmd_vel...) takes the step nearest to its stamp (its arrival for unstamped types) and holds
+  /// until the next one, as a robot base holds /cmd_vel: a step without a command of its own uses
+  /// the latest earlier one.
+  void onCommand(const CommandSample& c, bool held);
 
   void reject(const std::string& why);
 

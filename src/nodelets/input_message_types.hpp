@@ -1,6 +1,7 @@
 // The message class of each input type (online/sensor_inputs.hpp's descriptor table): the one list
 // the nodelets dispatch on. A new message type is a row in the core's table and a case here; its
 // fields are then read and written by the field adapters (sensor_adapters.hpp, sensor_writers.hpp).
+// The package's own Measurement and ControlInput are taken whole, with their step (wholeSample).
 #pragma once
 
 #include <geometry_msgs/PointStamped.h>
@@ -16,11 +17,15 @@
 #include <std_msgs/Float64.h>
 #include <std_msgs/Float64MultiArray.h>
 
+#include <cstdint>
+#include <limits>
+#include <string>
 #include <type_traits>
 
 #include "networked_estimation/ControlInput.h"
 #include "networked_estimation/Measurement.h"
 #include "networked_estimation/online/sensor_inputs.hpp"
+#include "networked_estimation/online/sensor_sample.hpp"
 
 namespace networked_estimation
 {
@@ -74,8 +79,53 @@ decltype(auto) withInputMessage(InputType type, F&& f)
 template <class Tag>
 using MessageOf = typename std::decay_t<Tag>::type;
 
-/// Whether M is one of the package's own messages, which carry y (or u) whole with its step.
+/// Whether M is one of the package's own messages, which carry y (or u) whole with its step
+/// (read by wholeSample).
 template <class M>
 constexpr bool kWholeVector = std::is_same<M, Measurement>::value || std::is_same<M, ControlInput>::value;
+
+/// A step number a long holds with room to spare (Measurement.step and ControlInput.step are
+/// uint64). False with `why` for a larger one.
+inline bool stepInRange(std::uint64_t step, std::string& why)
+{
+  if (step <= static_cast<std::uint64_t>(std::numeric_limits<long>::max() / 2))
+    return true;
+  why = "step " + std::to_string(step) + " out of range";
+  return false;
+}
+
+/// The sample of one of the package's own messages (kWholeVector): `s` points into the message
+/// (nothing is copied; it lives as long as the message) and gets its stamp and step (0: none, the
+/// step then comes from the stamp); its sensor index is left to the caller. The values' count is
+/// checked where the sensor's (or command's) size is known, by the OnlineEstimator. False with
+/// `why` for a step out of range, and (Measurement) for a message naming another sensor than
+/// `sensor`, the model's name of the sensor it feeds (an empty Measurement.sensor is not checked).
+inline bool wholeSample(const Measurement& m, const std::string& sensor, SensorSample& s, std::string& why)
+{
+  if (!m.sensor.empty() && m.sensor != sensor)
+  {
+    why = "sensor: expected '" + sensor + "', found '" + m.sensor + "'";
+    return false;
+  }
+  if (!stepInRange(m.step, why))
+    return false;
+  s.step = static_cast<long>(m.step);
+  s.y = m.y.data();
+  s.size = m.y.size();
+  s.R = nullptr;
+  s.stamp = m.header.stamp.toSec();
+  return true;
+}
+inline bool wholeSample(const ControlInput& c, const std::string&, SensorSample& s, std::string& why)
+{
+  if (!stepInRange(c.step, why))
+    return false;
+  s.step = static_cast<long>(c.step);
+  s.y = c.u.data();
+  s.size = c.u.size();
+  s.R = nullptr;
+  s.stamp = c.header.stamp.toSec();
+  return true;
+}
 
 }  // namespace networked_estimation

@@ -1,6 +1,7 @@
-// Subscriptions of the Estimator's per-sensor inputs of standard types (sensor_inputs.hpp): each
-// message's selected fields go to `ok` with the message's stamp and the ROS time roscpp received it
-// at (its receipt time: what decides whether it came before its step's deadline, however long it
+// Subscriptions of the Estimator's inputs of every type (sensor_inputs.hpp), sensors' and the
+// command's: each message's selected fields (the package's own Measurement and ControlInput: its
+// values whole, with its step) go to `ok` with the message's stamp and the ROS time roscpp received
+// it at (its receipt time: what decides whether it came before its step's deadline, however long it
 // then waited in a queue), or a reason to `bad`.
 #pragma once
 
@@ -15,6 +16,7 @@
 #include "frame_transforms.hpp"
 #include "gnss_alignment.hpp"
 #include "input_preprocessing.hpp"
+#include "networked_estimation/online/sensor_sample.hpp"
 #include "sensor_adapters.hpp"
 #include "transport_watch.hpp"
 
@@ -23,11 +25,13 @@ namespace networked_estimation
 
 struct SensorSink
 {
-  /// A valid message: its fields, and (covariance: message) their R_k block, row-major, or null for
-  /// the model's R.
-  std::function<void(const ros::Time& stamp, const ros::Time& receipt, const double* y, std::size_t size,
-                     const double* R)>
-      ok;
+  /// A valid message, received at `receipt`: its stamp, its fields (y), and (covariance: message)
+  /// their R_k block, or null for the model's R. The sample does not know its sensor (index 0), and
+  /// its values live only during the call.
+  std::function<void(const ros::Time& receipt, const SensorSample& s)> ok;
+  /// The model's name of the sensor fed (a Measurement naming another one goes to `bad`); empty
+  /// for the command.
+  std::string sensor;
   std::function<void(const std::string& why)> bad;
   /// covariance: message, and the message said it has none: the model's R is used (counted).
   std::function<void(const std::string& why)> fallback;
@@ -116,7 +120,12 @@ inline void deliver(const SensorInput& in, const MessageView& v, const ros::Time
         sink.bad(why);
         return;
     }
-  sink.ok(stamp, receipt, y.data(), n, own);
+  SensorSample s;
+  s.y = y.data();
+  s.size = n;
+  s.R = own;
+  s.stamp = stamp.toSec();
+  sink.ok(receipt, s);
 }
 
 template <class M>
@@ -196,8 +205,26 @@ inline ros::Subscriber subscribeNavSatFix(ros::NodeHandle& nh, const SensorInput
       in.transport);
 }
 
-/// A subscription of any type but networked_estimation/Measurement and ControlInput (which carry
-/// their step and are read by the nodelet itself).
+/// Measurement and ControlInput: the values whole, with their step (wholeSample); no copy of the
+/// message, no frames (they have none).
+template <class M>
+ros::Subscriber subscribeWhole(ros::NodeHandle& nh, const SensorInput& in, uint32_t queue, const SensorSink& sink)
+{
+  return subscribeEvents<M>(
+      nh, in.topic, queue,
+      [sink](const ros::MessageEvent<M const>& e)
+      {
+        SensorSample s;
+        std::string why;
+        if (wholeSample(*e.getConstMessage(), sink.sensor, s, why))
+          sink.ok(e.getReceiptTime(), s);
+        else
+          sink.bad(why);
+      },
+      in.transport);
+}
+
+/// The subscription of an input of any type (a sensor's or the command's).
 inline ros::Subscriber subscribeSensor(ros::NodeHandle& nh, const SensorInput& in, uint32_t queue,
                                        const SensorSink& sink, const std::vector<double>& datum)
 {
@@ -206,7 +233,7 @@ inline ros::Subscriber subscribeSensor(ros::NodeHandle& nh, const SensorInput& i
                           {
                             using M = MessageOf<decltype(tag)>;
                             if constexpr (kWholeVector<M>)
-                              return ros::Subscriber();  // read by the nodelet itself
+                              return subscribeWhole<M>(nh, in, queue, sink);
                             else if constexpr (std::is_same<M, sensor_msgs::NavSatFix>::value)
                               return subscribeNavSatFix(nh, in, queue, sink, datum);
                             else

@@ -318,8 +318,8 @@ void benchOnline(benchmark::State& state, bool gated)
     {
       const Eigen::VectorXd& y = ys[static_cast<std::size_t>(k) & (kRingSize - 1)];
       for (std::size_t i = 0; i < omni.sensors.size(); ++i)
-        online.offerMeasurement(k, i, y.data() + omni.sensors[i].offset,
-                                static_cast<std::size_t>(omni.sensors[i].size));
+        online.offerMeasurement(
+            {k, i, y.data() + omni.sensors[i].offset, static_cast<std::size_t>(omni.sensors[i].size)});
       online.process();
       ++k;
     }

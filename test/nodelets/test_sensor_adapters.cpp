@@ -1160,3 +1160,51 @@ TEST(InputMessageTypes, ListMatchesTheTable)
     EXPECT_EQ(row.sensor, t != ne::InputType::CONTROL_INPUT) << row.name;
   }
 }
+
+// Measurement and ControlInput are adapters like the others: their sample points into the message
+// (no copy), with its step and stamp; a Measurement naming another sensor, or a step beyond what
+// a long holds, is refused naming the field.
+TEST(SensorAdapters, WholeVectorMessages)
+{
+  ne::Measurement m;
+  m.header.stamp = ros::Time(12.5);
+  m.step = 7;
+  m.sensor = "gps";
+  m.y = {1.0, -2.0, 3.5};
+  ne::SensorSample s;
+  s.sensor = 4;  // the caller's, kept
+  std::string why;
+  ASSERT_TRUE(ne::wholeSample(m, "gps", s, why)) << why;
+  EXPECT_EQ(s.y, m.y.data());
+  EXPECT_EQ(s.size, 3u);
+  EXPECT_EQ(s.step, 7);
+  EXPECT_EQ(s.stamp, 12.5);
+  EXPECT_EQ(s.R, nullptr);
+  EXPECT_EQ(s.sensor, 4u);
+
+  m.sensor.clear();  // no name: not checked
+  m.step = 0;        // no step: placed by the stamp
+  ASSERT_TRUE(ne::wholeSample(m, "gps", s, why)) << why;
+  EXPECT_EQ(s.step, 0);
+
+  m.sensor = "odom";
+  EXPECT_FALSE(ne::wholeSample(m, "gps", s, why));
+  EXPECT_EQ(why, "sensor: expected 'gps', found 'odom'");
+  m.sensor = "gps";
+  m.step = std::numeric_limits<std::uint64_t>::max();
+  EXPECT_FALSE(ne::wholeSample(m, "gps", s, why));
+  EXPECT_EQ(why, "step " + std::to_string(m.step) + " out of range");
+
+  ne::ControlInput c;
+  c.header.stamp = ros::Time(3.0);
+  c.step = 2;
+  c.u = {0.25};
+  ASSERT_TRUE(ne::wholeSample(c, "", s, why)) << why;
+  EXPECT_EQ(s.y, c.u.data());
+  EXPECT_EQ(s.size, 1u);
+  EXPECT_EQ(s.step, 2);
+  EXPECT_EQ(s.stamp, 3.0);
+  c.step = static_cast<std::uint64_t>(std::numeric_limits<long>::max() / 2) + 1;
+  EXPECT_FALSE(ne::wholeSample(c, "", s, why));
+  EXPECT_NE(why.find("out of range"), std::string::npos) << why;
+}

@@ -25,6 +25,7 @@
 #include "networked_estimation/config/model.hpp"
 #include "networked_estimation/config/estimator_settings.hpp"
 #include "networked_estimation/online/sensor_lattice.hpp"
+#include "networked_estimation/online/sensor_sample.hpp"
 
 namespace networked_estimation
 {
@@ -134,16 +135,15 @@ public:
   /// The step the next process() call takes (valid once started).
   long nextStep() const { return next_; }
 
-  /// Offers y_k of sensor `sensor` (index into model.sensors). `size` must equal the sensor's rows.
-  /// `R`: optionally the sensor's own R_k block for this sample (size x size, row-major; e.g. the
-  /// message's covariance, validated by the caller): that step's filter input then has the model's
-  /// R with this sensor's block replaced and its cross-blocks with other sensors zero.
-  OfferResult offerMeasurement(long k, std::size_t sensor, const double* y, std::size_t size,
-                               const double* R = nullptr);
+  /// Offers y_k of sensor s.sensor for step k = s.step (sensor_sample.hpp; s.stamp is not read).
+  /// s.size must equal the sensor's rows. s.R: optionally the sensor's own R_k block for this
+  /// sample: that step's filter input then has the model's R with this sensor's block replaced and
+  /// its cross-blocks with other sensors zero.
+  OfferResult offerMeasurement(const SensorSample& s);
   /// The same for a message without a step number, at step position `position` ((stamp - t0) /
-  /// period): its step is the one the sensor's lattice gives it (stepOf).
-  OfferResult offerSample(double position, std::size_t sensor, const double* y, std::size_t size,
-                          const double* R = nullptr);
+  /// period): its step is the one the sensor's lattice gives it (stepOf); s.step and s.stamp are
+  /// not read.
+  OfferResult offerSample(double position, const SensorSample& s);
   /// The step a sample of `sensor` at step position `position` belongs to (what offerSample uses).
   long stepOf(std::size_t sensor, double position) const;
   /// A message of `sensor` at `position` (or naming step `given` >= 1) that carries no estimate of
@@ -152,8 +152,9 @@ public:
   OfferResult offerDisabled(std::size_t sensor, double position, long given = -1);
   /// The sample lattice learnt for a sensor.
   const SensorLattice& lattice(std::size_t sensor) const { return lattice_[sensor]; }
-  /// Offers the command u_k (p values). Only meaningful for models with control.
-  OfferResult offerCommand(long k, const double* u, std::size_t size);
+  /// Offers the command u_k, k = c.step (p values; c.stamp is not read). Only meaningful for
+  /// models with control.
+  OfferResult offerCommand(const CommandSample& c);
 
   /// Whether u_k is in hand (k not processed yet).
   bool hasCommand(long k) const;
@@ -247,9 +248,8 @@ private:
   bool due(const Slot* s, long k, std::size_t sensor) const;
   /// Counts a rejected offer and returns it with its reason.
   OfferResult reject(const std::string& why);
-  /// offerMeasurement / offerSample: `given` >= 1 is the step the message names.
-  OfferResult offerAt(double position, long given, std::size_t sensor, const double* y, std::size_t size,
-                      const double* R);
+  /// offerMeasurement / offerSample: `given` >= 1 is the step the message names (s.step is not read).
+  OfferResult offerAt(double position, long given, const SensorSample& s);
 
   Model model_;
   EstimatorSettings settings_;

@@ -20,6 +20,7 @@
 #include "networked_estimation/online/latency_budget.hpp"
 #include "networked_estimation/online/online_estimator.hpp"
 #include "networked_estimation/online/runtime_settings.hpp"
+#include "networked_estimation/online/sensor_sample.hpp"
 #include "networked_estimation/online/timeline.hpp"
 
 namespace networked_estimation
@@ -46,18 +47,19 @@ public:
   /// Called when everything starts over (why: a time jump, a contradicted anchor).
   std::function<void(const std::string& why)> on_restart;
 
-  /// A sensor's message stamped `stamp` (s) naming step `step` (>= 1; -1: none, its step then
-  /// comes from its stamp). Refused stamps come back REJECTED with the reason.
-  OfferResult measurement(std::size_t sensor, double stamp, long step, const double* y, std::size_t size,
-                          const double* R, const Clocks& now);
+  /// A sensor's message (sensor_sample.hpp): y of s.sensor stamped s.stamp (s) naming step s.step
+  /// (>= 1; otherwise none, its step then comes from its stamp). Refused stamps come back REJECTED
+  /// with the reason.
+  OfferResult measurement(const SensorSample& s, const Clocks& now);
   /// A sensor's message that disabled the sensor's fields (sensor_msgs' covariance -1).
   OfferResult disabled(std::size_t sensor, double stamp, long step, const Clocks& now);
-  /// A command naming its step (ControlInput). Ignored (ACCEPTED) before the timeline starts.
-  OfferResult command(long step, double stamp, const double* u, std::size_t size, const Clocks& now);
-  /// A command of a type without a step (a Twist on /cmd_vel): its step is the nearest one to its
-  /// stamp, and it holds until the next one (a step without a command of its own uses the latest
-  /// earlier one), as a robot base holds /cmd_vel.
-  OfferResult heldCommand(double stamp, const double* u, std::size_t size, const Clocks& now);
+  /// A command naming its step c.step, stamped c.stamp (ControlInput). Ignored (ACCEPTED) before the
+  /// timeline starts.
+  OfferResult command(const CommandSample& c, const Clocks& now);
+  /// A command of a type without a step (a Twist on /cmd_vel; c.step is not read): its step is the
+  /// nearest one to its stamp c.stamp, and it holds until the next one (a step without a command of
+  /// its own uses the latest earlier one), as a robot base holds /cmd_vel.
+  OfferResult heldCommand(const CommandSample& c, const Clocks& now);
   /// A random schedule's draw for a step (it may start the timeline, as a measurement).
   OfferResult schedule(long step, double stamp, const std::vector<bool>& transmitting, const Clocks& now);
 

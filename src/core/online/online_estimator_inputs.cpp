@@ -105,16 +105,14 @@ void OnlineEstimator::storeR(Slot& s, std::size_t sensor, const double* R)
   s.own_R[sensor] = 1;
 }
 
-OfferResult OnlineEstimator::offerMeasurement(long k, std::size_t sensor, const double* y, std::size_t size,
-                                              const double* R)
+OfferResult OnlineEstimator::offerMeasurement(const SensorSample& s)
 {
-  return offerAt(static_cast<double>(k), k, sensor, y, size, R);
+  return offerAt(static_cast<double>(s.step), s.step, s);
 }
 
-OfferResult OnlineEstimator::offerSample(double position, std::size_t sensor, const double* y, std::size_t size,
-                                         const double* R)
+OfferResult OnlineEstimator::offerSample(double position, const SensorSample& s)
 {
-  return offerAt(position, -1, sensor, y, size, R);
+  return offerAt(position, -1, s);
 }
 
 long OnlineEstimator::stepOf(std::size_t sensor, double position) const
@@ -142,9 +140,10 @@ OfferResult OnlineEstimator::offerDisabled(std::size_t sensor, double position, 
   return r;
 }
 
-OfferResult OnlineEstimator::offerAt(double position, long given, std::size_t sensor, const double* y, std::size_t size,
-                                     const double* R)
+OfferResult OnlineEstimator::offerAt(double position, long given, const SensorSample& sample)
 {
+  const std::size_t sensor = sample.sensor, size = sample.size;
+  const double* y = sample.y;
   OfferResult r;
   if (sensor >= model_.sensors.size())
     return reject("sensor index " + std::to_string(sensor) + " out of range (model has " +
@@ -189,7 +188,7 @@ OfferResult OnlineEstimator::offerAt(double position, long given, std::size_t se
     Slot* d = slotFor(k);
     d->have[sensor] = 1;
     d->y.segment(sn.offset, sn.size) = Eigen::Map<const Eigen::VectorXd>(y, sn.size);
-    storeR(*d, sensor, R);
+    storeR(*d, sensor, sample.R);
     ++counters_.late_fused;
     rewind();
     r.offer = Offer::LATE_FUSED;
@@ -204,7 +203,7 @@ OfferResult OnlineEstimator::offerAt(double position, long given, std::size_t se
   }
   s->have[sensor] = 1;
   s->y.segment(sn.offset, sn.size) = Eigen::Map<const Eigen::VectorXd>(y, sn.size);
-  storeR(*s, sensor, R);
+  storeR(*s, sensor, sample.R);
   ++counters_.accepted;
   if (model_.schedule.active() && !due(s, k, sensor))
     ++counters_.unscheduled;
@@ -212,8 +211,11 @@ OfferResult OnlineEstimator::offerAt(double position, long given, std::size_t se
   return r;
 }
 
-OfferResult OnlineEstimator::offerCommand(long k, const double* u, std::size_t size)
+OfferResult OnlineEstimator::offerCommand(const CommandSample& c)
 {
+  const long k = c.step;
+  const std::size_t size = c.size;
+  const double* u = c.u;
   OfferResult r;
   if (!model_.hasControl())
     return reject("command: model '" + model_.name + "' has no control input");

@@ -137,17 +137,15 @@ bool OnlineStream::arrive(std::size_t sensor, double stamp, long step, const Clo
   return true;
 }
 
-OfferResult OnlineStream::measurement(std::size_t sensor, double stamp, long step, const double* y, std::size_t size,
-                                      const double* R, const Clocks& now)
+OfferResult OnlineStream::measurement(const SensorSample& s, const Clocks& now)
 {
   OfferResult r;
   double position = 0.0;
-  if (!arrive(sensor, stamp, step, now, r, position))
+  if (!arrive(s.sensor, s.stamp, s.step, now, r, position))
     return r;
-  r = step >= 1 ? online_->offerMeasurement(step, sensor, y, size, R)
-                : online_->offerSample(position, sensor, y, size, R);
+  r = s.step >= 1 ? online_->offerMeasurement(s) : online_->offerSample(position, s);
   if (r.offer == Offer::LATE_DROPPED)
-    latency_.lost(sensor, now.ros);
+    latency_.lost(s.sensor, now.ros);
   drainComplete(now);
   return r;
 }
@@ -175,31 +173,31 @@ bool OnlineStream::admitCommand(double stamp, const Clocks& now, OfferResult& r)
   return false;
 }
 
-OfferResult OnlineStream::command(long step, double stamp, const double* u, std::size_t size, const Clocks& now)
+OfferResult OnlineStream::command(const CommandSample& c, const Clocks& now)
 {
   OfferResult r;
   if (!online_->started())
     return r;  // the timeline starts with the measurements
-  if (!admitCommand(stamp, now, r))
+  if (!admitCommand(c.stamp, now, r))
     return r;
   catchUp(now);
-  r = online_->offerCommand(step, u, size);
+  r = online_->offerCommand(c);
   drainComplete(now);
   return r;
 }
 
-OfferResult OnlineStream::heldCommand(double stamp, const double* u, std::size_t size, const Clocks& now)
+OfferResult OnlineStream::heldCommand(const CommandSample& c, const Clocks& now)
 {
   OfferResult r;
-  if (!admitCommand(stamp, now, r))
+  if (!admitCommand(c.stamp, now, r))
     return r;
   if (held_.size() >= 1000)
     held_.erase(held_.begin());
-  held_[stamp].assign(u, u + size);  // kept before the timeline starts, too
+  held_[c.stamp].assign(c.u, c.u + c.size);  // kept before the timeline starts, too
   if (!online_->started())
     return r;
   catchUp(now);
-  r = online_->offerCommand(timeline_.clock().stepAt(stamp), u, size);
+  r = online_->offerCommand({timeline_.clock().stepAt(c.stamp), c.u, c.size});
   drainComplete(now);
   return r;
 }
@@ -213,7 +211,7 @@ void OnlineStream::offerHeld(long k)
     return;
   held_.erase(held_.begin(), latest);
   if (!online_->hasCommand(k))
-    online_->offerCommand(k, latest->second.data(), latest->second.size());
+    online_->offerCommand({k, latest->second.data(), latest->second.size()});
 }
 
 OfferResult OnlineStream::schedule(long step, double stamp, const std::vector<bool>& transmitting, const Clocks& now)

@@ -412,7 +412,7 @@ TEST(AnglesTurningRobot, OnlineRewindEqualsOffline)
   {
     const Step& st = data[static_cast<std::size_t>(k - 1)];
     if (std::isfinite(st.sample.y[0]))
-      online.offerMeasurement(k, 0, &st.sample.y[0], 1);
+      online.offerMeasurement({k, 0, &st.sample.y[0], 1});
     if (std::isfinite(st.sample.y[1]))
     {
       const long d = delay.bernoulli(0.3) ? 1 + static_cast<long>(delay.uniform() * 5.0) : 0;  // up to 5 steps late
@@ -420,7 +420,7 @@ TEST(AnglesTurningRobot, OnlineRewindEqualsOffline)
     }
     for (const long j : due[static_cast<std::size_t>(k)])
     {
-      const Offer r = online.offerMeasurement(j, 1, &data[static_cast<std::size_t>(j - 1)].sample.y[1], 1).offer;
+      const Offer r = online.offerMeasurement({j, 1, &data[static_cast<std::size_t>(j - 1)].sample.y[1], 1}).offer;
       ASSERT_TRUE(r == Offer::ACCEPTED || r == Offer::LATE_FUSED);
       late += r == Offer::LATE_FUSED ? 1 : 0;
     }

@@ -563,11 +563,11 @@ TEST(Ekfio, OnlineRewindEqualsOffline)
     const VectorXd& y = ys[static_cast<std::size_t>(k - 1)];
     for (std::size_t i = 0; i < m.sensors.size(); ++i)
       if (i != 0 || k % 4 != 0)  // every fourth gps fix comes one step late
-        online.offerMeasurement(k, i, y.data() + m.sensors[i].offset, static_cast<std::size_t>(m.sensors[i].size));
+        online.offerMeasurement({k, i, y.data() + m.sensors[i].offset, static_cast<std::size_t>(m.sensors[i].size)});
     if ((k - 1) % 4 == 0 && k > 1)
     {
       const VectorXd& late = ys[static_cast<std::size_t>(k - 2)];
-      EXPECT_EQ(online.offerMeasurement(k - 1, 0, late.data(), 2).offer, Offer::LATE_FUSED);
+      EXPECT_EQ(online.offerMeasurement({k - 1, 0, late.data(), 2}).offer, Offer::LATE_FUSED);
     }
     online.process();
     if (k % 4 != 0)
@@ -604,7 +604,7 @@ TEST(Ekfio, TheRejectionThresholdGatesOnTheMotionPrior)
     OnlineEstimator online(m, ekfioSettings(), o);
     online.start(1);
     const double imu[4] = {wrapAngle(prior.mean()[2] + offset), prior.mean()[5], prior.mean()[6], prior.mean()[7]};
-    online.offerMeasurement(1, 1, imu, 4);
+    online.offerMeasurement({1, 1, imu, 4});
     online.process();
     EXPECT_EQ(online.counters().gated, offset > 0.0 ? 1u : 0u) << offset;
     EXPECT_EQ(static_cast<bool>(online.lastArrived()[1]), offset == 0.0) << offset;

@@ -75,7 +75,7 @@ ne::Offer offerY(ne::OnlineEstimator& on, const ne::Model& model, const Stream& 
 {
   const ne::Sensor& sn = model.sensors[sensor];
   Eigen::VectorXd block = s.y[k - 1].segment(sn.offset, sn.size);
-  return on.offerMeasurement(k, sensor, block.data(), block.size()).offer;
+  return on.offerMeasurement({k, sensor, block.data(), block.size()}).offer;
 }
 
 ne::EstimatorSettings settingsFor(ne::Algorithm a)
@@ -153,7 +153,7 @@ TEST(OnlineEstimator, InOrderWithLossesEqualsOfflineForEveryAlgorithm)
       const auto ref = offline(model, settingsFor(a), s, arrived, &P);
       for (long k = 1; k <= T; ++k)
       {
-        ASSERT_EQ(on.offerCommand(k, s.u[k - 1].data(), s.u[k - 1].size()).offer, Offer::ACCEPTED);
+        ASSERT_EQ(on.offerCommand({k, s.u[k - 1].data(), s.u[k - 1].size()}).offer, Offer::ACCEPTED);
         if (arrived[k - 1][0])
         {
           ASSERT_EQ(offerY(on, model, s, k), Offer::ACCEPTED);
@@ -205,7 +205,7 @@ TEST(OnlineEstimator, DuplicatesAreCountedAndIgnored)
   EXPECT_EQ(offerY(on, model, s, 1), Offer::ACCEPTED);
   // A second copy with another value must not replace the first.
   const double other = 1e6;
-  EXPECT_EQ(on.offerMeasurement(1, 0, &other, 1).offer, Offer::DUPLICATE);
+  EXPECT_EQ(on.offerMeasurement({1, 0, &other, 1}).offer, Offer::DUPLICATE);
   on.process();
   EXPECT_EQ(offerY(on, model, s, 1), Offer::DUPLICATE);  // after its step, still a duplicate
   EXPECT_EQ(on.counters().duplicates, 2u);
@@ -269,7 +269,7 @@ TEST(OnlineEstimator, RewindFusesLateDataWithinTheHistoryExactly)
     }
     for (long k = 1; k <= T; ++k)
     {
-      on.offerCommand(k, s.u[k - 1].data(), s.u[k - 1].size());
+      on.offerCommand({k, s.u[k - 1].data(), s.u[k - 1].size()});
       for (long j : arrivals_at[k])
       {
         const Offer r = offerY(on, model, s, j);
@@ -372,7 +372,7 @@ TEST(OnlineEstimator, PeriodicScheduleNotScheduledIsNotDueNorLost)
   on.process();  // k = T + 1 (odd: sensor 0 due), nothing arrived
   EXPECT_EQ(on.counters().due, static_cast<std::uint64_t>(T + 1));
   EXPECT_EQ(on.counters().due_arrived, static_cast<std::uint64_t>(T));
-  ASSERT_EQ(on.offerMeasurement(T + 2, 0, s.y[0].data(), 1).offer, Offer::ACCEPTED);  // even: not scheduled
+  ASSERT_EQ(on.offerMeasurement({T + 2, 0, s.y[0].data(), 1}).offer, Offer::ACCEPTED);  // even: not scheduled
   EXPECT_EQ(on.counters().unscheduled, 1u);
   ne::OfferResult r = on.offerSchedule(T + 2, {true, false});
   EXPECT_EQ(r.offer, Offer::REJECTED);
@@ -515,28 +515,28 @@ TEST(OnlineEstimator, BadInputIsRejectedWithAReasonAndCounted)
     EXPECT_EQ(r.offer, Offer::REJECTED);
     return r.reason;
   };
-  EXPECT_NE(reason(on.offerMeasurement(1, 0, y, 2)).find("not started"), std::string::npos);
+  EXPECT_NE(reason(on.offerMeasurement({1, 0, y, 2})).find("not started"), std::string::npos);
   on.start(1);
-  EXPECT_NE(reason(on.offerMeasurement(1, 0, y, 1)).find("expects 2 values, found 1"), std::string::npos);
-  EXPECT_NE(reason(on.offerMeasurement(1, 0, bad, 2)).find("y[1]"), std::string::npos);
-  EXPECT_NE(reason(on.offerMeasurement(1, 0, inf, 2)).find("not finite"), std::string::npos);
-  EXPECT_NE(reason(on.offerMeasurement(1, 3, y, 2)).find("sensor index 3"), std::string::npos);
-  EXPECT_NE(reason(on.offerMeasurement(0, 0, y, 2)).find("expected >= 1"), std::string::npos);
-  EXPECT_NE(reason(on.offerMeasurement(51, 0, y, 2)).find("far future"), std::string::npos);
-  EXPECT_EQ(on.offerMeasurement(50, 0, y, 2).offer, Offer::ACCEPTED);
-  EXPECT_NE(reason(on.offerCommand(1, y, 2)).find("u: expected 1 values, found 2"), std::string::npos);
-  EXPECT_NE(reason(on.offerCommand(1, bad + 1, 1)).find("u[0]"), std::string::npos);
+  EXPECT_NE(reason(on.offerMeasurement({1, 0, y, 1})).find("expects 2 values, found 1"), std::string::npos);
+  EXPECT_NE(reason(on.offerMeasurement({1, 0, bad, 2})).find("y[1]"), std::string::npos);
+  EXPECT_NE(reason(on.offerMeasurement({1, 0, inf, 2})).find("not finite"), std::string::npos);
+  EXPECT_NE(reason(on.offerMeasurement({1, 3, y, 2})).find("sensor index 3"), std::string::npos);
+  EXPECT_NE(reason(on.offerMeasurement({0, 0, y, 2})).find("expected >= 1"), std::string::npos);
+  EXPECT_NE(reason(on.offerMeasurement({51, 0, y, 2})).find("far future"), std::string::npos);
+  EXPECT_EQ(on.offerMeasurement({50, 0, y, 2}).offer, Offer::ACCEPTED);
+  EXPECT_NE(reason(on.offerCommand({1, y, 2})).find("u: expected 1 values, found 2"), std::string::npos);
+  EXPECT_NE(reason(on.offerCommand({1, bad + 1, 1})).find("u[0]"), std::string::npos);
   for (int k = 0; k < 300; ++k)
     on.process();
-  EXPECT_NE(reason(on.offerMeasurement(101, 0, y, 2)).find("far past"), std::string::npos);
-  EXPECT_EQ(on.offerMeasurement(102, 0, y, 2).offer, Offer::LATE_DROPPED);
+  EXPECT_NE(reason(on.offerMeasurement({101, 0, y, 2})).find("far past"), std::string::npos);
+  EXPECT_EQ(on.offerMeasurement({102, 0, y, 2}).offer, Offer::LATE_DROPPED);
   EXPECT_EQ(on.counters().rejected, 10u);  // the ten REJECTED offers above
   EXPECT_EQ(on.counters().missing_commands, 300u);
   EXPECT_TRUE(on.estimator().state().allFinite());
 
   ne::OnlineEstimator no_control(ne::test::zhouModel(), settingsFor(ne::Algorithm::KFIO), {});
   no_control.start(1);
-  EXPECT_NE(reason(no_control.offerCommand(1, y, 1)).find("has no control input"), std::string::npos);
+  EXPECT_NE(reason(no_control.offerCommand({1, y, 1})).find("has no control input"), std::string::npos);
 }
 
 TEST(OnlineEstimator, OverflowResetsTheFilterInsteadOfPublishingNaN)
@@ -640,7 +640,7 @@ TEST(OnlineEstimator, OwnRBlocksMakeTheStepsR)
     const Eigen::MatrixXd R1 = ne::test::randomSpd(rng, 2, 0.2, 3.0);
     Eigen::Matrix<double, 2, 2, Eigen::RowMajor> rm = R1;
     ASSERT_EQ(offerY(on, model, s, k, 0), Offer::ACCEPTED);
-    ASSERT_EQ(on.offerMeasurement(k, 1, s.y[k - 1].data() + 1, 2, own ? rm.data() : nullptr).offer, Offer::ACCEPTED);
+    ASSERT_EQ(on.offerMeasurement({k, 1, s.y[k - 1].data() + 1, 2, own ? rm.data() : nullptr}).offer, Offer::ACCEPTED);
     on.process();
     ne::Sample smp;
     smp.y = s.y[k - 1];
@@ -676,11 +676,11 @@ TEST(OnlineEstimator, RejectionThresholdForEveryAlgorithm)
     std::vector<std::vector<bool>> used(T, std::vector<bool>(1, true));
     for (long k = 1; k <= T; ++k)
     {
-      on.offerCommand(k, s.u[k - 1].data(), s.u[k - 1].size());
+      on.offerCommand({k, s.u[k - 1].data(), s.u[k - 1].size()});
       Eigen::VectorXd y = s.y[k - 1];
       if (k == 30)
         y.array() += 1e3;
-      ASSERT_EQ(on.offerMeasurement(k, 0, y.data(), y.size()).offer, Offer::ACCEPTED);
+      ASSERT_EQ(on.offerMeasurement({k, 0, y.data(), y.size()}).offer, Offer::ACCEPTED);
       on.process();
       EXPECT_EQ(on.lastArrived()[0], k != 30) << ne::toString(a) << " k " << k;
     }
@@ -733,9 +733,9 @@ TEST(OnlineEstimator, AoeAndOeGateOnTheMixturesPrior)
       st.algorithm = a;
       ne::OnlineEstimator on(m, st, o);
       on.start(1);
-      on.offerCommand(1, &u, 1);
+      on.offerCommand({1, &u, 1});
       const double y = mean + d * std::sqrt(S);
-      ASSERT_EQ(on.offerMeasurement(1, 0, &y, 1).offer, Offer::ACCEPTED);
+      ASSERT_EQ(on.offerMeasurement({1, 0, &y, 1}).offer, Offer::ACCEPTED);
       on.process();
       const bool refused = d > 3.0;
       EXPECT_EQ(on.counters().gated, refused ? 1u : 0u) << ne::toString(a) << " d " << d;

@@ -59,7 +59,7 @@ struct Stream
   Offer offer(std::size_t sensor, double stamp, double now, long step = -1)
   {
     const double y = 0.1;
-    return s.measurement(sensor, stamp, step, &y, 1, nullptr, clocks(now)).offer;
+    return s.measurement({step, sensor, &y, 1, nullptr, stamp}, clocks(now)).offer;
   }
   static ne::Clocks clocks(double now, double wall = -1.0)
   {
@@ -278,7 +278,7 @@ struct Recorder
   void offer(std::size_t sensor, double stamp, double at, long step, double y)
   {
     now = at;
-    s.measurement(sensor, stamp, step, &y, 1, nullptr, Stream::clocks(at));
+    s.measurement({step, sensor, &y, 1, nullptr, stamp}, Stream::clocks(at));
   }
   /// A good stream from ROS time t0 for `seconds` in 1 ms ticks: every 20 ms from t0 + 0.1 each of
   /// `sensors` sensors' sample (y_k = sin(0.3 k)) stamped 5 ms earlier, naming its step when
@@ -410,8 +410,8 @@ TEST(OnlineStream, TheDiagnosticsSayWhatWasRefused)
   Stream st(adaptiveSettings());
   EXPECT_TRUE(st.s.stampWarnings(100.0).empty());
   const double y = 0.1;
-  st.s.measurement(1, 0.0, -1, &y, 1, nullptr, Stream::clocks(t0, 100.0));
-  st.s.measurement(1, t0 + 20.0, -1, &y, 1, nullptr, Stream::clocks(t0, 101.0));
+  st.s.measurement({-1, 1, &y, 1, nullptr, 0.0}, Stream::clocks(t0, 100.0));
+  st.s.measurement({-1, 1, &y, 1, nullptr, t0 + 20.0}, Stream::clocks(t0, 101.0));
   std::vector<std::string> w = st.s.stampWarnings(101.5);
   ASSERT_EQ(w.size(), 1u);
   EXPECT_EQ(w[0],
@@ -421,7 +421,7 @@ TEST(OnlineStream, TheDiagnosticsSayWhatWasRefused)
   EXPECT_TRUE(st.s.stampWarnings(111.5).empty());  // 10.5 s later
   // A command stamped 0 (no header stamp), once the timeline runs.
   st.offer(0, t0, t0);
-  st.s.heldCommand(0.0, &y, 1, Stream::clocks(t0, 102.0));
+  st.s.heldCommand({-1, &y, 1, 0.0}, Stream::clocks(t0, 102.0));
   w = st.s.stampWarnings(103.0);
   ASSERT_EQ(w.size(), 2u);
   EXPECT_EQ(w[1],
@@ -430,8 +430,8 @@ TEST(OnlineStream, TheDiagnosticsSayWhatWasRefused)
   // A restart: an anchor taken before the clock (ROS time 0), 1e6 s ahead of the first message
   // that arrives with one.
   Stream r(adaptiveSettings());
-  r.s.measurement(0, t0 + 1e6, -1, &y, 1, nullptr, Stream::clocks(0.0, 200.0));
-  r.s.measurement(0, t0, -1, &y, 1, nullptr, Stream::clocks(t0, 201.0));
+  r.s.measurement({-1, 0, &y, 1, nullptr, t0 + 1e6}, Stream::clocks(0.0, 200.0));
+  r.s.measurement({-1, 0, &y, 1, nullptr, t0}, Stream::clocks(t0, 201.0));
   w = r.s.stampWarnings(203.0);
   ASSERT_EQ(w.size(), 2u);
   EXPECT_TRUE(has(w[0],
@@ -539,11 +539,11 @@ TEST(OnlineStream, TheBudgetFollowsTheDelaysAndLossesAreCounted)
   for (long k = 1; k <= 5; ++k)
   {
     const double stamp = t0 + kT * static_cast<double>(k - 1);
-    d.s.measurement(0, stamp, -1, &y, 1, nullptr, Stream::clocks(stamp));
+    d.s.measurement({-1, 0, &y, 1, nullptr, stamp}, Stream::clocks(stamp));
     if (k == 3)
       EXPECT_EQ(d.s.disabled(1, stamp, -1, Stream::clocks(stamp)).offer, Offer::DISABLED);
     else
-      d.s.measurement(1, stamp, -1, &y, 1, nullptr, Stream::clocks(stamp));
+      d.s.measurement({-1, 1, &y, 1, nullptr, stamp}, Stream::clocks(stamp));
   }
   const ne::OnlineCounters& c = d.s.online().counters();
   EXPECT_EQ(c.processed, 5u);  // every step complete at once, step 3 included

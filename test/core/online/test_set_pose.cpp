@@ -174,7 +174,7 @@ TEST(SetPose, OnlineEstimatorStartsOverFromTheGivenEstimate)
   ne::OnlineEstimator online(m, st, o);
   online.start(1);
   const double y1[3] = {1.0, 1.0, 0.5};
-  ASSERT_EQ(online.offerMeasurement(1, 0, y1, 3).offer, ne::Offer::ACCEPTED);
+  ASSERT_EQ(online.offerMeasurement({1, 0, y1, 3}).offer, ne::Offer::ACCEPTED);
   online.process();
   online.process();  // step 2: a loss
 
@@ -184,7 +184,7 @@ TEST(SetPose, OnlineEstimatorStartsOverFromTheGivenEstimate)
   online.setEstimate(x, P);
   EXPECT_EQ(online.counters().estimates_set, 1u);
   const double y3[3] = {3.1, -3.9, 1.1};
-  ASSERT_EQ(online.offerMeasurement(3, 0, y3, 3).offer, ne::Offer::ACCEPTED);
+  ASSERT_EQ(online.offerMeasurement({3, 0, y3, 3}).offer, ne::Offer::ACCEPTED);
   online.process();
 
   ne::Model from = m;
@@ -199,7 +199,7 @@ TEST(SetPose, OnlineEstimatorStartsOverFromTheGivenEstimate)
   EXPECT_LT((online.estimator().covariance() - ref->covariance()).cwiseAbs().maxCoeff(), 1e-12);
 
   // Data for a step taken before the pose was set is late: the history starts at the pose.
-  EXPECT_EQ(online.offerMeasurement(2, 0, y1, 3).offer, ne::Offer::LATE_DROPPED);
+  EXPECT_EQ(online.offerMeasurement({2, 0, y1, 3}).offer, ne::Offer::LATE_DROPPED);
 
   // reset(): the model's own x0, P0 again (one predicted step from them).
   online.reset();
