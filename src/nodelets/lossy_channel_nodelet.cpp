@@ -32,6 +32,7 @@
 #include "param_yaml.hpp"
 #include "dispatch_thread.hpp"
 #include "channel_message_types.hpp"
+#include "channel_reports.hpp"
 #include "lossy_channel_config.hpp"
 #include "transport_watch.hpp"
 #include "networked_estimation/config/param_reader.hpp"
@@ -194,21 +195,7 @@ private:
       dispatch_.wake();
     flush();
     if (events_pub_.getNumSubscribers() > 0)  // the event (and its stamp) only when wanted
-      events_pub_.publish(toMessage(rec, stamp()));
-  }
-
-  ChannelEvent toMessage(const ChannelRecord& e, const ros::Time& input_stamp)
-  {
-    ChannelEvent m;
-    m.header.stamp = t0_ + ros::Duration(e.arrival);
-    m.seq = e.seq;
-    m.input_stamp = input_stamp;
-    m.outcome = static_cast<uint8_t>(e.outcome);
-    m.duplicated = e.duplicated;
-    m.state = static_cast<uint8_t>(e.state);
-    m.delay = e.delay;
-    m.sampled_delay = e.sampled_delay;
-    return m;
+      events_pub_.publish(channelEventMessage(rec, t0_, stamp()));
   }
 
   /// Publishes the outbox in order, without holding mutex_ (`in` is a DirectQueue: an in-process
@@ -342,29 +329,7 @@ private:
     if (!wrong.empty())
       NODELET_WARN_THROTTLE(10.0, "LossyChannel: wrong message type on `in`: %s", wrong.c_str());
     std::lock_guard<std::mutex> lock(mutex_);
-    const ChannelCounters& c = channel_->counters();
-    stat.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "loss %.3f over %lu messages", channel_->lossRate(),
-                  static_cast<unsigned long>(c.received));
-    if (c.dropped_queue > 0)
-      stat.mergeSummary(diagnostic_msgs::DiagnosticStatus::WARN, "queue_limit reached: messages dropped");
-    stat.add("received", c.received);
-    stat.add("delivered", c.delivered);
-    stat.add("dropped by model", c.dropped_model);
-    stat.add("dropped by queue", c.dropped_queue);
-    stat.add("duplicated", c.duplicated);
-    stat.add("in flight", c.in_flight);
-    stat.add("empirical loss rate", channel_->lossRate());
-    stat.add("mean burst length", channel_->meanBurstLength());
-    stat.add("delay p50 (s)", channel_->delayQuantile(0.5));
-    stat.add("delay p90 (s)", channel_->delayQuantile(0.9));
-    stat.add("delay p99 (s)", channel_->delayQuantile(0.99));
-    if (!wrong.empty())
-      stat.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN, "wrong message type: %s", wrong.c_str());
-    stat.add("wrong type", wrong.empty() ? std::string("none") : wrong);
-    // Windowed estimates (last 1000 messages, 95 % Wilson intervals) of what the link does now.
-    const RateEstimate a = monitor_.arrivalRate(), r = monitor_.recoveryRate();
-    stat.addf("windowed arrival rate", "%.4f [%.4f, %.4f] over %zu", a.value, a.lower, a.upper, a.trials);
-    stat.addf("windowed recovery rate", "%.4f [%.4f, %.4f] over %zu", r.value, r.lower, r.upper, r.trials);
+    addChannelStatus(stat, *channel_, monitor_, wrong);
     stat.add("settings", describe());
   }
 
