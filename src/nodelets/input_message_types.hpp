@@ -21,6 +21,7 @@
 #include <limits>
 #include <string>
 #include <type_traits>
+#include <vector>
 
 #include "networked_estimation/ControlInput.h"
 #include "networked_estimation/Measurement.h"
@@ -84,22 +85,30 @@ using MessageOf = typename std::decay_t<Tag>::type;
 template <class M>
 constexpr bool kWholeVector = std::is_same<M, Measurement>::value || std::is_same<M, ControlInput>::value;
 
-/// A step number a long holds with room to spare (Measurement.step and ControlInput.step are
-/// uint64). False with `why` for a larger one.
-inline bool stepInRange(std::uint64_t step, std::string& why)
+/// The sample of a step-numbered vector (kWholeVector): `s` points at `values` (nothing is copied;
+/// it lives as long as the message) and gets `stamp` and `step` (0: none, the step then comes from
+/// the stamp); its sensor index is left to the caller. The values' count is checked where the
+/// sensor's (or command's) size is known, by the OnlineEstimator. False with `why` for a step a
+/// long does not hold with room to spare (Measurement.step and ControlInput.step are uint64).
+inline bool stepSample(std::uint64_t step, const std::vector<double>& values, const ros::Time& stamp, SensorSample& s,
+                       std::string& why)
 {
-  if (step <= static_cast<std::uint64_t>(std::numeric_limits<long>::max() / 2))
-    return true;
-  why = "step " + std::to_string(step) + " out of range";
-  return false;
+  if (step > static_cast<std::uint64_t>(std::numeric_limits<long>::max() / 2))
+  {
+    why = "step " + std::to_string(step) + " out of range";
+    return false;
+  }
+  s.step = static_cast<long>(step);
+  s.y = values.data();
+  s.size = values.size();
+  s.R = nullptr;
+  s.stamp = stamp.toSec();
+  return true;
 }
 
-/// The sample of one of the package's own messages (kWholeVector): `s` points into the message
-/// (nothing is copied; it lives as long as the message) and gets its stamp and step (0: none, the
-/// step then comes from the stamp); its sensor index is left to the caller. The values' count is
-/// checked where the sensor's (or command's) size is known, by the OnlineEstimator. False with
-/// `why` for a step out of range, and (Measurement) for a message naming another sensor than
-/// `sensor`, the model's name of the sensor it feeds (an empty Measurement.sensor is not checked).
+/// The sample of one of the package's own messages (stepSample), and for a Measurement naming
+/// another sensor than `sensor` (the model's name of the sensor it feeds; an empty
+/// Measurement.sensor is not checked) false with `why`.
 inline bool wholeSample(const Measurement& m, const std::string& sensor, SensorSample& s, std::string& why)
 {
   if (!m.sensor.empty() && m.sensor != sensor)
@@ -107,25 +116,11 @@ inline bool wholeSample(const Measurement& m, const std::string& sensor, SensorS
     why = "sensor: expected '" + sensor + "', found '" + m.sensor + "'";
     return false;
   }
-  if (!stepInRange(m.step, why))
-    return false;
-  s.step = static_cast<long>(m.step);
-  s.y = m.y.data();
-  s.size = m.y.size();
-  s.R = nullptr;
-  s.stamp = m.header.stamp.toSec();
-  return true;
+  return stepSample(m.step, m.y, m.header.stamp, s, why);
 }
 inline bool wholeSample(const ControlInput& c, const std::string&, SensorSample& s, std::string& why)
 {
-  if (!stepInRange(c.step, why))
-    return false;
-  s.step = static_cast<long>(c.step);
-  s.y = c.u.data();
-  s.size = c.u.size();
-  s.R = nullptr;
-  s.stamp = c.header.stamp.toSec();
-  return true;
+  return stepSample(c.step, c.u, c.header.stamp, s, why);
 }
 
 }  // namespace networked_estimation

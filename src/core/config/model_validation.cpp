@@ -158,6 +158,18 @@ public:
     }
   }
 
+  /// M (key; `label` in the finiteness message) of a shape `shaped` says is right ("expected
+  /// <expected>, found RxC" otherwise), finite.
+  void gain(const std::string& key, const std::string& label, const Eigen::MatrixXd& M, bool shaped,
+            const std::string& expected) const
+  {
+    if (!shaped)
+    {
+      fail(key, "expected " + expected + ", found " + dims(M.rows(), M.cols()));
+    }
+    finite(key, label, M);
+  }
+
   void covariance(const std::string& key, const std::string& label, const Eigen::MatrixXd& M, bool strict) const
   {
     finite(key, label, M);
@@ -214,20 +226,12 @@ void ModelChecks::dynamics() const
     {
       fail("A", "empty matrix");
     }
-    if (model_.A.rows() != model_.A.cols())
-    {
-      fail("A", "expected a square matrix (n x n), found " + dims(model_.A.rows(), model_.A.cols()));
-    }
-    finite("A", "A", model_.A);
+    gain("A", "A", model_.A, model_.A.rows() == model_.A.cols(), "a square matrix (n x n)");
   }
 
   // B, Q
-  if (model_.B.rows() != n_ || model_.B.cols() == 0)
-  {
-    fail("B", "expected " + std::to_string(n_) + " rows and at least one column (" + n_text_ + "), found " +
-                  dims(model_.B.rows(), model_.B.cols()));
-  }
-  finite("B", "B", model_.B);
+  gain("B", "B", model_.B, model_.B.rows() == n_ && model_.B.cols() > 0,
+       std::to_string(n_) + " rows and at least one column (" + n_text_ + ")");
   const Eigen::Index nw = model_.B.cols();
   size("Q", model_.Q, nw, nw, countText("nw", static_cast<int>(nw)) + ", the columns of B");
   covariance("Q", "Q", model_.Q, true);
@@ -243,12 +247,8 @@ void ModelChecks::dynamics() const
 
 void ModelChecks::sensors() const
 {
-  if (model_.C.rows() == 0 || model_.C.cols() != n_)
-  {
-    fail("C", "expected at least one row and " + std::to_string(n_) + " columns (" + n_text_ + "), found " +
-                  dims(model_.C.rows(), model_.C.cols()));
-  }
-  finite("C", "C", model_.C);
+  gain("C", "C", model_.C, model_.C.rows() > 0 && model_.C.cols() == n_,
+       "at least one row and " + std::to_string(n_) + " columns (" + n_text_ + ")");
   const Eigen::Index m = model_.C.rows();
   size("R", model_.R, m, m, countText("m", static_cast<int>(m)) + ", the rows of C");
   covariance("R", "R", model_.R, true);
@@ -363,12 +363,8 @@ void ModelChecks::names() const
 void ModelChecks::controlAndSchedule() const
 {
   // control
-  if (model_.Bu.rows() != n_)
-  {
-    fail("control.Bu", "expected " + std::to_string(n_) + " rows (" + n_text_ + "; use an " + std::to_string(n_) +
-                           "x0 matrix without control), found " + dims(model_.Bu.rows(), model_.Bu.cols()));
-  }
-  finite("control.Bu", "Bu", model_.Bu);
+  gain("control.Bu", "Bu", model_.Bu, model_.Bu.rows() == n_,
+       std::to_string(n_) + " rows (" + n_text_ + "; use an " + std::to_string(n_) + "x0 matrix without control)");
 
   // schedule
   const std::string schedule_problem = scheduleProblem(model_.schedule, model_.sensors.size());
