@@ -51,12 +51,9 @@ inline void addGrowth(double& g, double w, double trace)
   g += trace > 0.0 && trace <= std::numeric_limits<double>::max() ? w * std::log(trace) : std::nan("");
 }
 
-}  // namespace
-
-ExperimentResult sweepExperiment(const RunConfig& rc)
+/// The axes, the grid's points and the analysis of a sweep, before any run.
+std::shared_ptr<SweepResult> sweepGrid(const MonteCarloConfig& cfg, const CustomSetup& su)
 {
-  const MonteCarloConfig& cfg = *rc.config;
-  const CustomSetup su = loadCustomSetup(cfg, "sweep");
   const Model& model = su.model;
   auto sweep = std::make_shared<SweepResult>();
   for (const std::string& arg : cfg.axis_args)
@@ -71,226 +68,288 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
   sweep->points = static_cast<long>(sweep->point_values.size());
   // a built-in motion: the verdicts of its linearisation at x0 (local, docs/stability.md 5)
   sweep->analysis = analyseSweep(linearisedModel(model, model.x0, model.period), su.links.link, axes);
+  return sweep;
+}
 
-  if (rc.progress)
-    rc.progress->setTotal(rc.runs);
-  const long T = rc.steps, half = T / 2;
-  const std::vector<double> gw = growthWeights(T, half);
-  const std::size_t nf = su.settings.size(), np = static_cast<std::size_t>(sweep->points);
-  // per run: the statistics of every (point, estimator), then floored (0/1) per point
-  const std::size_t values = kStats * nf * np + np;
-  const std::uint64_t seed = rc.seed;
-  const bool covariance_only = cfg.covariance_only;
-  bool model_varies = false, settings_vary = false;
-  for (const SweepAxis& a : axes)
+/// A grid point's model, estimators' settings and links.
+struct SweepPoint
+{
+  Model model;
+  std::vector<EstimatorSettings> settings;
+  LossyRunOptions options;  ///< sensor_links: the point's
+};
+
+/// What every run of a sweep reads: the setup, the grid, the sizes of a run and the grid points.
+struct SweepPlan
+{
+  const CustomSetup* su = nullptr;
+  const SweepResult* sweep = nullptr;
+  long T = 0, half = 0;
+  std::vector<double> gw;  ///< growthWeights(T, half)
+  std::size_t nf = 0, np = 0;
+  /// per run: the statistics of every (point, estimator), then floored (0/1) per point
+  std::size_t values = 0;
+  std::uint64_t seed = 0;
+  bool covariance_only = false, model_varies = false, settings_vary = false;
+  /// per grid point; the first alone when every point's model and estimators are the first's
+  std::vector<SweepPoint> points;
+};
+
+/// Each grid point's model, estimators' settings and links, validated here, before any run.
+std::vector<SweepPoint> sweepPoints(const SweepPlan& plan)
+{
+  const CustomSetup& su = *plan.su;
+  const std::vector<SweepAxis>& axes = plan.sweep->axes;
+  std::vector<SweepPoint> points;
+  points.reserve(plan.np);
+  for (const std::vector<double>& v : plan.sweep->point_values)
   {
-    model_varies = model_varies || a.kind == SweepAxis::Kind::MODEL;
-    settings_vary = settings_vary || a.kind == SweepAxis::Kind::SETTINGS;
-  }
-  // Each grid point's model, estimators' settings and links (validated here, before any run).
-  struct Point
-  {
-    Model model;
-    std::vector<EstimatorSettings> settings;
-    LossyRunOptions options;  ///< sensor_links: the point's
-  };
-  std::vector<Point> points;
-  points.reserve(np);
-  for (const std::vector<double>& v : sweep->point_values)
-  {
-    Point pt;
-    pt.model = model_varies ? sweepPointModel(model, axes, v) : model;
+    SweepPoint pt;
+    pt.model = plan.model_varies ? sweepPointModel(su.model, axes, v) : su.model;
     pt.settings = sweepPointSettings(su.settings, axes, v);
     pt.options = su.options;
     pt.options.sensor_links = sweepPointLinks(su.links.link, axes, v);
-    if (covariance_only)
+    if (plan.covariance_only)
       covarianceOnlyEstimators(pt.model, pt.settings, su.names);  // refuses aoe, oe, ekfio
     else
       for (const EstimatorSettings& es : pt.settings)
         makeEstimator(pt.model, es);
     points.push_back(std::move(pt));
-    if (!model_varies && !settings_vary && !covariance_only)
+    if (!plan.model_varies && !plan.settings_vary && !plan.covariance_only)
       break;  // every point's model and estimators are the first's (only the links differ)
   }
-  const bool noise_on_loss = su.options.noise_on_loss;
-  const std::vector<std::string>& names = su.names;
-  const std::vector<std::optional<ChannelSettings>>& base_links = su.links.link;
-  // Run r at every point is `simulate --seed S+r` with the point's model and links (common random
-  // numbers across the grid), replayed by every estimator as in the custom experiment. When only
-  // links vary, the links only decide what reaches the estimators, so one simulated plant (and
-  // schedule, and actuator link) serves every point. Covariance only: each point's arrivals, no plant.
-  WorkerFactory factory = [&, T, half, nf, np, values, noise_on_loss, covariance_only, model_varies, settings_vary,
-                           seed]() -> RunFunction
+  return points;
+}
+
+/// The sizes of a run, its seed, what varies over the grid, and the grid points.
+SweepPlan sweepPlan(const RunConfig& rc, const CustomSetup& su, const SweepResult& sweep)
+{
+  SweepPlan plan;
+  plan.su = &su;
+  plan.sweep = &sweep;
+  plan.T = rc.steps;
+  plan.half = plan.T / 2;
+  plan.gw = growthWeights(plan.T, plan.half);
+  plan.nf = su.settings.size();
+  plan.np = static_cast<std::size_t>(sweep.points);
+  plan.values = kStats * plan.nf * plan.np + plan.np;
+  plan.seed = rc.seed;
+  plan.covariance_only = rc.config->covariance_only;
+  for (const SweepAxis& a : sweep.axes)
   {
-    struct Worker
-    {
-      std::vector<std::vector<std::unique_ptr<Estimator>>> est;  // per point (or one set for every point)
-      std::vector<ArrivalDraws> arrivals;                        // per point, covariance only
-      std::vector<SensorLinkSet> links;                          // per point
-      std::vector<LossyRun> plants;                              // per point, or one
-      std::vector<SimulatedSample> traj;
-      std::vector<std::vector<bool>> on;
-      std::vector<char> alive;
-      std::vector<double> trP_sum, err_sum, growth;
-      Sample sample;
-    };
-    auto w = std::make_shared<Worker>();
-    const std::size_t sets = model_varies || settings_vary || covariance_only ? np : 1;
-    for (std::size_t p = 0; p < sets; ++p)
-    {
-      if (covariance_only)
-        w->est.push_back(covarianceOnlyEstimators(points[p].model, points[p].settings, names));
-      else
-      {
-        std::vector<std::unique_ptr<Estimator>> e;
-        for (const EstimatorSettings& es : points[p].settings)
-          e.push_back(makeEstimator(points[p].model, es));
-        w->est.push_back(std::move(e));
-      }
-    }
-    // reserved: the elements keep their addresses (a link set and a plant point at their model)
-    w->arrivals.reserve(covariance_only ? np : 0);
-    w->links.reserve(covariance_only ? 0 : np);
-    w->plants.reserve(covariance_only ? 0 : model_varies ? np : 1);
+    plan.model_varies = plan.model_varies || a.kind == SweepAxis::Kind::MODEL;
+    plan.settings_vary = plan.settings_vary || a.kind == SweepAxis::Kind::SETTINGS;
+  }
+  plan.points = sweepPoints(plan);
+  return plan;
+}
+
+/// One thread's estimators, links and plants, and the buffers of a run.
+struct SweepWorker
+{
+  std::vector<std::vector<std::unique_ptr<Estimator>>> est;  // per point (or one set for every point)
+  std::vector<ArrivalDraws> arrivals;                        // per point, covariance only
+  std::vector<SensorLinkSet> links;                          // per point
+  std::vector<LossyRun> plants;                              // per point, or one
+  std::vector<SimulatedSample> traj;
+  std::vector<std::vector<bool>> on;
+  std::vector<char> alive;
+  std::vector<double> trP_sum, err_sum, growth;
+  Sample sample;
+};
+
+/// A worker's estimators (per point when their model or settings vary, else one set for every
+/// point), links and plants.
+std::shared_ptr<SweepWorker> sweepWorker(const SweepPlan& plan)
+{
+  const std::vector<SweepPoint>& points = plan.points;
+  const std::size_t np = plan.np, nf = plan.nf;
+  const bool covariance_only = plan.covariance_only, model_varies = plan.model_varies;
+  auto w = std::make_shared<SweepWorker>();
+  const std::size_t sets = model_varies || plan.settings_vary || covariance_only ? np : 1;
+  for (std::size_t p = 0; p < sets; ++p)
+  {
     if (covariance_only)
-      for (std::size_t p = 0; p < np; ++p)
-        w->arrivals.emplace_back(points[p].model, points[p].options);
+      w->est.push_back(covarianceOnlyEstimators(points[p].model, points[p].settings, plan.su->names));
     else
     {
-      for (std::size_t p = 0; p < np; ++p)
-      {
-        const Model& m = points[model_varies ? p : 0].model;
-        w->links.emplace_back(m, sweepPointLinks(base_links, axes, sweep->point_values[p]), 0, noise_on_loss);
-      }
-      for (std::size_t p = 0; p < (model_varies ? np : 1); ++p)
-      {
-        LossyRunOptions plant_options = points[p].options;
-        plant_options.sensor_links.clear();  // the plant alone: the links are the point's
-        w->plants.emplace_back(points[p].model, 0, plant_options);
-      }
-      w->traj.resize(static_cast<std::size_t>(T));
-      w->on.resize(static_cast<std::size_t>(T));
-      w->sample = w->plants.front().received();
+      std::vector<std::unique_ptr<Estimator>> e;
+      for (const EstimatorSettings& es : points[p].settings)
+        e.push_back(makeEstimator(points[p].model, es));
+      w->est.push_back(std::move(e));
     }
-    w->alive.assign(nf, 1);
-    w->trP_sum.assign(nf, 0.0);
-    w->err_sum.assign(nf, 0.0);
-    w->growth.assign(nf, 0.0);
-    return [w, &gw, &points, T, half, nf, np, values, covariance_only, model_varies, seed](long r, double* out)
+  }
+  // reserved: the elements keep their addresses (a link set and a plant point at their model)
+  w->arrivals.reserve(covariance_only ? np : 0);
+  w->links.reserve(covariance_only ? 0 : np);
+  w->plants.reserve(covariance_only ? 0 : model_varies ? np : 1);
+  if (covariance_only)
+    for (std::size_t p = 0; p < np; ++p)
+      w->arrivals.emplace_back(points[p].model, points[p].options);
+  else
+  {
+    for (std::size_t p = 0; p < np; ++p)
     {
-      std::fill(out, out + values, 0.0);
-      const std::uint64_t rs = seed + static_cast<std::uint64_t>(r);
-      double* const floored = out + kStats * nf * np;  // per point
-      auto simulate = [&](std::size_t plant)
-      {
-        LossyRun& run = w->plants[plant];
-        run.restart(rs);
-        for (long k = 0; k < T; ++k)
-        {
-          try
-          {
-            w->traj[static_cast<std::size_t>(k)] = run.step();  // same sizes: no allocation
-          }
-          catch (const DivergenceError&)
-          {
-            return false;  // the plant crossed the rounding floor: no statistic of this run
-          }
-          w->on[static_cast<std::size_t>(k)] = run.scheduled();
-        }
-        return true;
-      };
-      bool plant_ok = true;
-      if (!covariance_only && !model_varies)
-      {
-        plant_ok = simulate(0);
-        if (!plant_ok)
-        {
-          std::fill(floored, floored + np, 1.0);
-          return;
-        }
-      }
-      for (std::size_t p = 0; p < np; ++p)
-      {
-        std::vector<std::unique_ptr<Estimator>>& est = w->est[w->est.size() > 1 ? p : 0];
-        if (!covariance_only && model_varies && !simulate(p))
-        {
-          floored[p] = 1.0;
-          continue;
-        }
-        for (std::size_t j = 0; j < nf; ++j)
-        {
-          est[j]->reset();
-          w->alive[j] = 1;
-          w->trP_sum[j] = w->err_sum[j] = w->growth[j] = 0.0;
-        }
-        const std::vector<int>& angles = points[model_varies ? p : 0].model.angles;
-        if (covariance_only)
-          w->arrivals[p].restart(rs);
-        else
-          w->links[p].reseed(rs);
-        for (long k = 1; k <= T; ++k)
-        {
-          const SimulatedSample* s = nullptr;
-          if (covariance_only)
-            w->sample = w->arrivals[p].next();
-          else
-          {
-            s = &w->traj[static_cast<std::size_t>(k - 1)];
-            w->links[p].receive(*s, w->on[static_cast<std::size_t>(k - 1)], w->sample);
-          }
-          const bool gamma = w->sample.gamma;
-          for (std::size_t j = 0; j < nf; ++j)
-          {
-            if (!w->alive[j])
-              continue;
-            Estimator& e = *est[j];
-            w->sample.gamma = gamma;
-            w->sample.nu = s && e.algorithm() == Algorithm::ACK_KF ? (s->nu ? 1 : 0) : -1;
-            try
-            {
-              e.step(w->sample);
-            }
-            catch (const DivergenceError&)
-            {
-              w->alive[j] = 0;
-              continue;
-            }
-            if (k > half)
-            {
-              const double trace = e.covariance().trace();
-              w->trP_sum[j] += trace;
-              if (s)
-                w->err_sum[j] += squaredError(s->x, e.state(), angles);
-              addGrowth(w->growth[j], gw[static_cast<std::size_t>(k - half - 1)], trace);
-            }
-          }
-        }
-        for (std::size_t j = 0; j < nf; ++j)
-        {
-          double* o = out + kStats * (p * nf + j);
-          if (w->alive[j])
-          {
-            const Estimator& e = *est[j];
-            o[0] = e.covariance().trace();
-            o[1] = covariance_only ? 0.0 : squaredError(w->traj[static_cast<std::size_t>(T - 1)].x, e.state(), angles);
-            o[2] = w->trP_sum[j] / static_cast<double>(T - half);
-            o[3] = w->err_sum[j] / static_cast<double>(T - half);
-            o[5] = w->growth[j];
-          }
-          if (!w->alive[j] ||
-              !(std::isfinite(o[0]) && std::isfinite(o[1]) && std::isfinite(o[2]) && std::isfinite(o[3])))
-          {
-            std::fill(o, o + kStats, 0.0);
-            o[4] = 1.0;  // diverged (covariance only: P left the doubles)
-          }
-        }
-      }
-    };
-  };
+      const Model& m = points[model_varies ? p : 0].model;
+      w->links.emplace_back(m, sweepPointLinks(plan.su->links.link, plan.sweep->axes, plan.sweep->point_values[p]), 0,
+                            plan.su->options.noise_on_loss);
+    }
+    for (std::size_t p = 0; p < (model_varies ? np : 1); ++p)
+    {
+      LossyRunOptions plant_options = points[p].options;
+      plant_options.sensor_links.clear();  // the plant alone: the links are the point's
+      w->plants.emplace_back(points[p].model, 0, plant_options);
+    }
+    w->traj.resize(static_cast<std::size_t>(plan.T));
+    w->on.resize(static_cast<std::size_t>(plan.T));
+    w->sample = w->plants.front().received();
+  }
+  w->alive.assign(nf, 1);
+  w->trP_sum.assign(nf, 0.0);
+  w->err_sum.assign(nf, 0.0);
+  w->growth.assign(nf, 0.0);
+  return w;
+}
 
-  const CallStatistics stats = callStatistics(rc);
-  const Moments m = runMonteCarlo(rc.runs, values, rc.threads, factory, rc.progress, nullptr, &stats, rc.session);
-  const std::size_t nt = m.thresholds.size();
+/// Simulates plant `plant` for run seed `rs` into the worker's trajectory; false when the plant
+/// crossed the rounding floor (no statistic of this run).
+bool simulateSweepPlant(SweepWorker& w, std::size_t plant, std::uint64_t rs, long T)
+{
+  LossyRun& run = w.plants[plant];
+  run.restart(rs);
+  for (long k = 0; k < T; ++k)
+  {
+    try
+    {
+      w.traj[static_cast<std::size_t>(k)] = run.step();  // same sizes: no allocation
+    }
+    catch (const DivergenceError&)
+    {
+      return false;
+    }
+    w.on[static_cast<std::size_t>(k)] = run.scheduled();
+  }
+  return true;
+}
+
+/// Step k of every live estimator on the worker's sample (s: the plant's step, null covariance
+/// only), adding to the last half's sums.
+void stepSweepEstimators(SweepWorker& w, std::vector<std::unique_ptr<Estimator>>& est, const SweepPlan& plan, long k,
+                         const SimulatedSample* s, const std::vector<int>& angles)
+{
+  const bool gamma = w.sample.gamma;
+  for (std::size_t j = 0; j < plan.nf; ++j)
+  {
+    if (!w.alive[j])
+      continue;
+    Estimator& e = *est[j];
+    w.sample.gamma = gamma;
+    w.sample.nu = s && e.algorithm() == Algorithm::ACK_KF ? (s->nu ? 1 : 0) : -1;
+    try
+    {
+      e.step(w.sample);
+    }
+    catch (const DivergenceError&)
+    {
+      w.alive[j] = 0;
+      continue;
+    }
+    if (k > plan.half)
+    {
+      const double trace = e.covariance().trace();
+      w.trP_sum[j] += trace;
+      if (s)
+        w.err_sum[j] += squaredError(s->x, e.state(), angles);
+      addGrowth(w.growth[j], plan.gw[static_cast<std::size_t>(k - plan.half - 1)], trace);
+    }
+  }
+}
+
+/// The statistics of every estimator at grid point p into `out` (kStats per (point, estimator)).
+void sweepStatistics(const SweepWorker& w, const std::vector<std::unique_ptr<Estimator>>& est, const SweepPlan& plan,
+                     std::size_t p, const std::vector<int>& angles, double* out)
+{
+  const long T = plan.T, half = plan.half;
+  for (std::size_t j = 0; j < plan.nf; ++j)
+  {
+    double* o = out + kStats * (p * plan.nf + j);
+    if (w.alive[j])
+    {
+      const Estimator& e = *est[j];
+      o[0] = e.covariance().trace();
+      o[1] = plan.covariance_only ? 0.0 : squaredError(w.traj[static_cast<std::size_t>(T - 1)].x, e.state(), angles);
+      o[2] = w.trP_sum[j] / static_cast<double>(T - half);
+      o[3] = w.err_sum[j] / static_cast<double>(T - half);
+      o[5] = w.growth[j];
+    }
+    if (!w.alive[j] || !(std::isfinite(o[0]) && std::isfinite(o[1]) && std::isfinite(o[2]) && std::isfinite(o[3])))
+    {
+      std::fill(o, o + kStats, 0.0);
+      o[4] = 1.0;  // diverged (covariance only: P left the doubles)
+    }
+  }
+}
+
+/// Run `rs` of every estimator at grid point p (its plant simulated), its statistics into `out`.
+void runSweepPoint(SweepWorker& w, const SweepPlan& plan, std::size_t p, std::uint64_t rs, double* out)
+{
+  std::vector<std::unique_ptr<Estimator>>& est = w.est[w.est.size() > 1 ? p : 0];
+  for (std::size_t j = 0; j < plan.nf; ++j)
+  {
+    est[j]->reset();
+    w.alive[j] = 1;
+    w.trP_sum[j] = w.err_sum[j] = w.growth[j] = 0.0;
+  }
+  const std::vector<int>& angles = plan.points[plan.model_varies ? p : 0].model.angles;
+  if (plan.covariance_only)
+    w.arrivals[p].restart(rs);
+  else
+    w.links[p].reseed(rs);
+  for (long k = 1; k <= plan.T; ++k)
+  {
+    const SimulatedSample* s = nullptr;
+    if (plan.covariance_only)
+      w.sample = w.arrivals[p].next();
+    else
+    {
+      s = &w.traj[static_cast<std::size_t>(k - 1)];
+      w.links[p].receive(*s, w.on[static_cast<std::size_t>(k - 1)], w.sample);
+    }
+    stepSweepEstimators(w, est, plan, k, s, angles);
+  }
+  sweepStatistics(w, est, plan, p, angles, out);
+}
+
+/// Run r at every grid point: `simulate --seed S+r` with the point's model and links (common random
+/// numbers across the grid), replayed by every estimator as in the custom experiment. When only
+/// links vary, the links only decide what reaches the estimators, so one simulated plant (and
+/// schedule, and actuator link) serves every point. Covariance only: each point's arrivals, no plant.
+void sweepRun(SweepWorker& w, const SweepPlan& plan, long r, double* out)
+{
+  std::fill(out, out + plan.values, 0.0);
+  const std::uint64_t rs = plan.seed + static_cast<std::uint64_t>(r);
+  double* const floored = out + kStats * plan.nf * plan.np;  // per point
+  const bool own_plants = !plan.covariance_only && plan.model_varies;
+  if (!plan.covariance_only && !plan.model_varies && !simulateSweepPlant(w, 0, rs, plan.T))
+  {
+    std::fill(floored, floored + plan.np, 1.0);
+    return;
+  }
+  for (std::size_t p = 0; p < plan.np; ++p)
+  {
+    if (own_plants && !simulateSweepPlant(w, p, rs, plan.T))
+    {
+      floored[p] = 1.0;
+      continue;
+    }
+    runSweepPoint(w, plan, p, rs, out);
+  }
+}
+
+/// Each (grid point, estimator)'s cell from the moments of the runs: empty unless every run completed.
+void sweepCells(const Moments& m, const SweepPlan& plan, SweepResult& sweep)
+{
+  const std::size_t nf = plan.nf, np = plan.np, nt = m.thresholds.size();
   for (std::size_t p = 0; p < np; ++p)
     for (std::size_t j = 0; j < nf; ++j)
     {
@@ -315,7 +374,7 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
           c.trP_exceed.push_back(m.exceed.at(o * nt + t));
         c.growth = m.mean[o + 5];
         c.growth_sd = m.sd[o + 5];
-        if (!covariance_only)  // no plant: no errors
+        if (!plan.covariance_only)  // no plant: no errors
         {
           c.err_mean = m.mean[o + 1];
           c.err_sd = m.sd[o + 1];
@@ -324,20 +383,18 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
           c.err_median = m.sketches.at(o + 1).quantile(0.5);
         }
       }
-      sweep->cells.push_back(c);
+      sweep.cells.push_back(c);
     }
+}
 
-  ExperimentResult res;
-  res.x_label = axes[0].name();
-  res.y_label = axes.size() > 1 ? axes[1].name() : "tr P_T";
-  res.log_y = axes.size() == 1;
-  res.plot.kind = PlotHints::Kind::SWEEP;  // the stability map of the "sweep" member
-  res.plot.tails = false;
+/// The assumptions of the result: the files, what an axis sets, how the runs are drawn and counted.
+std::vector<std::string> sweepAssumptions(const MonteCarloConfig& cfg, const CustomSetup& su)
+{
   std::string described = su.links.describe();
   for (char& ch : described)
     if (ch == '\n')
       ch = ';';
-  res.assumptions = {
+  std::vector<std::string> assumptions = {
       "model " + cfg.model_path + "; links " + described +
           (cfg.actuator_channel_path.empty() ? "" : "; actuator " + cfg.actuator_channel_path),
       "at each grid point the swept parameters take the point's values: SENSOR.arrival_rate = an i.i.d. (bernoulli) "
@@ -354,11 +411,41 @@ ExperimentResult sweepExperiment(const RunConfig& rc)
       "verdicts and the critical curve: the core stability analysis (analyze's verdict and per-sensor margin) at "
       "each point's model and links; a critical curve only along an arrival or recovery rate",
   };
-  if (covariance_only)
-    res.assumptions.push_back(
+  if (cfg.covariance_only)
+    assumptions.push_back(
         "covariance only: no plant; every estimator runs its covariance recursion on the "
         "arrivals of run r at the point (those of `simulate --seed S+r`), so the err columns "
         "are empty and no run is floored; diverged = runs where P left the doubles");
+  return assumptions;
+}
+
+}  // namespace
+
+ExperimentResult sweepExperiment(const RunConfig& rc)
+{
+  const MonteCarloConfig& cfg = *rc.config;
+  const CustomSetup su = loadCustomSetup(cfg, "sweep");
+  const std::shared_ptr<SweepResult> sweep = sweepGrid(cfg, su);
+  if (rc.progress)
+    rc.progress->setTotal(rc.runs);
+  const SweepPlan plan = sweepPlan(rc, su, *sweep);
+  WorkerFactory factory = [&plan]() -> RunFunction
+  {
+    std::shared_ptr<SweepWorker> w = sweepWorker(plan);
+    return [w, &plan](long r, double* out) { sweepRun(*w, plan, r, out); };
+  };
+  const CallStatistics stats = callStatistics(rc);
+  const Moments m = runMonteCarlo(rc.runs, plan.values, rc.threads, factory, rc.progress, nullptr, &stats, rc.session);
+  sweepCells(m, plan, *sweep);
+
+  const std::vector<SweepAxis>& axes = sweep->axes;
+  ExperimentResult res;
+  res.x_label = axes[0].name();
+  res.y_label = axes.size() > 1 ? axes[1].name() : "tr P_T";
+  res.log_y = axes.size() == 1;
+  res.plot.kind = PlotHints::Kind::SWEEP;  // the stability map of the "sweep" member
+  res.plot.tails = false;
+  res.assumptions = sweepAssumptions(cfg, su);
   res.notes = {
       "DIR/sweep.csv has one row per (grid point, estimator); DIR/sweep.json's \"sweep\" has the axes, "
       "the per-point verdicts and the critical curve (docs/formats.md, section 8)"};
