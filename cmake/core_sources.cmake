@@ -44,6 +44,9 @@ set(NE_CORE_SOURCES
   src/core/experiments/paper_models.cpp
   src/core/experiments/quantile_sketch.cpp
   src/core/experiments/shard_file.cpp
+  src/core/experiments/sweep_analysis.cpp
+  src/core/experiments/sweep_axes.cpp
+  src/core/experiments/sweep_output.cpp
   # geodesy/: latitude/longitude to local ENU (GeographicLib)
   src/core/geodesy/local_enu.cpp
   src/core/geodesy/navsat_alignment.cpp
