@@ -17,7 +17,10 @@
 #   relay               the same receiver, publishing every odometry message again on
 #                       /odometry/filtered (~relay): an estimator's traffic (both inputs in, one
 #                       output per 50 Hz step out, to the probe by TCP) with no estimation: what
-#                       receiving and publishing cost in roscpp.
+#                       receiving and publishing cost in roscpp;
+#   decoding_relay      the relay that also deserializes the IMU messages into sensor_msgs/Imu
+#                       (~decode), as any node that reads their values must (the relay passes
+#                       them on as bytes): the floor of an estimator on these inputs.
 # Each run of each system has its own roscore on a free port; every process it starts is stopped
 # by its PID. Measured per run:
 #   CPU per input    utime + stime of the system's process (/proc/PID/stat) over the playback
@@ -37,8 +40,8 @@
 # Builds nothing: scripts/build.sh first, and the peer's workspace (robot_localization built with
 # catkin) given by PEER_WS; without it the benchmark is skipped (exit 0).
 # Usage: PEER_WS=<peer workspace> scripts/bench_peer.sh [--runs N] [--rate R] [--idle-seconds S]
-#          [--clock-hz HZ] [--systems "robot_localization estimator null relay"] [--params FILE] [BAG]
-#   defaults: 3 runs, rate 4, 10 s idle, all four systems, test/data/test2.bag, /clock at 100 Hz
+#          [--clock-hz HZ] [--systems "robot_localization estimator null relay decoding_relay"] [--params FILE] [BAG]
+#   defaults: 3 runs, rate 4, 10 s idle, all five systems, test/data/test2.bag, /clock at 100 Hz
 #   (wall: rosbag play's default). Under sim time a ros::Timer fires at most once per /clock
 #   message: at -r 4 a 100 Hz /clock advances 40 ms a message, and robot_localization's 50 Hz
 #   timer fires at 25 Hz of sim time; --clock-hz 200 lets it run at its 50 Hz.
@@ -50,7 +53,7 @@ RUNS_WANTED=3
 RATE=4
 IDLE_SECONDS=10
 BAG=""
-SYSTEMS="robot_localization estimator null relay"
+SYSTEMS="robot_localization estimator null relay decoding_relay"
 CLOCK_HZ=100
 PARAMS=""
 while [ $# -gt 0 ]; do
@@ -78,8 +81,8 @@ done
 [ -f "$BAG" ] || { echo "bench_peer: no bag '$BAG'" >&2; exit 2; }
 for sys in $SYSTEMS; do
   case "$sys" in
-    robot_localization|estimator|null|relay) ;;
-    *) echo "bench_peer: --systems: unknown system '$sys' (expected robot_localization, estimator, null, relay)" >&2; exit 2 ;;
+    robot_localization|estimator|null|relay|decoding_relay) ;;
+    *) echo "bench_peer: --systems: unknown system '$sys' (expected robot_localization, estimator, null, relay, decoding_relay)" >&2; exit 2 ;;
   esac
 done
 
@@ -179,6 +182,13 @@ start_system()
       rosparam set /$name/relay "$ODOM"
       rosrun nodelet nodelet standalone networked_estimation/BenchNullReceiver __name:=$name > "$log" 2>&1 < /dev/null &
       ;;
+    decoding_relay)
+      name=decoding_relay
+      rosparam set /$name/topics "[$ODOM, $IMU]"
+      rosparam set /$name/relay "$ODOM"
+      rosparam set /$name/decode true
+      rosrun nodelet nodelet standalone networked_estimation/BenchNullReceiver __name:=$name > "$log" 2>&1 < /dev/null &
+      ;;
   esac
   NODE_PID=$!
   for i in $(seq 1 60); do
@@ -259,12 +269,12 @@ rows = list(csv.DictReader(open(sys.argv[1])))
 cols = ["cpu_us_per_input", "cpu_us_per_input_schedstat", "latency_median_us", "latency_p99_us",
         "idle_pct_core", "idle_pct_core_schedstat", "x", "y", "z", "switches_per_input", "idle_switches_per_s"]
 med = {}
-for name in ("robot_localization", "estimator", "null", "relay"):
+for name in ("robot_localization", "estimator", "null", "relay", "decoding_relay"):
     mine = [r for r in rows if r["system"] == name]
     med[name] = {c: (statistics.median(float(r[c]) for r in mine) if mine and all(r[c] for r in mine) else None)
                  for c in cols}
     med[name]["runs"] = len(mine)
-    if not mine and name == "relay":  # not asked for (--systems)
+    if not mine and name in ("relay", "decoding_relay"):  # not asked for (--systems)
         del med[name]
 def f(v, fmt):
     return "-" if v is None else fmt % v
@@ -274,7 +284,8 @@ print("|---|---|---|---|---|---|---|---|---|")
 model = {"robot_localization": "EKF, 15 states (3-D pose, velocities, accelerations)",
          "estimator": sys.argv[2],
          "null": "none (drops every message)",
-         "relay": "none (publishes the odometry again)"}
+         "relay": "none (publishes the odometry again)",
+         "decoding_relay": "none (the relay, deserializing the IMU)"}
 for name, m in med.items():
     pos = "-" if m["x"] is None else "%.3f, %.3f, %.3f" % (m["x"], m["y"], m["z"])
     print("| %s | %s | %d | %s (%s) | %s | %s | %s (%s) | %s | %s; %s |" % (
@@ -295,5 +306,10 @@ if p and e["cpu_us_per_input"] and p["cpu_us_per_input"]:
     print("estimator / relay CPU per input: %.2f (schedstat %.2f)"
           % (e["cpu_us_per_input"] / p["cpu_us_per_input"],
              e["cpu_us_per_input_schedstat"] / p["cpu_us_per_input_schedstat"]))
+d = med.get("decoding_relay")
+if d and e["cpu_us_per_input"] and d["cpu_us_per_input"]:
+    print("estimator / decoding_relay CPU per input: %.2f (schedstat %.2f)"
+          % (e["cpu_us_per_input"] / d["cpu_us_per_input"],
+             e["cpu_us_per_input_schedstat"] / d["cpu_us_per_input_schedstat"]))
 PY
 echo "results: $CSV"

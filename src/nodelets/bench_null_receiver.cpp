@@ -8,9 +8,11 @@
 #include <algorithm>
 #include <atomic>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include "dispatch_thread.hpp"
+#include "input_message_types.hpp"
 #include "load_failure.hpp"
 
 namespace networked_estimation
@@ -20,7 +22,9 @@ namespace networked_estimation
 /// with ~inline, none: in roscpp's receive thread). With ~relay (one of ~topics, nav_msgs/Odometry),
 /// that topic's messages are published again on `odometry/filtered` from the same thread: an
 /// estimator's traffic (one output per step) with no estimation, the floor of a node that
-/// receives a robot's inputs and publishes its outputs through roscpp.
+/// receives a robot's inputs and publishes its outputs through roscpp. With ~decode, every other
+/// topic's messages are also deserialized into their class (one of the Estimator's input types,
+/// by the topic's type): what any node that reads their values pays on top of receiving them.
 class BenchNullReceiver : public nodelet::Nodelet
 {
 public:
@@ -42,6 +46,8 @@ private:
     getPrivateNodeHandle().param("inline", in_receive_thread, false);
     std::string relay;
     getPrivateNodeHandle().param("relay", relay, std::string());
+    bool decode = false;
+    getPrivateNodeHandle().param("decode", decode, false);
     if (!relay.empty() && std::find(topics.begin(), topics.end(), relay) == topics.end())
       refuseLoad(getName(), "BenchNullReceiver not started: ~relay: expected one of ~topics, found '" + relay + "'");
     if (!relay.empty() && in_receive_thread)
@@ -66,11 +72,39 @@ private:
             ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
       else
         subs_.push_back(nh.subscribe<topic_tools::ShapeShifter>(
-            t, 1000, [this](const topic_tools::ShapeShifter::ConstPtr&) { ++received_; }, ros::VoidConstPtr(),
-            ros::TransportHints().tcpNoDelay()));
+            t, 1000,
+            [this, decode, type = std::make_shared<int>(-1)](const topic_tools::ShapeShifter::ConstPtr& m)
+            {
+              ++received_;
+              if (decode)
+                deserialize(*m, *type);
+            },
+            ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
     }
-    NODELET_INFO("BenchNullReceiver on %zu topics%s%s", topics.size(), in_receive_thread ? " (inline)" : "",
+    NODELET_INFO("BenchNullReceiver on %zu topics%s%s%s", topics.size(), in_receive_thread ? " (inline)" : "",
+                 decode ? " (decoding)" : "",
                  relay.empty() ? "" : ("; " + relay + " relayed to " + nh.resolveName("odometry/filtered")).c_str());
+  }
+
+  /// Deserializes `m` into its class; `type` caches the topic's input type (-1: not known yet,
+  /// -2: not an input type, left as bytes).
+  static void deserialize(const topic_tools::ShapeShifter& m, int& type)
+  {
+    if (type == -1)
+    {
+      type = -2;
+      for (const InputType t : sensorInputTypes())
+        if (withInputMessage(t, [&](auto tag)
+                             { return ros::message_traits::datatype<MessageOf<decltype(tag)>>() == m.getDataType(); }))
+          type = static_cast<int>(t);
+    }
+    if (type >= 0)
+      withInputMessage(static_cast<InputType>(type),
+                       [&](auto tag)
+                       {
+                         const auto msg = m.instantiate<MessageOf<decltype(tag)>>();
+                         return msg != nullptr;
+                       });
   }
 
   InlineQueue inline_;
