@@ -1,5 +1,5 @@
-// Private building blocks shared by the estimators: sensor selection, the Kalman measurement
-// update in Cholesky form, and the base class holding the model and the estimate.
+// Private building blocks shared by the estimators: sensor selection and the base class holding
+// the model and the estimate (the Kalman update is kalman_update.hpp, the numerics cholesky.hpp).
 //
 // The update and the base class are templates on the sizes of their matrices (estimator_sizes.hpp):
 // one implementation of the maths, compiled for dynamic sizes and for a few fixed small ones.
@@ -13,7 +13,9 @@
 #include <type_traits>
 #include <vector>
 
+#include "estimators/cholesky.hpp"
 #include "estimators/estimator_sizes.hpp"
+#include "estimators/kalman_update.hpp"
 #include "networked_estimation/common/angles.hpp"
 #include "networked_estimation/common/error.hpp"
 #include "networked_estimation/common/index_select.hpp"
@@ -24,150 +26,9 @@ namespace networked_estimation
 namespace detail
 {
 
-/// Copies the lower triangle into the upper one: P becomes exactly symmetric.
-template <class Derived>
-inline void mirrorLower(Eigen::MatrixBase<Derived>& P)
-{
-  P.template triangularView<Eigen::StrictlyUpper>() = P.transpose();
-}
-
-/// P <- (P + P') / 2.
-template <class Derived>
-inline void symmetrise(Eigen::MatrixBase<Derived>& P)
-{
-  const Eigen::Index n = P.rows();
-  for (Eigen::Index j = 0; j < n; ++j)
-    for (Eigen::Index i = j + 1; i < n; ++i)
-    {
-      const double v = 0.5 * (P(i, j) + P(j, i));
-      P(i, j) = v;
-      P(j, i) = v;
-    }
-}
-
-/// out <- M u for an input u of dynamic size p (M's rows may be fixed): column by column, so that
-/// each term is a fixed-size axpy (a product with a dynamic inner size would loop over it per
-/// coefficient, or take the general GEMV).
-template <class Out, class Derived>
-inline void applyInput(Eigen::PlainObjectBase<Out>& out, const Eigen::MatrixBase<Derived>& M, const Eigen::VectorXd& u)
-{
-  out.setZero(M.rows());
-  for (Eigen::Index j = 0; j < u.size(); ++j)
-    out.noalias() += M.col(j) * u[j];
-}
-
-/// Cholesky factorisation S = L L' of a symmetric matrix (lower triangle read), and solves with L.
-/// Plain loops up to 8 x 8 (the sizes of most filters, where Eigen's blocked LLT and triangular
-/// solvers cost more than the arithmetic, and fixed sizes unroll), Eigen's LLT beyond (only
-/// reachable with dynamic sizes).
-template <class MatrixType>
-class Cholesky
-{
-  static constexpr int kMaxRows = MatrixType::MaxRowsAtCompileTime;
-  static constexpr bool kSmallOnly = kMaxRows != Eigen::Dynamic && kMaxRows <= 8;
-
-public:
-  /// Returns false when S is not positive definite (a pivot <= 0, as Eigen's LLT decides).
-  bool compute(const MatrixType& S) { return compute(S, S.rows()); }
-
-  /// compute(S) for an S whose rows and columns from `active` on are those of the identity (the
-  /// padding of the fixed-size path): their part of the factor is the identity too, exactly as
-  /// compute(S) would find it, so only the leading active x active block is factorised.
-  bool compute(const MatrixType& S, Eigen::Index active)
-  {
-    if constexpr (!kSmallOnly)
-    {
-      small_ = S.rows() <= 8;
-      if (!small_)
-      {
-        llt_.compute(S);
-        return llt_.info() == Eigen::Success;
-      }
-    }
-    L_ = S;
-    const Eigen::Index n = active;
-    inv_.resize(L_.rows());
-    for (Eigen::Index j = n; j < L_.rows(); ++j)
-      inv_[j] = 1.0;
-    for (Eigen::Index j = 0; j < n; ++j)
-    {
-      double d = L_(j, j);
-      for (Eigen::Index k = 0; k < j; ++k)
-        d -= L_(j, k) * L_(j, k);
-      if (d <= 0.0)
-        return false;
-      d = std::sqrt(d);
-      L_(j, j) = d;
-      inv_[j] = 1.0 / d;  // the solves multiply: one division per pivot, not one per use
-      for (Eigen::Index i = j + 1; i < n; ++i)
-      {
-        double v = L_(i, j);
-        for (Eigen::Index k = 0; k < j; ++k)
-          v -= L_(i, k) * L_(j, k);
-        L_(i, j) = v * inv_[j];
-      }
-    }
-    return true;
-  }
-
-  /// B <- L^{-1} B.
-  template <class Derived>
-  void solveLower(Eigen::MatrixBase<Derived>& B) const
-  {
-    if constexpr (!kSmallOnly)
-    {
-      if (!small_)
-      {
-        llt_.matrixL().solveInPlace(B);
-        return;
-      }
-    }
-    const Eigen::Index m = L_.rows();
-    for (Eigen::Index j = 0; j < B.cols(); ++j)
-      for (Eigen::Index i = 0; i < m; ++i)
-      {
-        double v = B(i, j);
-        for (Eigen::Index k = 0; k < i; ++k)
-          v -= L_(i, k) * B(k, j);
-        B(i, j) = v * inv_[i];
-      }
-  }
-
-  /// B <- L^{-T} B.
-  template <class Derived>
-  void solveUpper(Eigen::MatrixBase<Derived>& B) const
-  {
-    if constexpr (!kSmallOnly)
-    {
-      if (!small_)
-      {
-        llt_.matrixU().solveInPlace(B);
-        return;
-      }
-    }
-    const Eigen::Index m = L_.rows();
-    for (Eigen::Index j = 0; j < B.cols(); ++j)
-      for (Eigen::Index i = m - 1; i >= 0; --i)
-      {
-        double v = B(i, j);
-        for (Eigen::Index k = i + 1; k < m; ++k)
-          v -= L_(k, i) * B(k, j);
-        B(i, j) = v * inv_[i];
-      }
-  }
-
-private:
-  MatrixType L_;                                                        ///< L in the lower triangle (small factors)
-  Mat<MatrixType::RowsAtCompileTime, 1> inv_;                           ///< 1 / L(i, i)
-  std::conditional_t<kSmallOnly, bool, Eigen::LLT<MatrixType>> llt_{};  ///< larger factors
-  bool small_ = true;
-};
-
 /// The DivergenceErrors of the estimators, out of line (the message is only built when thrown).
 [[noreturn]] void throwDiverged(Algorithm algorithm, long step);
 [[noreturn]] void throwSteppedAfterDivergence(Algorithm algorithm);
-/// A Kalman update's C P C' + R is not positive definite.
-[[noreturn]] void throwNotPositiveDefinite(double trace);
 
 /// Which sensors of a sample are fused. Size-independent: the estimators copy the rows themselves.
 class ArrivalSelector
@@ -236,119 +97,6 @@ private:
   bool all_ = false;
   bool changed_ = false;
   int rows_ = 0;
-};
-
-/// Kalman measurement update in Cholesky form: with S = C P C' + R = L L' and W = L^{-1} C P,
-///   P+ = P - W'W              (= P - P C' S^{-1} C P, exactly symmetric by construction)
-///   x+ = x + W' L^{-1}(y - C x) (= x + K (y - C x), K = P C' S^{-1}; K is never formed)
-/// Cancellation guard: when the update removes more than six digits of trace (a long gap of
-/// losses on an unstable plant) or leaves a negative diagonal, P+ is recomputed in Joseph form
-///   P+ = (I - K C) P (I - K C)' + K R K',
-/// which stays positive semidefinite where the subtraction would lose it. The guard costs O(n) on
-/// the ordinary path.
-///
-/// A row of C that is zero, with a unit row and column of R and a zero y, changes nothing: its row
-/// of L is a unit row, its rows of W and of the whitened innovation are exact zeros. The fixed-size
-/// path uses this to keep C at its compile-time size when some sensors are missing.
-/// N states, Rows rows of C (either may be kDynamic).
-template <int N, int Rows>
-class KalmanUpdate
-{
-public:
-  using MatN = Mat<N, N>;
-  using VecN = Mat<N, 1>;
-  using MatC = Mat<Rows, N>;
-  using MatR = Mat<Rows, Rows>;
-  using VecR = Mat<Rows, 1>;
-
-  /// Factorises S for the prior covariance P. Throws DivergenceError when S is not positive
-  /// definite (only possible when P has overflowed). C and R must outlive the update's use.
-  void factor(const MatN& P, const MatC& C, const MatR& R)
-  {
-    C_ = &C;
-    R_ = &R;
-    W_.noalias() = C * P;  // C P
-    S_ = R;
-    S_.noalias() += W_ * C.transpose();
-    if (!chol_.compute(S_))
-      throwNotPositiveDefinite(P.trace());
-    chol_.solveLower(W_);  // W = L^{-1} C P
-  }
-  /// How many updates fell back to the Joseph form.
-  long josephFallbacks() const { return joseph_; }
-  /// E <- L^{-1} E (whitened innovations).
-  template <class Derived>
-  void whiten(Eigen::MatrixBase<Derived>& E) const
-  {
-    chol_.solveLower(E);
-  }
-  /// The rows of C (as given to factor()) that measure an angle: their innovations are wrapped
-  /// into (-pi, pi] (docs/algorithms.md 2.7). Null or empty: none. Must outlive the update's use.
-  void setAngularRows(const std::vector<int>* rows) { angles_ = rows; }
-  /// Wraps the angular rows of innovations y - C x (a vector, or one column per innovation).
-  template <class Derived>
-  void wrapInnovations(Eigen::MatrixBase<Derived>& E) const
-  {
-    if (angles_ && !angles_->empty())
-      wrapEntries(E, *angles_);
-  }
-  /// x += W' L^{-1}(y - C x) for the C of factor(); returns the whitened innovation L^{-1}(y - C x)
-  /// (the angular rows of y - C x wrapped first).
-  template <class VecY>
-  const VecR& updateMean(const VecY& y, VecN& x)
-  {
-    e_ = y;
-    e_.noalias() -= (*C_) * x;
-    wrapInnovations(e_);
-    chol_.solveLower(e_);
-    x.noalias() += W_.transpose() * e_;
-    return e_;
-  }
-  /// L^{-1} C v for the C of factor() (aoe: the whitened effect of the command).
-  const VecR& whitenedImage(const VecN& v)
-  {
-    v_.noalias() = (*C_) * v;
-    chol_.solveLower(v_);
-    return v_;
-  }
-  /// P <- P - W'W on the lower triangle, then mirrored (P must be the P given to factor()).
-  void downdate(MatN& P) const
-  {
-    const double prior_trace = P.trace();
-    prior_ = P;
-    // A plain product (coefficient-based for small sizes, GEMM for large ones) is cheaper than
-    // selfadjointView().rankUpdate at the sizes of most filters; mirroring makes P exactly symmetric.
-    P.noalias() -= W_.transpose() * W_;
-    mirrorLower(P);
-    if (P.diagonal().minCoeff() < 0.0 || prior_trace > 1e6 * P.trace())
-      joseph(P);
-  }
-  const MatC& W() const { return W_; }
-
-private:
-  void joseph(MatN& P) const
-  {
-    ++joseph_;
-    const Eigen::Index n = prior_.rows();
-    // K' = S^{-1} C P = L^{-T} W
-    MatC Kt = W_;
-    chol_.solveUpper(Kt);
-    MatN IKC = MatN::Identity(n, n);
-    IKC.noalias() -= Kt.transpose() * (*C_);
-    P.noalias() = IKC * prior_ * IKC.transpose();
-    P.noalias() += Kt.transpose() * (*R_) * Kt;
-    symmetrise(P);
-  }
-
-  MatR S_;
-  MatC W_;
-  Cholesky<MatR> chol_;
-  VecR e_, v_;
-  const MatC* C_ = nullptr;
-  const MatR* R_ = nullptr;
-  const std::vector<int>* angles_ = nullptr;
-  mutable MatN prior_;
-  mutable long joseph_ = 0;
 };
 
 /// Shared state of the linear-Gaussian estimators, for the sizes S (estimator_sizes.hpp). The
