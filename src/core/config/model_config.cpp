@@ -282,12 +282,9 @@ void readC(const Field& c, ModelParse& p)
   p.model.C = c.matrix(-1, p.n(), colsText(p.n()));
 }
 
+/// R of the single sensor: C was read (without C, C's absence rule has failed before this row).
 void readR(const Field& r, ModelParse& p)
 {
-  if (!p.map["C"])
-  {
-    return;  // the row of C names it
-  }
   const int m = p.m();
   p.model.R = r.matrix(m, m, countText("m", m) + ", the rows of C");
   r.checkCovariance(p.model.R, "R", Definiteness::POSITIVE);

@@ -153,10 +153,10 @@ struct ScheduleParse
   const std::vector<Sensor>& sensors;
 };
 
-/// A non-empty list of sensor sets (`expected` says what each is) of which at least one names a
-/// sensor (`all_empty` says why otherwise).
-std::vector<std::vector<bool>> readSets(const Field& f, const std::vector<Sensor>& sensors, const std::string& expected,
-                                        const std::string& all_empty)
+/// A non-empty list of sensor sets, each a `set` ("step", "subset"; `expected` says what the list
+/// holds), of which at least one names a sensor (`all_empty` says why otherwise).
+std::vector<std::vector<bool>> readSets(const Field& f, const std::vector<Sensor>& sensors, const std::string& set,
+                                        const std::string& expected, const std::string& all_empty)
 {
   if (!f.isList() || f.size() == 0)
     f.fail("expected a non-empty list of " + expected + ", found " + f.found());
@@ -164,8 +164,7 @@ std::vector<std::vector<bool>> readSets(const Field& f, const std::vector<Sensor
   for (const Field& set : f.elements())
     sets.push_back(parseSet(set, sensors));
   if (noneScheduled(sets))
-    f.fail(all_empty + ": the estimator would never receive a measurement; name at least one sensor in some " +
-           (expected.rfind("steps", 0) == 0 ? "step" : "subset"));
+    f.fail(all_empty + ": the estimator would never receive a measurement; name at least one sensor in some " + set);
   return sets;
 }
 
@@ -177,14 +176,14 @@ void readPattern(const Field& p, ScheduleParse& out)
           "cannot be combined with schedule.pattern (a periodic schedule is a pattern; a random one is "
           "subsets with probabilities or a transition matrix)");
   out.sch.kind = Schedule::Kind::PERIODIC;
-  out.sch.pattern = readSets(p, out.sensors, "steps, each a list of sensor names (e.g. [[gnss], [camera]])",
+  out.sch.pattern = readSets(p, out.sensors, "step", "steps, each a list of sensor names (e.g. [[gnss], [camera]])",
                              "no step schedules a sensor (every step is [])");
 }
 
 void readSubsets(const Field& s, ScheduleParse& out)
 {
   out.sch.kind = Schedule::Kind::RANDOM;
-  out.sch.subsets = readSets(s, out.sensors, "subsets, each a list of sensor names", "every subset is []");
+  out.sch.subsets = readSets(s, out.sensors, "subset", "subsets, each a list of sensor names", "every subset is []");
 }
 
 void readProbabilities(const Field& f, ScheduleParse& out)
