@@ -50,6 +50,23 @@ switches()
   cat /proc/"$1"/task/*/status | awk '/^(non)?voluntary_ctxt_switches/ { s += $2 } END { printf "%d", s }'
 }
 
+# Each thread of process $1, a line each: "TID NAME CPU_NS SWITCHES WCHAN": its name (roscpp's
+# threads carry the process's, the nodelets' own input threads their own: ne_dispatch), its
+# nanoseconds on CPU so far (schedstat), its context switches so far (voluntary and not) and the
+# kernel function it waits in now (roscpp's receive thread waits in do_epoll_wait). A thread that
+# ends while it is read is left out.
+threads()
+{
+  local t line
+  for t in /proc/"$1"/task/*; do
+    line="${t##*/} $(tr -c '[:alnum:]_\n-' '_' < "$t/comm" 2>/dev/null) $(cut -d' ' -f1 "$t/schedstat" 2>/dev/null)"
+    line="$line $(awk '/^(non)?voluntary_ctxt_switches/ { s += $2 } END { print s }' "$t/status" 2>/dev/null)"
+    line="$line $(cat "$t/wchan" 2>/dev/null)"
+    [ "$(echo "$line" | wc -w)" -ge 4 ] && echo "$line"
+  done
+  return 0
+}
+
 # Stops one process started by the calling script, by its PID: SIGINT, then SIGKILL after 5 s.
 stop_pid()
 {

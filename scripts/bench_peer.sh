@@ -35,7 +35,9 @@
 #                    IDLE seconds after the playback, with no input (% of one core);
 #   final position   x, y, z of the last /odometry/filtered received;
 #   context switches of all the process's threads (/proc/PID/task/*/status), per input over the
-#                    playback and per second idle: where a small VM's time goes.
+#                    playback and per second idle: where a small VM's time goes;
+#   by thread        the playback's CPU (schedstat) and context switches per input of the
+#                    nodelet's input thread (ne_dispatch), roscpp's receive thread and the rest.
 # The table holds the median over the runs of each column; every run is in the CSV.
 # Builds nothing: scripts/build.sh first, and the peer's workspace (robot_localization built with
 # catkin) given by PEER_WS; without it the benchmark is skipped (exit 0).
@@ -45,7 +47,8 @@
 #   (wall: rosbag play's default). Under sim time a ros::Timer fires at most once per /clock
 #   message: at -r 4 a 100 Hz /clock advances 40 ms a message, and robot_localization's 50 Hz
 #   timer fires at 25 Hz of sim time; --clock-hz 200 lets it run at its 50 Hz.
-# Results: $WS/bench/peer.csv and a table on stdout; logs in $WS/bench/peer_runs/.
+# Results: $WS/bench/peer.csv, $WS/bench/peer_threads.csv and tables on stdout; logs (each run's
+# threads at the playback's start and end among them) in $WS/bench/peer_runs/.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/workspace.sh"
 
@@ -200,6 +203,8 @@ start_system()
   return 1
 }
 
+THREADS_CSV="$OUT/peer_threads.csv"
+echo "system,run,group,cpu_us_per_input,switches_per_input" > "$THREADS_CSV"
 echo "system,run,inputs,cpu_us_per_input,cpu_us_per_input_schedstat,latency_median_us,latency_p99_us,outputs,matched,idle_pct_core,idle_pct_core_schedstat,x,y,z,switches_per_input,idle_switches_per_s" > "$CSV"
 
 run_one()  # system run
@@ -212,10 +217,10 @@ run_one()  # system run
     > "$LOGS/probe_${sys}_$run.txt" 2> "$LOGS/probe_${sys}_$run.log" &
   PROBE_PID=$!
   sleep 2
-  c0="$(cpu "$NODE_PID")"; s0="$(switches "$NODE_PID")"
+  c0="$(cpu "$NODE_PID")"; s0="$(switches "$NODE_PID")"; threads "$NODE_PID" > "$LOGS/threads_${sys}_${run}_start.txt"
   rosbag play -q --clock --hz "$CLOCK_HZ" -r "$RATE" -d 1 "$BAG" > "$LOGS/play_${sys}_$run.log" 2>&1 < /dev/null
   sleep 0.5
-  c1="$(cpu "$NODE_PID")"; s1="$(switches "$NODE_PID")"
+  c1="$(cpu "$NODE_PID")"; s1="$(switches "$NODE_PID")"; threads "$NODE_PID" > "$LOGS/threads_${sys}_${run}_end.txt"
   wait "$PROBE_PID" || true
   PROBE_PID=""
   probe="$(cat "$LOGS/probe_${sys}_$run.txt")"
@@ -251,6 +256,37 @@ print("  %-18s run %s: CPU per input %6.1f us (schedstat %6.1f); latency median 
       " idle %.2f %% of a core; last position %s %s %s; context switches %.2f per input, %.0f/s idle"
       % (sys_name, run, cpu_ticks, cpu_ns, row[5] or "-", row[6] or "-", row[7] or "0", row[8] or "0", idle_ticks,
          row[11] or "-", row[12] or "-", row[13] or "-", switches_per_input, idle_switches_per_s))
+PY
+  per_thread "$sys" "$run"
+}
+
+# The playback's CPU and context switches per input, thread by thread (threads in bench_lib.sh),
+# in three groups: the nodelet's own input thread (ne_dispatch), roscpp's receive thread (the one
+# waiting in epoll) and every other thread (roscpp's timers, clock and log threads, the nodelet
+# manager's, a node's main thread); a row per group into $THREADS_CSV.
+per_thread()  # system run
+{
+  python3 - "$1" "$2" "$INPUTS" "$LOGS/threads_$1_$2_start.txt" "$LOGS/threads_$1_$2_end.txt" "$THREADS_CSV" <<'PY'
+import sys
+name, run, inputs = sys.argv[1], sys.argv[2], float(sys.argv[3])
+def read(path):
+    out = {}
+    for line in open(path):
+        f = line.split()
+        out[f[0]] = (f[1], int(f[2]), int(f[3]), f[4] if len(f) > 4 else "")
+    return out
+start, end = read(sys.argv[4]), read(sys.argv[5])
+groups = {"ne_dispatch": [0, 0], "roscpp_receive": [0, 0], "other": [0, 0]}
+for tid, (comm, ns, sw, wchan) in end.items():
+    ns0, sw0 = start[tid][1:3] if tid in start else (0, 0)
+    g = "ne_dispatch" if comm == "ne_dispatch" else "roscpp_receive" if "epoll" in wchan else "other"
+    groups[g][0] += ns - ns0
+    groups[g][1] += sw - sw0
+with open(sys.argv[6], "a") as out:
+    for g, (ns, sw) in groups.items():
+        out.write("%s,%s,%s,%.1f,%.2f\n" % (name, run, g, 1e-3 * ns / inputs, sw / inputs))
+print("  %-18s run %s by thread (CPU us; context switches per input): %s" % (name, run, "; ".join(
+    "%s %.1f; %.2f" % (g, 1e-3 * ns / inputs, sw / inputs) for g, (ns, sw) in groups.items())))
 PY
 }
 
@@ -312,4 +348,23 @@ if d and e["cpu_us_per_input"] and d["cpu_us_per_input"]:
           % (e["cpu_us_per_input"] / d["cpu_us_per_input"],
              e["cpu_us_per_input_schedstat"] / d["cpu_us_per_input_schedstat"]))
 PY
-echo "results: $CSV"
+python3 - "$THREADS_CSV" <<'PY'
+import csv, statistics, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+groups = ("ne_dispatch", "roscpp_receive", "other")
+print()
+print("| system | " + " | ".join("%s: CPU per input (us); switches per input" % g for g in groups) + " |")
+print("|---|---|---|---|")
+for name in ("robot_localization", "estimator", "null", "relay", "decoding_relay"):
+    cells = []
+    for g in groups:
+        mine = [r for r in rows if r["system"] == name and r["group"] == g]
+        if not mine:
+            break
+        cells.append("%.1f; %.2f" % (statistics.median(float(r["cpu_us_per_input"]) for r in mine),
+                                      statistics.median(float(r["switches_per_input"]) for r in mine)))
+    if cells:
+        print("| %s | %s |" % (name, " | ".join(cells)))
+print("(the playback's schedstat CPU and context switches by thread, medians over the runs)")
+PY
+echo "results: $CSV, $THREADS_CSV"
