@@ -123,16 +123,16 @@ public:
   /// Starts the thread. `work` runs the timed work that is due (taking its own locks) and returns
   /// the wall seconds until it is next due (0: at once; infinity: nothing timed). It runs after
   /// every batch of callbacks and whenever that time has passed without a message. The thread is
-  /// named `name` (at most 15 characters: Linux's limit), so that top -H, perf and the benchmarks'
-  /// per-thread tables tell it from roscpp's threads (which carry the process's name).
-  void start(std::function<double()> work, const char* name = kName)
+  /// named kName, so that top -H, perf and the benchmarks' per-thread tables tell it from
+  /// roscpp's threads (which carry the process's name).
+  void start(std::function<double()> work)
   {
     work_ = std::move(work);
     thread_ = std::thread([this] { run(); });
-    pthread_setname_np(thread_.native_handle(), name);  // best effort: a name is only a label
+    pthread_setname_np(thread_.native_handle(), kName);  // best effort: a name is only a label
   }
 
-  /// The name of a nodelet's input thread.
+  /// The thread's name (at most 15 characters: Linux's limit).
   static constexpr const char* kName = "ne_dispatch";
 
   /// Makes the thread run `work` now (after a change made by another thread, e.g. a reconfigure).

@@ -13,12 +13,9 @@ void EstimatorNodelet::onInit()
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
   // The inputs are served by the Estimator's own thread (dispatch_thread.hpp), which also takes
-  // the steps whose deadline passes; tf (its timer, /tf and the tf2 listener) by a thread of its
-  // own; the diagnostics, set_pose and reconfigure stay on the nodelet's queue.
+  // the steps whose deadline passes; timers, tf and reconfigure stay on the nodelet's queue.
   ros::NodeHandle in_nh(nh);
   in_nh.setCallbackQueue(dispatch_.queue());
-  ros::NodeHandle tf_nh(nh);
-  tf_nh.setCallbackQueue(tf_thread_.queue());
   try
   {
     configure(pnh);
@@ -27,10 +24,9 @@ void EstimatorNodelet::onInit()
   {
     refuseLoad(getName(), std::string("Estimator not started: ") + e.what());
   }
-  frames_.configure(tf_nh, config_.world_frame, config_.base_link_frame);
+  frames_.configure(nh, config_.world_frame, config_.base_link_frame);
   outputs_.start(
-      tf_nh, config_, getName(), [this]() -> const Frames& { return frames_.get(); }, gnss_.get());
-  tf_thread_.start([] { return 1.0; }, "ne_tf");  // nothing timed of its own: waits for callbacks
+      nh, config_, getName(), [this]() -> const Frames& { return frames_.get(); }, gnss_.get());
   startSetPose(nh);
   const Model& model = stream_->online().model();
   const std::vector<SensorInput>& inputs = config_.inputs;

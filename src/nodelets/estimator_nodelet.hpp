@@ -75,7 +75,6 @@ public:
       gnss_->stop();
     schedule_sub_.shutdown();
     outputs_.stop();
-    tf_thread_.stop();  // after it, nothing runs the tf timer or the /tf callbacks
   }
 
 private:
@@ -169,10 +168,6 @@ private:
   RuntimeLimits limits_;
   /// gnss_alignment: navsat_transform (gnss_alignment.hpp); null with enu.
   std::unique_ptr<GnssAligner> gnss_;
-  /// Serves tf: the tf timer, the /tf and /tf_static subscriptions and the tf2 listener, off the
-  /// nodelet manager's threads (a manager hand-off per callback, 20 times a second). Declared
-  /// before frames_ and outputs_, whose timer and subscriptions use its queue: outlives them.
-  DispatchThread tf_thread_;
   FrameLookup frames_;
   EstimatorOutputs outputs_;
   LinkDiagnostics link_;
