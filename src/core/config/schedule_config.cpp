@@ -153,9 +153,9 @@ struct ScheduleParse
   const std::vector<Sensor>& sensors;
 };
 
-/// A non-empty list of sensor sets, each a `set` ("step", "subset"; `expected` says what the list
+/// A non-empty list of sensor sets, each a `noun` ("step", "subset"; `expected` says what the list
 /// holds), of which at least one names a sensor (`all_empty` says why otherwise).
-std::vector<std::vector<bool>> readSets(const Field& f, const std::vector<Sensor>& sensors, const std::string& set,
+std::vector<std::vector<bool>> readSets(const Field& f, const std::vector<Sensor>& sensors, const std::string& noun,
                                         const std::string& expected, const std::string& all_empty)
 {
   if (!f.isList() || f.size() == 0)
@@ -164,7 +164,7 @@ std::vector<std::vector<bool>> readSets(const Field& f, const std::vector<Sensor
   for (const Field& set : f.elements())
     sets.push_back(parseSet(set, sensors));
   if (noneScheduled(sets))
-    f.fail(all_empty + ": the estimator would never receive a measurement; name at least one sensor in some " + set);
+    f.fail(all_empty + ": the estimator would never receive a measurement; name at least one sensor in some " + noun);
   return sets;
 }
 
