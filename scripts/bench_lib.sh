@@ -44,10 +44,10 @@ cpu()
 }
 
 # Context switches so far of all threads of process $1 (voluntary and not): a thread's wake-up
-# and sleep, the largest single cost of a message on a small VM.
+# and sleep, the largest single cost of a message on a small VM. The sum of threads' column.
 switches()
 {
-  cat /proc/"$1"/task/*/status | awk '/^(non)?voluntary_ctxt_switches/ { s += $2 } END { printf "%d", s }'
+  threads "$1" | awk '{ s += $4 } END { printf "%d", s }'
 }
 
 # Each thread of process $1, a line each: "TID NAME CPU_NS SWITCHES WCHAN": its name (roscpp's
