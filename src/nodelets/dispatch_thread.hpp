@@ -58,8 +58,8 @@ inline void callNow(const ros::CallbackInterfacePtr& callback)
 
 /// A callback queue that calls every callback at once in the delivering thread, roscpp's receive
 /// thread included. Only for callbacks that publish nothing and take no lock that a publishing
-/// thread may hold (BenchNullReceiver's ~inline, SimClockWatch's ticks): roscpp's receive thread
-/// holds the subscription's lock while it delivers.
+/// thread may hold (BenchNullReceiver's ~inline, SimClockWatch's ticks, the Estimator's /tf
+/// readers): roscpp's receive thread holds the subscription's lock while it delivers.
 class InlineQueue : public ros::CallbackQueueInterface
 {
 public:

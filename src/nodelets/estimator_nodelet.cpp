@@ -13,7 +13,8 @@ void EstimatorNodelet::onInit()
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
   // The inputs are served by the Estimator's own thread (dispatch_thread.hpp), which also takes
-  // the steps whose deadline passes; timers, tf and reconfigure stay on the nodelet's queue.
+  // the steps whose deadline passes, and the tf timer's ticks; the other timers and reconfigure stay
+  // on the nodelet's queue.
   ros::NodeHandle in_nh(nh);
   in_nh.setCallbackQueue(dispatch_.queue());
   try
@@ -26,7 +27,7 @@ void EstimatorNodelet::onInit()
   }
   frames_.configure(nh, config_.world_frame, config_.base_link_frame);
   outputs_.start(
-      nh, config_, getName(), [this]() -> const Frames& { return frames_.get(); }, gnss_.get());
+      nh, config_, getName(), [this]() -> const Frames& { return frames_.get(); }, gnss_.get(), dispatch_.queue());
   startSetPose(nh);
   const Model& model = stream_->online().model();
   const std::vector<SensorInput>& inputs = config_.inputs;

@@ -49,7 +49,8 @@ geometry_msgs::PoseWithCovarianceStamped::Ptr poseMessage(const StepEstimate& e,
 }
 
 void EstimatorOutputs::start(ros::NodeHandle& nh, const EstimatorNodeConfig& config, const std::string& name,
-                             std::function<const Frames&()> frames, GnssAligner* gnss)
+                             std::function<const Frames&()> frames, GnssAligner* gnss,
+                             ros::CallbackQueueInterface* tf_queue)
 {
   config_ = &config;
   name_ = name;
@@ -71,11 +72,14 @@ void EstimatorOutputs::start(ros::NodeHandle& nh, const EstimatorNodeConfig& con
         o.initByFullCallbackType<const ros::MessageEvent<tf2_msgs::TFMessage const>&>(
             static_tf ? "/tf_static" : "/tf", 100,
             [this, static_tf](const ros::MessageEvent<tf2_msgs::TFMessage const>& e) { onTf(e, static_tf); });
+        o.callback_queue = &tf_queue_;
         (static_tf ? tf_static_sub_ : tf_sub_) = nh.subscribe(o);
       }
     }
-    tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
-    tf_timer_ = nh.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { tfTimer(); });
+    tf_pub_ = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
+    ros::NodeHandle tf_nh(nh);
+    tf_nh.setCallbackQueue(tf_queue);
+    tf_timer_ = tf_nh.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { tfTimer(); });
   }
   if (config.predict_to_current_time)
   {
@@ -90,6 +94,11 @@ void EstimatorOutputs::start(ros::NodeHandle& nh, const EstimatorNodeConfig& con
 
 void EstimatorOutputs::stop()
 {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopped_ = true;  // offerTf() starts it no more
+  }
+  tf_timer_.stop();  // (unlocked: it waits for a tick in progress, which takes mutex_)
   tf_sub_.shutdown();
   tf_static_sub_.shutdown();
 }
@@ -115,7 +124,7 @@ void EstimatorOutputs::publishStep(const StepEstimatePtr& e)
     if (odom_pub_.getNumSubscribers() > 0)
       publishOdometry(*e);
     if (c.publish_tf)
-      offerTf(e);  // tf leaves from tfTimer() in the nodelet's own queue, not this thread
+      offerTf(e);  // tf leaves from tfTimer(), 20 times a second, not with every step
   }
   if (gnss_ && gnss_->wantsFiltered())
     publishFilteredGps(*e);
@@ -146,7 +155,7 @@ void EstimatorOutputs::offerTf(const StepEstimatePtr& e)
 {
   std::lock_guard<std::mutex> lock(mutex_);
   last_tf_estimate_ = e;
-  if (tf_timer_idle_)  // stopped while no estimate came
+  if (tf_timer_idle_ && !stopped_)  // stopped while no estimate came
   {
     tf_timer_idle_ = false;
     tf_timer_.start();
@@ -208,7 +217,7 @@ void EstimatorOutputs::tfTimer()
     if (!e || e->stamp == last_tf_)
     {
       // Nothing new (no input, a stopped clock): the timer stops until the next estimate starts
-      // it again, rather than waking the manager's threads 20 times a second for nothing.
+      // it again, rather than waking the input thread 20 times a second for nothing.
       tf_timer_.stop();
       tf_timer_idle_ = true;
       return;
@@ -218,7 +227,7 @@ void EstimatorOutputs::tfTimer()
   geometry_msgs::TransformStamped t = positionTransform(*e);
   if (c.child_frame_id != c.base_link_frame)
   {
-    tf_->sendTransform(t);  // the estimate's own frame: its position entries, no rotation
+    sendTf(t);  // the estimate's own frame: its position entries, no rotation
     return;
   }
   // Driving base_link: its pose from ~state_mapping, and never a second parent.
@@ -265,7 +274,14 @@ void EstimatorOutputs::tfTimer()
     std::lock_guard<std::mutex> lock(tf_mutex_);
     own_tf_.sent(t);  // before it can come back on /tf
   }
-  tf_->sendTransform(t);
+  sendTf(t);
+}
+
+void EstimatorOutputs::sendTf(const geometry_msgs::TransformStamped& t)
+{
+  tf2_msgs::TFMessage::Ptr m = boost::make_shared<tf2_msgs::TFMessage>();
+  m->transforms.push_back(t);
+  tf_pub_.publish(m);
 }
 
 void EstimatorOutputs::onTf(const ros::MessageEvent<tf2_msgs::TFMessage const>& e, bool static_tf)

@@ -12,7 +12,6 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <ros/ros.h>
 #include <tf2_msgs/TFMessage.h>
-#include <tf2_ros/transform_broadcaster.h>
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -22,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "dispatch_thread.hpp"
 #include "frame_transforms.hpp"
 #include "gnss_alignment.hpp"
 #include "networked_estimation/Estimate.h"
@@ -56,10 +56,13 @@ class EstimatorOutputs
 {
 public:
   /// `name`: the nodelet's, for the logs; `frames`: base_link's tf lookups (map -> odom, made on
-  /// first use); `gnss`: the GNSS alignment or null. Advertises the topics and starts the timers.
+  /// first use); `gnss`: the GNSS alignment or null; `tf_queue`: the queue the tf timer's ticks go
+  /// to (the nodelet's input thread: no hand-off through the manager's threads). Advertises the
+  /// topics and starts the timers.
   void start(ros::NodeHandle& nh, const EstimatorNodeConfig& config, const std::string& name,
-             std::function<const Frames&()> frames, GnssAligner* gnss);
-  /// Unsubscribes from /tf (before the tf buffer goes).
+             std::function<const Frames&()> frames, GnssAligner* gnss, ros::CallbackQueueInterface* tf_queue);
+  /// Stops the tf timer for good (before tf_queue goes) and unsubscribes from /tf (before the tf
+  /// buffer goes).
   void stop();
 
   /// One step's outputs (the filter's lock held).
@@ -76,6 +79,7 @@ private:
   /// The latest estimate as the tf, 20 times a second; stops at a tick with nothing new.
   void tfTimer();
   geometry_msgs::TransformStamped positionTransform(const StepEstimate& e) const;
+  void sendTf(const geometry_msgs::TransformStamped& t);
   /// /tf and /tf_static: base_link's parent from other publishers than ourselves.
   void onTf(const ros::MessageEvent<tf2_msgs::TFMessage const>& e, bool static_tf);
 
@@ -84,13 +88,20 @@ private:
   std::function<const Frames&()> frames_;
   GnssAligner* gnss_ = nullptr;
   ros::Publisher estimate_pub_, trace_pub_, pose_pub_, odom_pub_;
-  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
+  /// /tf, published as a shared message: our own /tf readers (in this process) get it without
+  /// serialization, and roscpp's receive thread is not woken unless another process listens
+  /// (tf2_ros's broadcaster publishes by reference: serialized every time).
+  ros::Publisher tf_pub_;
+  /// /tf and /tf_static are read where they arrive (onTf only takes tf_mutex_, under which nothing
+  /// is published): our own tf, 20 times a second, costs no hand-off to the manager's threads.
+  InlineQueue tf_queue_;
   ros::Subscriber tf_sub_, tf_static_sub_;
   ros::WallTimer tf_timer_, predict_timer_;
 
   std::mutex mutex_;  ///< the three below
   StepEstimatePtr last_tf_estimate_, last_step_;
   bool tf_timer_idle_ = false;
+  bool stopped_ = false;  ///< stop(): the tf timer is not started again
 
   ros::Time last_tf_, last_predicted_;  ///< the timers' own threads
   /// child_frame_id = base_link_frame: the transforms we sent, and base_link's parent from others.

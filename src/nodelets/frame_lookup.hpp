@@ -12,6 +12,7 @@
 #include <mutex>
 #include <string>
 
+#include "dispatch_thread.hpp"
 #include "frame_transforms.hpp"
 
 namespace networked_estimation
@@ -38,9 +39,13 @@ private:
   void make()
   {
     buffer_ = std::make_unique<tf2_ros::Buffer>();
-    // tf messages on the nodelet's own callback queue (spin_thread = false): no dedicated listener
-    // thread waking 100 times a second when no tf flows.
-    listener_ = std::make_unique<tf2_ros::TransformListener>(*buffer_, nh_, false);
+    // tf messages read where they arrive (spin_thread = false, an InlineQueue): no dedicated
+    // listener thread waking 100 times a second when no tf flows, and no hand-off to the manager's
+    // threads for each (the Estimator's own tf comes back 20 times a second). The callback only
+    // stores the transforms under the buffer's lock, under which nothing is published.
+    ros::NodeHandle inline_nh(nh_);
+    inline_nh.setCallbackQueue(&queue_);
+    listener_ = std::make_unique<tf2_ros::TransformListener>(*buffer_, inline_nh, false);
     tf2_ros::Buffer* buffer = buffer_.get();
     frames_.lookup = [buffer](const std::string& target, const std::string& source, const ros::Time& stamp,
                               tf2::Transform& out, std::string& why)
@@ -64,6 +69,7 @@ private:
   ros::NodeHandle nh_;
   std::once_flag made_;
   Frames frames_;
+  InlineQueue queue_;  // before the listener: it outlives the listener's subscriptions
   std::unique_ptr<tf2_ros::Buffer> buffer_;
   std::unique_ptr<tf2_ros::TransformListener> listener_;
 };
