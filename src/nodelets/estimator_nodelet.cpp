@@ -13,8 +13,8 @@ void EstimatorNodelet::onInit()
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
   // The inputs are served by the Estimator's own thread (dispatch_thread.hpp), which also takes
-  // the steps whose deadline passes, and the tf timer's ticks; the other timers and reconfigure stay
-  // on the nodelet's queue.
+  // the steps whose deadline passes, and sends the tf; the timers and reconfigure stay on the
+  // nodelet's queue.
   ros::NodeHandle in_nh(nh);
   in_nh.setCallbackQueue(dispatch_.queue());
   try
@@ -27,7 +27,12 @@ void EstimatorNodelet::onInit()
   }
   frames_.configure(nh, config_.world_frame, config_.base_link_frame);
   outputs_.start(
-      nh, config_, getName(), [this]() -> const Frames& { return frames_.get(); }, gnss_.get(), dispatch_.queue());
+      nh, config_, getName(), [this]() -> const Frames& { return frames_.get(); }, gnss_.get(),
+      [this]
+      {
+        if (!dispatch_.inThisThread())  // (in it, tfWork() runs after the callback anyway)
+          dispatch_.wake();
+      });
   startSetPose(nh);
   const Model& model = stream_->online().model();
   const std::vector<SensorInput>& inputs = config_.inputs;
@@ -110,7 +115,7 @@ void EstimatorNodelet::onInit()
                                    });
   startReconfigure(pnh);
   clock_watch_.start(getNodeHandle(), [this] { dispatch_.wake(); });
-  dispatch_.start([this] { return deadlineWork(); });
+  dispatch_.start([this] { return std::min(deadlineWork(), outputs_.tfWork()); });
   std::string names;
   for (std::size_t i = 0; i < config_.inputs.size(); ++i)
     names += (i ? ", " : "") + model.sensors[i].name + " (" + toString(config_.inputs[i].type) + " on " +

@@ -65,6 +65,7 @@ class EstimatorNodelet : public nodelet::Nodelet
 public:
   ~EstimatorNodelet() override
   {
+    outputs_.stop();      // no tf and no wake() after this; off /tf (before the tf2 buffer goes)
     clock_watch_.stop();  // no wake() from a tick after this
     dispatch_.stop();
     // Before the tf2 buffer the input callbacks use goes, and while their queue exists.
@@ -74,7 +75,6 @@ public:
     if (gnss_)
       gnss_->stop();
     schedule_sub_.shutdown();
-    outputs_.stop();
   }
 
 private:
@@ -174,7 +174,7 @@ private:
   double trace_bound_ = std::numeric_limits<double>::infinity();  ///< reconfigurable (mutex_)
   ros::Publisher datum_pub_;
 
-  DispatchThread dispatch_;    ///< serves the inputs and the deadlines (before the subscribers: outlives them)
+  DispatchThread dispatch_;    ///< the inputs, the deadlines and the tf (before the subscribers: outlives them)
   SimClockWatch clock_watch_;  ///< sim time: wakes dispatch_ when a /clock tick reaches the next deadline
   std::vector<ros::Subscriber> subs_;
   ros::Subscriber cmd_sub_, schedule_sub_, set_pose_sub_;

@@ -5,6 +5,8 @@
 #include "networked_estimation/estimators/estimator.hpp"
 #include "odometry_output.hpp"
 
+#include <limits>
+
 namespace networked_estimation
 {
 
@@ -49,13 +51,13 @@ geometry_msgs::PoseWithCovarianceStamped::Ptr poseMessage(const StepEstimate& e,
 }
 
 void EstimatorOutputs::start(ros::NodeHandle& nh, const EstimatorNodeConfig& config, const std::string& name,
-                             std::function<const Frames&()> frames, GnssAligner* gnss,
-                             ros::CallbackQueueInterface* tf_queue)
+                             std::function<const Frames&()> frames, GnssAligner* gnss, std::function<void()> wake)
 {
   config_ = &config;
   name_ = name;
   frames_ = std::move(frames);
   gnss_ = gnss;
+  wake_ = std::move(wake);
   estimate_pub_ = nh.advertise<Estimate>("estimate", 1000);
   trace_pub_ = nh.advertise<std_msgs::Float64>("covariance_trace", 1000);
   pose_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 100);
@@ -77,9 +79,6 @@ void EstimatorOutputs::start(ros::NodeHandle& nh, const EstimatorNodeConfig& con
       }
     }
     tf_pub_ = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
-    ros::NodeHandle tf_nh(nh);
-    tf_nh.setCallbackQueue(tf_queue);
-    tf_timer_ = tf_nh.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { tfTimer(); });
   }
   if (config.predict_to_current_time)
   {
@@ -96,9 +95,8 @@ void EstimatorOutputs::stop()
 {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    stopped_ = true;  // offerTf() starts it no more
+    stopped_ = true;
   }
-  tf_timer_.stop();  // (unlocked: it waits for a tick in progress, which takes mutex_)
   tf_sub_.shutdown();
   tf_static_sub_.shutdown();
 }
@@ -124,7 +122,7 @@ void EstimatorOutputs::publishStep(const StepEstimatePtr& e)
     if (odom_pub_.getNumSubscribers() > 0)
       publishOdometry(*e);
     if (c.publish_tf)
-      offerTf(e);  // tf leaves from tfTimer(), 20 times a second, not with every step
+      offerTf(e);  // tf leaves from tfWork(), at most 20 times a second, not with every step
   }
   if (gnss_ && gnss_->wantsFiltered())
     publishFilteredGps(*e);
@@ -153,13 +151,37 @@ void EstimatorOutputs::publishFilteredGps(const StepEstimate& e)
 
 void EstimatorOutputs::offerTf(const StepEstimatePtr& e)
 {
-  std::lock_guard<std::mutex> lock(mutex_);
-  last_tf_estimate_ = e;
-  if (tf_timer_idle_ && !stopped_)  // stopped while no estimate came
   {
-    tf_timer_idle_ = false;
-    tf_timer_.start();
+    std::lock_guard<std::mutex> lock(mutex_);
+    last_tf_estimate_ = e;
+    if (stopped_)
+      return;
   }
+  if (wake_)
+    wake_();
+}
+
+double EstimatorOutputs::tfWork()
+{
+  if (!config_ || !config_->publish_tf)
+    return std::numeric_limits<double>::infinity();
+  StepEstimatePtr e;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    // Nothing new (no input, a stopped clock): no wait at all, rather than waking the input thread
+    // 20 times a second for nothing.
+    if (stopped_ || !last_tf_estimate_ || last_tf_estimate_->stamp == last_tf_)
+      return std::numeric_limits<double>::infinity();
+    const auto now = std::chrono::steady_clock::now();
+    const double since = std::chrono::duration<double>(now - last_tf_sent_).count();
+    if (since < kTfPeriod)
+      return kTfPeriod - since;
+    last_tf_sent_ = now;
+    e = last_tf_estimate_;
+    last_tf_ = e->stamp;
+  }
+  sendTfOf(*e);
+  return std::numeric_limits<double>::infinity();
 }
 
 void EstimatorOutputs::predictTimer()
@@ -207,24 +229,10 @@ geometry_msgs::TransformStamped EstimatorOutputs::positionTransform(const StepEs
   return t;
 }
 
-void EstimatorOutputs::tfTimer()
+void EstimatorOutputs::sendTfOf(const StepEstimate& e)
 {
   const EstimatorNodeConfig& c = *config_;
-  StepEstimatePtr e;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    e = last_tf_estimate_;
-    if (!e || e->stamp == last_tf_)
-    {
-      // Nothing new (no input, a stopped clock): the timer stops until the next estimate starts
-      // it again, rather than waking the input thread 20 times a second for nothing.
-      tf_timer_.stop();
-      tf_timer_idle_ = true;
-      return;
-    }
-  }
-  last_tf_ = e->stamp;
-  geometry_msgs::TransformStamped t = positionTransform(*e);
+  geometry_msgs::TransformStamped t = positionTransform(e);
   if (c.child_frame_id != c.base_link_frame)
   {
     sendTf(t);  // the estimate's own frame: its position entries, no rotation
@@ -244,7 +252,7 @@ void EstimatorOutputs::tfTimer()
     ROS_WARN_THROTTLE_NAMED(10.0, name_, "Estimator: no tf: %s", plan.reason.c_str());
     return;
   }
-  const geometry_msgs::Pose p = poseOf(e->x, c.state_map);
+  const geometry_msgs::Pose p = poseOf(e.x, c.state_map);
   tf2::Transform world_base(tf2::Quaternion(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w),
                             tf2::Vector3(p.position.x, p.position.y, p.position.z));
   t.header.frame_id = c.world_frame;

@@ -14,6 +14,7 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include <Eigen/Core>
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -56,14 +57,21 @@ class EstimatorOutputs
 {
 public:
   /// `name`: the nodelet's, for the logs; `frames`: base_link's tf lookups (map -> odom, made on
-  /// first use); `gnss`: the GNSS alignment or null; `tf_queue`: the queue the tf timer's ticks go
-  /// to (the nodelet's input thread: no hand-off through the manager's threads). Advertises the
-  /// topics and starts the timers.
+  /// first use); `gnss`: the GNSS alignment or null; `wake`: makes the nodelet's input thread call
+  /// tfWork() soon (for an estimate made in another thread). Advertises the topics and starts the
+  /// timers.
   void start(ros::NodeHandle& nh, const EstimatorNodeConfig& config, const std::string& name,
-             std::function<const Frames&()> frames, GnssAligner* gnss, ros::CallbackQueueInterface* tf_queue);
-  /// Stops the tf timer for good (before tf_queue goes) and unsubscribes from /tf (before the tf
-  /// buffer goes).
+             std::function<const Frames&()> frames, GnssAligner* gnss, std::function<void()> wake);
+  /// No more tf and no more wake() (before the input thread goes); unsubscribes from /tf (before
+  /// the tf buffer goes).
   void stop();
+
+  /// The tf, at most kTfPeriod of wall time apart: sends the latest estimate when it is newer than
+  /// the last one sent and that send is kTfPeriod old. The input thread calls it after each batch
+  /// of messages; returns the wall seconds until it has something to send (infinity: nothing
+  /// waits). No timer: while the inputs flow, the thread is awake anyway.
+  double tfWork();
+  static constexpr double kTfPeriod = 0.05;
 
   /// One step's outputs (the filter's lock held).
   void publishStep(const StepEstimatePtr& e);
@@ -71,13 +79,13 @@ public:
 private:
   void publishOdometry(const StepEstimate& e);
   void publishFilteredGps(const StepEstimate& e);
-  /// The latest estimate for the tf timer, which it (re)starts.
+  /// The latest estimate for tfWork() (woken when it comes from another thread).
   void offerTf(const StepEstimatePtr& e);
   /// predict_to_current_time: at ~frequency, the last step predicted to ROS time now (predictAhead;
   /// not fed back into the filter) on odometry/filtered and as the tf.
   void predictTimer();
-  /// The latest estimate as the tf, 20 times a second; stops at a tick with nothing new.
-  void tfTimer();
+  /// An estimate as the tf (from tfWork()).
+  void sendTfOf(const StepEstimate& e);
   geometry_msgs::TransformStamped positionTransform(const StepEstimate& e) const;
   void sendTf(const geometry_msgs::TransformStamped& t);
   /// /tf and /tf_static: base_link's parent from other publishers than ourselves.
@@ -96,14 +104,16 @@ private:
   /// is published): our own tf, 20 times a second, costs no hand-off to the manager's threads.
   InlineQueue tf_queue_;
   ros::Subscriber tf_sub_, tf_static_sub_;
-  ros::WallTimer tf_timer_, predict_timer_;
+  ros::WallTimer predict_timer_;
+  std::function<void()> wake_;
 
-  std::mutex mutex_;  ///< the three below
+  std::mutex mutex_;  ///< the five below
   StepEstimatePtr last_tf_estimate_, last_step_;
-  bool tf_timer_idle_ = false;
-  bool stopped_ = false;  ///< stop(): the tf timer is not started again
+  ros::Time last_tf_;  ///< the stamp of the last tf sent
+  std::chrono::steady_clock::time_point last_tf_sent_;
+  bool stopped_ = false;  ///< stop(): no tf and no wake() any more
 
-  ros::Time last_tf_, last_predicted_;  ///< the timers' own threads
+  ros::Time last_predicted_;  ///< predictTimer()'s own
   /// child_frame_id = base_link_frame: the transforms we sent, and base_link's parent from others.
   std::mutex tf_mutex_;
   OwnTransforms own_tf_;
