@@ -38,7 +38,9 @@
 #                    playback and per second idle: where a small VM's time goes;
 #   by thread        the playback's CPU (schedstat) and context switches per input of the
 #                    nodelet's input thread (ne_dispatch), roscpp's receive thread and the rest.
-# The table holds the median over the runs of each column; every run is in the CSV.
+# The table holds the median over the runs of each column; every run is in the CSV. The ratios to
+# the relays are given both ways: of the medians, and round by round (each round runs every system
+# once, back to back) with the median of those.
 # Builds nothing: scripts/build.sh first, and the peer's workspace (robot_localization built with
 # catkin) given by PEER_WS; without it the benchmark is skipped (exit 0).
 # Usage: PEER_WS=<peer workspace> scripts/bench_peer.sh [--runs N] [--rate R] [--idle-seconds S]
@@ -337,16 +339,26 @@ if e["cpu_us_per_input"] and r["cpu_us_per_input"] and n["cpu_us_per_input"]:
              e["cpu_us_per_input_schedstat"] / r["cpu_us_per_input_schedstat"],
              e["cpu_us_per_input"] / n["cpu_us_per_input"],
              e["cpu_us_per_input_schedstat"] / n["cpu_us_per_input_schedstat"]))
+def per_run(floor):
+    # Each round runs every system once, back to back: the ratio within a round is taken while the
+    # VM is in one phase (its speed moves by a third between rounds), then the median over rounds.
+    cpu = {(r["system"], r["run"]): float(r["cpu_us_per_input"]) for r in rows if r["cpu_us_per_input"]}
+    ratios = [cpu[("estimator", run)] / cpu[(floor, run)]
+              for run in sorted({r["run"] for r in rows}, key=int)
+              if ("estimator", run) in cpu and (floor, run) in cpu and cpu[(floor, run)] > 0]
+    if not ratios:
+        return ""
+    return "; round by round %s, their median %.2f" % (" ".join("%.2f" % x for x in ratios), statistics.median(ratios))
 p = med.get("relay")
 if p and e["cpu_us_per_input"] and p["cpu_us_per_input"]:
-    print("estimator / relay CPU per input: %.2f (schedstat %.2f)"
+    print("estimator / relay CPU per input: %.2f (schedstat %.2f)%s"
           % (e["cpu_us_per_input"] / p["cpu_us_per_input"],
-             e["cpu_us_per_input_schedstat"] / p["cpu_us_per_input_schedstat"]))
+             e["cpu_us_per_input_schedstat"] / p["cpu_us_per_input_schedstat"], per_run("relay")))
 d = med.get("decoding_relay")
 if d and e["cpu_us_per_input"] and d["cpu_us_per_input"]:
-    print("estimator / decoding_relay CPU per input: %.2f (schedstat %.2f)"
+    print("estimator / decoding_relay CPU per input: %.2f (schedstat %.2f)%s"
           % (e["cpu_us_per_input"] / d["cpu_us_per_input"],
-             e["cpu_us_per_input_schedstat"] / d["cpu_us_per_input_schedstat"]))
+             e["cpu_us_per_input_schedstat"] / d["cpu_us_per_input_schedstat"], per_run("decoding_relay")))
 PY
 python3 - "$THREADS_CSV" <<'PY'
 import csv, statistics, sys
