@@ -67,6 +67,11 @@ public:
   /// time went back or jumped forward past max_stamp_behind. Returns true when steps are still due
   /// (the caller comes back at once, after letting the inputs in).
   bool deadlines(const Clocks& now);
+  /// Notes ROS time for deadlines()'s check that it went back, and starts over as it does when it
+  /// has; takes no step. For a thread that takes the steps its messages complete but not those
+  /// whose deadline passes (the Estimator's receive thread): without it, a clock that ran on and
+  /// then went back to a time after deadlines()'s last look would not count as going back.
+  void observe(const Clocks& now);
   /// The ROS time at which the next step is due: its deadline, or, when everything it can use is in
   /// hand, its stamp minus Timeline::kAhead (no step is taken earlier: no estimate is stamped more
   /// than kAhead ahead of ROS time); +inf before the timeline starts.
@@ -147,6 +152,9 @@ private:
   RuntimeSettings runtime_;
   std::map<double, std::vector<double>> held_;  ///< held command type: commands by stamp (s)
   double last_now_ = -std::numeric_limits<double>::infinity();
+  /// Starts over when ROS time went back by over half a period since the last look (true), else
+  /// notes it.
+  bool wentBack(const Clocks& now);
   bool throttled_ = false;
   std::vector<std::uint64_t> refused_;
   std::uint64_t restarts_ = 0, time_resets_ = 0, refused_other_ = 0;

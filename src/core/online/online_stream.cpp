@@ -271,11 +271,8 @@ void OnlineStream::catchUp(const Clocks& now)
   timeline_.spend(taken);
 }
 
-bool OnlineStream::deadlines(const Clocks& now)
+bool OnlineStream::wentBack(const Clocks& now)
 {
-  throttled_ = false;
-  if (!online_->started())
-    return false;
   const double period = timeline_.options().period;
   if (now.ros > 0.0 && now.ros < last_now_ - 0.5 * period)
   {
@@ -283,9 +280,23 @@ bool OnlineStream::deadlines(const Clocks& now)
     const double back = last_now_ - now.ros;
     ++time_resets_;
     restart("time jumped back by " + streamSeconds(back) + " s: estimator reset, waiting for the stream to restart");
-    return false;
+    return true;
   }
   last_now_ = now.ros;
+  return false;
+}
+
+void OnlineStream::observe(const Clocks& now)
+{
+  if (online_->started())
+    wentBack(now);
+}
+
+bool OnlineStream::deadlines(const Clocks& now)
+{
+  throttled_ = false;
+  if (!online_->started() || wentBack(now))
+    return false;
   latency_.at(now.ros);
   timeline_.clock().setBudget(latency_.budget());
   if (timeline_.stale(online_->nextStep(), now.ros))

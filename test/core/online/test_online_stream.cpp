@@ -444,6 +444,32 @@ TEST(OnlineStream, TheDiagnosticsSayWhatWasRefused)
       << w[1];
 }
 
+// The receive thread takes the steps its messages complete and never calls deadlines(): the time it
+// notes (observe) is what a jump back is measured from. Here deadlines() last looked at t0, the
+// stream ran on to t0 + 2 s, and the clock went back to t0 + 1 s.
+TEST(OnlineStream, AJumpBackIsMeasuredFromTheLastObservedTime)
+{
+  const double t0 = 5000.0;
+  for (const bool observed : {false, true})
+  {
+    Stream st(adaptiveSettings());
+    st.offer(0, t0, t0);
+    st.offer(1, t0, t0);
+    st.s.deadlines(Stream::clocks(t0));
+    for (int k = 1; k <= 100; ++k)  // 2 s of steps completed by their messages
+    {
+      const double now = t0 + kT * k;
+      st.offer(0, now, now);
+      st.offer(1, now, now);
+      if (observed)
+        st.s.observe(Stream::clocks(now));
+    }
+    st.s.deadlines(Stream::clocks(t0 + 1.0));
+    EXPECT_EQ(st.s.timeResets(), observed ? 1u : 0u) << (observed ? "observed" : "not observed");
+    EXPECT_EQ(st.s.online().started(), !observed);
+  }
+}
+
 // ROS time jumping forward by a day restarts the timeline at once (no step taken for the gap); a
 // jump of 2 s (less than max_stamp_behind) is caught up, within the work bound; a clock that runs
 // 100 times faster than it says (rate 1) gets at most the bound per wall second, and restarts
