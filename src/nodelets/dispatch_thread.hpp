@@ -11,6 +11,10 @@
 // DirectQueue goes one step further for in-process publishers: their messages are handled in the
 // publisher's own thread, as a function call, with no hand-off at all (messages from other
 // processes still go to the dispatch thread: roscpp's receive thread must not run them, see there).
+// ReceiveThreadQueue is its mirror, for a subscriber whose callback publishes nothing (the
+// Estimator's inputs, whose steps' outputs the dispatch thread publishes): messages from other
+// processes are handled in roscpp's receive thread, with no hand-off at all, and in-process
+// publishers' go to the dispatch thread.
 #pragma once
 
 #include <ros/callback_queue.h>
@@ -98,6 +102,36 @@ private:
   ros::CallbackQueueInterface* queued_;
 };
 
+/// The mirror of DirectQueue: a callback queue that calls a subscription's callback at once in
+/// roscpp's receive thread, when that thread delivers it (a message from another process: no
+/// hand-off at all), and sends an in-process publisher's deliveries to `queued` (that publisher
+/// holds roscpp's global publication lock while it delivers: its publish stays short).
+///
+/// What a subscriber on a ReceiveThreadQueue must do: what InlineQueue asks. Its callback
+/// publishes nothing, and takes no lock that a thread may hold while it publishes: roscpp's
+/// receive thread holds the subscription's lock while it delivers, and an in-process publisher to
+/// the same topic takes roscpp's publication lock and then the subscription's.
+class ReceiveThreadQueue : public ros::CallbackQueueInterface
+{
+public:
+  explicit ReceiveThreadQueue(ros::CallbackQueueInterface* queued) : queued_(queued) {}
+
+  void addCallback(const ros::CallbackInterfacePtr& callback, uint64_t owner_id) override
+  {
+    if (!inRoscppPollThread())
+    {
+      queued_->addCallback(callback, owner_id);
+      return;
+    }
+    callNow(callback);
+  }
+
+  void removeByID(uint64_t owner_id) override { queued_->removeByID(owner_id); }
+
+private:
+  ros::CallbackQueueInterface* queued_;
+};
+
 class DispatchThread
 {
 public:
@@ -115,6 +149,14 @@ public:
   {
     inRoscppPollThread();
     return &direct_;
+  }
+
+  /// Messages from other processes handled in roscpp's receive thread, the others on this one
+  /// (ReceiveThreadQueue). Call it where no roscpp lock is held (a nodelet's onInit).
+  ros::CallbackQueueInterface* receiveThreadQueue()
+  {
+    inRoscppPollThread();
+    return &receive_;
   }
 
   /// Whether the caller is this thread (work() runs after its callbacks: no wake() needed).
@@ -168,6 +210,7 @@ private:
 
   ros::CallbackQueue queue_;
   DirectQueue direct_{&queue_};
+  ReceiveThreadQueue receive_{&queue_};
   std::function<double()> work_;
   std::atomic<bool> stop_{false};
   std::thread thread_;

@@ -12,11 +12,14 @@ void EstimatorNodelet::onInit()
 {
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
-  // The inputs are served by the Estimator's own thread (dispatch_thread.hpp), which also takes
-  // the steps whose deadline passes, and sends the tf; the timers and reconfigure stay on the
-  // nodelet's queue.
-  ros::NodeHandle in_nh(nh);
+  // The inputs from other processes are handled where roscpp receives them, with no hand-off;
+  // in-process publishers' go to the Estimator's own thread (dispatch_thread.hpp:
+  // ReceiveThreadQueue), which also takes the steps whose deadline passes, publishes the steps'
+  // outputs and sends the tf. NavSatFix inputs, which publish (the datum, gps odometry), all go to
+  // that thread. The timers and reconfigure stay on the nodelet's queue.
+  ros::NodeHandle in_nh(nh), rx_nh(nh);
   in_nh.setCallbackQueue(dispatch_.queue());
+  rx_nh.setCallbackQueue(dispatch_.receiveThreadQueue());
   try
   {
     configure(pnh);
@@ -30,7 +33,7 @@ void EstimatorNodelet::onInit()
       nh, config_, getName(), [this]() -> const Frames& { return frames_.get(); }, gnss_.get(),
       [this]
       {
-        if (!dispatch_.inThisThread())  // (in it, tfWork() runs after the callback anyway)
+        if (!dispatch_.inThisThread())  // (in it, flush() and tfWork() run after the callback)
           dispatch_.wake();
       });
   startSetPose(nh);
@@ -71,7 +74,8 @@ void EstimatorNodelet::onInit()
                          boost::array<double, 9>& cov, std::string& why)
       { return gnss_->apply(m, datum, local, cov, why); };
     sink.frames = frames_.get();
-    subs_.push_back(subscribeSensor(in_nh, in, queueSize(), sink, config_.datum));
+    subs_.push_back(
+        subscribeSensor(in.type == InputType::NAVSATFIX ? in_nh : rx_nh, in, queueSize(), sink, config_.datum));
     watchTransport(in_nh, i);
   }
   if (!config_.datum.empty())
@@ -90,13 +94,13 @@ void EstimatorNodelet::onInit()
     const std::string who = "command (" + toString(command.type) + " on " + command.topic + ")";
     sink.bad = [this, who](const std::string& why) { reject(who + ": " + why); };
     sink.frames = frames_.get();
-    cmd_sub_ = subscribeSensor(in_nh, command, queueSize(), sink, {});
+    cmd_sub_ = subscribeSensor(rx_nh, command, queueSize(), sink, {});
   }
   if (model.hasControl())
     transports_.add("command (" + in_nh.resolveName(command.topic) + ")", "command transport",
                     in_nh.resolveName(command.topic), command.transport, cmd_sub_);
   if (model.schedule.kind == Schedule::Kind::RANDOM)
-    schedule_sub_ = in_nh.subscribe("schedule", queueSize(), &EstimatorNodelet::onSchedule, this, hints());
+    schedule_sub_ = rx_nh.subscribe("schedule", queueSize(), &EstimatorNodelet::onSchedule, this, hints());
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
   diagnostics_->setHardwareID(toString(config_.settings.algorithm));
   diagnostics_->add("estimator", this, &EstimatorNodelet::diagnose);
@@ -115,7 +119,14 @@ void EstimatorNodelet::onInit()
                                    });
   startReconfigure(pnh);
   clock_watch_.start(getNodeHandle(), [this] { dispatch_.wake(); });
-  dispatch_.start([this] { return std::min(deadlineWork(), outputs_.tfWork()); });
+  dispatch_.start(
+      [this]
+      {
+        outputs_.flush();  // the steps taken in the receive thread first: they wait for it
+        const double wait = deadlineWork();
+        outputs_.flush();
+        return std::min(wait, outputs_.tfWork());
+      });
   std::string names;
   for (std::size_t i = 0; i < config_.inputs.size(); ++i)
     names += (i ? ", " : "") + model.sensors[i].name + " (" + toString(config_.inputs[i].type) + " on " +
@@ -156,7 +167,7 @@ void EstimatorNodelet::configure(ros::NodeHandle& pnh)
     gnss_ = std::make_unique<GnssAligner>(c.gnss, c.world_frame, c.base_link_frame);
   trace_bound_ = c.runtime.trace_bound;
   stream_ = std::make_unique<OnlineStream>(c.model, c.settings, c.online, c.timeline, c.runtime);
-  stream_->after_step = [this](long k) { outputs_.publishStep(stepLocked(k)); };
+  stream_->after_step = [this](long k) { outputs_.queueStep(stepLocked(k)); };
   stream_->on_restart = [this](const std::string& why)
   {
     link_.clear();
@@ -183,6 +194,7 @@ void EstimatorNodelet::onDisabled(std::size_t sensor, const ros::Time& stamp, co
 {
   std::lock_guard<std::mutex> lock(mutex_);
   const OfferResult r = stream_->disabled(sensor, stamp.toSec(), -1, clocks(receipt));
+  afterInputLocked();
   if (r.offer == Offer::REJECTED)
     warnRejected("measurement", r);
   else
@@ -201,6 +213,7 @@ void EstimatorNodelet::offer(const SensorSample& s, const ros::Time& receipt)
     const OfferResult r = stream_->measurement(s, clocks(receipt));
     if (r.offer == Offer::REJECTED)
       warnRejected("measurement", r);
+    afterInputLocked();
   }
   catch (const std::exception& e)  // the step and its outputs run in here
   {
@@ -229,6 +242,24 @@ void EstimatorNodelet::onCommand(const CommandSample& c, bool held)
   const OfferResult r = held ? stream_->heldCommand(c, clocks()) : stream_->command(c, clocks());
   if (r.offer == Offer::REJECTED)
     warnRejected("command", r);
+  afterInputLocked();
+}
+
+void EstimatorNodelet::afterInputLocked()
+{
+  // The input thread does both in deadlineWork(), after its own callbacks.
+  if (!inRoscppPollThread())
+    return;
+  // ROS time as the steps this message completed saw it: a clock that goes back is measured from
+  // here (the input thread may not have looked for many steps).
+  stream_->observe(clocks());
+  // Sim time: the message may have moved the next deadline on, and the /clock tick armed for the
+  // old one would wake the input thread for nothing.
+  if (!clock_watch_.active())
+    return;
+  const double due = stream_->nextDeadline();
+  if (std::isfinite(due) && !clock_watch_.arm(due))
+    dispatch_.wake();  // already passed: the input thread takes it now
 }
 
 void EstimatorNodelet::onSchedule(const ScheduleStep::ConstPtr& sc)
@@ -244,6 +275,7 @@ void EstimatorNodelet::onSchedule(const ScheduleStep::ConstPtr& sc)
       stream_->schedule(static_cast<long>(sc->step), sc->header.stamp.toSec(), transmitting, clocks());
   if (r.offer == Offer::REJECTED)
     warnRejected("schedule", r);
+  afterInputLocked();
 }
 
 void EstimatorNodelet::reject(const std::string& why)

@@ -65,16 +65,17 @@ class EstimatorNodelet : public nodelet::Nodelet
 public:
   ~EstimatorNodelet() override
   {
-    outputs_.stop();      // no tf and no wake() after this; off /tf (before the tf2 buffer goes)
-    clock_watch_.stop();  // no wake() from a tick after this
-    dispatch_.stop();
-    // Before the tf2 buffer the input callbacks use goes, and while their queue exists.
+    // The inputs first: roscpp's receive thread calls them directly (shutdown waits for a call in
+    // progress), and they use everything below. Their queue (dispatch_) exists until the end.
     for (ros::Subscriber& s : subs_)
       s.shutdown();
     cmd_sub_.shutdown();
+    schedule_sub_.shutdown();
+    outputs_.stop();      // no tf and no wake() after this; off /tf (before the tf2 buffer goes)
+    clock_watch_.stop();  // no wake() from a tick after this
+    dispatch_.stop();
     if (gnss_)
       gnss_->stop();
-    schedule_sub_.shutdown();
   }
 
 private:
@@ -101,7 +102,7 @@ private:
   /// Sensor i's subscription (the last in subs_) to the transport watch.
   void watchTransport(ros::NodeHandle& nh, std::size_t i);
 
-  // --- inputs (the dispatch thread) ---------------------------------------------------------------
+  // --- inputs (roscpp's receive thread, or the input thread) -------------------------------------
 
   /// covariance: message, and a message without one: counted, warned about (throttled).
   void covarianceFallback(const std::string& why);
@@ -110,8 +111,9 @@ private:
 
   /// A sensor's sample (s.step < 1: its step comes from its stamp, the sensor's own sample steps),
   /// received at `receipt`, the ROS time roscpp received the message at (its lateness is judged by
-  /// it). Estimates are published with the mutex held, so that they leave in step order whichever
-  /// thread takes the step (publish only queues the message; it never calls back into us).
+  /// it). Runs in roscpp's receive thread (or the input thread): a step it completes is queued for
+  /// the input thread to publish (EstimatorOutputs::queueStep); nothing is published under the
+  /// mutex (ReceiveThreadQueue's rule).
   void offer(const SensorSample& s, const ros::Time& receipt);
 
   /// ROS time (or the receipt time of the message at hand), wall time and the measured rate of ROS
@@ -127,6 +129,9 @@ private:
   /// until the next one, as a robot base holds /cmd_vel: a step without a command of its own uses
   /// the latest earlier one.
   void onCommand(const CommandSample& c, bool held);
+  /// In roscpp's receive thread, after a message: ROS time noted for the time-jump check, and (sim
+  /// time) the /clock tick that wakes the input thread armed for the next deadline (mutex held).
+  void afterInputLocked();
 
   void reject(const std::string& why);
 

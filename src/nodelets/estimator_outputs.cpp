@@ -80,6 +80,8 @@ void EstimatorOutputs::start(ros::NodeHandle& nh, const EstimatorNodeConfig& con
     }
     tf_pub_ = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
   }
+  inRoscppPollThread();  // learnt now, where no roscpp lock is held
+  poll_turn_ = ros::PollManager::instance()->addPollThreadListener([this] { onPollTurn(); });
   if (config.predict_to_current_time)
   {
     predict_timer_ = nh.createWallTimer(ros::WallDuration(1.0 / config.frequency),
@@ -93,12 +95,53 @@ void EstimatorOutputs::start(ros::NodeHandle& nh, const EstimatorNodeConfig& con
 
 void EstimatorOutputs::stop()
 {
+  // Waits for a turn in progress (roscpp calls its listeners under its own lock).
+  ros::PollManager::instance()->removePollThreadListener(poll_turn_);
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stopped_ = true;
   }
   tf_sub_.shutdown();
   tf_static_sub_.shutdown();
+}
+
+void EstimatorOutputs::queueStep(StepEstimatePtr e)
+{
+  bool first = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopped_)
+      return;
+    first = queued_.empty();
+    queued_.push_back(std::move(e));
+    queued_any_.store(true, std::memory_order_release);
+  }
+  // In roscpp's receive thread, onPollTurn() publishes it when the thread's turn ends.
+  if (first && wake_ && !inRoscppPollThread())
+    wake_();
+}
+
+void EstimatorOutputs::flush()
+{
+  std::lock_guard<std::mutex> order(flush_mutex_);  // one publisher at a time: step order
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    queued_any_.store(false, std::memory_order_relaxed);
+    if (queued_.empty())
+      return;
+    flushing_.swap(queued_);  // both keep their capacity: no allocation per step
+  }
+  for (const StepEstimatePtr& e : flushing_)
+    publishStep(e);
+  flushing_.clear();
+}
+
+void EstimatorOutputs::onPollTurn()
+{
+  if (queued_any_.load(std::memory_order_acquire))
+    flush();
+  if (tf_waiting_.load(std::memory_order_acquire))
+    tfWork();
 }
 
 void EstimatorOutputs::publishStep(const StepEstimatePtr& e)
@@ -154,10 +197,11 @@ void EstimatorOutputs::offerTf(const StepEstimatePtr& e)
   {
     std::lock_guard<std::mutex> lock(mutex_);
     last_tf_estimate_ = e;
+    tf_waiting_.store(true, std::memory_order_release);
     if (stopped_)
       return;
   }
-  if (wake_)
+  if (wake_ && !inRoscppPollThread())  // there, onPollTurn() sends it
     wake_();
 }
 
@@ -171,7 +215,10 @@ double EstimatorOutputs::tfWork()
     // Nothing new (no input, a stopped clock): no wait at all, rather than waking the input thread
     // 20 times a second for nothing.
     if (stopped_ || !last_tf_estimate_ || last_tf_estimate_->stamp == last_tf_)
+    {
+      tf_waiting_.store(false, std::memory_order_relaxed);
       return std::numeric_limits<double>::infinity();
+    }
     const auto now = std::chrono::steady_clock::now();
     const double since = std::chrono::duration<double>(now - last_tf_sent_).count();
     if (since < kTfPeriod)
@@ -179,6 +226,7 @@ double EstimatorOutputs::tfWork()
     last_tf_sent_ = now;
     e = last_tf_estimate_;
     last_tf_ = e->stamp;
+    tf_waiting_.store(false, std::memory_order_relaxed);
   }
   sendTfOf(*e);
   return std::numeric_limits<double>::infinity();

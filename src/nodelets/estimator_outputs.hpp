@@ -3,9 +3,15 @@
 // each built by a pure function from one step's estimate as the filter left it (StepEstimate: x
 // and P in Eigen, no message in between), and only when someone listens (tf: always).
 //
-// Threads: publishStep runs in the thread that took the step, with the filter's lock held (so that
-// the estimates leave in step order); the tf and predict_to_current_time timers run on the
-// nodelet's queue and share only the latest estimate with it, under this part's own lock.
+// Threads: the thread that takes a step (roscpp's receive thread for a message from another
+// process, the input thread for a deadline or an in-process publisher's message) only queues its
+// estimate (queueStep, the filter's lock held). The queue is published in step order (flush, no
+// lock held) by the thread that queued it, once out of the lock: roscpp's receive thread at the
+// end of its loop's turn (onPollTurn, a roscpp poll-thread listener, outside every subscription's
+// lock), the input thread after its work; the same threads send the tf (tfWork). No publish
+// happens under the filter's lock: the receive thread takes that lock inside roscpp's delivery
+// (ReceiveThreadQueue). The predict_to_current_time timer runs on the nodelet's queue and shares
+// only the latest estimate, under this part's own lock.
 #pragma once
 
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
@@ -14,6 +20,7 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include <Eigen/Core>
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -73,10 +80,20 @@ public:
   double tfWork();
   static constexpr double kTfPeriod = 0.05;
 
-  /// One step's outputs (the filter's lock held).
-  void publishStep(const StepEstimatePtr& e);
+  /// One step's outputs, queued for flush() in step order (the filter's lock held; any thread).
+  /// Publishes nothing: wakes the input thread when the queue was empty.
+  void queueStep(StepEstimatePtr e);
+  /// Publishes the queued steps' outputs in step order (no lock held): the input thread, or
+  /// roscpp's receive thread at the end of its turn (onPollTurn).
+  void flush();
 
 private:
+  /// One step's outputs.
+  void publishStep(const StepEstimatePtr& e);
+  /// roscpp's receive thread, at every turn of its loop, after the messages it delivered and
+  /// outside every subscription's lock (as roscpp's own queued publications): publishes the steps
+  /// they completed and sends a tf that is due. Costs two atomic loads when nothing waits.
+  void onPollTurn();
   void publishOdometry(const StepEstimate& e);
   void publishFilteredGps(const StepEstimate& e);
   /// The latest estimate for tfWork() (woken when it comes from another thread).
@@ -107,12 +124,17 @@ private:
   ros::WallTimer predict_timer_;
   std::function<void()> wake_;
 
-  std::mutex mutex_;  ///< the five below
+  std::mutex flush_mutex_;               ///< held by flush(), the one publisher of the steps at a time
+  std::mutex mutex_;                     ///< the six below
+  std::vector<StepEstimatePtr> queued_;  ///< steps not yet published (flushing_: flush()'s own)
+  std::atomic<bool> queued_any_{false}, tf_waiting_{false};  ///< onPollTurn()'s quick looks
+  boost::signals2::connection poll_turn_;
   StepEstimatePtr last_tf_estimate_, last_step_;
   ros::Time last_tf_;  ///< the stamp of the last tf sent
   std::chrono::steady_clock::time_point last_tf_sent_;
   bool stopped_ = false;  ///< stop(): no tf and no wake() any more
 
+  std::vector<StepEstimatePtr> flushing_;
   ros::Time last_predicted_;  ///< predictTimer()'s own
   /// child_frame_id = base_link_frame: the transforms we sent, and base_link's parent from others.
   std::mutex tf_mutex_;
