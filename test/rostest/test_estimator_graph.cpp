@@ -1463,6 +1463,89 @@ TEST(EstimatorGraph, RecordedBagReplaysIdentically)
   EXPECT_GT(lost, 10);
 }
 
+// estimator_mixed_publishers.test: BenchSource in the Estimator's manager and this process publish
+// to the same input topic at 2 kHz each: BenchSource the steps (the Estimator's period is its),
+// this process messages naming another sensor (refused). The in-process publisher delivers
+// holding roscpp's publication lock; this process's messages are refused in roscpp's receive
+// thread, holding the subscription's lock and then the filter's. Were a step published under the
+// filter's lock, the three would wait for each other and the estimates would stop.
+TEST(EstimatorGraph, InProcessAndRemotePublishersOnOneTopic)
+{
+  ros::NodeHandle nh;
+  std::mutex mutex;
+  std::vector<double> arrivals;  // wall time of each estimate
+  ros::Subscriber sub = nh.subscribe<Estimate>("/mixed/estimate", 10000,
+                                               [&](const Estimate::ConstPtr&)
+                                               {
+                                                 std::lock_guard<std::mutex> lock(mutex);
+                                                 arrivals.push_back(ros::WallTime::now().toSec());
+                                               });
+  ros::Publisher pub = nh.advertise<Measurement>("/mixed_measurement", 1000);
+  ASSERT_TRUE(waitFor([&] { return pub.getNumSubscribers() >= 1 && sub.getNumPublishers() >= 1; }, 20.0));
+  // Both publishers at once: BenchSource publishes for 15 s from 2 s after its load; its steps are
+  // estimated from then on.
+  ASSERT_TRUE(waitFor(
+      [&]
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        return arrivals.size() > 100;
+      },
+      20.0));
+  const double start = ros::WallTime::now().toSec();
+  const double seconds = 8.0, period = 0.0005;
+  long sent = 0;
+  for (ros::WallTime next = ros::WallTime::now(); ros::WallTime::now().toSec() - start < seconds;)
+  {
+    auto m = boost::make_shared<Measurement>();
+    m->header.stamp = ros::Time::now();
+    m->step = static_cast<std::uint64_t>(sent + 1);
+    m->sensor = "not_in_the_model";
+    m->y.assign(1, static_cast<double>(sent % 7));
+    pub.publish(m);
+    ++sent;
+    next += ros::WallDuration(period);
+    const ros::WallDuration wait = next - ros::WallTime::now();
+    if (wait > ros::WallDuration(0))
+      wait.sleep();
+  }
+  const double end = ros::WallTime::now().toSec();
+  // The in-process publisher ran throughout: it writes ~sent when its 15 s are over.
+  EXPECT_FALSE(ros::param::has("/source/sent")) << "BenchSource finished while this process published";
+  int source_sent = 0;
+  ASSERT_TRUE(waitFor([&] { return ros::param::get("/source/sent", source_sent); }, 30.0))
+      << "BenchSource did not finish";
+  EXPECT_EQ(source_sent, 30000);
+  EXPECT_GT(sent, 8000);
+  // Still stepping afterwards: a stalled thread would not come back.
+  std::size_t before = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    before = arrivals.size();
+  }
+  ASSERT_TRUE(waitFor(
+      [&]
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        return arrivals.size() > before + 10;
+      },
+      10.0))
+      << "no estimate after both publishers stopped";
+  // And throughout: 2 kHz steps, so gaps of 0.5 ms; a second allows for a loaded machine.
+  std::lock_guard<std::mutex> lock(mutex);
+  double last = start, largest = 0.0;
+  std::size_t during = 0;
+  for (double t : arrivals)
+    if (t >= start && t <= end)
+    {
+      largest = std::max(largest, t - last);
+      last = t;
+      ++during;
+    }
+  largest = std::max(largest, end - last);
+  EXPECT_LT(largest, 1.0) << during << " estimates while both published";
+  EXPECT_GT(during, 100u);
+}
+
 int main(int argc, char** argv)
 {
   testing::InitGoogleTest(&argc, argv);
