@@ -71,24 +71,22 @@ public:
   void removeByID(uint64_t) override {}
 };
 
-/// A callback queue that calls a subscription's callback at once, in the thread that delivers the
-/// message: an in-process publisher's thread (no hand-off). Deliveries by roscpp's receive thread
-/// go to `queued` instead. That thread holds the subscription's lock while it delivers; were it to
-/// run a callback that publishes, it would wait for roscpp's publication lock while an in-process
-/// publisher to the same topic holds that lock and waits for the subscription's: a deadlock.
-///
-/// What a subscriber on a DirectQueue must do, because its callback runs inside roscpp's publish
-/// (with roscpp's global publication lock held): subscribe with allow_concurrent_callbacks (two
-/// publishers' threads may call it at once), and never publish while holding a lock that its
-/// callback also takes (another thread holding it would wait for the publication lock).
-class DirectQueue : public ros::CallbackQueueInterface
+/// A callback queue that calls a subscription's callback at once in the thread that delivers the
+/// message, for one kind of delivering thread (`Inline`), and sends the others' deliveries to
+/// `queued`. DirectQueue and ReceiveThreadQueue below are its two kinds.
+class SplitQueue : public ros::CallbackQueueInterface
 {
 public:
-  explicit DirectQueue(ros::CallbackQueueInterface* queued) : queued_(queued) {}
+  enum class Inline
+  {
+    IN_PROCESS_PUBLISHER,   ///< any thread but roscpp's receive thread
+    ROSCPP_RECEIVE_THREAD,  ///< roscpp's receive thread only
+  };
+  SplitQueue(ros::CallbackQueueInterface* queued, Inline which) : queued_(queued), which_(which) {}
 
   void addCallback(const ros::CallbackInterfacePtr& callback, uint64_t owner_id) override
   {
-    if (inRoscppPollThread())
+    if (inRoscppPollThread() != (which_ == Inline::ROSCPP_RECEIVE_THREAD))
     {
       queued_->addCallback(callback, owner_id);
       return;
@@ -100,6 +98,23 @@ public:
 
 private:
   ros::CallbackQueueInterface* queued_;
+  Inline which_;
+};
+
+/// A callback queue that calls a subscription's callback at once, in the thread that delivers the
+/// message: an in-process publisher's thread (no hand-off). Deliveries by roscpp's receive thread
+/// go to `queued` instead. That thread holds the subscription's lock while it delivers; were it to
+/// run a callback that publishes, it would wait for roscpp's publication lock while an in-process
+/// publisher to the same topic holds that lock and waits for the subscription's: a deadlock.
+///
+/// What a subscriber on a DirectQueue must do, because its callback runs inside roscpp's publish
+/// (with roscpp's global publication lock held): subscribe with allow_concurrent_callbacks (two
+/// publishers' threads may call it at once), and never publish while holding a lock that its
+/// callback also takes (another thread holding it would wait for the publication lock).
+class DirectQueue : public SplitQueue
+{
+public:
+  explicit DirectQueue(ros::CallbackQueueInterface* queued) : SplitQueue(queued, Inline::IN_PROCESS_PUBLISHER) {}
 };
 
 /// The mirror of DirectQueue: a callback queue that calls a subscription's callback at once in
@@ -111,25 +126,12 @@ private:
 /// publishes nothing, and takes no lock that a thread may hold while it publishes: roscpp's
 /// receive thread holds the subscription's lock while it delivers, and an in-process publisher to
 /// the same topic takes roscpp's publication lock and then the subscription's.
-class ReceiveThreadQueue : public ros::CallbackQueueInterface
+class ReceiveThreadQueue : public SplitQueue
 {
 public:
-  explicit ReceiveThreadQueue(ros::CallbackQueueInterface* queued) : queued_(queued) {}
-
-  void addCallback(const ros::CallbackInterfacePtr& callback, uint64_t owner_id) override
+  explicit ReceiveThreadQueue(ros::CallbackQueueInterface* queued) : SplitQueue(queued, Inline::ROSCPP_RECEIVE_THREAD)
   {
-    if (!inRoscppPollThread())
-    {
-      queued_->addCallback(callback, owner_id);
-      return;
-    }
-    callNow(callback);
   }
-
-  void removeByID(uint64_t owner_id) override { queued_->removeByID(owner_id); }
-
-private:
-  ros::CallbackQueueInterface* queued_;
 };
 
 class DispatchThread
