@@ -111,9 +111,9 @@ private:
 
   /// A sensor's sample (s.step < 1: its step comes from its stamp, the sensor's own sample steps),
   /// received at `receipt`, the ROS time roscpp received the message at (its lateness is judged by
-  /// it). Runs in roscpp's receive thread (or the input thread): a step it completes is queued for
-  /// the input thread to publish (EstimatorOutputs::queueStep); nothing is published under the
-  /// mutex (ReceiveThreadQueue's rule).
+  /// it). Runs in roscpp's receive thread (or the input thread): a step it completes is queued
+  /// (EstimatorOutputs::queueStep) and published by the same thread once out of the mutex; nothing
+  /// is published under the mutex (ReceiveThreadQueue's rule).
   void offer(const SensorSample& s, const ros::Time& receipt);
 
   /// ROS time (or the receipt time of the message at hand), wall time and the measured rate of ROS
@@ -179,7 +179,7 @@ private:
   double trace_bound_ = std::numeric_limits<double>::infinity();  ///< reconfigurable (mutex_)
   ros::Publisher datum_pub_;
 
-  DispatchThread dispatch_;    ///< the inputs, the deadlines and the tf (before the subscribers: outlives them)
+  DispatchThread dispatch_;    ///< in-process inputs, deadlines, tf (before the subscribers: outlives them)
   SimClockWatch clock_watch_;  ///< sim time: wakes dispatch_ when a /clock tick reaches the next deadline
   std::vector<ros::Subscriber> subs_;
   ros::Subscriber cmd_sub_, schedule_sub_, set_pose_sub_;
