@@ -3,7 +3,10 @@
 
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <nodelet/NodeletList.h>
+#include <ros/master.h>
+#include <ros/network.h>
 #include <ros/ros.h>
+#include <xmlrpcpp/XmlRpcClient.h>
 
 #include <algorithm>
 #include <atomic>
@@ -60,6 +63,58 @@ bool waitFor(P pred, double timeout)
     ros::WallDuration(0.005).sleep();
   }
   return pred();
+}
+
+/// Whether node `publisher` has taken `subscriber` on for `topic` (resolved names): its getBusInfo
+/// lists the outbound connection, so that what it publishes from now on reaches the subscriber.
+/// Subscriber::getNumPublishers() counts a publisher as soon as the subscribing process asks it to
+/// connect, before the publisher has added the connection, and Publisher::getNumSubscribers()
+/// counts this process's own subscriptions too (its /clock under sim time): a message published
+/// before the connection is added is lost.
+inline bool deliversTo(const std::string& publisher, const std::string& topic, const std::string& subscriber)
+{
+  XmlRpc::XmlRpcValue lookup, response, uri;
+  lookup[0] = ros::this_node::getName();
+  lookup[1] = publisher;
+  std::string host;
+  uint32_t port = 0;
+  if (!ros::master::execute("lookupNode", lookup, response, uri, false) ||
+      uri.getType() != XmlRpc::XmlRpcValue::TypeString ||
+      !ros::network::splitURI(static_cast<std::string>(uri), host, port))
+    return false;
+  XmlRpc::XmlRpcClient client(host.c_str(), static_cast<int>(port), "/");
+  XmlRpc::XmlRpcValue ask, info;
+  ask[0] = ros::this_node::getName();
+  const bool ok = client.execute("getBusInfo", ask, info);
+  client.close();
+  if (!ok || info.getType() != XmlRpc::XmlRpcValue::TypeArray || info.size() < 3)
+    return false;
+  XmlRpc::XmlRpcValue& rows = info[2];  // [id, destination, direction, transport, topic, ...]
+  for (int i = 0; i < rows.size(); ++i)
+    if (rows[i].size() >= 5 && static_cast<std::string>(rows[i][2]) == "o" &&
+        static_cast<std::string>(rows[i][4]) == topic && static_cast<std::string>(rows[i][1]) == subscriber)
+      return true;
+  return false;
+}
+
+/// Whether every publisher of `sub`'s topic (at least one) delivers to this process (deliversTo).
+inline bool publishersDeliverHere(const ros::Subscriber& sub)
+{
+  XmlRpc::XmlRpcValue request, response, state;
+  request[0] = ros::this_node::getName();
+  if (!ros::master::execute("getSystemState", request, response, state, false) ||
+      state.getType() != XmlRpc::XmlRpcValue::TypeArray || state.size() < 1)
+    return false;
+  std::vector<std::string> nodes;
+  XmlRpc::XmlRpcValue& publishers = state[0];  // [[topic, [node, ...]], ...]
+  for (int i = 0; i < publishers.size(); ++i)
+    if (publishers[i].size() == 2 && static_cast<std::string>(publishers[i][0]) == sub.getTopic())
+      for (int j = 0; j < publishers[i][1].size(); ++j)
+        nodes.push_back(static_cast<std::string>(publishers[i][1][j]));
+  for (const std::string& node : nodes)
+    if (!deliversTo(node, sub.getTopic(), ros::this_node::getName()))
+      return false;
+  return !nodes.empty();
 }
 
 /// Calls f(k) for k = 1, 2, ... every `period` seconds of wall time on a thread of its own, until
